@@ -1,0 +1,325 @@
+"""Triangle meshes: primitives (quad, box, sphere, cylinder), PLY/OBJ files, transforms.
+
+Every renderer consumes the same world-space triangle lists from here, so the
+reference and the rasterizer see identical geometry. Normals are per vertex;
+primitives have the exact analytic ones, files keep theirs or get
+area-weighted vertex normals (faceted where a file gives none).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class TriangleMesh:
+    """World-space triangles: positions (N,3), normals (N,3), uvs (N,2) float32; indices (M,3) uint32."""
+
+    positions: np.ndarray
+    normals: np.ndarray
+    uvs: np.ndarray
+    indices: np.ndarray
+
+    @property
+    def triangle_count(self) -> int:
+        return int(self.indices.shape[0])
+
+    def transformed(self, matrix: np.ndarray) -> "TriangleMesh":
+        """Apply a 4×4 affine transform (normals by the inverse transpose, renormalised)."""
+        m = np.asarray(matrix, dtype=np.float64)
+        p = self.positions.astype(np.float64) @ m[:3, :3].T + m[:3, 3]
+        nm = np.linalg.inv(m[:3, :3]).T
+        n = self.normals.astype(np.float64) @ nm.T
+        n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
+        indices = self.indices
+        if np.linalg.det(m[:3, :3]) < 0:  # mirroring flips winding; keep faces front-facing
+            indices = indices[:, ::-1].copy()
+        return TriangleMesh(p.astype(np.float32), n.astype(np.float32), self.uvs, indices)
+
+    def surface_area(self) -> float:
+        p = self.positions.astype(np.float64)
+        a, b, c = p[self.indices[:, 0]], p[self.indices[:, 1]], p[self.indices[:, 2]]
+        return float(0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1).sum())
+
+
+def _mesh(p, n, uv, idx) -> TriangleMesh:
+    return TriangleMesh(
+        np.ascontiguousarray(p, dtype=np.float32),
+        np.ascontiguousarray(n, dtype=np.float32),
+        np.ascontiguousarray(uv, dtype=np.float32),
+        np.ascontiguousarray(idx, dtype=np.uint32).reshape(-1, 3),
+    )
+
+
+def quad_from_corners(corners: np.ndarray) -> TriangleMesh:
+    """A planar quad from four corners in counter-clockwise order seen from its front.
+
+    The normal follows the right-hand rule on the corner order.
+    """
+    c = np.asarray(corners, dtype=np.float64).reshape(4, 3)
+    n = np.cross(c[1] - c[0], c[2] - c[0])
+    n /= np.linalg.norm(n)
+    uv = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=np.float64)
+    return _mesh(c, np.tile(n, (4, 1)), uv, [[0, 1, 2], [0, 2, 3]])
+
+
+def quad(size: tuple[float, float]) -> TriangleMesh:
+    """A w×h quad in the XZ plane centred at the origin, normal +Y."""
+    w, h = size[0] / 2, size[1] / 2
+    return quad_from_corners(np.array([[-w, 0, h], [w, 0, h], [w, 0, -h], [-w, 0, -h]]))
+
+
+def box(size: tuple[float, float, float]) -> TriangleMesh:
+    """An axis-aligned box centred at the origin with outward faces (24 vertices, flat normals)."""
+    sx, sy, sz = (s / 2 for s in size)
+    faces = []
+    for axis in range(3):
+        for sign in (1.0, -1.0):
+            n = np.zeros(3)
+            n[axis] = sign
+            u = np.zeros(3)
+            u[(axis + 1) % 3] = 1.0
+            v = np.cross(n, u)
+            half = np.array([sx, sy, sz])
+            centre = n * half
+            du, dv = u * half, v * half
+            faces.append(np.array([centre - du - dv, centre + du - dv, centre + du + dv, centre - du + dv]))
+    ps, ns, uvs, idx = [], [], [], []
+    for k, corners in enumerate(faces):
+        q = quad_from_corners(corners)
+        ps.append(q.positions)
+        ns.append(q.normals)
+        uvs.append(q.uvs)
+        idx.append(q.indices + 4 * k)
+    return _mesh(np.concatenate(ps), np.concatenate(ns), np.concatenate(uvs), np.concatenate(idx))
+
+
+def sphere(radius: float, segments: int = 64, rings: int = 32) -> TriangleMesh:
+    """A UV sphere centred at the origin with analytic normals."""
+    theta = np.linspace(0.0, math.pi, rings + 1)
+    phi = np.linspace(0.0, 2 * math.pi, segments + 1)
+    t, f = np.meshgrid(theta, phi, indexing="ij")
+    n = np.stack([np.sin(t) * np.cos(f), np.cos(t), -np.sin(t) * np.sin(f)], axis=-1).reshape(-1, 3)
+    uv = np.stack([f / (2 * math.pi), 1 - t / math.pi], axis=-1).reshape(-1, 2)
+    idx = []
+    for i in range(rings):
+        for j in range(segments):
+            a = i * (segments + 1) + j
+            b = a + segments + 1
+            if i != 0:
+                idx.append([a, b, a + 1])
+            if i != rings - 1:
+                idx.append([a + 1, b, b + 1])
+    return _mesh(n * radius, n, uv, idx)
+
+
+def cylinder(radius: float, height: float, segments: int = 64) -> TriangleMesh:
+    """A capped cylinder along +Y centred at the origin (smooth side, flat caps)."""
+    phi = np.linspace(0.0, 2 * math.pi, segments + 1)
+    x, z = np.cos(phi), -np.sin(phi)
+    h = height / 2
+    side_p = np.concatenate([np.stack([x * radius, np.full_like(x, -h), z * radius], 1),
+                             np.stack([x * radius, np.full_like(x, h), z * radius], 1)])
+    side_n = np.concatenate([np.stack([x, 0 * x, z], 1)] * 2)
+    side_uv = np.concatenate([np.stack([phi / (2 * math.pi), 0 * x], 1), np.stack([phi / (2 * math.pi), 0 * x + 1], 1)])
+    m = segments + 1
+    side_idx = [[j, j + 1, m + j + 1] for j in range(segments)] + [[j, m + j + 1, m + j] for j in range(segments)]
+    parts = [(side_p, side_n, side_uv, np.array(side_idx))]
+    for sign in (1.0, -1.0):
+        ring = np.stack([x[:-1] * radius, np.full(segments, sign * h), z[:-1] * radius], 1)
+        p = np.concatenate([[[0, sign * h, 0]], ring])
+        n = np.tile([0, sign, 0], (segments + 1, 1))
+        uv = np.concatenate([[[0.5, 0.5]], 0.5 + 0.5 * np.stack([x[:-1], z[:-1]], 1)])
+        tris = [[0, 1 + j, 1 + (j + 1) % segments] for j in range(segments)]
+        tris = np.array(tris) if sign > 0 else np.array(tris)[:, ::-1]
+        parts.append((p, n, uv, tris))
+    ps, ns, uvs, idx, off = [], [], [], [], 0
+    for p, n, uv, tri in parts:
+        ps.append(p)
+        ns.append(n)
+        uvs.append(uv)
+        idx.append(tri + off)
+        off += len(p)
+    return _mesh(np.concatenate(ps), np.concatenate(ns), np.concatenate(uvs), np.concatenate(idx))
+
+
+def vertex_normals(positions: np.ndarray, indices: np.ndarray) -> np.ndarray:
+    """Area-weighted vertex normals; vertices touching only degenerate faces get +Y."""
+    p = positions.astype(np.float64)
+    a, b, c = p[indices[:, 0]], p[indices[:, 1]], p[indices[:, 2]]
+    fn = np.cross(b - a, c - a)  # length = 2·area: area weighting for free
+    n = np.zeros_like(p)
+    for k in range(3):
+        np.add.at(n, indices[:, k], fn)
+    length = np.linalg.norm(n, axis=1, keepdims=True)
+    out = np.where(length > 1e-30, n / np.maximum(length, 1e-30), np.array([0.0, 1.0, 0.0]))
+    return out.astype(np.float32)
+
+
+class MeshFileError(ValueError):
+    """A mesh file is unreadable; the scene loader prefixes the scene file and field."""
+
+
+def load_obj(path: Path) -> TriangleMesh:
+    """Read a Wavefront OBJ (v, vt, vn, f with any of v, v/t, v//n, v/t/n; polygons fanned)."""
+    pos, tex, nor = [], [], []
+    out_p, out_t, out_n, idx = [], [], [], []
+    cache: dict[tuple, int] = {}
+    has_n = True
+    try:
+        text = path.read_text(encoding="utf-8", errors="strict")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise MeshFileError(f"cannot read OBJ file {path}: {exc}") from exc
+    for lineno, line in enumerate(text.splitlines(), 1):
+        parts = line.split()
+        if not parts or parts[0].startswith("#"):
+            continue
+        try:
+            if parts[0] == "v":
+                pos.append([float(x) for x in parts[1:4]])
+            elif parts[0] == "vt":
+                tex.append([float(x) for x in parts[1:3]])
+            elif parts[0] == "vn":
+                nor.append([float(x) for x in parts[1:4]])
+            elif parts[0] == "f":
+                corners = []
+                for tok in parts[1:]:
+                    fields = (tok.split("/") + ["", ""])[:3]
+                    vi = _obj_index(fields[0], len(pos))
+                    ti = _obj_index(fields[1], len(tex)) if fields[1] else None
+                    ni = _obj_index(fields[2], len(nor)) if fields[2] else None
+                    has_n = has_n and ni is not None
+                    key = (vi, ti, ni)
+                    if key not in cache:
+                        cache[key] = len(out_p)
+                        out_p.append(pos[vi])
+                        out_t.append(tex[ti] if ti is not None else [0.0, 0.0])
+                        out_n.append(nor[ni] if ni is not None else [0.0, 0.0, 0.0])
+                    corners.append(cache[key])
+                if len(corners) < 3:
+                    raise ValueError("a face needs at least three vertices")
+                idx.extend([corners[0], corners[k], corners[k + 1]] for k in range(1, len(corners) - 1))
+        except (ValueError, IndexError) as exc:
+            raise MeshFileError(f"{path}:{lineno}: malformed OBJ line {line.strip()!r}: {exc}") from exc
+    if not idx:
+        raise MeshFileError(f"{path}: OBJ file has no faces")
+    p = np.array(out_p, dtype=np.float64)
+    i = np.array(idx, dtype=np.int64)
+    n = np.array(out_n, dtype=np.float64) if has_n else vertex_normals(p, i)
+    if not np.all(np.isfinite(p)):
+        raise MeshFileError(f"{path}: OBJ file has non-finite vertex positions")
+    return _mesh(p, n, np.array(out_t), i)
+
+
+def _obj_index(token: str, count: int) -> int:
+    k = int(token)
+    k = k - 1 if k > 0 else count + k  # OBJ is 1-based; negatives count from the end
+    if not 0 <= k < count:
+        raise ValueError(f"index {token} out of range (1..{count})")
+    return k
+
+
+def load_ply(path: Path) -> TriangleMesh:
+    """Read a PLY file (ascii or binary little/big endian): x y z, optional nx ny nz, u v / s t, faces."""
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise MeshFileError(f"cannot read PLY file {path}: {exc}") from exc
+    end = data.find(b"end_header")
+    if not data.startswith(b"ply") or end < 0:
+        raise MeshFileError(f"{path}: not a PLY file (no 'ply' magic or no 'end_header')")
+    header = data[:end].decode("ascii", errors="replace").splitlines()
+    body = data[data.index(b"\n", end) + 1:]
+    fmt, elements = None, []
+    for line in header:
+        w = line.split()
+        if not w:
+            continue
+        if w[0] == "format":
+            fmt = w[1]
+        elif w[0] == "element":
+            elements.append([w[1], int(w[2]), []])
+        elif w[0] == "property" and elements:
+            elements[-1][2].append(w[1:])
+    if fmt not in ("ascii", "binary_little_endian", "binary_big_endian"):
+        raise MeshFileError(f"{path}: unsupported PLY format {fmt!r}")
+    types = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2",
+             "ushort": "u2", "uint16": "u2", "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
+             "float": "f4", "float32": "f4", "double": "f8", "float64": "f8"}
+    endian = ">" if fmt == "binary_big_endian" else "<"
+    verts, faces = None, None
+    try:
+        if fmt == "ascii":
+            tokens = body.split()
+            pos = 0
+            for name, count, props in elements:
+                if props and props[0][0] == "list":
+                    rows = []
+                    for _ in range(count):
+                        k = int(tokens[pos])
+                        rows.append([int(t) for t in tokens[pos + 1:pos + 1 + k]])
+                        pos += 1 + k
+                    if name == "face":
+                        faces = rows
+                else:
+                    n = len(props)
+                    arr = np.array(tokens[pos:pos + n * count], dtype=np.float64).reshape(count, n)
+                    pos += n * count
+                    if name == "vertex":
+                        verts = {p[-1]: arr[:, j] for j, p in enumerate(props)}
+        else:
+            off = 0
+            for name, count, props in elements:
+                if props and props[0][0] == "list":
+                    ct, it = endian + types[props[0][1]], endian + types[props[0][2]]
+                    rows = []
+                    for _ in range(count):
+                        k = int(np.frombuffer(body, ct, 1, off)[0])
+                        off += np.dtype(ct).itemsize
+                        rows.append(np.frombuffer(body, it, k, off).astype(np.int64).tolist())
+                        off += k * np.dtype(it).itemsize
+                    if name == "face":
+                        faces = rows
+                else:
+                    dt = np.dtype([(p[-1], endian + types[p[0]]) for p in props])
+                    arr = np.frombuffer(body, dt, count, off)
+                    off += dt.itemsize * count
+                    if name == "vertex":
+                        verts = {k: arr[k].astype(np.float64) for k in dt.names}
+    except (ValueError, KeyError, IndexError) as exc:
+        raise MeshFileError(f"{path}: truncated or malformed PLY body: {exc}") from exc
+    if verts is None or faces is None or not all(k in verts for k in "xyz"):
+        raise MeshFileError(f"{path}: PLY file needs a vertex element with x, y, z and a face element")
+    p = np.stack([verts["x"], verts["y"], verts["z"]], 1)
+    idx = []
+    for f in faces:
+        if len(f) < 3 or max(f) >= len(p) or min(f) < 0:
+            raise MeshFileError(f"{path}: PLY face {f} is invalid for {len(p)} vertices")
+        idx.extend([f[0], f[k], f[k + 1]] for k in range(1, len(f) - 1))
+    i = np.array(idx, dtype=np.int64)
+    if all(k in verts for k in ("nx", "ny", "nz")):
+        n = np.stack([verts["nx"], verts["ny"], verts["nz"]], 1)
+    else:
+        n = vertex_normals(p, i)
+    uk = ("u", "v") if "u" in verts else ("s", "t") if "s" in verts else None
+    uv = np.stack([verts[uk[0]], verts[uk[1]]], 1) if uk else np.zeros((len(p), 2))
+    if not np.all(np.isfinite(p)):
+        raise MeshFileError(f"{path}: PLY file has non-finite vertex positions")
+    return _mesh(p, n, uv, i)
+
+
+def transform_matrix(translate=(0.0, 0.0, 0.0), rotate=(0.0, 0.0, 0.0), scale=(1.0, 1.0, 1.0)) -> np.ndarray:
+    """4×4 matrix T·Rz·Ry·Rx·S (rotations in degrees, applied X first, then Y, then Z)."""
+    rx, ry, rz = (math.radians(a) for a in rotate)
+    cx, sx, cy, sy, cz, sz = math.cos(rx), math.sin(rx), math.cos(ry), math.sin(ry), math.cos(rz), math.sin(rz)
+    Rx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+    Ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+    Rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+    m = np.eye(4)
+    m[:3, :3] = Rz @ Ry @ Rx @ np.diag(scale)
+    m[:3, 3] = translate
+    return m

@@ -1,0 +1,102 @@
+#!/usr/bin/env bash
+# One entry point for a fresh machine: set everything up, then run a job.
+#
+#   scripts/suite.sh main    set up, then evaluate the Cornell box (reference + preview)
+#   scripts/suite.sh test    set up, then run the default test suite
+#   scripts/suite.sh slow    set up, then run the slow tests only
+#   scripts/suite.sh setup   set up only
+#
+# Set-up is idempotent: system packages are installed only when missing, and the
+# virtual environment (.venv) is rebuilt only when pyproject.toml changes.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+ROOT=$(pwd)
+VENV="$ROOT/.venv"
+
+log() { printf '[suite] %s\n' "$*" >&2; }
+
+find_python() {
+    for py in python3.11 python3; do
+        if command -v "$py" >/dev/null 2>&1 && "$py" -c 'import sys; sys.exit(sys.version_info[:2] != (3, 11))'; then
+            command -v "$py"; return 0
+        fi
+    done
+    log "Python 3.11 is required (bpy 5.0.1 and the pinned wheels are cp311); install it and retry"
+    exit 1
+}
+
+have_llvm() {  # a libLLVM new enough for Dr.Jit 1.5 (>= 16)
+    ls /usr/lib/*/libLLVM*.so* /usr/lib/llvm-*/lib/libLLVM*.so* 2>/dev/null |
+        grep -Eq 'libLLVM[-.]?(1[6-9]|[2-9][0-9])|libLLVM\.so\.(1[6-9]|[2-9][0-9])'
+}
+
+have_egl() {  # EGL plus Mesa's software rasterizer (llvmpipe)
+    ldconfig -p 2>/dev/null | grep -q 'libEGL.so.1' &&
+        ls /usr/lib/*/dri/swrast_dri.so /usr/lib/*/libgallium*.so /usr/lib/*/dri/*gallium* >/dev/null 2>&1
+}
+
+apt_install() {
+    if [ "$(id -u)" != 0 ] || ! command -v apt-get >/dev/null 2>&1; then
+        log "cannot install $* here (needs root and apt-get); install them by hand"
+        return 1
+    fi
+    if [ -z "${_APT_UPDATED:-}" ]; then
+        apt-get update -qq >/dev/null 2>&1 || log "apt-get update failed; trying the install anyway"
+        _APT_UPDATED=1
+    fi
+    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "$@" >/dev/null
+}
+
+setup_system() {
+    if ! have_llvm; then
+        log "installing libllvm19 (Dr.Jit's LLVM backend crashes with Debian's default LLVM 14/15)"
+        apt_install libllvm19 ||
+            log "WARNING: no libLLVM >= 16: Mitsuba will fall back to the slow scalar_rgb variant"
+    fi
+    if ! have_egl; then
+        log "installing EGL and Mesa (headless OpenGL for the progressive rasterizer)"
+        apt_install libegl1 libegl-mesa0 libgl1-mesa-dri libgl1 ||
+            log "WARNING: no EGL/Mesa: the progressive rasterizer and its tests will not run"
+    fi
+}
+
+setup_python() {
+    local stamp="$VENV/.installed-$(sha256sum pyproject.toml | cut -c1-16)"
+    if [ -f "$stamp" ]; then return 0; fi
+    local py; py=$(find_python)
+    log "creating $VENV with $py and installing the package (a few minutes the first time)"
+    rm -rf "$VENV"
+    "$py" -m venv "$VENV"
+    "$VENV/bin/python" -m pip install -q --upgrade pip 2>&1 | grep -v '^WARNING: Location' >&2 || true
+    "$VENV/bin/python" -m pip install -q -e ".[dev]" 2>&1 | grep -v '^WARNING: Location' >&2 || true
+    "$VENV/bin/python" -c 'import compare, mitsuba, moderngl, OpenEXR, flip_evaluator, skimage' ||
+        { log "the Python install failed; see the pip output above"; exit 1; }
+    touch "$stamp"
+}
+
+setup() { setup_system; setup_python; }
+
+job="${1:-}"
+shift || true
+case "$job" in
+    setup) setup ;;
+    main)
+        setup
+        out="reports/cornell"
+        "$VENV/bin/compare" render --scene scenes/cornell.toml --renderer mitsuba --spp 256 \
+            --size 320x240 -o "$out/reference.exr" "$@"
+        log "done: $out/reference.exr and $out/reference.png"
+        ;;
+    test)
+        setup
+        exec "$VENV/bin/python" -m pytest "$@"
+        ;;
+    slow)
+        setup
+        exec "$VENV/bin/python" -m pytest -m slow "$@"
+        ;;
+    *)
+        echo "usage: scripts/suite.sh {main|test|slow|setup} [extra arguments]" >&2
+        exit 2
+        ;;
+esac

@@ -1,0 +1,141 @@
+"""The Mitsuba reference: white furnace, spp ladder, cache and resume, noise floor."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from compare.reference import ReferenceRenderer, ladder_passes
+from compare.scene import parse_scene
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def furnace_scene(albedo: float = 1.0, size: int = 24):
+    """A diffuse unit sphere inside a uniform environment of radiance 1."""
+    data = {
+        "camera": {"position": [0, 0, 4], "target": [0, 0, 0], "fov": 35, "resolution": [size, size]},
+        "materials": {"white": {"base_color": [albedo] * 3, "roughness": 1.0}},
+        "meshes": [{"shape": "sphere", "radius": 1.0, "material": "white", "segments": 96, "rings": 48}],
+        "environment": {"constant": [1.0, 1.0, 1.0]},
+        "render": {"max_depth": -1},
+    }
+    return parse_scene(data, ROOT / "tests" / "furnace.toml")
+
+
+def sphere_mask(size: int) -> np.ndarray:
+    """Pixels well inside the sphere's silhouette (no edge pixels that mix in background)."""
+    j, i = np.mgrid[0:size, 0:size]
+    c = (size - 1) / 2
+    return np.hypot(i - c, j - c) < 0.35 * size
+
+
+def test_ladder_passes_double():
+    assert ladder_passes(1) == [1]
+    assert ladder_passes(8) == [1, 1, 2, 4]
+    assert np.cumsum(ladder_passes(100)).tolist() == [1, 2, 4, 8, 16, 32, 64, 100]
+    with pytest.raises(ValueError):
+        ladder_passes(0)
+
+
+def test_white_furnace(tmp_path):
+    """Albedo 1 in a uniform unit environment: every pixel is 1; noise falls with spp."""
+    size = 24
+    r = ReferenceRenderer(furnace_scene(1.0, size), materials="diffuse", cache_dir=tmp_path, progress=False)
+    mask = sphere_mask(size)
+    img = r.render(256).image
+    sphere = img[mask]
+    assert abs(sphere.mean() - 1.0) < 0.01, sphere.mean()
+    assert np.abs(sphere - 1.0).max() < 0.05
+    np.testing.assert_allclose(img[0, 0], 1.0, rtol=1e-5)  # background: the environment itself
+    # variance falls as spp rises: 16× the samples → a quarter of the standard deviation
+    low = np.stack([r.render(16, seed=s).image[mask] for s in range(4)])
+    high = np.stack([r.render(256, seed=s).image[mask] for s in range(4)])
+    ratio = low.std() / max(high.std(), 1e-12)
+    print(f"furnace: mean {sphere.mean():.5f}, max |err| {np.abs(sphere - 1).max():.4f}, std ratio 16/256 spp {ratio:.2f}")
+    assert 2.5 < ratio < 6.0
+
+
+def test_grey_furnace_single_bounce(tmp_path):
+    """A convex diffuse sphere sees only the environment: radiance = albedo exactly."""
+    r = ReferenceRenderer(furnace_scene(0.5), materials="diffuse", cache_dir=False, progress=False)
+    img = r.render(64).image
+    assert abs(img[sphere_mask(24)].mean() - 0.5) < 0.005
+
+
+def test_ladder_and_cache_resume(tmp_path, monkeypatch):
+    scene = parse_scene({
+        "camera": {"position": [0, 0, 4], "target": [0, 0, 0], "resolution": [16, 12]},
+        "materials": {"m": {"base_color": [0.5, 0.5, 0.5]}},
+        "meshes": [{"shape": "quad", "size": [4, 4], "rotate": [90, 0, 0], "material": "m"}],
+        "lights": [{"center": [0, 0, 2], "size": [1, 1], "normal": [0, 0, -1], "radiance": [5, 5, 5]}],
+    }, ROOT / "tests" / "ladder.toml")
+    r = ReferenceRenderer(scene, materials="diffuse", cache_dir=tmp_path, progress=False)
+    calls = []
+    real = r.render_chunk
+
+    def flaky(spp, seed):
+        calls.append(spp)
+        if len(calls) == 3:
+            raise KeyboardInterrupt  # an interruption in the middle of the ladder
+        return real(spp, seed)
+
+    monkeypatch.setattr(r, "render_chunk", flaky)
+    with pytest.raises(KeyboardInterrupt):
+        r.ladder(8)
+    cached = sorted(tmp_path.rglob("*.exr"))
+    assert len(cached) == 2  # the two finished passes, nothing half-written
+    assert not [p for p in tmp_path.rglob("*") if p.is_file() and p.name.startswith(".")]
+
+    monkeypatch.setattr(r, "render_chunk", real)
+    rendered = []
+    monkeypatch.setattr(r.mi, "render", _counting(r.mi.render, rendered))
+    checkpoints = r.ladder(8)
+    assert [c.spp for c in checkpoints] == [1, 2, 4, 8]
+    assert rendered == [2, 4]  # resumed: only the passes that were missing
+    assert all(b.seconds > a.seconds for a, b in zip(checkpoints, checkpoints[1:]))
+
+    # A fresh renderer finds everything in the cache and gives identical pixels.
+    again = ReferenceRenderer(scene, materials="diffuse", cache_dir=tmp_path, progress=False)
+    rendered.clear()  # again.mi is the same module: the counting wrapper is still in place
+    np.testing.assert_array_equal(again.render(8).image, checkpoints[-1].image)
+    assert rendered == []
+
+    # A corrupt cache entry is rendered again, not trusted.
+    victim = sorted(tmp_path.rglob("*.exr"))[0]
+    victim.write_bytes(b"not an exr")
+    again.render(8)
+    assert rendered == [int(_spp_of(again, victim))]
+
+
+def _counting(fn, log):
+    def wrapper(scene, spp, seed):
+        log.append(spp)
+        return fn(scene, spp=spp, seed=seed)
+    return wrapper
+
+
+def _spp_of(renderer, victim):
+    from compare.exr import read_exr
+
+    return read_exr(victim)[1]["spp"]
+
+
+def test_noise_floor_falls_with_spp(tmp_path):
+    r = ReferenceRenderer(furnace_scene(0.7, 16), materials="shared", cache_dir=False, progress=False)
+    low, high = r.noise_floor(8), r.noise_floor(128)
+    assert high["mse"] < low["mse"] / 4
+    assert high["mse_full_estimate"] == pytest.approx(high["mse"] / 4)
+
+
+def test_cornell_renders_finite_and_plausible():
+    from compare.scene import load_scene
+
+    scene = load_scene(ROOT / "scenes" / "cornell.toml").with_resolution(32, 24)
+    img = ReferenceRenderer(scene, materials="shared", cache_dir=False, progress=False).render(16).image
+    assert img.shape == (24, 32, 3) and np.isfinite(img).all()
+    left, right = img[8:16, 2:5].mean((0, 1)), img[8:16, -5:-2].mean((0, 1))
+    assert left[0] > 2 * left[1], "red wall on the left"
+    assert right[1] > 2 * right[0], "green wall on the right"

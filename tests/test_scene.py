@@ -1,0 +1,231 @@
+"""Scene model: validation messages, geometry, features and hashing."""
+
+from __future__ import annotations
+
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from compare.errors import SceneError
+from compare.scene import load_scene
+
+ROOT = Path(__file__).resolve().parent.parent
+
+GOOD = """
+[camera]
+position = [0, 1, 3]
+target = [0, 0, 0]
+fov = 40
+resolution = [32, 24]
+
+[materials.white]
+base_color = [0.8, 0.8, 0.8]
+
+[[meshes]]
+shape = "quad"
+size = [2, 2]
+material = "white"
+
+[[lights]]
+center = [0, 1, 0]
+size = [0.5, 0.5]
+normal = [0, -1, 0]
+radiance = [10, 10, 10]
+"""
+
+
+def write(tmp_path: Path, text: str, name: str = "x.toml") -> Path:
+    p = tmp_path / name
+    p.write_text(textwrap.dedent(text))
+    return p
+
+
+def test_good_scene_loads(tmp_path):
+    s = load_scene(write(tmp_path, GOOD))
+    assert s.camera.resolution == (32, 24)
+    assert len(s.meshes) == 1 and len(s.lights) == 1
+    assert s.lights[0].area == pytest.approx(0.25)
+
+
+# (replacement applied to GOOD, expected message after "x.toml: ")
+MALFORMED = [
+    (("size = [0.5, 0.5]", "size = [0.5, -1]"), "lights[0].size: expected two positive numbers, got [0.5, -1]"),
+    (("resolution = [32, 24]", "resolution = [32]"), "camera.resolution: expected two positive integers, got [32]"),
+    (("fov = 40", "fov = 200"), "camera.fov: expected a vertical field of view in degrees in (0, 180), got 200"),
+    (('material = "white"', 'material = "chrome"'), "meshes[0].material: unknown material 'chrome' (known: white)"),
+    (('shape = "quad"', 'shape = "torus"'),
+     "meshes[0].shape: expected one of quad, box, sphere, cylinder, file, got 'torus'"),
+    (("base_color = [0.8, 0.8, 0.8]", "base_color = [0.8, 1.5, 0.8]"),
+     "materials.white.base_color: expected three non-negative numbers at most 1, got [0.8, 1.5, 0.8]"),
+    (("base_color = [0.8, 0.8, 0.8]", "base_color = [0.8, 0.8, 0.8]\nroughness = -0.1"),
+     "materials.white.roughness: expected a number in [0, 1], got -0.1"),
+    (("normal = [0, -1, 0]", "normal = [0, 0, 0]"), "lights[0].normal: expected a non-zero direction, got [0, 0, 0]"),
+    (("radiance = [10, 10, 10]", "radiance = [10, 10, 10]\npower = 5"),
+     "lights[0]: give exactly one of 'radiance' (W/sr/m²) or 'power' (W)"),
+    (("radiance = [10, 10, 10]", "radiance = [0, 0, 0]"), "lights[0].radiance: a light must emit something (all zero)"),
+    (("target = [0, 0, 0]", "target = [0, 1, 3]"), "camera.target: must differ from camera.position"),
+    (("fov = 40", "fov = 40\nfocal = 35"),
+     "camera.focal: unknown field (allowed: fov, position, resolution, target, up)"),
+    (("size = [2, 2]", 'size = "big"'), "meshes[0].size: expected two positive numbers, got 'big'"),
+    (("position = [0, 1, 3]", "position = [0, 1, nan]"), "camera.position: expected three numbers, got [0, 1, nan]"),
+]
+
+
+@pytest.mark.parametrize("replace, message", MALFORMED, ids=[m[1].split(":")[0] for m in MALFORMED])
+def test_malformed_scene_messages(tmp_path, replace, message):
+    old, new = replace
+    assert old in GOOD
+    path = write(tmp_path, GOOD.replace(old, new, 1))
+    with pytest.raises(SceneError) as info:
+        load_scene(path)
+    assert str(info.value) == f"{path}: {message}"
+
+
+def test_invalid_toml_names_file_and_line(tmp_path):
+    path = write(tmp_path, "[camera\nposition = 1")
+    with pytest.raises(SceneError, match=r"x\.toml: invalid TOML: .*line 1"):
+        load_scene(path)
+
+
+def test_missing_scene_file(tmp_path):
+    with pytest.raises(SceneError, match="nope.toml: scene file not found"):
+        load_scene(tmp_path / "nope.toml")
+
+
+def test_missing_camera(tmp_path):
+    text = GOOD[GOOD.index("[materials"):]
+    with pytest.raises(SceneError, match=r"x\.toml: camera: missing required field$"):
+        load_scene(write(tmp_path, text))
+
+
+def test_no_light_at_all(tmp_path):
+    text = GOOD[: GOOD.index("[[lights]]")]
+    with pytest.raises(SceneError, match="lights: the scene has no light"):
+        load_scene(write(tmp_path, text))
+
+
+def test_mesh_file_missing(tmp_path):
+    text = GOOD.replace('shape = "quad"\nsize = [2, 2]', 'shape = "file"\nfile = "bunny.ply"')
+    with pytest.raises(SceneError, match=r"meshes\[0\]\.file: file 'bunny.ply' not found"):
+        load_scene(write(tmp_path, text))
+
+
+def test_path_leaving_scene_folder_is_refused(tmp_path):
+    (tmp_path / "outside.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    sub = tmp_path / "scenes"
+    sub.mkdir()
+    text = GOOD.replace('shape = "quad"\nsize = [2, 2]', 'shape = "file"\nfile = "../outside.obj"')
+    with pytest.raises(SceneError, match=r"meshes\[0\]\.file: path '../outside.obj' leaves the scene file's folder"):
+        load_scene(write(sub, text))
+    text = GOOD.replace('shape = "quad"\nsize = [2, 2]', f'shape = "file"\nfile = "{tmp_path}/outside.obj"')
+    with pytest.raises(SceneError, match="is absolute"):
+        load_scene(write(sub, text))
+
+
+def test_missing_texture_names_field(tmp_path):
+    text = GOOD.replace("base_color = [0.8, 0.8, 0.8]", 'base_color_texture = "wood.png"')
+    with pytest.raises(SceneError, match=r"materials\.white\.base_color_texture: file 'wood.png' not found"):
+        load_scene(write(tmp_path, text))
+
+
+def test_malformed_mesh_file_names_scene_field_and_line(tmp_path):
+    (tmp_path / "bad.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n")
+    text = GOOD.replace('shape = "quad"\nsize = [2, 2]', 'shape = "file"\nfile = "bad.obj"')
+    with pytest.raises(SceneError, match=r"x\.toml: meshes\[0\]\.file: .*bad\.obj:4: malformed OBJ line"):
+        load_scene(write(tmp_path, text))
+
+
+def test_obj_and_ply_files_load_with_normals(tmp_path):
+    (tmp_path / "tri.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 0 -1\nv 1 0 -1\nf 1 2 4 3\n")
+    (tmp_path / "tri.ply").write_text(
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+        "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 0 -1\n3 0 1 2\n")
+    for name in ("tri.obj", "tri.ply"):
+        text = GOOD.replace('shape = "quad"\nsize = [2, 2]', f'shape = "file"\nfile = "{name}"')
+        tri = load_scene(write(tmp_path, text)).meshes[0].triangles()
+        assert tri.triangle_count >= 1
+        np.testing.assert_allclose(tri.normals, np.tile([0, 1, 0], (len(tri.normals), 1)), atol=1e-6)
+
+
+def test_binary_ply_matches_ascii(tmp_path):
+    header = ("ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+              "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n")
+    body = np.array([0, 0, 0, 1, 0, 0, 0, 0, -1], "<f4").tobytes() + bytes([3]) + np.array([0, 1, 2], "<i4").tobytes()
+    (tmp_path / "b.ply").write_bytes(header.encode() + body)
+    text = GOOD.replace('shape = "quad"\nsize = [2, 2]', 'shape = "file"\nfile = "b.ply"')
+    tri = load_scene(write(tmp_path, text)).meshes[0].triangles()
+    np.testing.assert_allclose(tri.positions, [[0, 0, 0], [1, 0, 0], [0, 0, -1]])
+    (tmp_path / "b.ply").write_bytes(header.encode() + body[:20])
+    with pytest.raises(SceneError, match="truncated or malformed PLY"):
+        load_scene(write(tmp_path, text))
+
+
+def test_power_converts_to_radiance(tmp_path):
+    text = GOOD.replace("radiance = [10, 10, 10]", "power = 10")
+    light = load_scene(write(tmp_path, text)).lights[0]
+    # Φ = π·A·L for a one-sided Lambertian emitter
+    assert light.radiance[0] == pytest.approx(10 / (np.pi * 0.25))
+    np.testing.assert_allclose(light.power, 10.0)
+
+
+def test_light_frame_is_right_handed(tmp_path):
+    light = load_scene(write(tmp_path, GOOD)).lights[0]
+    np.testing.assert_allclose(np.cross(light.tangent, light.bitangent), light.normal, atol=1e-12)
+    c = light.corners()
+    np.testing.assert_allclose(np.cross(c[1] - c[0], c[2] - c[0]) / 0.25, light.normal, atol=1e-9)
+
+
+def test_features_and_omissions(tmp_path):
+    s = load_scene(write(tmp_path, GOOD))
+    f = s.features()
+    assert f.area_lights and not f.environment and not f.textures and f.glossy  # roughness 0.5 default
+    assert any("environment" in k for k in f.omitted())
+    env = GOOD.replace("[[lights]]", '[environment]\nconstant = [1, 1, 1]\n\n[[lights]]')
+    f2 = load_scene(write(tmp_path, env, "e.toml")).features()
+    assert f2.environment and not any("environment" in k for k in f2.omitted())
+
+
+def test_hash_tracks_content_not_formatting(tmp_path):
+    a = load_scene(write(tmp_path, GOOD, "a.toml")).hash
+    b = load_scene(write(tmp_path, "# a comment\n" + GOOD, "b.toml")).hash
+    c = load_scene(write(tmp_path, GOOD.replace("fov = 40", "fov = 41"), "c.toml")).hash
+    assert a == b and a != c
+    (tmp_path / "m.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 0 -1\nf 1 2 3\n")
+    text = GOOD.replace('shape = "quad"\nsize = [2, 2]', 'shape = "file"\nfile = "m.obj"')
+    h1 = load_scene(write(tmp_path, text, "d.toml")).hash
+    (tmp_path / "m.obj").write_text("v 0 0 0\nv 2 0 0\nv 0 0 -1\nf 1 2 3\n")
+    assert load_scene(write(tmp_path, text, "d.toml")).hash != h1  # referenced file content counts
+    s = load_scene(write(tmp_path, GOOD, "a.toml"))
+    assert s.with_resolution(64, 48).hash != s.hash
+
+
+def test_cornell_box_geometry():
+    s = load_scene(ROOT / "scenes" / "cornell.toml")
+    assert s.features().names() == ["area_lights"]
+    lo, hi = s.bounds()
+    np.testing.assert_allclose(lo, [0, 0, 0], atol=1e-6)
+    np.testing.assert_allclose(hi, [0.556, 0.5488, 0.5592], atol=1e-6)
+    centre = (lo + hi) / 2
+    for mesh in s.meshes[:5]:  # the five walls face into the box
+        tri = mesh.triangles()
+        to_centre = centre - tri.positions.mean(0)
+        assert float(tri.normals[0] @ to_centre) > 0, mesh.name
+    light = s.lights[0]
+    assert light.area == pytest.approx(0.130 * 0.105)
+    assert light.center[1] < 0.5488  # just below the ceiling
+
+
+def test_primitives_are_closed_and_sized():
+    from compare import geometry
+
+    sph = geometry.sphere(2.0, 64, 32)
+    assert sph.surface_area() == pytest.approx(4 * np.pi * 4, rel=0.01)
+    box = geometry.box((1, 2, 3))
+    assert box.surface_area() == pytest.approx(2 * (2 + 3 + 6))
+    cyl = geometry.cylinder(1.0, 2.0, 128)
+    assert cyl.surface_area() == pytest.approx(2 * np.pi * 2 + 2 * np.pi, rel=0.01)
+    # outward normals: the normal at each vertex points away from the centre
+    for mesh in (sph, box):
+        assert np.all(np.sum(mesh.normals * mesh.positions, axis=1) > 0)
