@@ -1,0 +1,155 @@
+"""The GLSL form of the shared BRDF, for the rasterizer's shaders.
+
+``brdf.glsl`` (beside this file) holds functions and ``#define``s only, no
+``#version`` line, so that a shader can include it by text substitution::
+
+    src = program_text.replace('#include "brdf.glsl"', glsl_source())
+
+Its public functions: ``brdf_eval``, ``brdf_eval_lobes``, ``brdf_ggx_d``,
+``brdf_smith_g1``, ``brdf_smith_v_height_correlated``, ``brdf_fresnel_schlick``,
+``brdf_alpha_from_roughness``, ``brdf_sample_ggx_vndf``; constants
+``BRDF_ALPHA_MIN``, ``BRDF_COS_MIN``, ``BRDF_DIELECTRIC_F0``, ``BRDF_H_LEN2_MIN``
+(the same values as :mod:`compare.brdf`).
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from pathlib import Path
+
+__all__ = ["GLSL_PATH", "eval_brdf_gl", "glsl_source", "sample_ggx_vndf_gl"]
+
+#: The include file.
+GLSL_PATH = Path(__file__).with_name("brdf.glsl")
+
+
+@lru_cache(maxsize=1)
+def glsl_source() -> str:
+    """Text of ``brdf.glsl`` (GLSL 3.30, no ``#version`` line), ending in a newline."""
+    text = GLSL_PATH.read_text(encoding="utf-8")
+    return text if text.endswith("\n") else text + "\n"
+
+
+# -- evaluating the include on the GPU (tests, debugging) --------------------------------
+
+_VERTEX = """#version 330 core
+in vec2 in_pos;
+void main() { gl_Position = vec4(in_pos, 0.0, 1.0); }
+"""
+
+_FRAGMENT = """#version 330 core
+uniform sampler2D in0;
+uniform sampler2D in1;
+uniform sampler2D in2;
+uniform sampler2D in3;
+out vec4 out_value;
+{include}
+void main() {{
+    ivec2 p = ivec2(gl_FragCoord.xy);
+    vec4 a = texelFetch(in0, p, 0);
+    vec4 b = texelFetch(in1, p, 0);
+    vec4 c = texelFetch(in2, p, 0);
+    vec4 d = texelFetch(in3, p, 0);
+    {body}
+}}
+"""
+
+_BODIES = {
+    # in0 = (n, metallic), in1 = (v, roughness), in2 = (l, -), in3 = (base_color, -)
+    "eval": "out_value = vec4(brdf_eval(a.xyz, b.xyz, c.xyz, d.xyz, a.w, b.w), 1.0);",
+    # in0 = (wi, alpha), in1 = (u, -, -)
+    "vndf": "out_value = vec4(brdf_sample_ggx_vndf(a.xyz, a.w, b.xy), 1.0);",
+}
+
+
+def _run_pointwise(ctx, body: str, inputs: list) -> "np.ndarray":
+    """Run ``body`` once per input row (one fragment each) and read back (N, 4) float32.
+
+    ``inputs`` are up to four (N, 4) float arrays, bound as RGBA32F textures
+    read with ``texelFetch`` (no filtering, exact float32 values).
+    """
+    import moderngl  # noqa: PLC0415
+    import numpy as np  # noqa: PLC0415
+
+    n = len(inputs[0])
+    width = min(n, 256)
+    height = -(-n // width)
+    textures, resources = [], []
+    previous_fbo, previous_viewport = ctx.fbo, ctx.viewport
+    try:
+        for i in range(4):
+            data = np.zeros((height * width, 4), dtype=np.float32)
+            if i < len(inputs):
+                data[:n] = np.asarray(inputs[i], dtype=np.float32)
+            tex = ctx.texture((width, height), 4, data.tobytes(), dtype="f4")
+            tex.filter = (ctx.NEAREST, ctx.NEAREST)
+            textures.append(tex)
+        resources += textures
+        prog = ctx.program(vertex_shader=_VERTEX,
+                           fragment_shader=_FRAGMENT.format(include=glsl_source(), body=body))
+        resources.append(prog)
+        for i in range(4):
+            uniform = prog.get(f"in{i}", None)  # unused samplers are optimised away
+            if uniform is not None:
+                uniform.value = i
+        quad = np.array([-1, -1, 1, -1, -1, 1, 1, 1], dtype=np.float32)
+        vbo = ctx.buffer(quad.tobytes())
+        vao = ctx.vertex_array(prog, [(vbo, "2f", "in_pos")])
+        target = ctx.texture((width, height), 4, dtype="f4")
+        fbo = ctx.framebuffer(color_attachments=[target])
+        resources += [vbo, vao, target, fbo]
+        fbo.use()
+        ctx.viewport = (0, 0, width, height)
+        for i, tex in enumerate(textures):
+            tex.use(location=i)
+        vao.render(mode=ctx.TRIANGLE_STRIP)
+        ctx.finish()
+        out = np.frombuffer(fbo.read(components=4, dtype="f4"), dtype=np.float32)
+        return out.reshape(height * width, 4)[:n].copy()
+    finally:
+        live = isinstance(previous_fbo, moderngl.Framebuffer) and not isinstance(
+            getattr(previous_fbo, "mglo", None), moderngl.InvalidObject)
+        if live:  # restore the caller's framebuffer (not when it was None or released)
+            previous_fbo.use()
+        ctx.viewport = previous_viewport
+        for res in reversed(resources):
+            res.release()
+
+
+def eval_brdf_gl(ctx, n, v, l, base_color, metallic, roughness):  # noqa: E741
+    """Evaluate ``brdf_eval`` of ``brdf.glsl`` on the GPU, one fragment per input.
+
+    Parameters
+    ----------
+    ctx : moderngl.Context
+        An OpenGL 3.3+ context (e.g. ``moderngl.create_context(standalone=True, backend='egl')``).
+    n, v, l, base_color : array_like, shape (N, 3)
+    metallic, roughness : array_like, shape (N,)
+        Inputs, rounded to float32 on upload.
+
+    Returns
+    -------
+    ndarray, shape (N, 3), float32
+    """
+    import numpy as np  # noqa: PLC0415
+
+    n, v, l, c = (np.asarray(x, dtype=np.float64).reshape(-1, 3) for x in (n, v, l, base_color))
+    count = len(n)
+    m = np.broadcast_to(np.asarray(metallic, dtype=np.float64), (count,))
+    r = np.broadcast_to(np.asarray(roughness, dtype=np.float64), (count,))
+    zero = np.zeros((count, 1))
+    inputs = [np.hstack([n, m[:, None]]), np.hstack([v, r[:, None]]), np.hstack([l, zero]),
+              np.hstack([c, zero])]
+    return _run_pointwise(ctx, _BODIES["eval"], inputs)[:, :3]
+
+
+def sample_ggx_vndf_gl(ctx, wi, alpha, u):
+    """Evaluate ``brdf_sample_ggx_vndf`` on the GPU; returns (N, 3) float32 half vectors."""
+    import numpy as np  # noqa: PLC0415
+
+    wi = np.asarray(wi, dtype=np.float64).reshape(-1, 3)
+    count = len(wi)
+    a = np.broadcast_to(np.asarray(alpha, dtype=np.float64), (count,))
+    u = np.asarray(u, dtype=np.float64).reshape(-1, 2)
+    inputs = [np.hstack([wi, a[:, None]]), np.hstack([u, np.zeros((count, 2))])]
+    return _run_pointwise(ctx, _BODIES["vndf"], inputs)[:, :3]

@@ -1,0 +1,287 @@
+"""The three forms of the shared BRDF agree: numpy (float64) vs Mitsuba plugin vs GLSL.
+
+Inputs are rounded to float32 once and the numpy reference is evaluated on the
+rounded values, so the differences measured are those of float32 arithmetic.
+
+Tolerances (per sample, per channel): |got - ref| <= rtol |ref| + floor, with
+
+* ``floor = 1e-6 * scale`` where ``scale = D V + 1/pi`` is the same geometry's
+  BRDF with unit Fresnel and a white base. Fresnel and colour factors near 0
+  (base colour 0 with metallic 1, where F = (1 - v.h)^5) are differences of
+  float32 numbers of order 1, so their error is absolute, ~1e-7 of that
+  unit-Fresnel value; the floor allows 10x that and nothing more.
+* plugin: ``rtol = 1e-5`` (about 80 float32 ulp). The plugin works in the local
+  frame, where |n x h|^2 = h.x^2 + h.y^2 and n.v = v.z are exact, so even the
+  GGX peak at alpha = ALPHA_MIN is this accurate.
+* GLSL: ``rtol = 1e-5 + 5e-7 / alpha``. The rasterizer evaluates in world space;
+  float32 rounding of n, h and dot products (~1.2e-7) moves |n x h| near the GGX
+  peak, a relative error of about 5e-7 / alpha in D (2.5e-4 at ALPHA_MIN).
+  Directions within 1e-5 of a horizon are left out of the world-space set: the
+  sign of a cosine below float32 resolution is not defined by the inputs.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+from compare import brdf
+from compare.errors import MissingComponentError
+
+N_RANDOM = 4096
+PLUGIN_RTOL = 1e-5
+GL_RTOL = 1e-5
+GL_RTOL_ALPHA = 5e-7
+FLOOR = 1e-6
+
+_worst: dict[str, float] = {}
+
+
+def _f32(x):
+    return np.asarray(x, dtype=np.float32).astype(np.float64)
+
+
+def _unit(x):
+    return x / np.linalg.norm(x, axis=-1, keepdims=True)
+
+
+def _materials(rng, n):
+    """Random materials, with exact extremes mixed in (roughness/metallic 0 and 1, colour 0 and 1)."""
+    c = rng.random((n, 3))
+    m = rng.random(n)
+    r = rng.random(n)
+    k = n // 16
+    r[:k] = 0.0
+    r[k:2 * k] = 1.0
+    m[2 * k:3 * k] = 0.0
+    m[3 * k:4 * k] = 1.0
+    c[4 * k:5 * k] = 0.0
+    c[5 * k:6 * k] = 1.0
+    c[6 * k:7 * k, 0] = 0.0
+    m[6 * k:7 * k] = 1.0
+    perm = rng.permutation(n)
+    return c[perm], m[perm], r[perm]
+
+
+def _local_directions(rng, n):
+    """Random upper-hemisphere pairs, half uniform, half near the specular peak (VNDF-sampled)."""
+    wi = _unit(rng.normal(size=(n, 3)))
+    wi[:, 2] = np.abs(wi[:, 2])
+    wo = _unit(rng.normal(size=(n, 3)))
+    wo[:, 2] = np.abs(wo[:, 2])
+    return wi, wo
+
+
+def _peak_directions(rng, wi, roughness):
+    alpha = brdf.alpha_from_roughness(roughness)
+    h = brdf.sample_ggx_vndf(wi, alpha, rng.random((len(wi), 2)))
+    wo = 2.0 * np.sum(wi * h, -1)[:, None] * h - wi
+    wo[:, 2] = np.maximum(wo[:, 2], 1e-3)  # keep it above the horizon
+    return _unit(wo)
+
+
+def _case_set(seed):
+    """(wi, wo, c, m, r) in float32-rounded float64: uniform pairs and near-peak pairs."""
+    rng = np.random.default_rng(seed)
+    c, m, r = _materials(rng, N_RANDOM)
+    wi, wo = _local_directions(rng, N_RANDOM)
+    half = N_RANDOM // 2
+    wo[half:] = _peak_directions(rng, wi[half:], r[half:])
+    return tuple(_f32(x) for x in (wi, wo, c, m, r))
+
+
+def _scale(n, v, l, r):  # noqa: E741
+    """D V + 1/pi: the BRDF of the same geometry with unit Fresnel and a white base."""
+    unit_spec = brdf.eval_brdf(n, v, l, np.ones(3), 1.0, r)[..., 0]
+    return unit_spec + 1.0 / np.pi
+
+
+def _check(name, got, ref, rtol, scale):
+    """Assert |got - ref| <= rtol |ref| + FLOOR * scale; record the worst relative error among
+    values >= 1e-3 * scale (not dominated by the floor) and the worst error / allowed."""
+    assert np.all(np.isfinite(got)), f"{name}: non-finite values"
+    floor = FLOOR * scale
+    err = np.abs(got - ref)
+    allowed = rtol * np.abs(ref) + floor
+    rel = err / np.maximum(np.abs(ref), 1e-300)
+    big = np.abs(ref) >= 1e-3 * scale
+    _worst[name] = max(_worst.get(name, 0.0), float(rel[big].max()) if np.any(big) else 0.0)
+    _worst[name + " (err/allowed)"] = max(_worst.get(name + " (err/allowed)", 0.0), float((err / allowed).max()))
+    bad = err > allowed
+    assert not np.any(bad), (
+        f"{name}: {int(bad.sum())} values differ beyond tolerance; worst at "
+        f"{np.unravel_index(np.argmax(err / allowed), err.shape)}: got {got[bad][0]}, ref {ref[bad][0]}")
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _report():
+    yield
+    if _worst:
+        print("\nLargest disagreements with numpy: relative error of values >= 1e-3 * (D V + 1/pi), "
+              "and error / allowed:")
+        for k, v in sorted(_worst.items()):
+            print(f"  {k:45s} {v:.3e}")
+
+
+# -- Mitsuba ---------------------------------------------------------------------------
+
+def _use_variant(name):
+    """Register the plugin in a variant (skip when unavailable), restore the previous variant after."""
+    import sys
+
+    from compare.brdf.mitsuba_plugin import register
+
+    before = sys.modules["mitsuba"].variant() if "mitsuba" in sys.modules else None
+    try:
+        mi = register(name)
+    except MissingComponentError as exc:
+        pytest.skip(f"Mitsuba variant {name} unavailable: {exc}")
+    yield mi
+    if before and before != name:
+        mi.set_variant(before)
+
+
+@pytest.fixture(scope="module")
+def mi_llvm():
+    yield from _use_variant("llvm_ad_rgb")
+
+
+@pytest.fixture(scope="module")
+def mi_scalar():
+    yield from _use_variant("scalar_rgb")
+
+
+def _compare_plugin(mi, name, wi, wo, c, m, r):
+    from compare.brdf.mitsuba_plugin import evaluate
+
+    value, pdf = evaluate(wi, wo, c, m, r, variant=mi.variant())
+    got = value / wo[:, 2:]
+    n = np.array([0.0, 0.0, 1.0])
+    ref = brdf.eval_brdf(n, wi, wo, c, m, r)
+    _check(f"plugin {name} eval", got, ref, PLUGIN_RTOL, _scale(n, wi, wo, r)[:, None])
+    # the pdf: the documented lobe mixture (one-sample MIS)
+    p = brdf.specular_sampling_probability(wi[:, 2], c, m)
+    ref_pdf = p * brdf.pdf_ggx_vndf_reflection(wi, wo, brdf.alpha_from_roughness(r)) + (1 - p) * wo[:, 2] / np.pi
+    _check(f"plugin {name} pdf", pdf, ref_pdf, 1e-5, np.zeros_like(ref_pdf))
+
+
+def test_plugin_matches_numpy_llvm(mi_llvm):
+    """Vectorised: all rows in one eval_pdf call, per-row materials through bitmap textures."""
+    _compare_plugin(mi_llvm, "llvm_ad_rgb", *_case_set(1))
+
+
+def test_plugin_matches_numpy_scalar(mi_scalar):
+    wi, wo, c, m, r = _case_set(2)
+    sel = np.r_[0:150, N_RANDOM // 2:N_RANDOM // 2 + 150]  # scalar_rgb loops in Python
+    _compare_plugin(mi_scalar, "scalar_rgb", wi[sel], wo[sel], c[sel], m[sel], r[sel])
+
+
+def test_plugin_zero_below_horizon(mi_llvm):
+    from compare.brdf.mitsuba_plugin import evaluate
+
+    rng = np.random.default_rng(3)
+    wi, wo = _local_directions(rng, 256)
+    wi[:128, 2] *= -1.0  # viewer below: one-sided, black
+    wo[128:, 2] *= -1.0  # light below
+    value, pdf = evaluate(wi, wo, np.full(3, 0.5), 0.5, 0.5, variant=mi_llvm.variant())
+    assert np.all(value == 0.0) and np.all(pdf == 0.0)
+
+
+def test_plugin_traverse_and_string(mi_llvm):
+    mi = mi_llvm
+    bsdf = mi.load_dict({"type": "gltf_pbr", "base_color": {"type": "rgb", "value": [0.2, 0.4, 0.6]},
+                         "metallic": 0.25, "roughness": 0.5})
+    params = mi.traverse(bsdf)
+    assert {"base_color.value", "metallic.value", "roughness.value"} <= set(params.keys())
+    assert "GltfPbrBSDF" in str(bsdf)
+    # an update through traverse changes the evaluation
+    si = mi.SurfaceInteraction3f()
+    si.wi = mi.Vector3f(0.0, 0.0, 1.0)
+    ctx = mi.BSDFContext()
+    before = np.array(bsdf.eval(ctx, si, mi.Vector3f(0.6, 0.0, 0.8))).ravel()
+    params["metallic.value"] = 1.0
+    params.update()
+    after = np.array(bsdf.eval(ctx, si, mi.Vector3f(0.6, 0.0, 0.8))).ravel()
+    expect = brdf.eval_brdf([0, 0, 1.0], [0, 0, 1.0], [0.6, 0, 0.8], _f32([0.2, 0.4, 0.6]), 1.0, 0.5) * 0.8
+    assert not np.allclose(before, after)
+    np.testing.assert_allclose(after, expect, rtol=1e-5)
+
+
+def test_register_is_idempotent(mi_llvm):
+    from compare.brdf.mitsuba_plugin import register, registered_variants
+
+    register("llvm_ad_rgb")
+    register("llvm_ad_rgb")
+    assert registered_variants().count("llvm_ad_rgb") == 1
+
+
+# -- GLSL ------------------------------------------------------------------------------
+
+# gl_ctx: the session-wide headless context of tests/conftest.py (skips without OpenGL).
+
+
+def _world_frames(rng, n):
+    normal = _unit(rng.normal(size=(n, 3)))
+    t = _unit(np.cross(normal, rng.normal(size=(n, 3))))
+    b = np.cross(normal, t)
+    return normal, t, b
+
+
+@pytest.mark.gl
+def test_glsl_matches_numpy(gl_ctx):
+    from compare.brdf.glsl import eval_brdf_gl
+
+    wi, wo, c, m, r = _case_set(4)
+    rng = np.random.default_rng(5)
+    normal, t, b = _world_frames(rng, len(wi))
+    world = lambda d: d[:, :1] * t + d[:, 1:2] * b + d[:, 2:3] * normal  # noqa: E731
+    n, v, l = (_f32(x) for x in (normal, world(wi), world(wo)))  # noqa: E741
+    nv, nl = np.sum(n * v, -1), np.sum(n * l, -1)
+    keep = (np.abs(nv) > 1e-5) & (np.abs(nl) > 1e-5)
+    n, v, l, c, m, r = n[keep], v[keep], l[keep], c[keep], m[keep], r[keep]  # noqa: E741
+    got = eval_brdf_gl(gl_ctx, n, v, l, c, m, r).astype(np.float64)
+    ref = brdf.eval_brdf(n, v, l, c, m, r)
+    rtol = (GL_RTOL + GL_RTOL_ALPHA / brdf.alpha_from_roughness(r))[:, None]
+    _check("glsl eval (world frames)", got, ref, rtol, _scale(n, v, l, r)[:, None])
+
+
+@pytest.mark.gl
+def test_glsl_zero_below_horizon(gl_ctx):
+    from compare.brdf.glsl import eval_brdf_gl
+
+    rng = np.random.default_rng(6)
+    wi, wo = _local_directions(rng, 256)
+    wi[:128, 2] *= -1.0
+    wo[128:, 2] *= -1.0
+    got = eval_brdf_gl(gl_ctx, np.tile([0.0, 0.0, 1.0], (256, 1)), wi, wo, np.full((256, 3), 0.5), 0.5, 0.5)
+    assert np.all(got == 0.0)
+
+
+@pytest.mark.gl
+def test_glsl_vndf_sampler_matches_numpy(gl_ctx):
+    from compare.brdf.glsl import sample_ggx_vndf_gl
+
+    rng = np.random.default_rng(7)
+    wi = _unit(rng.normal(size=(N_RANDOM, 3)))
+    wi[:, 2] = np.abs(wi[:, 2]) + 1e-3
+    wi = _f32(_unit(wi))
+    alpha = _f32(brdf.alpha_from_roughness(rng.random(N_RANDOM)))
+    u = _f32(rng.random((N_RANDOM, 2)))
+    got = sample_ggx_vndf_gl(gl_ctx, wi, alpha, u).astype(np.float64)
+    ref = brdf.sample_ggx_vndf(wi, alpha, u)
+    err = np.abs(got - ref).max()
+    _worst["glsl vndf sample (max abs)"] = float(err)
+    assert err < 1e-5  # GLSL sin/cos of 2 pi u: a few float32 ulp of 2 pi
+
+
+def test_glsl_constants_match_python():
+    from compare.brdf.glsl import glsl_source
+
+    src = glsl_source()
+    assert not re.search(r"^\s*#version", src, flags=re.M)
+    defines = dict(re.findall(r"^#define\s+(BRDF_\w+)\s+(\S+)", src, flags=re.M))
+    for name in ("ALPHA_MIN", "COS_MIN", "DIELECTRIC_F0", "H_LEN2_MIN"):
+        assert float(defines[f"BRDF_{name}"]) == getattr(brdf, name), name
+    assert abs(float(defines["BRDF_PI"]) - np.pi) < 1e-15
