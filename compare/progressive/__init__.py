@@ -1,0 +1,40 @@
+"""The progressive rasterizer: Otto, Limberger & Döllner (Web3D 2020) in moderngl.
+
+Physically based direct area lighting accumulated over frames: per frame a
+jittered G-buffer, per light sample a shadow atlas (five faces of a half cube)
+and a full-screen lighting pass with the shared BRDF, and running means in
+RGBA32F. Environment lighting comes with the IBL issue.
+
+Public API
+----------
+:func:`render_progressive`
+    scene → :class:`ProgressiveResult` (image, seconds, frame_seconds, metadata, checkpoints).
+:class:`ProgressiveRenderer`
+    frame by frame: ``frames()`` yields (frames done, cumulative seconds), ``image()`` reads back.
+:func:`plan`
+    the sample distributor (which frame evaluates which sample), inspectable without a GL context.
+:func:`create_context`
+    a headless EGL context, or :class:`~compare.errors.MissingComponentError` saying what to install.
+
+Module map (each pass with its shader): ``distributor`` + ``sampling`` (Algorithm 1,
+R2 points), ``gpu_scene`` (upload, camera), ``gbuffer`` (``gbuffer.glsl``),
+``shadow`` (``shadow.glsl``), ``direct`` (``direct.glsl``), ``accumulate``
+(``accumulate.glsl``, ``compose.glsl``), ``readback``, ``renderer``.
+"""
+
+from .context import create_context
+from .distributor import EnvSample, FramePlan, LightSample, Plan, plan
+from .renderer import Checkpoint, ProgressiveRenderer, ProgressiveResult, render_progressive
+
+__all__ = [
+    "Checkpoint",
+    "EnvSample",
+    "FramePlan",
+    "LightSample",
+    "Plan",
+    "ProgressiveRenderer",
+    "ProgressiveResult",
+    "create_context",
+    "plan",
+    "render_progressive",
+]

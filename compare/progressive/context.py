@@ -1,0 +1,66 @@
+"""A headless OpenGL context for the progressive renderer.
+
+The renderer needs OpenGL 3.3 core or newer. Without a display it gets one
+through EGL: on a machine without a GPU from Mesa's ``llvmpipe`` (slow but exact
+enough for tests), on a GPU machine from the vendor driver, with the same code.
+"""
+
+from __future__ import annotations
+
+from ..errors import MissingComponentError
+
+#: The oldest OpenGL version the shaders need (``#version 330``).
+MIN_GL_VERSION = 330
+
+_INSTALL_HINT = (
+    "install EGL and an OpenGL driver: on Debian/Ubuntu "
+    "`sudo apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri` "
+    "(Mesa's llvmpipe runs without a GPU); on a GPU machine the vendor's EGL driver works too"
+)
+
+
+def create_context(*, require: int = MIN_GL_VERSION):
+    """Create a standalone (headless) moderngl context through EGL.
+
+    Parameters
+    ----------
+    require : int, keyword-only
+        Minimum OpenGL version as moderngl writes it (330 = 3.3).
+
+    Returns
+    -------
+    moderngl.Context
+        A context that the caller owns (``ctx.release()`` when done).
+
+    Raises
+    ------
+    MissingComponentError
+        When moderngl is missing, EGL or an OpenGL driver cannot be loaded, or
+        the driver offers less than ``require``; the message names the Debian
+        packages to install.
+    """
+    try:
+        import moderngl
+    except ImportError as exc:  # pragma: no cover - moderngl is a dependency
+        raise MissingComponentError(f"the Python package moderngl is missing ({exc}); `pip install moderngl`") from exc
+    try:
+        ctx = moderngl.create_context(standalone=True, backend="egl", require=require)
+    except Exception as exc:  # moderngl/glcontext raise plain Exception subclasses
+        raise MissingComponentError(
+            f"no headless OpenGL {require // 100}.{require % 100 // 10}+ context could be created "
+            f"through EGL ({type(exc).__name__}: {exc}); {_INSTALL_HINT}"
+        ) from exc
+    if ctx.version_code < require:
+        version = ctx.version_code
+        ctx.release()
+        raise MissingComponentError(
+            f"the OpenGL driver offers version {version // 100}.{version % 100 // 10}, "
+            f"the renderer needs {require // 100}.{require % 100 // 10}; {_INSTALL_HINT}"
+        )
+    return ctx
+
+
+def gl_renderer_name(ctx) -> str:
+    """Human-readable driver name, e.g. ``llvmpipe (LLVM 15.0.6, 256 bits)``."""
+    info = ctx.info
+    return f"{info.get('GL_RENDERER', 'unknown')} ({info.get('GL_VERSION', '?')})"

@@ -1,0 +1,140 @@
+"""Direct light from area lights: one full-screen pass per light sample (``direct.glsl``).
+
+Area models
+-----------
+``"radiometric"`` (default)
+    A sample point y on light i stands for the area A/n_i around it: its
+    diffuse contribution is ``f_d · L · (A/n_i) · cos θ_light · cos θ_surf / d²``,
+    so the sum over the n_i uniformly spread samples is the point-on-area
+    estimate of ``∫_A f L cos cos / d² dA``; for a Lambert surface it converges
+    to the exact polygon-light irradiance (tested against the closed form). The
+    specular term through the representative point uses the light's exact solid
+    angle Ω (two spherical triangles).
+``"paper"``
+    Otto et al.'s point-light form: each sample is an isotropic point light
+    carrying the emitter's whole power Φ = π·A·L, ``E = Φ / (4π d²) · cos θ_surf``
+    (here ``Φ/(4πd²) = L·A/(4d²)``), and the specular term uses the same
+    ``Φ/(4πd²)`` instead of L·Ω. Compared with the radiometric form it lacks
+    the emitter's cos θ_light and is a quarter of it straight below the light
+    (an isotropic source spreads Φ over 4π sr; a Lambertian emitter's intensity
+    on its axis is Φ/π). Both keep the emitter one-sided (nothing behind its plane).
+    Only the contribution formula changes: the samples (on the rectangle,
+    sorted from the light's centre), the shadows and the BRDF stay the same, so
+    the difference of the two images is the cost of the point-light form alone.
+    The public code's other deviations (samples sorted from the world origin or
+    placed on a sphere, N·L applied twice, shading from the centre) are not
+    reproduced.
+
+Representative point and normalisation
+--------------------------------------
+The specular direction is Karis' most representative point: the point of the
+rectangle closest to the reflection ray (the ray's hit on the light's plane
+clamped to the rectangle). Evaluating the GGX lobe there puts its peak on the
+light however small α is, so the energy is normalised as for Karis' sphere
+lights: ``(α/α')²`` with ``α' = min(α + r/(2d), 1)``, r = √(A/π) the radius of
+the disc of equal area and d the distance to the light's centre (the light
+subtends a half-angle ≈ r/d, the half vectors half of that). At α = 1 the
+factor is 1. The term is the same for all samples of a light and is multiplied
+by each sample's visibility, so its mean is the MRP specular × mean visibility.
+"""
+
+from __future__ import annotations
+
+from .accumulate import PingPong, Target
+from .shaders import load_program, set_uniform
+
+AREA_MODELS = ("radiometric", "paper")
+#: Material modes as in compare.mitsuba_dict: the shared BRDF, or Lambert only for closed forms.
+MATERIAL_MODES = ("shared", "diffuse")
+
+
+class DirectPass:
+    """Programs of the direct-light pass: shadowed (light frames) and unshadowed (preview)."""
+
+    def __init__(self, ctx, *, area_model: str = "radiometric", materials: str = "shared", shadows: bool = True):
+        if area_model not in AREA_MODELS:
+            raise ValueError(f"area_model: expected one of {', '.join(map(repr, AREA_MODELS))}, got {area_model!r}")
+        if materials not in MATERIAL_MODES:
+            raise ValueError(f"materials: expected one of {', '.join(map(repr, MATERIAL_MODES))}, got {materials!r}")
+        self.ctx = ctx
+        defines = {"AREA_MODEL_PAPER": int(area_model == "paper"), "MATERIALS_DIFFUSE": int(materials == "diffuse")}
+        self.preview_program = load_program(ctx, "direct.glsl", {**defines, "SHADOWS": 0})
+        self.preview_vao = ctx.vertex_array(self.preview_program, [])
+        self.program = self.vao = None
+        if shadows:
+            self.program = load_program(ctx, "direct.glsl", {**defines, "SHADOWS": 1})
+            self.vao = ctx.vertex_array(self.program, [])
+
+    @staticmethod
+    def _set_light(program, light, point, weight, camera_position) -> None:
+        set_uniform(program, "u_camera_position", tuple(float(x) for x in camera_position))
+        set_uniform(program, "u_light_center", tuple(float(x) for x in light.center))
+        set_uniform(program, "u_light_t", tuple(float(x) for x in light.tangent))
+        set_uniform(program, "u_light_b", tuple(float(x) for x in light.bitangent))
+        set_uniform(program, "u_light_n", tuple(float(x) for x in light.normal))
+        set_uniform(program, "u_light_half", (light.size[0] / 2, light.size[1] / 2))
+        set_uniform(program, "u_light_radiance", tuple(float(x) for x in light.radiance))
+        set_uniform(program, "u_light_area", float(light.area))
+        set_uniform(program, "u_sample", tuple(float(x) for x in point))
+        set_uniform(program, "u_weight", float(weight))
+
+    @staticmethod
+    def _bind_gbuffer(program, gbuffer) -> None:
+        for loc, name in enumerate(("position", "normal", "material")):
+            gbuffer[name].use(location=loc)
+            set_uniform(program, f"u_{name}", loc)
+
+    def preview(self, target: Target, gbuffer, lights, camera_position) -> None:
+        """Unshadowed direct light from every light's centre (one sample, full area), summed into ``target``."""
+        ctx = self.ctx
+        target.fbo.use()
+        target.fbo.clear(0.0, 0.0, 0.0, 0.0)
+        ctx.enable_only(ctx.BLEND)
+        ctx.blend_func = ctx.ONE, ctx.ONE
+        ctx.blend_equation = ctx.FUNC_ADD
+        p = self.preview_program
+        self._bind_gbuffer(p, gbuffer)
+        set_uniform(p, "u_mode", 0)
+        for light in lights:
+            self._set_light(p, light, light.center, 1.0, camera_position)
+            self.preview_vao.render(vertices=3)
+
+    def add(self, partial: Target, gbuffer, shadow, bias, light, point, weight, camera_position) -> None:
+        """Add ``weight``·estimate of one sample to this frame's ``partial`` sum (not the last sample)."""
+        ctx = self.ctx
+        partial.fbo.use()
+        ctx.enable_only(ctx.BLEND)
+        ctx.blend_func = ctx.ONE, ctx.ONE
+        ctx.blend_equation = ctx.FUNC_ADD
+        p = self.program
+        self._bind_gbuffer(p, gbuffer)
+        shadow.bind(p, 3, bias)
+        set_uniform(p, "u_mode", 0)
+        self._set_light(p, light, point, weight, camera_position)
+        self.vao.render(vertices=3)
+
+    def accumulate(self, acc: PingPong, partial: Target | None, gbuffer, shadow, bias, light, point, weight,
+                   camera_position) -> None:
+        """Last sample of a frame: frame value = partial + weight·estimate, folded into the running mean."""
+        ctx = self.ctx
+        acc.target.use()
+        ctx.enable_only(ctx.NOTHING)
+        p = self.program
+        self._bind_gbuffer(p, gbuffer)
+        shadow.bind(p, 3, bias)
+        acc.current.use(location=4)
+        set_uniform(p, "u_previous", 4)
+        (partial.texture if partial is not None else acc.current).use(location=5)
+        set_uniform(p, "u_partial", 5)
+        set_uniform(p, "u_use_partial", 1.0 if partial is not None else 0.0)
+        set_uniform(p, "u_mode", 1)
+        set_uniform(p, "u_count", float(acc.count + 1))
+        self._set_light(p, light, point, weight, camera_position)
+        self.vao.render(vertices=3)
+        acc.swap()
+
+    def release(self) -> None:
+        for obj in (self.vao, self.program, self.preview_vao, self.preview_program):
+            if obj is not None:
+                obj.release()
+

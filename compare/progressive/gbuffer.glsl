@@ -1,0 +1,50 @@
+// G-buffer pass: the scene seen from the jittered camera, one fragment per pixel.
+//
+// Every later pass of the frame is a full-screen pass reading these targets, so the
+// geometry is rasterized once per frame however many light samples the frame has.
+// Area-light quads are drawn here too (kind 2): they show their radiance on the
+// front side, black behind, and reflect nothing, like the reference's emitters.
+
+#if defined VERTEX_SHADER
+
+in vec3 in_position;
+in vec3 in_normal;
+
+uniform mat4 u_view_proj;
+
+out vec3 v_position;
+out vec3 v_normal;
+
+void main() {
+    v_position = in_position;
+    v_normal = in_normal;
+    gl_Position = u_view_proj * vec4(in_position, 1.0);
+}
+
+#elif defined FRAGMENT_SHADER
+
+in vec3 v_position;
+in vec3 v_normal;
+
+uniform vec3 u_camera_position;
+uniform vec3 u_base_color;
+uniform float u_metallic;
+uniform float u_roughness;
+uniform vec3 u_emission;   // radiance leaving the front side (the side the normal faces)
+uniform float u_kind;      // 1 = shaded surface, 2 = emitter that reflects nothing
+
+layout(location = 0) out vec4 out_position;  // world position, w = kind (0 = background)
+layout(location = 1) out vec4 out_normal;    // unit shading normal, w = perceptual roughness
+layout(location = 2) out vec4 out_material;  // base colour, a = metallic
+layout(location = 3) out vec4 out_emission;  // emitted radiance towards the camera
+
+void main() {
+    vec3 n = normalize(v_normal);
+    bool front = dot(n, u_camera_position - v_position) > 0.0;
+    out_position = vec4(v_position, u_kind);
+    out_normal = vec4(n, u_roughness);
+    out_material = vec4(u_base_color, u_metallic);
+    out_emission = vec4(front ? u_emission : vec3(0.0), 1.0);
+}
+
+#endif

@@ -1,0 +1,51 @@
+"""G-buffer pass: the scene from the jittered camera into four RGBA32F targets.
+
+Targets (``gbuffer.glsl``): world position + kind, shading normal + roughness,
+base colour + metallic, emitted radiance towards the camera. Every other pass of
+a frame is a full-screen pass over these, so the geometry is rasterized once per
+frame however many light samples the frame evaluates.
+"""
+
+from __future__ import annotations
+
+from .gpu_scene import mat_bytes
+from .shaders import load_program, set_uniform
+
+
+class GBuffer:
+    """The targets and the program of the G-buffer pass."""
+
+    NAMES = ("position", "normal", "material", "emission")
+
+    def __init__(self, ctx, gpu_scene, size: tuple[int, int]):
+        self.ctx = ctx
+        self.scene = gpu_scene
+        self.size = size
+        self.textures = {}
+        for name in self.NAMES:
+            tex = ctx.texture(size, 4, dtype="f4")
+            tex.filter = (ctx.NEAREST, ctx.NEAREST)
+            self.textures[name] = tex
+        self.depth = ctx.depth_renderbuffer(size)
+        self.fbo = ctx.framebuffer([self.textures[n] for n in self.NAMES], self.depth)
+        self.program = load_program(ctx, "gbuffer.glsl")
+
+    def __getitem__(self, name: str):
+        return self.textures[name]
+
+    def render(self, view_proj, camera_position) -> None:
+        ctx = self.ctx
+        self.fbo.use()
+        ctx.enable_only(ctx.DEPTH_TEST)
+        ctx.depth_func = "<"
+        self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        set_uniform(self.program, "u_view_proj", mat_bytes(view_proj))
+        set_uniform(self.program, "u_camera_position", tuple(float(x) for x in camera_position))
+        self.scene.draw_shaded(self.program)
+
+    def release(self) -> None:
+        self.fbo.release()
+        self.depth.release()
+        for tex in self.textures.values():
+            tex.release()
+        self.program.release()

@@ -1,0 +1,161 @@
+"""Scene upload (once per scene) and the camera's matrices.
+
+Every mesh gets one vertex buffer (position, normal; float32, interleaved) and one
+index buffer, and keeps its material as uniform values set before its draw call.
+Each area light is uploaded as a quad too: the G-buffer pass shows it as an
+emitter, and shadow maps of *other* lights see it as an occluder (the reference's
+light rectangles block light as well).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .shaders import set_uniform
+
+
+def mat_bytes(m: np.ndarray) -> bytes:
+    """A 4×4 matrix as the column-major float32 bytes a GLSL ``mat4`` expects."""
+    return np.ascontiguousarray(np.asarray(m, dtype=np.float64).T, dtype=np.float32).tobytes()
+
+
+def look_at(eye, forward, up) -> np.ndarray:
+    """World → view matrix (OpenGL: the view looks down −Z) for a camera at ``eye`` facing ``forward``."""
+    f = np.asarray(forward, dtype=np.float64)
+    f = f / np.linalg.norm(f)
+    r = np.cross(f, up)
+    r /= np.linalg.norm(r)
+    u = np.cross(r, f)
+    m = np.eye(4)
+    m[0, :3], m[1, :3], m[2, :3] = r, u, -f
+    m[:3, 3] = -m[:3, :3] @ np.asarray(eye, dtype=np.float64)
+    return m
+
+
+def frustum(left: float, right: float, bottom: float, top: float, near: float, far: float) -> np.ndarray:
+    """OpenGL ``glFrustum`` projection (bounds on the near plane)."""
+    m = np.zeros((4, 4))
+    m[0, 0] = 2 * near / (right - left)
+    m[0, 2] = (right + left) / (right - left)
+    m[1, 1] = 2 * near / (top - bottom)
+    m[1, 2] = (top + bottom) / (top - bottom)
+    m[2, 2] = -(far + near) / (far - near)
+    m[2, 3] = -2 * far * near / (far - near)
+    m[3, 2] = -1.0
+    return m
+
+
+def scene_extent(scene) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds (lo, hi) of every mesh and light rectangle."""
+    lo, hi = scene.bounds()
+    for light in scene.lights:
+        c = light.corners()
+        lo, hi = np.minimum(lo, c.min(0)), np.maximum(hi, c.max(0))
+    return lo, hi
+
+
+class CameraSetup:
+    """The scene camera's view and jittered projection, with near/far fitted to the scene.
+
+    far reaches the farthest corner of the scene's bounds; near is half the distance
+    to the bounds (a camera inside them gets far·1e-4), which keeps the 24-bit depth
+    buffer's precision far below any gap between surfaces. Depth only orders the
+    fragments here: the G-buffer stores world positions in float32.
+    """
+
+    def __init__(self, scene):
+        cam = scene.camera
+        self.camera = cam
+        self.position = np.asarray(cam.position, dtype=np.float64)
+        lo, hi = scene_extent(scene)
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        self.far = float(np.linalg.norm(corners - self.position, axis=1).max() * 1.01 + 1e-3)
+        outside = np.maximum(np.maximum(lo - self.position, self.position - hi), 0.0)
+        self.near = float(max(0.5 * np.linalg.norm(outside), self.far * 1e-4))
+        self.view = cam.view_matrix()
+
+    def view_proj(self, jitter=(0.0, 0.0)) -> np.ndarray:
+        """Projection × view for a sub-pixel ``jitter`` (pixels, x right, y up)."""
+        return self.camera.projection_matrix(self.near, self.far, jitter=jitter) @ self.view
+
+
+@dataclass
+class GpuMesh:
+    """Buffers and material uniforms of one mesh or light quad."""
+
+    name: str
+    vbo: object
+    ibo: object
+    base_color: tuple[float, float, float]
+    metallic: float
+    roughness: float
+    emission: tuple[float, float, float]
+    kind: float
+    """1 = shaded surface, 2 = emitter that reflects nothing (a light's quad)."""
+    light: int | None = None
+
+
+class GpuScene:
+    """All geometry of a scene on the GPU, uploaded once."""
+
+    def __init__(self, ctx, scene):
+        self.ctx = ctx
+        self.meshes: list[GpuMesh] = []
+        self.light_quads: list[GpuMesh] = []
+        self._vaos: dict[tuple[int, int, bool], object] = {}
+        for mesh in scene.meshes:
+            tri = mesh.triangles()
+            mat = scene.materials[mesh.material]
+            self.meshes.append(self._upload(mesh.name, tri.positions, tri.normals, tri.indices,
+                                            mat.base_color, mat.metallic, mat.roughness, mat.emission, 1.0))
+        quad = np.array([[0, 1, 2], [0, 2, 3]], dtype=np.uint32)
+        for i, light in enumerate(scene.lights):
+            normals = np.tile(np.asarray(light.normal, dtype=np.float32), (4, 1))
+            self.light_quads.append(self._upload(light.name, light.corners(), normals, quad, (0.0, 0.0, 0.0),
+                                                 0.0, 1.0, light.radiance, 2.0, light=i))
+
+    def _upload(self, name, positions, normals, indices, base, metallic, roughness, emission, kind, light=None):
+        data = np.hstack([np.asarray(positions, dtype=np.float32), np.asarray(normals, dtype=np.float32)])
+        vbo = self.ctx.buffer(np.ascontiguousarray(data, dtype=np.float32).tobytes())
+        ibo = self.ctx.buffer(np.ascontiguousarray(indices, dtype=np.uint32).tobytes())
+        return GpuMesh(name, vbo, ibo, tuple(base), float(metallic), float(roughness), tuple(emission), float(kind),
+                       light)
+
+    def _vao(self, program, index: int, mesh: GpuMesh, normals: bool):
+        key = (id(program), index, normals)
+        vao = self._vaos.get(key)
+        if vao is None:
+            layout = (mesh.vbo, "3f 3f", "in_position", "in_normal") if normals else (mesh.vbo, "3f 12x", "in_position")
+            vao = self.ctx.vertex_array(program, [layout], index_buffer=mesh.ibo, index_element_size=4)
+            self._vaos[key] = (vao, program)
+            return vao
+        return vao[0]
+
+    def draw_shaded(self, program) -> None:
+        """Draw meshes and light quads with their material uniforms (G-buffer pass)."""
+        for index, mesh in enumerate(self.meshes + self.light_quads):
+            set_uniform(program, "u_base_color", mesh.base_color)
+            set_uniform(program, "u_metallic", mesh.metallic)
+            set_uniform(program, "u_roughness", mesh.roughness)
+            set_uniform(program, "u_emission", mesh.emission)
+            set_uniform(program, "u_kind", mesh.kind)
+            self._vao(program, index, mesh, True).render()
+
+    def draw_occluders(self, program, skip_light: int | None = None) -> None:
+        """Draw positions only: every mesh and every light quad except ``skip_light``'s (shadow pass)."""
+        for index, mesh in enumerate(self.meshes + self.light_quads):
+            if mesh.light is not None and mesh.light == skip_light:
+                continue
+            self._vao(program, index, mesh, False).render()
+
+    def release(self) -> None:
+        for vao, _ in self._vaos.values():
+            vao.release()
+        self._vaos.clear()
+        for mesh in self.meshes + self.light_quads:
+            mesh.vbo.release()
+            mesh.ibo.release()
+        self.meshes, self.light_quads = [], []
+

@@ -1,0 +1,28 @@
+"""Read a float framebuffer back as a linear (H, W, 3) float32 image, in one place."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import ImageError
+
+
+def read_rgb(ctx, fbo, *, check_finite: bool = True, what: str = "progressive render") -> np.ndarray:
+    """``fbo``'s first colour attachment as (H, W, 3) float32, row 0 at the top.
+
+    Waits for the GPU (``ctx.finish()``), reads RGBA float32 and flips the rows
+    once (OpenGL's row 0 is the bottom). Raises :class:`ImageError` when a pixel
+    is NaN or infinite (``check_finite``), which is a renderer bug.
+    """
+    ctx.finish()
+    width, height = fbo.size
+    data = fbo.read(components=4, dtype="f4", attachment=0)
+    image = np.frombuffer(data, dtype=np.float32).reshape(height, width, 4)[::-1, :, :3]
+    image = np.ascontiguousarray(image)
+    if check_finite:
+        bad = ~np.isfinite(image)
+        if bad.any():
+            rows, cols = np.nonzero(bad.any(axis=2))
+            raise ImageError(f"{what}: {int(bad.any(axis=2).sum())} pixels are NaN or infinite "
+                             f"(first at row {int(rows[0])}, column {int(cols[0])})")
+    return image

@@ -1,0 +1,385 @@
+"""The progressive renderer: frames, accumulation, timing, checkpoints.
+
+One frame f of the :class:`~compare.progressive.distributor.Plan`:
+
+1. G-buffer pass with frame f's sub-pixel jitter (``gbuffer.glsl``);
+2. the every-frame running mean (emission, background) over all frames
+   (``accumulate.glsl``);
+3. frame 0 only, while no light frame has run: the unshadowed preview of the
+   direct light from each light's centre (``direct.glsl`` without shadows);
+4. for each light sample of the frame: its shadow atlas (``shadow.glsl``, five
+   faces) and its direct-light pass (``direct.glsl``); the last one folds the
+   frame's sum into the direct-light running mean over light frames.
+
+The displayed image (``compose.glsl``) is the every-frame mean plus the
+direct-light mean, or plus the preview before the first light frame. After the
+last frame it is the full estimate; see ``distributor.py`` for why the weights
+make intermediate images nearly unbiased too and keep the preview out of the
+result.
+
+Timing: each frame's wall time runs from its first GL call to ``ctx.finish()``
+(as a real-time renderer presents each frame), and a GL timer query measures its
+GPU time. Scene upload, shader compilation and one warm-up of frame 0 and of a
+light frame (drivers compile shaders at their first draw) are counted separately
+(``setup_seconds``), and so is readback: it happens only when an image is asked
+for (:meth:`ProgressiveRenderer.image`).
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from dataclasses import dataclass, field
+from typing import Iterator, NamedTuple, Sequence
+
+import numpy as np
+
+from .. import __version__
+from .accumulate import AccumulatePass, ComposePass, PingPong, Target
+from .context import create_context, gl_renderer_name
+from .direct import AREA_MODELS, MATERIAL_MODES, DirectPass
+from .distributor import DEFAULT_DIRECT_FRACTION, DEFAULT_FRAMES, Plan, plan
+from .gbuffer import GBuffer
+from .gpu_scene import CameraSetup, GpuScene, scene_extent
+from .readback import read_rgb
+from .shadow import DEFAULT_BIAS, DEFAULT_SHADOW_SIZE, ShadowAtlas
+
+
+class Checkpoint(NamedTuple):
+    """The accumulated image after ``frame`` frames (1-based count) and the seconds they took."""
+
+    frame: int
+    seconds: float
+    image: np.ndarray
+
+
+@dataclass
+class ProgressiveResult:
+    """A finished progressive render."""
+
+    image: np.ndarray
+    """Linear radiance (H, W, 3) float32 after all frames."""
+    seconds: float
+    """Wall seconds of all frames (without setup and readback)."""
+    frame_seconds: list[float]
+    """Wall seconds of each frame."""
+    gpu_frame_seconds: list[float]
+    """GL timer-query seconds of each frame (NaN where the driver gave no answer)."""
+    metadata: dict
+    """str/int/float only: renderer, frames, seed, seconds, gl_renderer, area_model, ..."""
+    checkpoints: list[Checkpoint] = field(default_factory=list)
+    plan: Plan | None = None
+
+
+class ProgressiveRenderer:
+    """Otto et al.'s progressive rasterizer (area-light part) for one scene.
+
+    Parameters
+    ----------
+    scene : compare.scene.Scene
+        The scene; its camera resolution is the image size.
+    frames : int, keyword-only
+        Frames m to accumulate (paper default 128).
+    seed : int, keyword-only
+        Selects the jitter and light-sample offsets; a fixed seed gives the same image.
+    area_model : {"radiometric", "paper"}, keyword-only
+        Light-sample contribution; see :mod:`compare.progressive.direct`.
+    materials : {"shared", "diffuse"}, keyword-only
+        The shared glTF BRDF, or Lambert only (for closed-form validation; same
+        meaning as in :mod:`compare.mitsuba_dict`).
+    direct_fraction : float, keyword-only
+        f_d: light samples start at frame round(f_d·m).
+    samples_per_light : int or sequence of int, keyword-only
+        n_i; None uses the paper's round(m / lights / 4).
+    shadow_size : int, keyword-only
+        Face resolution S of the shadow atlas (3S × S texels).
+    shadow_bias : (float, float, float), keyword-only
+        (normal offset, constant, slope-scaled) in shadow texels; see :mod:`.shadow`.
+    warm_up : bool, keyword-only
+        Draw frame 0 and the first light frame once before timing starts, so
+        that lazy shader compilation is not counted in frame 1 (default True).
+    ctx : moderngl.Context, keyword-only
+        A context to use (not released here); None creates a headless one.
+    """
+
+    def __init__(self, scene, *, frames: int = DEFAULT_FRAMES, seed: int = 0, area_model: str = "radiometric",
+                 materials: str = "shared", direct_fraction: float = DEFAULT_DIRECT_FRACTION,
+                 samples_per_light: int | Sequence[int] | None = None, shadow_size: int = DEFAULT_SHADOW_SIZE,
+                 shadow_bias: tuple[float, float, float] = DEFAULT_BIAS, warm_up: bool = True, ctx=None):
+        if area_model not in AREA_MODELS:
+            raise ValueError(f"area_model: expected one of {', '.join(map(repr, AREA_MODELS))}, got {area_model!r}")
+        if materials not in MATERIAL_MODES:
+            raise ValueError(f"materials: expected one of {', '.join(map(repr, MATERIAL_MODES))}, got {materials!r}")
+        if len(tuple(shadow_bias)) != 3 or not all(np.isfinite(b) and b >= 0 for b in shadow_bias):
+            raise ValueError(f"shadow_bias: expected three non-negative numbers, got {shadow_bias!r}")
+        self.scene = scene
+        self.area_model = area_model
+        self.materials = materials
+        self.seed = int(seed)
+        self.shadow_bias = tuple(float(b) for b in shadow_bias)
+        self.plan = plan(scene, frames, seed=seed, direct_fraction=direct_fraction,
+                         samples_per_light=samples_per_light)
+        self.notes: list[str] = list(self.plan.notes)
+        self._check_features()
+
+        t0 = time.perf_counter()
+        self._own_ctx = ctx is None
+        self.ctx = create_context() if ctx is None else ctx
+        ctx = self.ctx
+        size = (scene.camera.width, scene.camera.height)
+        self.size = size
+        self._objects: list = []
+        try:
+            self.camera = CameraSetup(scene)
+            self.gpu_scene = self._keep(GpuScene(ctx, scene))
+            self.gbuffer = self._keep(GBuffer(ctx, self.gpu_scene, size))
+            self.accumulate = self._keep(AccumulatePass(ctx))
+            self.base = self._keep(PingPong(ctx, size))
+            self.compose = self._keep(ComposePass(ctx, size))
+            has_lights = bool(scene.lights)
+            # Leave out what the scene does not need: no shadow or direct-light work without area lights.
+            self.shadow = self.direct = self.direct_acc = self.partial = self.preview = None
+            if has_lights:
+                lo, hi = scene_extent(scene)
+                self.shadow = self._keep(ShadowAtlas(ctx, self.gpu_scene, size=shadow_size,
+                                                     extent=float(np.linalg.norm(hi - lo))))
+                self.direct = self._keep(DirectPass(ctx, area_model=area_model, materials=materials,
+                                                    shadows=self.plan.light_frames > 0))
+                self.direct_acc = self._keep(PingPong(ctx, size))
+                if any(fp.shadow_passes > 1 for fp in self.plan):
+                    self.partial = self._keep(Target(ctx, size))
+                if any(fp.preview for fp in self.plan):
+                    self.preview = self._keep(Target(ctx, size))
+            self.query = ctx.query(time=True)  # moderngl queries have no release(); freed with the context
+        except BaseException:
+            self.release()
+            raise
+        self.background = self._background()
+        self.frame = 0
+        """Frames rendered so far."""
+        self.frame_seconds: list[float] = []
+        self.gpu_frame_seconds: list[float] = []
+        self.shadow_passes: list[int] = []
+        """Shadow atlases rendered in each frame."""
+        self._preview_valid = False
+        if warm_up:
+            try:
+                self._warm_up()
+            except BaseException:
+                self.release()
+                raise
+        self.setup_seconds = time.perf_counter() - t0
+        """Seconds for context, upload, shader compilation and warm-up (not in :attr:`seconds`)."""
+
+    # ------------------------------------------------------------------ setup helpers
+
+    def _keep(self, obj):
+        self._objects.append(obj)
+        return obj
+
+    def _check_features(self) -> None:
+        feats = self.scene.features()
+        if feats.environment:
+            msg = ("environment lighting is not implemented in compare.progressive yet: the image has the area "
+                   "lights and emission only" + (" (the constant environment shows as the background)"
+                                                 if self.scene.environment.constant is not None else ""))
+            warnings.warn(msg, stacklevel=3)
+            self.notes.append(msg)
+        if feats.emissive_meshes:
+            msg = ("emissive meshes are shown with their emission but do not light other surfaces in "
+                   "compare.progressive (only [[lights]] rectangles are sampled)")
+            warnings.warn(msg, stacklevel=3)
+            self.notes.append(msg)
+        if feats.textures:
+            msg = "material textures are not implemented in compare.progressive yet: base colour factors are used"
+            warnings.warn(msg, stacklevel=3)
+            self.notes.append(msg)
+
+    def _background(self) -> tuple[float, float, float]:
+        env = self.scene.environment
+        if env is not None and env.constant is not None:
+            return tuple(float(c) * env.intensity for c in env.constant)
+        return (0.0, 0.0, 0.0)
+
+    # ------------------------------------------------------------------ rendering
+
+    @property
+    def frames_total(self) -> int:
+        return len(self.plan)
+
+    @property
+    def seconds(self) -> float:
+        """Cumulative wall seconds of the frames rendered so far."""
+        return float(sum(self.frame_seconds))
+
+    def _draw(self, fp) -> None:
+        """Issue the GL work of one frame plan ``fp``."""
+        cam_pos = self.camera.position
+        self.gbuffer.render(self.camera.view_proj(fp.jitter), cam_pos)
+        self.accumulate.run(self.base, self.gbuffer, self.background)
+        if fp.preview and self.preview is not None:
+            self.direct.preview(self.preview, self.gbuffer, self.scene.lights, cam_pos)
+            self._preview_valid = True
+        last = len(fp.light_samples) - 1
+        if last > 0:
+            self.partial.fbo.use()
+            self.partial.fbo.clear(0.0, 0.0, 0.0, 0.0)
+        for j, s in enumerate(fp.light_samples):
+            light = self.scene.lights[s.light]
+            self.shadow.render(light, s.light, s.point)
+            if j < last:
+                self.direct.add(self.partial, self.gbuffer, self.shadow, self.shadow_bias, light, s.point,
+                                s.weight, cam_pos)
+            else:
+                self.direct.accumulate(self.direct_acc, self.partial if last > 0 else None, self.gbuffer,
+                                       self.shadow, self.shadow_bias, light, s.point, s.weight, cam_pos)
+
+    def _warm_up(self) -> None:
+        """Run frame 0 and the first light frame once, then forget them.
+
+        Drivers compile shaders lazily at their first draw (llvmpipe JIT-compiles
+        them; GPU drivers finish compiling and validate state), which would
+        otherwise land in frame 1's time and the first checkpoints of an
+        error-against-time curve.
+        """
+        self._draw(self.plan[0])
+        light_frames = [fp for fp in self.plan if fp.light_samples]
+        if light_frames and light_frames[0].frame != 0:
+            self._draw(light_frames[0])
+        self.ctx.finish()
+        self.reset()
+
+    def render_frame(self) -> float:
+        """Render the next frame of the plan; returns its wall seconds."""
+        if self.frame >= len(self.plan):
+            raise RuntimeError(f"all {len(self.plan)} frames of the plan are rendered; call reset() to start again")
+        fp = self.plan[self.frame]
+        t0 = time.perf_counter()
+        with self.query:
+            self._draw(fp)
+        self.ctx.finish()
+        seconds = time.perf_counter() - t0
+        self.frame_seconds.append(seconds)
+        elapsed = self.query.elapsed
+        # Some drivers answer the first query with an all-ones error value: record it as unknown.
+        self.gpu_frame_seconds.append(elapsed * 1e-9 if 0 <= elapsed < 0xFFFFFFFF else float("nan"))
+        self.shadow_passes.append(len(fp.light_samples))
+        self.frame += 1
+        return seconds
+
+    def frames(self) -> Iterator[tuple[int, float]]:
+        """Render the remaining frames; after each yield (frames done, cumulative wall seconds).
+
+        The accumulated image is read only when asked for, with :meth:`image`.
+        """
+        while self.frame < len(self.plan):
+            self.render_frame()
+            yield self.frame, self.seconds
+
+    def image(self) -> np.ndarray:
+        """The displayed image after the frames so far: linear (H, W, 3) float32."""
+        if self.frame == 0:
+            raise RuntimeError("no frame rendered yet; iterate frames() or call render_frame() first")
+        direct = None
+        if self.direct_acc is not None and self.direct_acc.count > 0:
+            direct = self.direct_acc.current
+        elif self._preview_valid:
+            direct = self.preview.texture
+        fbo = self.compose.run(self.base.current, direct)
+        return read_rgb(self.ctx, fbo, what=f"progressive render of {self.scene.path} (frame {self.frame})")
+
+    def reset(self) -> None:
+        """Start the plan again (same seed, same image)."""
+        self.base.reset()
+        if self.direct_acc is not None:
+            self.direct_acc.reset()
+        self._preview_valid = False
+        self.frame = 0
+        self.frame_seconds, self.gpu_frame_seconds, self.shadow_passes = [], [], []
+
+    def metadata(self) -> dict:
+        """str/int/float description of the render so far (for EXR headers and reports)."""
+        p = self.plan
+        meta = {
+            "renderer": "progressive",
+            "package_version": __version__,
+            "frames": int(self.frame),
+            "frames_planned": len(p),
+            "seed": self.seed,
+            "seconds": self.seconds,
+            "setup_seconds": float(self.setup_seconds),
+            "gpu_seconds": float(np.nansum(self.gpu_frame_seconds)),
+            "gl_renderer": gl_renderer_name(self.ctx),
+            "area_model": self.area_model,
+            "materials": self.materials,
+            "jitter": "R2",
+            "direct_fraction": p.direct_fraction,
+            "direct_start_frame": p.direct_start,
+            "light_frames": p.light_frames,
+            "samples_per_light": ",".join(str(n) for n in p.samples_per_light),
+            "environment": "none" if self.scene.environment is None else "omitted (not implemented)",
+        }
+        if self.shadow is not None:
+            meta.update({"shadow_projection": "half-cube (5 faces)", "shadow_size": int(self.shadow.size),
+                         "shadow_bias": ",".join(f"{b:g}" for b in self.shadow_bias)})
+        if self.notes:
+            meta["notes"] = "; ".join(self.notes)
+        return meta
+
+    def release(self) -> None:
+        """Free every GL object (and the context when this renderer created it)."""
+        for obj in reversed(self._objects):
+            obj.release()
+        self._objects = []
+        if self._own_ctx and self.ctx is not None:
+            self.ctx.release()
+            self.ctx = None
+
+    def __enter__(self) -> "ProgressiveRenderer":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.release()
+
+
+def render_progressive(scene, *, frames: int = DEFAULT_FRAMES, seed: int = 0, area_model: str = "radiometric",
+                       ctx=None, checkpoints: Sequence[int] = (), **options) -> ProgressiveResult:
+    """Render ``scene`` progressively for ``frames`` frames.
+
+    Parameters
+    ----------
+    scene : compare.scene.Scene
+    frames, seed, area_model, ctx : keyword-only
+        See :class:`ProgressiveRenderer`.
+    checkpoints : sequence of int, keyword-only
+        Frame counts (1 … frames) after which the accumulated image is read
+        back, e.g. ``(1, 2, 4, …, 128)``; readback is not counted in the seconds.
+    **options
+        Further :class:`ProgressiveRenderer` options (materials, direct_fraction,
+        samples_per_light, shadow_size, shadow_bias).
+
+    Returns
+    -------
+    ProgressiveResult
+        ``.image`` (H, W, 3) float32 linear radiance, ``.seconds``,
+        ``.frame_seconds``, ``.metadata``, ``.checkpoints`` (frame, seconds, image).
+    """
+    wanted = sorted({int(c) for c in checkpoints})
+    bad = [c for c in wanted if not 1 <= c <= frames]
+    if bad:
+        raise ValueError(f"checkpoints: frame counts must lie in 1 … {frames} (frames), got {bad}")
+    with ProgressiveRenderer(scene, frames=frames, seed=seed, area_model=area_model, ctx=ctx, **options) as r:
+        taken = []
+        for n, seconds in r.frames():
+            if n in wanted:
+                taken.append(Checkpoint(n, seconds, r.image()))
+        image = taken[-1].image if taken and taken[-1].frame == r.frame else r.image()
+        return ProgressiveResult(
+            image=image,
+            seconds=r.seconds,
+            frame_seconds=list(r.frame_seconds),
+            gpu_frame_seconds=list(r.gpu_frame_seconds),
+            metadata=r.metadata(),
+            checkpoints=taken,
+            plan=r.plan,
+        )

@@ -1,0 +1,94 @@
+"""Low-discrepancy points: pixel jitter and sample points on rectangular lights.
+
+Both use the R2 sequence (Roberts 2018), ``x_k = frac(s + k·(1/g, 1/g²))`` with
+``g`` the plastic number: every prefix is well spread over the unit square, so a
+render stopped at any frame has evenly placed samples. The seed picks the
+offset ``s`` (a Cranley–Patterson rotation); seed 0 uses ``s = (½, ½)``, which
+puts frame 0's jitter on the pixel centre and light sample 0 on the light's
+centre.
+
+References
+----------
+M. Roberts, "The unreasonable effectiveness of quasirandom sequences", 2018,
+http://extremelearning.com.au/unreasonable-effectiveness-of-quasirandom-sequences/
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: The plastic number, the real root of x³ = x + 1.
+PLASTIC = 1.324717957244746
+R2_ALPHA = np.array([1.0 / PLASTIC, 1.0 / PLASTIC**2])
+
+
+def seed_offset(seed: int, stream: int = 0) -> np.ndarray:
+    """The R2 offset for ``seed`` and an independent ``stream`` ((½, ½) for seed 0)."""
+    if seed == 0:
+        return np.array([0.5, 0.5])
+    return np.random.default_rng([int(seed), int(stream)]).random(2)
+
+
+def r2(count: int, offset=(0.5, 0.5), start: int = 0) -> np.ndarray:
+    """Points ``start … start+count−1`` of the R2 sequence in [0, 1)², shape (count, 2), float64."""
+    k = np.arange(start, start + count, dtype=np.float64)[:, None]
+    return np.mod(np.asarray(offset, dtype=np.float64) + k * R2_ALPHA, 1.0)
+
+
+def pixel_jitter(frames: int, seed: int = 0) -> np.ndarray:
+    """Sub-pixel offsets (frames, 2) in [−½, ½)², x right and y up, in pixels.
+
+    Uniform over the pixel, so the mean over frames is Mitsuba's box pixel filter
+    (pixel (i, j) covers [i, i+1) × [j, j+1), its centre at i + ½).
+    """
+    return r2(frames, seed_offset(seed, 0)) - 0.5
+
+
+def light_sample_uv(count: int, seed: int = 0, light_index: int = 0) -> np.ndarray:
+    """``count`` points (count, 2) in [0, 1)² for a light, in R2 order (not yet sorted).
+
+    Point 0 is the centre (½, ½); points 1… are R2 points offset by the seed and
+    light index. :func:`light_sample_points` sorts them from the centre outwards
+    by metric distance on the rectangle.
+    """
+    if count < 1:
+        raise ValueError(f"count: expected a positive number of light samples, got {count}")
+    uv = r2(count, seed_offset(seed, 1 + light_index))
+    uv[0] = 0.5
+    return uv
+
+
+def light_sample_points(light, count: int, seed: int = 0, light_index: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """World-space sample points on a rectangular light, centre first, then outwards.
+
+    Parameters
+    ----------
+    light : compare.scene.AreaLight
+    count : int
+        Number of samples n_i.
+    seed, light_index : int
+        Select the R2 offset (independent per light).
+
+    Returns
+    -------
+    points : ndarray (count, 3) float64
+        Points on the rectangle; ``points[0]`` is ``light.center``.
+    uv : ndarray (count, 2)
+        The same points in [0, 1)² along (tangent, bitangent).
+
+    Notes
+    -----
+    Sorting by distance from the light's *centre* (not from the world origin, as
+    the paper's public code does) makes every prefix of the samples a disc-like
+    growing region around the centre: shadows start sharp and soften as frames
+    accumulate, and sample 0 alone is the centre's hard shadow.
+    """
+    uv = light_sample_uv(count, seed, light_index)
+    local = (uv - 0.5) * np.asarray(light.size, dtype=np.float64)
+    order = np.argsort(np.hypot(local[:, 0], local[:, 1]), kind="stable")
+    uv, local = uv[order], local[order]
+    c = np.asarray(light.center, dtype=np.float64)
+    t = np.asarray(light.tangent, dtype=np.float64)
+    b = np.asarray(light.bitangent, dtype=np.float64)
+    points = c + local[:, :1] * t + local[:, 1:] * b
+    return points, uv

@@ -1,0 +1,33 @@
+// Shadow pass: distance from the light sample point to the nearest surface, one face
+// of the five-face half-cube at a time (the viewport selects the face's atlas tile).
+//
+// The depth written is the Euclidean distance from the sample point divided by the
+// far distance (gl_FragDepth), not the perspective depth: the five faces share one
+// metric, the lookup's bias is in world units, and the 24-bit depth has the same
+// absolute precision (far / 2^24) at every distance.
+
+#if defined VERTEX_SHADER
+
+in vec3 in_position;
+
+uniform mat4 u_view_proj;
+
+out vec3 v_position;
+
+void main() {
+    v_position = in_position;
+    gl_Position = u_view_proj * vec4(in_position, 1.0);
+}
+
+#elif defined FRAGMENT_SHADER
+
+in vec3 v_position;
+
+uniform vec3 u_sample;
+uniform float u_inv_far;
+
+void main() {
+    gl_FragDepth = clamp(distance(v_position, u_sample) * u_inv_far, 0.0, 1.0);
+}
+
+#endif
