@@ -69,6 +69,10 @@ def _build_parser() -> argparse.ArgumentParser:
     d.add_argument("--tonemap", default="aces", help="tone-mapping operator for LDR metrics")
     d.add_argument("--json", action="store_true", help="print JSON instead of a table")
     d.set_defaults(func=cmd_diff)
+
+    from .bench import add_bench_parser
+
+    add_bench_parser(sub)
     return p
 
 

@@ -1,0 +1,18 @@
+// Depth-only pass: the scene rasterized at the camera with no shading at all.
+// The benchmark uses it as the floor a frame cannot go below (vertex work,
+// rasterization and depth writes of the same geometry at the same size).
+
+#if defined VERTEX_SHADER
+
+in vec3 in_position;
+uniform mat4 u_view_proj;
+
+void main() {
+    gl_Position = u_view_proj * vec4(in_position, 1.0);
+}
+
+#elif defined FRAGMENT_SHADER
+
+void main() {}
+
+#endif

@@ -1,0 +1,38 @@
+"""``compare bench``: the figures are computed and reported, not timed against goals here."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+from compare.bench import format_table, run_bench, time_to_error
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def test_time_to_error_interpolates_log_log():
+    seconds, errors = [1.0, 2.0, 4.0, 8.0], [0.4, 0.2, 0.1, 0.05]
+    assert time_to_error(seconds, errors, 0.1) == pytest.approx(4.0)
+    assert time_to_error(seconds, errors, math.sqrt(0.2 * 0.1)) == pytest.approx(math.sqrt(8.0))
+    assert time_to_error(seconds, errors, 0.5) == 1.0  # already there at the first checkpoint
+    assert math.isinf(time_to_error(seconds, errors, 0.01))
+
+
+@pytest.mark.gl
+def test_bench_reports_ratios(tmp_path, gl_ctx):
+    result = run_bench(ROOT / "scenes" / "cornell.toml", size=(48, 36), frames=8, spp=4, repeats=2,
+                       items=("first-frame", "depth-floor", "wrapper-overhead"), progress=False)
+    names = [f["name"] for f in result["figures"]]
+    assert names == ["first-frame", "first-frame-total", "depth-floor", "wrapper-overhead"]
+    for f in result["figures"]:
+        assert f["a_median"] > 0 and f["b_median"] > 0 and f["ratio"] > 0
+        assert len(f["a_samples"]) == 2
+    total = next(f for f in result["figures"] if f["name"] == "first-frame-total")
+    assert total["ratio"] < 1  # frame 1 is part of the total
+    json.dumps(result, allow_nan=False)  # no NaN/Inf can reach the JSON
+    table = format_table(result)
+    assert "first-frame" in table and "A/B" in table
+    assert result["environment"]["cores"] >= 1
