@@ -1,0 +1,80 @@
+"""The ``compare`` command: render, diff, errors as one line with exit status 2."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from compare.cli import main
+from compare.exr import read_exr, write_exr
+
+ROOT = Path(__file__).resolve().parent.parent
+CORNELL = str(ROOT / "scenes" / "cornell.toml")
+
+
+def test_render_mitsuba_writes_exr_with_metadata_and_png(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("COMPARE_CACHE", str(tmp_path / "cache"))
+    out = tmp_path / "ref.exr"
+    assert main(["render", "--scene", CORNELL, "--renderer", "mitsuba", "--spp", "4", "--size", "32x24",
+                 "-o", str(out)]) == 0
+    image, meta = read_exr(out)
+    assert image.shape == (24, 32, 3) and np.isfinite(image).all()
+    assert meta["renderer"] == "mitsuba" and meta["spp"] == 4 and meta["seed"] == 0
+    for key in ("variant", "seconds", "scene_hash", "package"):
+        assert key in meta
+    assert (tmp_path / "ref.png").is_file()
+    assert "32x24" in capsys.readouterr().out
+
+
+@pytest.mark.gl
+def test_render_progressive_and_diff(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("COMPARE_CACHE", str(tmp_path / "cache"))
+    ref, ours = tmp_path / "ref.exr", tmp_path / "ours.exr"
+    assert main(["render", "--scene", CORNELL, "--spp", "16", "--size", "32x24", "-o", str(ref)]) == 0
+    assert main(["render", "--scene", CORNELL, "--renderer", "progressive", "--frames", "8", "--size", "32x24",
+                 "-o", str(ours)]) == 0
+    assert read_exr(ours)[1]["renderer"] == "progressive"
+    capsys.readouterr()
+    assert main(["diff", str(ref), str(ours), "--maps", str(tmp_path / "maps")]) == 0
+    text = capsys.readouterr().out
+    for metric in ("ssim", "flip", "psnr", "relmse"):
+        assert metric in text
+    assert list((tmp_path / "maps").glob("*.png"))
+
+
+def test_bad_scene_is_one_line_and_exit_2(tmp_path, capsys):
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[camera]\nposition = [0, 0, 1]\ntarget = [0, 0, 0]\nfov = -3\n')
+    out = tmp_path / "x.exr"
+    assert main(["render", "--scene", str(bad), "-o", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == f"compare: error: {bad}: camera.fov: expected a vertical field of view in degrees in (0, 180), got -3"
+    assert not out.exists()
+
+
+def test_diff_refuses_nan_and_shape_mismatch(tmp_path, capsys):
+    a = np.ones((16, 16, 3), np.float32)
+    write_exr(tmp_path / "a.exr", a)
+    write_exr(tmp_path / "b.exr", np.ones((16, 12, 3), np.float32))
+    assert main(["diff", str(tmp_path / "a.exr"), str(tmp_path / "b.exr")]) == 2
+    assert "shape" in capsys.readouterr().err
+    (tmp_path / "c.exr").write_bytes(b"garbage")
+    assert main(["diff", str(tmp_path / "a.exr"), str(tmp_path / "c.exr")]) == 2
+    assert "c.exr" in capsys.readouterr().err
+
+
+def test_help_on_every_command():
+    for args in ([], ["render"], ["diff"], ["bench"]):
+        out = subprocess.run([sys.executable, "-m", "compare.cli", *args, "--help"], capture_output=True, text=True)
+        assert out.returncode == 0 and "usage: compare" in out.stdout
+
+
+def test_bad_size_is_a_usage_error(capsys):
+    with pytest.raises(SystemExit) as info:
+        main(["render", "--scene", CORNELL, "--size", "big", "-o", "x.exr"])
+    assert info.value.code == 2
+    assert "expected WIDTHxHEIGHT" in capsys.readouterr().err
