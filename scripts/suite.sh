@@ -31,8 +31,12 @@ have_llvm() {  # a libLLVM new enough for Dr.Jit 1.5 (>= 16)
 }
 
 have_egl() {  # EGL plus Mesa's software rasterizer (llvmpipe)
-    ldconfig -p 2>/dev/null | grep -q 'libEGL.so.1' &&
-        ls /usr/lib/*/dri/swrast_dri.so /usr/lib/*/libgallium*.so /usr/lib/*/dri/*gallium* >/dev/null 2>&1
+    ldconfig -p 2>/dev/null | grep -q 'libEGL.so.1' || return 1
+    local f
+    for f in /usr/lib/*/dri/swrast_dri.so /usr/lib/*/libgallium*.so; do
+        [ -e "$f" ] && return 0
+    done
+    return 1
 }
 
 apt_install() {
