@@ -67,14 +67,17 @@ setup_system() {
 setup_python() {
     local stamp="$VENV/.installed-$(sha256sum pyproject.toml | cut -c1-16)"
     if [ -f "$stamp" ]; then return 0; fi
-    local py; py=$(find_python)
-    log "creating $VENV with $py and installing the package (a few minutes the first time)"
-    rm -rf "$VENV"
-    "$py" -m venv "$VENV"
+    if [ ! -x "$VENV/bin/python" ]; then
+        local py; py=$(find_python)
+        log "creating $VENV with $py (a few minutes the first time)"
+        "$py" -m venv "$VENV"
+    fi
+    log "installing the package and its test tools into $VENV"
     "$VENV/bin/python" -m pip install -q --upgrade pip 2>&1 | grep -v '^WARNING: Location' >&2 || true
     "$VENV/bin/python" -m pip install -q -e ".[dev]" 2>&1 | grep -v '^WARNING: Location' >&2 || true
     "$VENV/bin/python" -c 'import compare, mitsuba, moderngl, OpenEXR, flip_evaluator, skimage' ||
         { log "the Python install failed; see the pip output above"; exit 1; }
+    rm -f "$VENV"/.installed-*
     touch "$stamp"
 }
 
