@@ -1,4 +1,4 @@
-"""Command-line interface: ``compare render | diff``.
+"""Command-line interface: ``compare render | diff | run | report | check | bench``.
 
 Every user error (bad scene, bad image, missing system component) ends in one
 line on stderr, ``compare: error: …``, and exit status 2, with nothing
@@ -71,7 +71,13 @@ def _build_parser() -> argparse.ArgumentParser:
     d.set_defaults(func=cmd_diff)
 
     from .bench import add_bench_parser
+    from .check import add_check_parser
+    from .report import add_report_parser
+    from .run import add_run_parser
 
+    add_run_parser(sub)
+    add_report_parser(sub)
+    add_check_parser(sub)
     add_bench_parser(sub)
     return p
 

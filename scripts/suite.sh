@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # One entry point for a fresh machine: set everything up, then run a job.
 #
-#   scripts/suite.sh main    set up, then evaluate the Cornell box (reference + preview)
+#   scripts/suite.sh main    set up, then evaluate the Cornell box (results.json + HTML report)
 #   scripts/suite.sh test    set up, then run the default test suite
 #   scripts/suite.sh slow    set up, then run the slow tests only
 #   scripts/suite.sh setup   set up only
@@ -81,6 +81,8 @@ setup_python() {
     touch "$stamp"
 }
 
+have_chromium() { command -v chromium >/dev/null 2>&1 && command -v chromedriver >/dev/null 2>&1; }
+
 setup() { setup_system; setup_python; }
 
 job="${1:-}"
@@ -90,12 +92,16 @@ case "$job" in
     main)
         setup
         out="reports/cornell"
-        "$VENV/bin/compare" render --scene scenes/cornell.toml --renderer mitsuba --spp 256 \
-            --size 320x240 -o "$out/reference.exr" "$@"
-        log "done: $out/reference.exr and $out/reference.png"
+        "$VENV/bin/compare" run --scenes scenes/cornell.toml --size 320x240 --frames 128 --spp 1024 \
+            --renderers mitsuba,progressive,progressive:paper -o "$out" "$@"
+        log "report: $ROOT/$out/index.html"
         ;;
     test)
         setup
+        if ! have_chromium; then
+            log "installing Chromium and ChromeDriver (the report's browser test)"
+            apt_install chromium chromium-driver || log "WARNING: no Chromium: the browser test will skip"
+        fi
         exec "$VENV/bin/python" -m pytest "$@"
         ;;
     slow)

@@ -1,0 +1,396 @@
+"""The HTML report: a self-contained folder that opens from disk (``file://``).
+
+:func:`build_report` turns a :class:`compare.results.Results` into::
+
+    index.html            the report (jinja2, autoescape on)
+    static/report.css     layout
+    static/report.js      the interactive viewer (swipe + exposure)
+    static/magma.png      colour bar of the error maps
+    data/<scene id>.js    linear HDR images for the viewer (see below)
+    plots/<scene id>-*.png   error-vs-time and equal-time/equal-error figures
+    runs/...              EXR/PNG images and error maps written by ``compare run``
+
+No network: no CDN, no web fonts, no ``fetch``; a Content-Security-Policy
+meta tag allows only scripts, styles and images from the page's own origin or
+from local files (``'self' file:``: browsers differ in whether ``'self'``
+covers other ``file://`` paths), never inline script or the network, so even
+a scene name that slipped past escaping could not run script.
+Every scene-provided string reaches the page through jinja2's autoescaping
+(and through JSON with ``<``, ``>`` and ``&`` escaped in the data files).
+
+HDR data for the exposure slider
+--------------------------------
+A page opened from ``file://`` may not ``fetch`` files beside it, and pixels
+of an ``<img>`` loaded from disk taint a canvas (``getImageData`` throws), so
+the linear images cannot be read from the EXR or PNG files. Instead each
+scene's ``data/<id>.js`` is a plain script, included with ``<script src>``,
+that registers::
+
+    window.COMPARE_HDR["<id>"] = {
+      "width": W, "height": H, "exposure": 1.0, "operator": "aces",
+      "encoding": "float16le-base64",
+      "images": [{"key": "reference", "label": "...", "data": "<base64>"}, ...]
+    }
+
+``data`` is the linear RGB image, rows top to bottom, as little-endian IEEE
+half floats (3 per pixel), base64-encoded: 3 significant digits, which is
+below what an 8-bit display can show after tone mapping. Values are clamped
+to [0, 65504] (half's range; negatives display as black anyway, since every
+operator clamps them). ``report.js`` decodes them, multiplies by the exposure
+(``exposure × 2^EV`` from the slider) and applies the same curve as
+:func:`compare.tonemap.to_ldr`'s default: Stephen Hill's ACES fit
+(:func:`compare.tonemap.aces`) followed by the sRGB transfer function, then
+rounds to 8 bits like :func:`compare.tonemap.write_png`. The browser test
+checks the page's pixels against ``to_ldr`` to within one 8-bit step.
+"""
+
+from __future__ import annotations
+
+import argparse
+import base64
+import json
+import os
+import shutil
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import CompareError
+from ..fsutil import write_text_atomic
+from ..results import Results, SceneResult, metric_value
+
+__all__ = ["ReportError", "add_report_parser", "build_report", "hdr_payload"]
+
+_HERE = Path(__file__).parent
+# Beside the template in the package (pyproject's package-data globs "*.css",
+# "*.js", "*.j2" match files of the package folder itself); copied to static/.
+_STATIC = ("report.css", "report.js")
+_HALF_MAX = 65504.0
+
+#: Metrics shown in tables, in order: (key for metric_value, heading, digits).
+TABLE_METRICS = (
+    ("flip", "FLIP", 4),
+    ("flip_hdr", "HDR-FLIP", 4),
+    ("ssim", "SSIM", 4),
+    ("psnr", "PSNR (dB)", 2),
+    ("relmse", "relMSE", 4),
+    ("mse", "MSE", 4),
+)
+
+_MAP_TITLES = {"flip": "FLIP (LDR)", "one_minus_ssim": "1 − SSIM", "relmse": "relMSE"}
+
+
+class ReportError(CompareError, ValueError):
+    """The report cannot be built (e.g. an image named in results.json is missing)."""
+
+
+# --------------------------------------------------------------------------- formatting
+
+
+def fmt_num(v: float | None, digits: int = 3) -> str:
+    """Compact number for tables: significant digits, '—' for missing."""
+    if v is None:
+        return "—"
+    v = float(v)
+    if v != 0 and (abs(v) < 1e-3 or abs(v) >= 1e5):
+        return f"{v:.{max(1, digits - 1)}e}"
+    return f"{v:.{digits}g}"
+
+
+def fmt_seconds(v: float | None) -> str:
+    """Seconds with a unit that keeps 3 significant digits readable (ms below 1 s)."""
+    if v is None:
+        return "—"
+    v = float(v)
+    if v < 1.0:
+        return f"{v * 1000:.3g} ms"
+    if v < 600:
+        return f"{v:.3g} s"
+    return f"{v / 60:.3g} min"
+
+
+# --------------------------------------------------------------------------- HDR data
+
+
+def _js_json(obj: Any) -> str:
+    """JSON safe to embed in a script: no '<', '>' or '&' can close a tag or open a comment."""
+    text = json.dumps(obj, ensure_ascii=True, allow_nan=False, separators=(",", ":"))
+    return text.replace("<", "\\u003c").replace(">", "\\u003e").replace("&", "\\u0026")
+
+
+def _encode_half(image: np.ndarray) -> str:
+    a = np.clip(np.asarray(image, dtype=np.float32), 0.0, _HALF_MAX)
+    return base64.b64encode(np.ascontiguousarray(a, dtype="<f2").tobytes()).decode("ascii")
+
+
+def hdr_payload(scene_id: str, images: list[tuple[str, str, np.ndarray]], *, exposure: float = 1.0,
+                operator: str = "aces") -> str:
+    """The text of a ``data/<id>.js`` file (format in the module docstring).
+
+    Parameters
+    ----------
+    scene_id : str
+        Key under ``window.COMPARE_HDR``.
+    images : list of (key, label, image)
+        Linear (H, W, 3) images, all the same size.
+    exposure : float, optional
+        Base exposure the slider starts from.
+    operator : str, optional
+        Tone-mapping operator name (the page implements ``"aces"``).
+    """
+    if not images:
+        raise ValueError("hdr_payload: no images")
+    h, w = images[0][2].shape[:2]
+    for key, _, img in images:
+        if img.shape != (h, w, 3):
+            raise ValueError(f"hdr_payload: image {key!r} has shape {img.shape}, expected {(h, w, 3)}")
+    payload = {
+        "width": int(w), "height": int(h), "exposure": float(exposure), "operator": operator,
+        "encoding": "float16le-base64",
+        "images": [{"key": k, "label": label, "data": _encode_half(img)} for k, label, img in images],
+    }
+    return ("/* compare report: linear HDR images of one scene for the interactive viewer\n"
+            "   (little-endian float16 RGB, rows top to bottom, base64; see compare/report/__init__.py). */\n"
+            f"(window.COMPARE_HDR = window.COMPARE_HDR || {{}})[{_js_json(scene_id)}] = {_js_json(payload)};\n")
+
+
+# --------------------------------------------------------------------------- view model
+
+
+def _metrics_row(metrics: dict) -> list[str]:
+    return [fmt_num(metric_value(metrics, k), d) for k, _, d in TABLE_METRICS]
+
+
+def _scene_view(scene: SceneResult, plots: dict[str, Path], out: Path, exposure: float) -> dict:
+    from ..plots import PLOT_METRICS, equal_error, equal_time
+
+    def rel(p: Path) -> str:
+        return Path(os.path.relpath(p, out)).as_posix()
+
+    runs = []
+    for run in scene.runs:
+        f = run.final.metrics if run.points else {}
+        runs.append({
+            "renderer": run.renderer,
+            "label": run.label,
+            "unit": run.unit,
+            "steps": run.steps,
+            "seconds": fmt_seconds(run.seconds),
+            "first": fmt_seconds(run.first_frame_seconds),
+            "setup": fmt_seconds(run.setup_seconds),
+            "preview": run.preview,
+            "flip": fmt_num(f.get("flip"), 3),
+            "ssim": fmt_num(f.get("ssim"), 4),
+            "maps": [{"title": _MAP_TITLES.get(k, k), "src": v} for k, v in run.maps.items()],
+            "strip": [{"step": p.step, "seconds": fmt_seconds(p.seconds), "flip": fmt_num(p.metrics.get("flip"), 3),
+                       "src": p.preview} for p in run.points if p.preview],
+            "points": [{"step": p.step, "seconds": fmt_seconds(p.seconds), "vals": _metrics_row(p.metrics)}
+                       for p in run.points],
+            "metadata": sorted((str(k), str(v)) for k, v in run.metadata.items()),
+        })
+    labels = {r.renderer: r.label for r in scene.runs}
+    equal = []
+    for metric, title in PLOT_METRICS:
+        et = equal_time(scene, metric)
+        ee = equal_error(scene, metric)
+        equal.append({
+            "title": title,
+            "time_rows": [{"target": fmt_seconds(c.target), "source": labels.get(c.source, c.source),
+                           "vals": [fmt_num(c.values.get(r.renderer), 3) + (" †" if r.renderer in c.finished else "")
+                                    for r in scene.runs]} for c in et],
+            "error_rows": [{"target": fmt_num(c.target, 3), "source": labels.get(c.source, c.source),
+                            "vals": [fmt_seconds(c.values.get(r.renderer)) for r in scene.runs]} for c in ee],
+        })
+    nf = scene.noise_floor
+    viewer = [{"key": "reference", "label": f"Ground truth ({scene.reference.spp} spp)"}]
+    viewer += [{"key": r.renderer, "label": f"{r.label} ({r.steps} {r.unit}{'s' if r.unit == 'frame' else ''})"}
+               for r in scene.runs if r.image]
+    # The swipe starts on ground truth vs the first real-time renderer (the comparison the report is for).
+    right = next((i for i, v in enumerate(viewer) if i and v["key"] != "mitsuba"), min(1, len(viewer) - 1))
+    return {
+        "id": scene.id, "name": scene.name, "size": scene.size, "width": scene.width, "height": scene.height,
+        "path": scene.path, "hash": scene.hash[:16],
+        "features": scene.features, "omitted": sorted(scene.omitted.items()),
+        "reference": {"spp": scene.reference.spp, "seed": scene.reference.seed,
+                      "seconds": fmt_seconds(scene.reference.seconds),
+                      "load": fmt_seconds(scene.reference.load_seconds),
+                      "variant": scene.reference.variant, "preview": scene.reference.preview},
+        "noise_floor": None if nf is None else {"spp": nf.spp, "seeds": nf.seeds, "vals": _metrics_row(nf.metrics)},
+        "runs": runs,
+        "equal": equal,
+        "plots": {k: rel(v) for k, v in plots.items()},
+        "viewer": viewer,
+        "viewer_right": right,
+        "exposure": exposure,
+    }
+
+
+def _table1(results: Results) -> dict:
+    """Paper's Table 1 layout: renderer rows × (scene, resolution) columns, seconds with errors."""
+    cols = [{"name": s.name, "size": s.size, "id": s.id} for s in results.scenes]
+    specs: list[tuple[str, str]] = []
+    for s in results.scenes:
+        for r in s.runs:
+            if r.renderer not in [k for k, _ in specs]:
+                specs.append((r.renderer, r.label))
+    rows = [{"label": "Ground truth (Mitsuba)", "cells": [
+        {"seconds": fmt_seconds(s.reference.seconds), "detail": f"{s.reference.spp} spp", "flip": None, "ssim": None}
+        for s in results.scenes]}]
+    first_rows = []
+    for spec, label in specs:
+        cells, firsts = [], []
+        for s in results.scenes:
+            r = s.run(spec)
+            if r is None:
+                cells.append(None)
+                firsts.append(None)
+                continue
+            m = r.final.metrics
+            cells.append({"seconds": fmt_seconds(r.seconds),
+                          "detail": f"{r.steps} {r.unit}{'s' if r.unit == 'frame' else ''}",
+                          "flip": fmt_num(m.get("flip"), 3), "ssim": fmt_num(m.get("ssim"), 4)})
+            firsts.append({"first": fmt_seconds(r.first_frame_seconds), "setup": fmt_seconds(r.setup_seconds),
+                           "flip": fmt_num(r.points[0].metrics.get("flip"), 3)})
+        rows.append({"label": label, "cells": cells})
+        first_rows.append({"label": label, "cells": firsts})
+    return {"cols": cols, "rows": rows, "first_rows": first_rows}
+
+
+# --------------------------------------------------------------------------- building
+
+
+def _referenced(results: Results) -> list[str]:
+    paths = []
+    for s in results.scenes:
+        for p in (s.reference.image, s.reference.preview):
+            if p:
+                paths.append(p)
+        for r in s.runs:
+            paths += [p for p in (r.image, r.preview) if p]
+            paths += list(r.maps.values())
+            for pt in r.points:
+                paths += [p for p in (pt.image, pt.preview) if p]
+    return paths
+
+
+def _safe_rel(rel: str) -> Path:
+    p = Path(rel)
+    if p.is_absolute() or ".." in p.parts:
+        raise ReportError(f"results.json names {rel!r}: image paths must stay inside the results folder")
+    return p
+
+
+def _colorbar(path: Path) -> None:
+    import imageio.v3 as iio
+    import matplotlib
+
+    ramp = matplotlib.colormaps["magma"](np.linspace(0.0, 1.0, 256))[:, :3]
+    img = np.round(np.repeat(ramp[None], 12, axis=0) * 255).astype(np.uint8)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    iio.imwrite(path, img, extension=".png")
+
+
+def build_report(results: Results, out_dir: str | os.PathLike, *, source_dir: str | os.PathLike | None = None,
+                 plot_format: str = "png") -> Path:
+    """Write the HTML report of ``results`` into ``out_dir``.
+
+    Parameters
+    ----------
+    results : Results
+        What ``compare run`` measured.
+    out_dir : path
+        The report folder. Usually the folder of ``results.json`` itself.
+    source_dir : path, optional
+        The folder ``results.json``'s relative image paths are relative to;
+        default ``out_dir``. When it differs, the images are copied over so
+        the report folder stands alone.
+    plot_format : {"png", "svg"}, optional
+        Format of the figures.
+
+    Returns
+    -------
+    pathlib.Path
+        ``out_dir / "index.html"``.
+
+    Raises
+    ------
+    ReportError
+        If an image named in the results is missing.
+    """
+    from jinja2 import Environment, FileSystemLoader, StrictUndefined
+
+    from .. import __version__
+    from ..exr import read_exr
+    from ..plots import make_plots
+
+    out = Path(out_dir)
+    src = Path(source_dir) if source_dir is not None else out
+    out.mkdir(parents=True, exist_ok=True)
+    for rel in _referenced(results):
+        a, b = src / _safe_rel(rel), out / _safe_rel(rel)
+        if not a.is_file():
+            raise ReportError(f"{a}: named in results.json but missing; rerun `compare run` to recreate it")
+        if a.resolve() != b.resolve():
+            b.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(a, b)
+
+    static = out / "static"
+    static.mkdir(exist_ok=True)
+    for name in _STATIC:
+        shutil.copyfile(_HERE / name, static / name)
+    _colorbar(static / "magma.png")
+
+    plots = make_plots(results, out / "plots", fmt=plot_format)
+    for scene in results.scenes:
+        images = [("reference", "ground truth", read_exr(out / scene.reference.image)[0])]
+        images += [(r.renderer, r.label, read_exr(out / r.image)[0]) for r in scene.runs if r.image]
+        write_text_atomic(out / "data" / f"{scene.id}.js",
+                          hdr_payload(scene.id, images, exposure=results.settings.exposure,
+                                      operator=results.settings.tonemap))
+
+    env = Environment(loader=FileSystemLoader(_HERE), autoescape=True, undefined=StrictUndefined,
+                      trim_blocks=True, lstrip_blocks=True)
+    template = env.get_template("report.html.j2")
+    html = template.render(
+        title="Renderer comparison",
+        results=results,
+        settings=results.settings,
+        env=results.environment,
+        table1=_table1(results),
+        scenes=[_scene_view(s, plots[s.id], out, results.settings.exposure) for s in results.scenes],
+        metric_headings=[h for _, h, _ in TABLE_METRICS],
+        version=__version__,
+    )
+    index = out / "index.html"
+    write_text_atomic(index, html)
+    if src.resolve() != out.resolve():
+        results.save(out / "results.json")  # the copied report folder stands alone
+    return index
+
+
+# --------------------------------------------------------------------------- CLI
+
+
+def add_report_parser(subparsers) -> argparse.ArgumentParser:
+    """Add ``compare report`` to an argparse subparsers object; returns the new parser."""
+    p = subparsers.add_parser(
+        "report", help="(re)build the HTML report of a results.json",
+        description="Rebuild index.html, plots and viewer data from results.json and the images beside it.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    p.add_argument("results", type=Path, help="results.json written by `compare run`")
+    p.add_argument("-o", "--output", type=Path, default=None,
+                   help="report folder; default: the folder of results.json (images are copied when different)")
+    p.add_argument("--plot-format", choices=["png", "svg"], default="png", help="figure format")
+    p.set_defaults(func=cmd_report)
+    return p
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    """``compare report``; returns the exit status."""
+    results = Results.load(args.results)
+    src = args.results.parent
+    out = args.output or src
+    index = build_report(results, out, source_dir=src, plot_format=args.plot_format)
+    print(f"{index}")
+    return 0

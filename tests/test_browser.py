@@ -1,0 +1,317 @@
+"""The HTML report in a real browser: headless Chromium driven through chromedriver.
+
+The client below speaks the W3C WebDriver protocol over HTTP with the standard
+library only (no selenium dependency): chromedriver starts Chromium, the test
+opens the report from ``file://`` exactly as a person would, and checks that
+
+* every image loads (``naturalWidth > 0``) and nothing is fetched from outside
+  the report folder;
+* the browser console has no errors;
+* moving the swipe and exposure controls (keyboard on the range inputs,
+  a pointer drag on the image) changes the canvas, and the canvas pixels equal
+  :func:`compare.tonemap.to_ldr` of the embedded HDR data to within one 8-bit
+  step, so the page's ACES matches the suite's;
+* a scene named ``<script>alert(1)</script>`` shows as text and runs nothing.
+
+A full-page screenshot lands in the test's tmp folder (``report.png``).
+
+Needs Debian's ``chromium`` and ``chromium-driver``
+(``apt-get install -y chromium chromium-driver``); skips without them.
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+import re
+import shutil
+import socket
+import subprocess
+import time
+import urllib.error
+import urllib.request
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from compare.tonemap import to_ldr
+
+CHROMIUM = Path("/usr/bin/chromium")
+# Debian's /usr/bin/chromium is a shell wrapper; chromedriver gets the real binary behind it.
+CHROMIUM_BINARY = Path("/usr/lib/chromium/chromium")
+ELEMENT = "element-6066-11e4-a52e-4f735466cecf"  # W3C WebDriver element reference key
+EVIL = "<script>alert(1)</script>"
+
+#: Flags for a hermetic headless browser: no GPU, no sandbox (containers run as root),
+#: no network chatter, a fresh profile per session.
+CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                  "--disable-background-networking", "--disable-component-update", "--disable-sync",
+                  "--disable-dev-shm-usage", "--window-size=1400,1000"]
+
+
+def _chromedriver() -> str | None:
+    return shutil.which("chromedriver") or ("/usr/bin/chromedriver" if Path("/usr/bin/chromedriver").exists() else None)
+
+
+pytestmark = [
+    pytest.mark.skipif(not CHROMIUM.exists(), reason="no /usr/bin/chromium: apt-get install -y chromium chromium-driver"),
+    pytest.mark.skipif(_chromedriver() is None, reason="no chromedriver: apt-get install -y chromium-driver"),
+]
+
+
+# --------------------------------------------------------------------------- a tiny WebDriver client
+
+
+class WebDriverError(RuntimeError):
+    pass
+
+
+class Browser:
+    """Headless Chromium through chromedriver's W3C WebDriver HTTP API (stdlib only)."""
+
+    def __init__(self, profile: Path):
+        with socket.socket() as s:
+            s.bind(("127.0.0.1", 0))
+            port = s.getsockname()[1]
+        self.base = f"http://127.0.0.1:{port}"
+        self.driver = subprocess.Popen([_chromedriver(), f"--port={port}"], stdout=subprocess.DEVNULL,
+                                       stderr=subprocess.DEVNULL)
+        try:
+            self._wait_ready()
+            binary = CHROMIUM_BINARY if CHROMIUM_BINARY.exists() else CHROMIUM
+            caps = {"browserName": "chrome",
+                    "goog:chromeOptions": {"binary": str(binary),
+                                           "args": CHROMIUM_FLAGS + [f"--user-data-dir={profile}"]},
+                    "goog:loggingPrefs": {"browser": "ALL"}}
+            self.session = self._call("POST", "/session", {"capabilities": {"alwaysMatch": caps}})["sessionId"]
+        except BaseException:
+            self.driver.terminate()
+            self.driver.wait(10)
+            raise
+
+    def _call(self, method: str, path: str, body: dict | None = None):
+        data = None if body is None else json.dumps(body).encode()
+        req = urllib.request.Request(self.base + path, data=data, method=method,
+                                     headers={"Content-Type": "application/json"})
+        try:
+            with urllib.request.urlopen(req, timeout=120) as r:
+                return json.loads(r.read())["value"]
+        except urllib.error.HTTPError as e:
+            raise WebDriverError(f"{method} {path}: {e.read().decode(errors='replace')[:1000]}") from None
+
+    def _wait_ready(self) -> None:
+        deadline = time.monotonic() + 20
+        while time.monotonic() < deadline:
+            try:
+                if self._call("GET", "/status").get("ready"):
+                    return
+            except (urllib.error.URLError, ConnectionError, WebDriverError):
+                pass
+            time.sleep(0.1)
+        raise WebDriverError("chromedriver did not start within 20 s")
+
+    def _s(self, path: str) -> str:
+        return f"/session/{self.session}{path}"
+
+    def open(self, url: str) -> None:
+        self._call("POST", self._s("/url"), {"url": url})
+
+    def js(self, script: str, *args):
+        """Run ``script`` as a function body (``arguments[i]`` are ``args``) and return its value."""
+        return self._call("POST", self._s("/execute/sync"), {"script": script, "args": list(args)})
+
+    def find(self, css: str) -> dict:
+        ref = self._call("POST", self._s("/element"), {"using": "css selector", "value": css})
+        return ref
+
+    def keys(self, element: dict, text: str) -> None:
+        self._call("POST", self._s(f"/element/{element[ELEMENT]}/value"), {"text": text})
+
+    def drag(self, element: dict, x0: int, x1: int) -> None:
+        """Press the mouse at x0 and release it at x1 (pixels from the element's centre)."""
+        origin = {ELEMENT: element[ELEMENT]}
+        self._call("POST", self._s("/actions"), {"actions": [{
+            "type": "pointer", "id": "mouse", "parameters": {"pointerType": "mouse"},
+            "actions": [{"type": "pointerMove", "origin": origin, "x": x0, "y": 0},
+                        {"type": "pointerDown", "button": 0},
+                        {"type": "pointerMove", "origin": origin, "x": x1, "y": 0, "duration": 100},
+                        {"type": "pointerUp", "button": 0}]}]})
+        self._call("DELETE", self._s("/actions"))
+
+    def console(self) -> list[dict]:
+        """Browser console entries since the last call."""
+        return self._call("POST", self._s("/se/log"), {"type": "browser"})
+
+    def alert_open(self) -> bool:
+        try:
+            self._call("GET", self._s("/alert/text"))
+            return True
+        except WebDriverError as e:
+            if "no such alert" in str(e):
+                return False
+            raise
+
+    def screenshot(self, path: Path) -> None:
+        """Full-page PNG (through the DevTools protocol, beyond the window's viewport)."""
+        w, h = self.js("return [document.documentElement.scrollWidth, document.documentElement.scrollHeight]")
+        shot = self._call("POST", self._s("/goog/cdp/execute"), {"cmd": "Page.captureScreenshot", "params": {
+            "format": "png", "captureBeyondViewport": True,
+            "clip": {"x": 0, "y": 0, "width": w, "height": h, "scale": 1}}})
+        path.write_bytes(base64.b64decode(shot["data"]))
+
+    def close(self) -> None:
+        try:
+            self._call("DELETE", self._s(""))
+        finally:
+            self.driver.terminate()
+            try:
+                self.driver.wait(10)
+            except subprocess.TimeoutExpired:
+                self.driver.kill()
+
+
+# --------------------------------------------------------------------------- fixtures
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory):
+    """A synthetic two-scene report (48×36): the Cornell box and one with a hostile name."""
+    from test_run_report import CORNELL, scene_file, synthetic_report
+
+    tmp = tmp_path_factory.mktemp("browser")
+    evil = scene_file(tmp, EVIL)
+    res = synthetic_report(tmp / "report", [CORNELL, evil])
+    return tmp / "report", res
+
+
+@pytest.fixture(scope="module")
+def browser(tmp_path_factory, report):
+    b = Browser(tmp_path_factory.mktemp("profile"))
+    try:
+        b.open((report[0] / "index.html").as_uri())
+        deadline = time.monotonic() + 30
+        while b.js("return document.body && document.body.dataset.viewersReady || null") is None:
+            if time.monotonic() > deadline:
+                raise AssertionError("the report's viewers did not start within 30 s")
+            time.sleep(0.1)
+        yield b
+    finally:
+        b.close()
+
+
+def _hdr(report_dir: Path, scene_id: str) -> tuple[dict, dict[str, np.ndarray]]:
+    """The viewer's embedded HDR images, decoded as the page decodes them."""
+    text = (report_dir / "data" / f"{scene_id}.js").read_text()
+    body = json.loads(re.search(r"\] = (\{.*\});\s*$", text, re.S).group(1))
+    h, w = body["height"], body["width"]
+    images = {img["key"]: np.frombuffer(base64.b64decode(img["data"]), dtype="<f2").reshape(h, w, 3)
+              .astype(np.float32) for img in body["images"]}
+    return body, images
+
+
+def _canvas(b: Browser, scene_id: str) -> np.ndarray:
+    w, h, data = b.js("""
+        const c = document.querySelector(`.viewer[data-scene="${arguments[0]}"] canvas.view`);
+        const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+        return [c.width, c.height, Array.from(d)];""", scene_id)
+    return np.asarray(data, dtype=np.int16).reshape(h, w, 4)[..., :3]
+
+
+def _expected(image: np.ndarray, exposure: float) -> np.ndarray:
+    return np.round(to_ldr(image, exposure=exposure) * 255.0).astype(np.int16)
+
+
+# --------------------------------------------------------------------------- tests
+
+
+def test_report_loads_every_image_without_errors(browser, report, tmp_path):
+    out, res = report
+    images = browser.js("return Array.from(document.images).map(i => [i.getAttribute('src'), i.complete, i.naturalWidth])")
+    assert len(images) > 20
+    broken = [src for src, complete, width in images if not (complete and width > 0)]
+    assert broken == [], f"images that did not load: {broken}"
+    assert browser.js("return document.body.dataset.viewersReady") == str(len(res.scenes))
+    # Every resource the page names resolves to a file inside the report folder (no network, no CDN).
+    # (Resource Timing does not record file:// loads, so the resolved URLs are checked instead.)
+    urls = browser.js("""return [...document.images].map(e => e.src)
+        .concat([...document.scripts].map(e => e.src), [...document.querySelectorAll('link')].map(e => e.href))""")
+    root = out.resolve().as_uri() + "/"
+    assert len(urls) > 20 and [u for u in urls if not u.startswith(root)] == []
+    errors = [e for e in browser.console() if e.get("level") == "SEVERE"]
+    assert errors == [], errors
+    browser.screenshot(tmp_path / "report.png")
+    assert (tmp_path / "report.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_hostile_scene_name_is_text_not_script(browser, report):
+    _, res = report
+    evil = next(s for s in res.scenes if s.name == EVIL)
+    heading = browser.js("return document.querySelector(`section[id='${arguments[0]}'] h2`).textContent", evil.id)
+    assert EVIL in heading
+    assert not browser.alert_open()
+    assert browser.js("return Array.from(document.scripts).every(s => s.src && !s.textContent.trim())")
+    assert browser.js("return document.querySelectorAll('section.scene script').length") == 0
+
+
+def test_swipe_and_exposure_change_the_canvas(browser, report):
+    out, res = report
+    for scene in res.scenes:
+        sid = scene.id
+        body, hdr = _hdr(out, sid)
+        ref, prog = _expected(hdr["reference"], 1.0), _expected(hdr["progressive"], 1.0)
+        sel = f'.viewer[data-scene="{sid}"]'
+        browser.js(f"document.querySelector('{sel}').scrollIntoView({{block: 'center'}})")
+
+        start = _canvas(browser, sid)
+        split = round(500 / 1000 * body["width"])
+        # Left of the swipe line: the ground truth; right: the progressive image, each tone-mapped
+        # in the page exactly as compare.tonemap.to_ldr does (within one 8-bit step).
+        assert np.abs(start[:, :split] - ref[:, :split]).max() <= 1
+        assert np.abs(start[:, split:] - prog[:, split:]).max() <= 1
+
+        swipe = browser.find(f"{sel} input.swipe")
+        browser.keys(swipe, "\ue011")  # Home: the swipe line to the left edge, all right image
+        home = _canvas(browser, sid)
+        assert not np.array_equal(home, start)
+        assert np.abs(home - prog).max() <= 1
+        browser.keys(swipe, "\ue010")  # End: all left image
+        assert np.abs(_canvas(browser, sid) - ref).max() <= 1
+
+        ev = browser.find(f"{sel} input.ev")
+        browser.keys(ev, "\ue010")  # End: EV +8
+        bright = _canvas(browser, sid)
+        assert bright.mean() > home.mean() + 20
+        assert np.abs(bright - _expected(hdr["reference"], 2.0 ** 8)).max() <= 1
+        assert browser.js(f"return document.querySelector('{sel} .ev-value').textContent").startswith("EV +8.0")
+        browser.keys(ev, "\ue011")  # Home: EV -8
+        dark = _canvas(browser, sid)
+        assert dark.mean() < bright.mean() and np.abs(dark - _expected(hdr["reference"], 2.0 ** -8)).max() <= 1
+
+        # Dragging on the image moves the swipe line to the pointer.
+        stage = browser.find(f"{sel} .stage")
+        width = browser.js(f"return document.querySelector('{sel} canvas.view').getBoundingClientRect().width")
+        browser.drag(stage, 0, -int(width * 0.25))
+        value = int(browser.js(f"return document.querySelector('{sel} input.swipe').value"))
+        assert 200 <= value <= 300, value
+        assert not np.array_equal(_canvas(browser, sid), dark)
+    assert [e for e in browser.console() if e.get("level") == "SEVERE"] == []
+
+
+def test_console_errors_are_seen(browser):
+    """Guard for the checks above: an error on the page does reach the console log we read."""
+    browser.console()  # drain
+    browser.js("console.error('deliberate test error')")
+    assert any("deliberate test error" in e.get("message", "") for e in browser.console())
+
+
+def test_inline_script_is_refused_by_the_content_security_policy(browser):
+    """Defence in depth: even markup that escaped escaping could not run inline script."""
+    browser.console()  # drain
+    ran = browser.js("""
+        const s = document.createElement('script');
+        s.textContent = 'window.__inlineRan = true;';
+        document.body.appendChild(s);
+        return window.__inlineRan === true;""")
+    assert ran is False
+    assert any("Content Security Policy" in e.get("message", "") for e in browser.console())

@@ -1,0 +1,437 @@
+"""``compare run`` and ``compare report``: results schema, resume, plots, HTML, escaping.
+
+Most tests stand in fast synthetic renderers (:func:`synthetic_renderers`) so
+they check the bookkeeping (keys, resume, schema, report) without Mitsuba or
+OpenGL and in well under a second per run; one test runs the real renderers on
+a tiny Cornell box (48×36, 16 spp, 8 frames).
+"""
+
+from __future__ import annotations
+
+import argparse
+import base64
+import contextlib
+import json
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from compare import run as run_mod
+from compare.exr import read_exr
+from compare.reference import Checkpoint
+from compare.results import (
+    NoiseFloor,
+    Point,
+    Reference,
+    RendererRun,
+    Results,
+    ResultsError,
+    RunSettings,
+    SceneResult,
+    check_json_finite,
+)
+
+ROOT = Path(__file__).resolve().parent.parent
+CORNELL = ROOT / "scenes" / "cornell.toml"
+EVIL = "<script>alert(1)</script>"
+
+
+# --------------------------------------------------------------------------- synthetic renderers
+
+
+def _truth(w: int, h: int) -> np.ndarray:
+    """A smooth HDR image with a bright patch (values up to ~20, like an area light)."""
+    y, x = np.mgrid[0:h, 0:w].astype(np.float64)
+    img = np.stack([0.2 + 0.6 * x / w, 0.1 + 0.5 * y / h, 0.3 + 0.2 * np.sin(x / 3.0) ** 2], axis=-1)
+    img[: h // 4, w // 3: 2 * w // 3] = [18.0, 14.0, 7.0]
+    return img.astype(np.float32)
+
+
+class FakeReference:
+    """Stands in for compare.reference.ReferenceRenderer: truth + noise falling as 1/sqrt(spp)."""
+
+    renders: list[tuple[int, int]] = []  # (spp, seed) of every ladder actually iterated
+
+    def __init__(self, scene, *, materials="shared", cache_dir=None, progress=True, **_):
+        self.scene = scene
+        self.variant = "fake_rgb"
+        self.load_seconds = 0.01
+
+    def settings(self) -> dict:
+        return {"scene_hash": self.scene.hash, "variant": self.variant, "resolution": list(self.scene.camera.resolution)}
+
+    def iter_ladder(self, spp, seed=0):
+        w, h = self.scene.camera.resolution
+        truth = _truth(w, h)
+        rng = np.random.default_rng(seed)
+        acc = np.zeros_like(truth, dtype=np.float64)
+        total = 0
+        for n in np.diff([0] + run_mod.checkpoint_steps(spp)):
+            # n samples of standard deviation 0.5 each: their sum has deviation 0.5·sqrt(n)
+            acc += truth * n + rng.normal(0, 0.5, truth.shape) * np.sqrt(n)
+            total += n
+            FakeReference.renders.append((total, seed))
+            yield Checkpoint(total, 0.01 * total, (acc / total).clip(0).astype(np.float32))
+
+
+def fake_progressive(scene, *, frames, seed, area_model, checkpoints, ctx):
+    """A biased, quickly converging stand-in for the progressive renderer."""
+    w, h = scene.camera.resolution
+    truth = _truth(w, h) * (0.8 if area_model == "paper" else 0.9)
+    rng = np.random.default_rng(seed + 7)
+    cps = [(f, 0.002 * f, (truth + rng.normal(0, 0.05, truth.shape) / f).clip(0).astype(np.float32))
+           for f in checkpoints]
+    return cps, 0.05, {"gl_renderer": "fake GL", "area_model": area_model or "radiometric", "frames": frames}
+
+
+@contextlib.contextmanager
+def synthetic_renderers(progressive=fake_progressive):
+    """Patch run.py's renderers with the fakes above (usable outside function-scoped fixtures).
+
+    Every patch goes through this one MonkeyPatch, undone on exit; mixing it
+    with pytest's ``monkeypatch`` fixture on the same attribute would "restore"
+    a fake after the test and leak it into later tests.
+    """
+    mp = pytest.MonkeyPatch()
+    try:
+        mp.setattr("compare.reference.ReferenceRenderer", FakeReference)
+        mp.setattr(run_mod, "_progressive_checkpoints", progressive)
+        mp.setattr(run_mod, "_create_gl_context", lambda: None)
+        yield
+    finally:
+        mp.undo()
+
+
+def scene_file(tmp_path: Path, name: str) -> Path:
+    """The Cornell box under another name (to test escaping of scene-provided strings)."""
+    text = CORNELL.read_text(encoding="utf-8")
+    text = re.sub(r'^name = .*$', f"name = {json.dumps(name)}", text, count=1, flags=re.M)
+    path = tmp_path / "scene.toml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def synthetic_report(out: Path, scenes: list[Path], *, size=(48, 36), frames=8, spp=16,
+                     renderers=("mitsuba", "progressive"), report=True) -> Results:
+    """A full ``compare run`` output folder made with the synthetic renderers."""
+    settings = RunSettings(frames=frames, spp=spp, sizes=[list(size)], renderers=list(renderers))
+    with synthetic_renderers():
+        return run_mod.run(scenes, out, settings, progress=False, report=report)
+
+
+# --------------------------------------------------------------------------- helpers
+
+
+def test_checkpoint_steps():
+    assert run_mod.checkpoint_steps(1) == [1]
+    assert run_mod.checkpoint_steps(8) == [1, 2, 4, 8]
+    assert run_mod.checkpoint_steps(100) == [1, 2, 4, 8, 16, 32, 64, 100]
+    with pytest.raises(ValueError):
+        run_mod.checkpoint_steps(0)
+
+
+def test_parse_sizes_and_renderers():
+    assert run_mod.parse_sizes("320x240, 1280x720") == [(320, 240), (1280, 720)]
+    with pytest.raises(argparse.ArgumentTypeError):
+        run_mod.parse_sizes("320by240")
+    assert run_mod.parse_renderers("mitsuba,progressive:paper") == ["mitsuba", "progressive:paper"]
+    for bad in ("cycles", "mitsuba:x", "progressive:", "", "progressive,progressive"):
+        with pytest.raises(ValueError):
+            run_mod.parse_renderers(bad)
+
+
+def test_scene_id_is_file_name_safe(tmp_path):
+    from compare.scene import load_scene
+
+    sid = run_mod.scene_id(load_scene(scene_file(tmp_path, EVIL)).with_resolution(48, 36))
+    assert re.fullmatch(r"[a-z0-9-]+", sid) and sid.endswith("-48x36"), sid
+
+
+# --------------------------------------------------------------------------- results schema
+
+
+def _results(flip=0.1) -> Results:
+    pts = [Point(1, 0.1, {"flip": 0.4, "ssim": 0.5, "relmse": 0.9, "psnr": None}),
+           Point(4, 0.4, {"flip": flip, "ssim": 0.8, "relmse": 0.3, "psnr": 20.0})]
+    run = RendererRun("progressive", "Progressive", "frame", 4, "k", 0.4, 0.1, points=pts)
+    scene = SceneResult("s-1-8x8", "S", "s.toml", "h", 8, 8, ["area_lights"], {"x": "y"},
+                        Reference(16, 0, 1.0, "v"), NoiseFloor("independent-full", 16, [0, 1], {"flip": 0.01}, 1e-4),
+                        [run])
+    return Results(RunSettings(), run_mod.collect_environment(), [scene], created="now", compare_version="0")
+
+
+def test_results_round_trip(tmp_path):
+    res = _results()
+    path = res.save(tmp_path / "results.json")
+    back = Results.load(path)
+    assert back.to_json() == res.to_json()
+    d = json.loads(path.read_text())
+    assert d["schema"] == 1 and d["scenes"][0]["runs"][0]["points"][0]["metrics"]["psnr"] is None
+
+
+def test_results_refuse_nan_and_inf(tmp_path):
+    with pytest.raises(ValueError, match=r"scenes\[0\]\.runs\[0\]\.points\[1\]\.metrics\.flip is nan"):
+        _results(flip=math.nan).to_json()
+    with pytest.raises(ValueError, match="inf"):
+        check_json_finite({"a": [1.0, math.inf]})
+    assert not (tmp_path / "results.json").exists()
+    with pytest.raises(ValueError):
+        _results(flip=math.inf).save(tmp_path / "results.json")
+    assert not (tmp_path / "results.json").exists()  # nothing half-written
+    # A file with a NaN token (as json.dumps writes by default) is refused on reading.
+    (tmp_path / "bad.json").write_text(_results().dumps().replace('"flip": 0.1', '"flip": NaN'))
+    with pytest.raises(ResultsError, match="NaN"):
+        Results.load(tmp_path / "bad.json")
+
+
+def test_results_refuse_other_schema_and_missing_fields(tmp_path):
+    d = _results().to_json()
+    (tmp_path / "a.json").write_text(json.dumps({**d, "schema": 2}))
+    with pytest.raises(ResultsError, match="schema 2"):
+        Results.load(tmp_path / "a.json")
+    del d["scenes"][0]["runs"][0]["points"][0]["seconds"]
+    (tmp_path / "b.json").write_text(json.dumps(d))
+    with pytest.raises(ResultsError, match=r"runs\[0\]\.points\[0\]: missing field 'seconds'"):
+        Results.load(tmp_path / "b.json")
+    with pytest.raises(ResultsError, match="no such file"):
+        Results.load(tmp_path / "missing.json")
+
+
+def test_equal_time_and_equal_error_interpolate_on_log_log():
+    # error = t^-0.5 exactly: log-log interpolation must reproduce it between checkpoints.
+    ts = [0.1, 0.4, 1.6, 6.4]
+    run = RendererRun("r", "r", "spp", 4, "", ts[-1], ts[0],
+                      points=[Point(i + 1, t, {"flip": t ** -0.5}) for i, t in enumerate(ts)])
+    assert run.error_at(0.8, "flip") == pytest.approx(0.8 ** -0.5)
+    assert run.seconds_to(0.8 ** -0.5, "flip") == pytest.approx(0.8)
+    assert run.error_at(0.05, "flip") is None  # no image yet
+    assert run.error_at(10.0, "flip") is None  # not measured: no extrapolation
+    assert run.error_at(10.0, "flip", hold=True) == pytest.approx(6.4 ** -0.5)  # finished: final image
+    assert run.seconds_to(0.1, "flip") is None  # never reached
+    assert run.seconds_to(10.0, "flip") == 0.1  # reached by the first image
+    one_minus = RendererRun("r", "r", "spp", 1, "", 1.0, 1.0, points=[Point(1, 1.0, {"ssim": 0.75})])
+    assert one_minus.error_at(1.0, "one_minus_ssim") == pytest.approx(0.25)
+
+
+# --------------------------------------------------------------------------- run, resume, report
+
+
+def test_run_writes_results_images_and_report(tmp_path):
+    out = tmp_path / "out"
+    FakeReference.renders.clear()
+    res = synthetic_report(out, [CORNELL], renderers=("mitsuba", "progressive", "progressive:paper"))
+    back = Results.load(out / "results.json")
+    assert back.to_json() == res.to_json()
+    (scene,) = back.scenes
+    assert (scene.width, scene.height) == (48, 36) and scene.name == "Cornell box"
+    assert scene.omitted and "area_lights" in scene.features
+    assert [r.renderer for r in scene.runs] == ["mitsuba", "progressive", "progressive:paper"]
+    mits, prog, paper = scene.runs
+    assert [p.step for p in mits.points] == [1, 2, 4, 8, 16]
+    assert [p.step for p in prog.points] == [1, 2, 4, 8]
+    assert paper.label.endswith("(paper)") and prog.metadata["gl_renderer"] == "fake GL"
+    for run in scene.runs:
+        secs = [p.seconds for p in run.points]
+        assert secs == sorted(secs) and run.seconds == secs[-1] and run.first_frame_seconds == secs[0]
+        assert set(run.maps) == {"flip", "one_minus_ssim", "relmse"}
+    # The reference ladder is independent of the ground truth (seed + 1), and the noise floor is its end.
+    assert {seed for _, seed in FakeReference.renders} == {0, 1}
+    assert scene.noise_floor.metrics == mits.final.metrics and scene.noise_floor.seeds == [0, 1]
+    assert mits.final.metrics["mse"] > 0  # not trivially 0 at the last checkpoint
+    # progressive errors against the ground truth fall with frames (synthetic noise 1/f)
+    assert prog.points[-1].metrics["mse"] < prog.points[0].metrics["mse"]
+    # every file named exists; EXRs carry their metadata
+    for rel in run_mod._paths_in(back.to_json()):
+        assert (out / rel).is_file(), rel
+    img, meta = read_exr(out / prog.final.image)
+    assert img.shape == (36, 48, 3) and meta["frames"] == 8 and meta["renderer"] == "progressive"
+    assert back.environment.gl_renderer == "fake GL" and back.environment.mitsuba_variant == "fake_rgb"
+    assert back.environment.cores >= 1 and back.environment.versions["numpy"]
+    for name in ("index.html", "static/report.js", "static/report.css", "static/magma.png",
+                 f"data/{scene.id}.js", f"plots/{scene.id}-error.png", f"plots/{scene.id}-equal.png"):
+        assert (out / name).stat().st_size > 0, name
+
+
+def test_rerun_reuses_finished_units_and_redoes_changed_ones(tmp_path):
+    out = tmp_path / "out"
+    first = synthetic_report(out, [CORNELL], report=False)
+    FakeReference.renders.clear()
+    calls = []
+
+    def counting(*a, **k):
+        calls.append(k["frames"])
+        return fake_progressive(*a, **k)
+
+    with synthetic_renderers(progressive=counting):
+        again = run_mod.run([CORNELL], out, RunSettings(frames=8, spp=16, sizes=[[48, 36]]), progress=False,
+                            report=False)
+        assert FakeReference.renders == [] and calls == []  # nothing rendered twice
+        assert [s.to_json() for s in again.scenes] == [s.to_json() for s in first.scenes]
+        # More frames: only the progressive unit is redone; the reference is reused.
+        more = run_mod.run([CORNELL], out, RunSettings(frames=16, spp=16, sizes=[[48, 36]]), progress=False,
+                           report=False)
+        assert FakeReference.renders == [] and calls == [16]
+        assert [p.step for p in more.scenes[0].run("progressive").points] == [1, 2, 4, 8, 16]
+        # Another spp changes the ground truth: everything measured against it is redone.
+        run_mod.run([CORNELL], out, RunSettings(frames=16, spp=32, sizes=[[48, 36]]), progress=False, report=False)
+        assert {seed for _, seed in FakeReference.renders} == {0, 1} and calls == [16, 16]
+
+
+def test_interrupted_run_resumes_without_redoing_finished_work(tmp_path):
+    out = tmp_path / "out"
+
+    def interrupted(*a, **k):
+        raise KeyboardInterrupt
+
+    FakeReference.renders.clear()
+    with synthetic_renderers(progressive=interrupted):
+        with pytest.raises(KeyboardInterrupt):
+            run_mod.run([CORNELL], out, RunSettings(frames=8, spp=16, sizes=[[48, 36]]), progress=False,
+                        report=False)
+    assert not (out / "results.json").exists()
+    partials = sorted(p.parent.name for p in out.rglob("partial.json"))
+    assert partials == ["mitsuba", "reference"]  # finished units were stored
+    assert not [p for p in out.rglob(".*") if p.is_file()]  # no temporary files left behind
+    done = len(FakeReference.renders)
+    res = synthetic_report(out, [CORNELL], report=False)
+    assert len(FakeReference.renders) == done  # the reference was not rendered again
+    assert res.scenes[0].run("progressive").points
+
+
+def test_broken_partial_is_redone(tmp_path):
+    out = tmp_path / "out"
+    synthetic_report(out, [CORNELL], report=False)
+    partial = next(out.rglob("progressive/partial.json"))
+    partial.write_text("{ not json")
+    (out / "results.json").unlink()
+    res = synthetic_report(out, [CORNELL], report=False)
+    assert res.scenes[0].run("progressive").points and json.loads(partial.read_text())["key"]
+
+
+def test_nan_from_a_renderer_is_an_error_not_a_number(tmp_path):
+    from compare.errors import ImageError
+
+    def nan_progressive(scene, **k):
+        cps, setup, meta = fake_progressive(scene, **k)
+        cps[-1][2][3, 4, 1] = np.nan
+        return cps, setup, meta
+
+    with synthetic_renderers(progressive=nan_progressive):
+        with pytest.raises(ImageError, match="NaN"):
+            run_mod.run([CORNELL], tmp_path, RunSettings(frames=4, spp=4, sizes=[[48, 36]]), progress=False,
+                        report=False)
+    assert not (tmp_path / "results.json").exists()
+
+
+def test_report_escapes_scene_strings(tmp_path):
+    out = tmp_path / "out"
+    res = synthetic_report(out, [scene_file(tmp_path, EVIL)])
+    html = (out / "index.html").read_text(encoding="utf-8")
+    assert "<script>alert" not in html
+    assert "&lt;script&gt;alert(1)&lt;/script&gt;" in html
+    # Only external scripts from the folder itself; no inline script at all.
+    for tag in re.findall(r"<script[^>]*>", html):
+        assert re.fullmatch(r'<script src="(data|static)/[a-z0-9.-]+\.js"( defer)?>', tag), tag
+    assert re.search(r"<script[^>]*>[^<]+</script>", html) is None
+    assert "Content-Security-Policy" in html
+    data = (out / "data" / f"{res.scenes[0].id}.js").read_text()
+    assert "<" not in data.split("*/", 1)[1] and ">" not in data.split("*/", 1)[1]
+
+
+def test_hdr_payload_round_trips_as_float16():
+    from compare.report import hdr_payload
+
+    img = _truth(16, 12)
+    img[0, 0] = [1e6, -1.0, 0.5]
+    text = hdr_payload("x", [("reference", "a <b> & c", img)], exposure=2.0)
+    body = json.loads(re.search(r"\] = (\{.*\});\s*$", text, re.S).group(1))
+    assert (body["width"], body["height"], body["exposure"], body["encoding"]) == (16, 12, 2.0, "float16le-base64")
+    assert body["images"][0]["label"] == "a <b> & c"  # escaped as \u003c in the text, intact after parsing
+    assert "<b>" not in text
+    back = np.frombuffer(base64.b64decode(body["images"][0]["data"]), dtype="<f2").reshape(12, 16, 3)
+    np.testing.assert_allclose(back[1:], img[1:], rtol=1e-3)
+    assert back[0, 0].tolist() == [65504.0, 0.0, 0.5]  # clamped into half's range, negatives to 0
+
+
+def test_report_command_rebuilds_into_another_folder(tmp_path):
+    from compare.check import add_check_parser
+    from compare.report import add_report_parser
+
+    out = tmp_path / "out"
+    synthetic_report(out, [CORNELL])
+    parser = argparse.ArgumentParser(prog="compare")
+    sub = parser.add_subparsers(dest="command", required=True)
+    run_mod.add_run_parser(sub)
+    add_report_parser(sub)
+    add_check_parser(sub)
+    copy = tmp_path / "copy"
+    args = parser.parse_args(["report", str(out / "results.json"), "-o", str(copy), "--plot-format", "svg"])
+    assert args.func(args) == 0
+    res = Results.load(copy / "results.json")
+    for rel in run_mod._paths_in(res.to_json()):
+        assert (copy / rel).is_file(), rel
+    assert (copy / "index.html").is_file() and (copy / "data" / f"{res.scenes[0].id}.js").is_file()
+    assert f'src="plots/{res.scenes[0].id}-error.svg"' in (copy / "index.html").read_text()
+    # A missing image is a clear error (exit status 2 through compare's CompareError handling).
+    from compare.errors import CompareError
+
+    (out / res.scenes[0].runs[0].preview).unlink()
+    args = parser.parse_args(["report", str(out / "results.json")])
+    with pytest.raises(CompareError, match="missing; rerun `compare run`"):
+        args.func(args)
+    # run's parser: defaults and list options
+    args = parser.parse_args(["run", "--size", "320x240,64x48", "--renderers", "progressive:paper"])
+    assert args.size == [(320, 240), (64, 48)] and args.renderers == ["progressive:paper"]
+    assert args.frames == 128 and args.spp == 1024 and callable(args.func)
+    with pytest.raises(SystemExit):
+        parser.parse_args(["run", "--renderers", "blender"])
+
+
+def test_run_command_end_to_end(tmp_path, capsys):
+    parser = argparse.ArgumentParser(prog="compare")
+    run_mod.add_run_parser(parser.add_subparsers(dest="command", required=True))
+    out = tmp_path / "cli"
+    args = parser.parse_args(["run", "--scenes", str(CORNELL), "--size", "48x36", "--frames", "4", "--spp", "8",
+                              "--quiet", "--no-report", "-o", str(out)])
+    with synthetic_renderers():
+        assert args.func(args) == 0
+    assert "results.json" in capsys.readouterr().out
+    assert Results.load(out / "results.json").settings.frames == 4
+
+
+def test_plots_without_noise_floor_or_runs(tmp_path):
+    from compare.plots import equal_error, equal_time, make_plots
+
+    res = _results()
+    res.scenes[0].noise_floor = None
+    made = make_plots(res, tmp_path, fmt="svg")
+    assert all(p.stat().st_size > 0 for d in made.values() for p in d.values())
+    rows = equal_time(res.scenes[0], "flip")
+    assert rows[0].target == 0.4 and rows[0].values["progressive"] == pytest.approx(0.1)
+    assert equal_error(res.scenes[0], "flip")[0].values["progressive"] == pytest.approx(0.4)
+    res.scenes[0].runs = []
+    make_plots(res, tmp_path / "empty")
+
+
+# --------------------------------------------------------------------------- the real renderers
+
+
+@pytest.mark.gl
+def test_real_renderers_tiny_cornell(tmp_path, gl_ctx):
+    """Mitsuba + the progressive rasterizer on a 48×36 Cornell box: the whole pipeline for real."""
+    out = tmp_path / "real"
+    settings = RunSettings(frames=8, spp=16, sizes=[[48, 36]], renderers=["mitsuba", "progressive"])
+    res = run_mod.run([CORNELL], out, settings, progress=False, cache_dir=tmp_path / "cache", gl_ctx=gl_ctx,
+                      report=False)
+    scene = res.scenes[0]
+    mits, prog = scene.runs
+    assert [p.step for p in prog.points] == [1, 2, 4, 8] and [p.step for p in mits.points] == [1, 2, 4, 8, 16]
+    assert "llvmpipe" in res.environment.gl_renderer or res.environment.gl_renderer
+    assert res.environment.mitsuba_variant
+    # The reference's convergence: more samples, less error against the ground truth.
+    assert mits.points[-1].metrics["mse"] < mits.points[0].metrics["mse"]
+    assert 0 < prog.final.metrics["flip"] < 1 and 0 < prog.final.metrics["ssim"] <= 1
+    assert (out / prog.final.preview).is_file() and (out / scene.reference.image).is_file()
