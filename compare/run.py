@@ -541,7 +541,7 @@ def _display_path(path: Path) -> str:
 
 def run(scene_paths: Iterable[str | os.PathLike], out: str | os.PathLike, settings: RunSettings | None = None, *,
         progress: bool = True, cache_dir: str | os.PathLike | None | bool = None, fresh: bool = False,
-        report: bool = True, gl_ctx=None) -> Results:
+        report: bool = True, gl_ctx=None, executor: str | object = "serial") -> Results:
     """Render, measure and report every scene at every size with every renderer.
 
     Parameters
@@ -565,6 +565,11 @@ def run(scene_paths: Iterable[str | os.PathLike], out: str | os.PathLike, settin
     gl_ctx : moderngl.Context, optional
         An OpenGL context for the progressive renderer (not released here);
         default: one is created on first need and released at the end.
+        Used by the ``serial`` executor only.
+    executor : str or distributed.Client, optional
+        ``"serial"`` (this process), ``"local"``, ``"local:N"`` or
+        ``"dask://HOST:PORT"``, see :mod:`compare.executor`; or a connected
+        ``distributed.Client``.
 
     Returns
     -------
@@ -593,19 +598,43 @@ def run(scene_paths: Iterable[str | os.PathLike], out: str | os.PathLike, settin
             job = sc.with_resolution(w, h)
             jobs.setdefault(scene_id(job), job)
 
-    runner = _Runner(settings, out, progress=progress, cache_dir=cache_dir, fresh=fresh, gl_ctx=gl_ctx)
-    results: list[SceneResult] = []
-    units = len(jobs) * (1 + len(settings.renderers))
-    try:
-        with tqdm(total=units, desc="compare run", unit="unit", disable=not progress) as bar:
-            for sc in jobs.values():
-                results.append(runner.scene(sc, bar))
-    finally:
-        runner.close()
+    gl_renderer = variant = None
+    if isinstance(executor, str):
+        from .executor import parse_executor
+
+        kind, detail = parse_executor(executor)
+        if kind == "serial" or (kind == "local" and (detail == 1 or len(jobs) == 1)):
+            executor = "serial"  # one worker: run here, with a progress bar per unit
+    if executor == "serial":
+        runner = _Runner(settings, out, progress=progress, cache_dir=cache_dir, fresh=fresh, gl_ctx=gl_ctx)
+        results: list[SceneResult] = []
+        units = len(jobs) * (1 + len(settings.renderers))
+        try:
+            with tqdm(total=units, desc="compare run", unit="unit", disable=not progress) as bar:
+                for sc in jobs.values():
+                    results.append(runner.scene(sc, bar))
+        finally:
+            runner.close()
+        gl_renderer, variant = runner.gl_renderer, runner.variant
+    else:
+        from .executor import Job, execute
+
+        job_list = [Job(scene_path=str(sc.path), size=tuple(sc.camera.resolution), scene_hash=sc.hash,
+                        scene_id=sid, settings=settings.to_json(), out=str(out.resolve()),
+                        cache_dir=str(cache_dir) if isinstance(cache_dir, os.PathLike) else cache_dir, fresh=fresh)
+                    for sid, sc in jobs.items()]
+        done: dict[int, SceneResult] = {}
+        with tqdm(total=len(job_list), desc="compare run", unit="job", disable=not progress) as bar:
+            for i, res_i in execute(job_list, executor):
+                done[i] = SceneResult.from_json(res_i.scene)
+                gl_renderer = gl_renderer or res_i.gl_renderer
+                variant = variant or res_i.variant
+                bar.update(1)
+        results = [done[i] for i in range(len(job_list))]
 
     res = Results(
         settings=settings,
-        environment=collect_environment(gl_renderer=runner.gl_renderer, mitsuba_variant=runner.variant),
+        environment=collect_environment(gl_renderer=gl_renderer, mitsuba_variant=variant),
         scenes=results,
         created=datetime.datetime.now(datetime.timezone.utc).replace(microsecond=0).isoformat().replace("+00:00", "Z"),
         compare_version=__version__,
@@ -682,6 +711,9 @@ def add_run_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--fresh", action="store_true", help="redo finished units instead of reusing them")
     p.add_argument("--no-report", action="store_true", help="write results.json only")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.add_argument("--executor", default="local", metavar="WHERE",
+                   help="local (a process pool sized to the machine), local:N, serial, or dask://HOST:PORT "
+                        "(see compare/executor.py for setting up workers)")
     p.add_argument("-o", "--output", type=Path, default=None,
                    help="output folder; default reports/<first scene's file name>")
     p.set_defaults(func=cmd_run)
@@ -696,7 +728,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     scenes = args.scenes if isinstance(args.scenes, list) else [args.scenes]  # the default is one Path
     out = args.output or Path("reports") / scenes[0].stem
     try:
-        res = run(scenes, out, settings, progress=not args.quiet, fresh=args.fresh, report=not args.no_report)
+        res = run(scenes, out, settings, progress=not args.quiet, fresh=args.fresh, report=not args.no_report,
+                  executor=args.executor)
     except ValueError as e:
         if isinstance(e, CompareError):
             raise
