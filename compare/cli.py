@@ -26,7 +26,8 @@ def parse_size(text: str) -> tuple[int, int]:
     return w, h
 
 
-def _positive_int(text: str) -> int:
+def positive_int(text: str) -> int:
+    """argparse type: a positive integer."""
     try:
         v = int(text)
     except ValueError:
@@ -45,8 +46,8 @@ def _build_parser() -> argparse.ArgumentParser:
                        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     r.add_argument("--scene", required=True, type=Path, help="scene file (TOML)")
     r.add_argument("--renderer", default="mitsuba", choices=["mitsuba", "progressive"], help="renderer")
-    r.add_argument("--spp", type=_positive_int, default=256, help="samples per pixel (mitsuba)")
-    r.add_argument("--frames", type=_positive_int, default=128, help="frames to accumulate (progressive)")
+    r.add_argument("--spp", type=positive_int, default=256, help="samples per pixel (mitsuba)")
+    r.add_argument("--frames", type=positive_int, default=128, help="frames to accumulate (progressive)")
     r.add_argument("--size", type=parse_size, default=None, help="WIDTHxHEIGHT; default: the scene's resolution")
     r.add_argument("--seed", type=int, default=0, help="random seed")
     r.add_argument("--materials", choices=["shared", "cycles"], default="shared",

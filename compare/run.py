@@ -665,13 +665,9 @@ def _renderers_arg(text: str) -> list[str]:
 
 
 def _positive(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
-    return v
+    from .cli import positive_int
+
+    return positive_int(text)
 
 
 def _positive_float(text: str) -> float:
