@@ -95,7 +95,15 @@ def light_dict(light: AreaLight) -> dict:
 
 
 def environment_dict(scene: Scene) -> dict | None:
-    """Mitsuba emitter for the scene's environment, or None."""
+    """Mitsuba emitter for the scene's environment, or None.
+
+    A constant environment is Mitsuba's ``constant`` emitter; every map (a file,
+    a procedural map generated into the cache, a Blender studio light; see
+    :func:`compare.environments.environment_path`) is an ``envmap`` with
+    ``scale = intensity`` and ``to_world`` = rotation about +Y. The
+    orientation convention of :mod:`compare.environments` *is* the envmap's,
+    so the file is passed unchanged.
+    """
     env = scene.environment
     if env is None:
         return None
@@ -103,9 +111,11 @@ def environment_dict(scene: Scene) -> dict | None:
         return {"type": "constant", "radiance": {"type": "rgb", "value": [c * env.intensity for c in env.constant]}}
     import mitsuba as mi
 
+    from .environments import environment_path
+
     return {
         "type": "envmap",
-        "filename": str(env.file),
+        "filename": str(environment_path(env)),
         "scale": env.intensity,
         "to_world": mi.ScalarTransform4f().rotate(axis=[0, 1, 0], angle=env.rotation),
     }

@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from . import geometry
-from .errors import SceneError
+from .errors import MissingComponentError, SceneError
 from .fsutil import sha256_bytes
 
 MESH_SHAPES = ("quad", "box", "sphere", "cylinder", "file")
@@ -152,6 +152,8 @@ class Mesh:
             local = geometry.sphere(p["radius"], p.get("segments", 64), p.get("rings", 32))
         elif self.shape == "cylinder":
             local = geometry.cylinder(p["radius"], p["height"], p.get("segments", 64))
+        elif self.shape == "gltf":  # made by an [[include]]: triangles in the glTF node's frame
+            local = p["triangles"]
         else:
             assert self.file is not None
             local = geometry.load_ply(self.file) if self.file.suffix.lower() == ".ply" else geometry.load_obj(self.file)
@@ -197,7 +199,8 @@ class AreaLight:
 
 @dataclass(frozen=True)
 class Environment:
-    """Distant environment light: a constant radiance or an equirectangular map file.
+    """Distant environment light: a constant radiance, an equirectangular map file, a procedural
+    map or one of Blender's studio-light HDRIs (exactly one; see :mod:`compare.environments`).
 
     ``rotation`` turns the map about +Y by that many degrees; ``intensity`` scales it.
     """
@@ -206,6 +209,12 @@ class Environment:
     file: Path | None = None
     intensity: float = 1.0
     rotation: float = 0.0
+    procedural: str | None = None
+    """``"sky"``, ``"studio"`` or ``"axes"`` (:data:`compare.environments.PROCEDURAL`)."""
+    parameters: tuple[tuple[str, Any], ...] = ()
+    """The procedural map's parameters, complete (defaults filled in), sorted by name."""
+    blender: str | None = None
+    """Name of a Blender studio light (``"interior"``, ``"courtyard"``, ...)."""
 
 
 @dataclass(frozen=True)
@@ -532,38 +541,74 @@ def _light(ctx: _Ctx, k: int, raw: Any) -> AreaLight:
 
 
 def _environment(ctx: _Ctx, raw: Any) -> Environment:
-    t = _table(ctx, "environment", raw, {"constant", "file", "intensity", "rotation"})
-    if ("constant" in t) == ("file" in t):
-        raise ctx.err("environment", "give exactly one of 'constant' (radiance) or 'file' (equirectangular map)")
+    from . import environments  # the procedural maps and Blender's HDRIs
+
+    sources = ("constant", "file", "procedural", "blender")
+    kind = raw.get("procedural") if isinstance(raw, dict) else None
+    params = set(environments.PROCEDURAL[kind][0]) if kind in environments.PROCEDURAL else set()
+    t = _table(ctx, "environment", raw, {*sources, "intensity", "rotation"} | params)
+    if sum(k in t for k in sources) != 1:
+        raise ctx.err("environment", "give exactly one of 'constant' (radiance), 'file' (equirectangular map), "
+                                     "'procedural' (\"sky\", \"studio\", \"axes\") or 'blender' (a studio-light name)")
     constant = _color(ctx, "environment.constant", t["constant"]) if "constant" in t else None
     file = _file(ctx, "environment.file", t["file"], ENV_FILE_SUFFIXES) if "file" in t else None
     intensity = _number(ctx, "environment.intensity", t.get("intensity", 1.0), lo=0.0)
     rotation = _number(ctx, "environment.rotation", t.get("rotation", 0.0))
-    return Environment(constant, file, intensity, rotation)
+    env = Environment(constant, file, intensity, rotation)
+    try:
+        if "procedural" in t:
+            if kind not in environments.PROCEDURAL:
+                raise ValueError(f"procedural: expected one of {', '.join(map(repr, environments.PROCEDURAL))}, "
+                                 f"got {_fmt(kind)}")
+            full = environments.validate_procedural(kind, {k: t[k] for k in params if k in t})
+            env = dataclasses.replace(env, procedural=kind, parameters=tuple(sorted(full.items())))
+        elif "blender" in t:
+            if not isinstance(t["blender"], str):
+                raise ValueError(f"blender: expected a studio-light name (string), got {_fmt(t['blender'])}")
+            env = dataclasses.replace(env, blender=t["blender"])
+        # The map's bytes go into the scene hash (a procedural map is generated into the cache here).
+        path = environments.environment_path(env) if file is None and constant is None else None
+    except ValueError as exc:
+        field, _, msg = str(exc).partition(": ")
+        raise ctx.err(f"environment.{field}", msg) from None
+    except MissingComponentError as exc:
+        raise ctx.err("environment.blender", str(exc)) from None
+    if path is not None:
+        ctx.files.append(path)
+    return env
 
 
 def parse_scene(data: dict[str, Any], path: Path) -> Scene:
     """Validate a parsed TOML document (``path`` is used for messages and relative paths)."""
     ctx = _Ctx(Path(path))
-    _table(ctx, "", data, {"name", "camera", "materials", "meshes", "lights", "environment", "render"})
+    _table(ctx, "", data, {"name", "camera", "materials", "meshes", "lights", "environment", "render", "include"})
     name = data.get("name", ctx.path.stem)
     if not isinstance(name, str):
         raise ctx.err("name", f"expected a string, got {_fmt(name)}")
-    camera = _camera(ctx, _require(ctx, "", data, "camera"))
+    includes = _includes(ctx, data.get("include", []))
+    cam_raw = data.get("camera")
+    included_cam = next((inc.camera for inc in includes if inc.camera), None)
+    if included_cam is not None and (cam_raw is None or (isinstance(cam_raw, dict) and "position" not in cam_raw)):
+        cam_raw = {**included_cam, **(cam_raw or {})}  # the TOML's own [camera] fields win
+    camera = _camera(ctx, cam_raw if cam_raw is not None else _require(ctx, "", data, "camera"))
     mats_raw = data.get("materials", {})
     if not isinstance(mats_raw, dict):
         raise ctx.err("materials", f"expected a table of named materials, got {_fmt(mats_raw)}")
-    materials = {n: _material(ctx, n, m) for n, m in mats_raw.items()}
+    materials = {n: m for inc in includes for n, m in inc.materials.items()}
+    materials.update({n: _material(ctx, n, m) for n, m in mats_raw.items()})  # a TOML material replaces an imported one
     meshes_raw = data.get("meshes", [])
     if not isinstance(meshes_raw, list):
         raise ctx.err("meshes", "expected an array of tables ([[meshes]])")
     meshes = tuple(_mesh(ctx, k, m, materials) for k, m in enumerate(meshes_raw))
+    meshes += tuple(m for inc in includes for m in inc.meshes)
     if not meshes:
         raise ctx.err("meshes", "a scene needs at least one mesh")
     lights_raw = data.get("lights", [])
     if not isinstance(lights_raw, list):
         raise ctx.err("lights", "expected an array of tables ([[lights]])")
     lights = tuple(_light(ctx, k, v) for k, v in enumerate(lights_raw))
+    lights += tuple(light for inc in includes for light in inc.lights)
+    ctx.files.extend(f for inc in includes for f in inc.files)
     env = _environment(ctx, data["environment"]) if "environment" in data else None
     render = _table(ctx, "render", data.get("render", {}), {"max_depth"})
     max_depth = render.get("max_depth", 16)
@@ -575,6 +620,18 @@ def parse_scene(data: dict[str, Any], path: Path) -> Scene:
     files = tuple(sorted(set(ctx.files)))
     return Scene(ctx.path, name, camera, materials, meshes, lights, env, max_depth, files,
                  file_hash=_content_hash(ctx.path, files, data))
+
+
+def _includes(ctx: _Ctx, raw: Any) -> list:
+    """The ``include`` field: one glTF file name, a table, or an array of either (``[[include]]``)."""
+    from . import gltf  # deferred: only scenes with includes need it
+
+    items = raw if isinstance(raw, list) else [raw]
+    out = []
+    for k, item in enumerate(items):
+        where = f"include[{k}]" if isinstance(raw, list) else "include"
+        out.append(gltf.include(ctx, where, {"file": item} if isinstance(item, str) else item))
+    return out
 
 
 def _content_hash(path: Path, files: tuple[Path, ...], data: dict) -> str:

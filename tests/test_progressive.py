@@ -476,12 +476,21 @@ material = "glow"
 
 
 @pytest.mark.gl
-def test_environment_is_announced_as_omitted(gl_ctx, tmp_path):
+def test_environment_lights_the_scene_with_the_area_light(gl_ctx, tmp_path, monkeypatch):
+    """Area light and environment together (the environment's own tests are tests/test_ibl*.py)."""
+    monkeypatch.setenv("COMPARE_CACHE", str(tmp_path / "cache"))
     scene = scene_from(tmp_path, PLANE_SCENE + "\n[environment]\nconstant = [0.1, 0.2, 0.3]\n")
-    with pytest.warns(UserWarning, match="environment lighting is not implemented"):
-        r = render_progressive(scene, frames=2, ctx=gl_ctx, shadow_size=64)
-    assert "omitted" in r.metadata["environment"]
+    r = render_progressive(scene, frames=2, ctx=gl_ctx, shadow_size=64, ibl_size=8, ibl_samples=16)
+    assert r.metadata["environment"] == "split sum"
     assert np.allclose(r.image[0, 0], (0.1, 0.2, 0.3)), "the constant environment is the background"
+    lit = render_progressive(scene_from(tmp_path, PLANE_SCENE, "lit.toml"), frames=2, ctx=gl_ctx,
+                             shadow_size=64).image
+    # The grey plane adds its directional albedo times the constant radiance (nothing occludes it).
+    from compare.brdf import directional_albedo
+
+    d = scene.camera.ray_directions(np.array(32.5), np.array(40.5))
+    albedo = directional_albedo(1.0, float(-d[1]), [0.5] * 3, 0.0, 4096)
+    np.testing.assert_allclose(r.image[40, 32] - lit[40, 32], albedo * np.array([0.1, 0.2, 0.3]), rtol=0.01)
 
 
 @pytest.mark.gl

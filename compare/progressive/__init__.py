@@ -1,9 +1,10 @@
 """The progressive rasterizer: Otto, Limberger & Döllner (Web3D 2020) in moderngl.
 
-Physically based direct area lighting accumulated over frames: per frame a
-jittered G-buffer, per light sample a shadow atlas (five faces of a half cube)
-and a full-screen lighting pass with the shared BRDF, and running means in
-RGBA32F. Environment lighting comes with the IBL issue.
+Physically based environment and area lighting accumulated over frames: per
+frame a jittered G-buffer and the split-sum environment light
+(:mod:`compare.ibl`), per light sample a shadow atlas (five faces of a half
+cube) and a full-screen lighting pass with the shared BRDF, per environment
+sample a screen-space occlusion test, and running means in RGBA32F.
 
 Public API
 ----------
@@ -18,7 +19,8 @@ Public API
 
 Module map (each pass with its shader): ``distributor`` + ``sampling`` (Algorithm 1,
 R2 points), ``gpu_scene`` (upload, camera), ``gbuffer`` (``gbuffer.glsl``),
-``shadow`` (``shadow.glsl``), ``direct`` (``direct.glsl``), ``accumulate``
+``shadow`` (``shadow.glsl``), ``direct`` (``direct.glsl``), ``environment``
+(``env_occlusion.glsl``; the IBL GLSL is ``compare/ibl/ibl.glsl``), ``accumulate``
 (``accumulate.glsl``, ``compose.glsl``), ``readback``, ``renderer``.
 """
 

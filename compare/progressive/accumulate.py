@@ -12,27 +12,38 @@ from .shaders import load_program, set_uniform
 
 
 class PingPong:
-    """Two RGBA32F targets; :attr:`current` holds the latest running mean."""
+    """Two sets of RGBA32F targets; :attr:`current` holds the latest running mean.
 
-    def __init__(self, ctx, size: tuple[int, int]):
-        self.textures = []
+    ``attachments`` > 1 gives every set that many textures, written together by
+    one pass (multiple render targets); :meth:`current_of` returns attachment k.
+    """
+
+    def __init__(self, ctx, size: tuple[int, int], attachments: int = 1):
+        self.textures = []  # [set][attachment]
         self.fbos = []
         for _ in range(2):
-            tex = ctx.texture(size, 4, dtype="f4")
-            tex.filter = (ctx.NEAREST, ctx.NEAREST)
-            self.textures.append(tex)
-            self.fbos.append(ctx.framebuffer([tex]))
+            texs = []
+            for _ in range(attachments):
+                tex = ctx.texture(size, 4, dtype="f4")
+                tex.filter = (ctx.NEAREST, ctx.NEAREST)
+                texs.append(tex)
+            self.textures.append(texs)
+            self.fbos.append(ctx.framebuffer(texs))
         self.index = 0
         self.count = 0
         """Number of means accumulated so far."""
 
     @property
     def current(self):
-        return self.textures[self.index]
+        return self.textures[self.index][0]
+
+    def current_of(self, attachment: int):
+        """Attachment ``attachment`` of the latest means."""
+        return self.textures[self.index][attachment]
 
     @property
     def target(self):
-        """Framebuffer of the next mean (the texture that is not :attr:`current`)."""
+        """Framebuffer of the next mean (the textures that are not :attr:`current`)."""
         return self.fbos[1 - self.index]
 
     def swap(self) -> None:
@@ -44,7 +55,7 @@ class PingPong:
         self.count = 0
 
     def release(self) -> None:
-        for obj in self.fbos + self.textures:
+        for obj in self.fbos + [t for texs in self.textures for t in texs]:
             obj.release()
 
 
@@ -62,14 +73,30 @@ class Target:
 
 
 class AccumulatePass:
-    """Running mean of the every-frame terms: emission where a surface was hit, background elsewhere."""
+    """Running mean of the every-frame terms: emission where a surface was hit, background elsewhere.
 
-    def __init__(self, ctx):
+    With an ``environment`` (:class:`compare.progressive.environment.EnvironmentLighting`)
+    the background is the environment map, and a second attachment of the
+    ping-pong (``PingPong(..., attachments=2)``) holds the running mean of the
+    unoccluded environment light of shaded surfaces (``accumulate.glsl``).
+    """
+
+    def __init__(self, ctx, environment=None, materials: str = "shared"):
         self.ctx = ctx
-        self.program = load_program(ctx, "accumulate.glsl")
+        self.environment = environment
+        defines = {"ENVIRONMENT": int(environment is not None)}
+        if environment is not None:
+            defines.update(environment.defines(materials))
+        self.program = load_program(ctx, "accumulate.glsl", defines)
         self.vao = ctx.vertex_array(self.program, [])
 
-    def run(self, acc: PingPong, gbuffer, background) -> None:
+    @property
+    def attachments(self) -> int:
+        """Targets the pass writes (2 with an environment)."""
+        return 1 if self.environment is None else 2
+
+    def run(self, acc: PingPong, gbuffer, background, *, inv_view_proj: bytes | None = None,
+            camera_position=None) -> None:
         ctx = self.ctx
         acc.target.use()
         ctx.enable_only(ctx.NOTHING)
@@ -82,6 +109,17 @@ class AccumulatePass:
         set_uniform(p, "u_emission", 2)
         set_uniform(p, "u_background", tuple(float(c) for c in background))
         set_uniform(p, "u_count", float(acc.count + 1))
+        if self.environment is not None:
+            gbuffer["normal"].use(location=3)
+            gbuffer["material"].use(location=4)
+            acc.current_of(1).use(location=5)
+            set_uniform(p, "u_normal", 3)
+            set_uniform(p, "u_material", 4)
+            set_uniform(p, "u_previous_env", 5)
+            set_uniform(p, "u_inv_view_proj", inv_view_proj)
+            set_uniform(p, "u_camera_position", tuple(float(x) for x in camera_position))
+            set_uniform(p, "u_viewport", tuple(float(x) for x in gbuffer.size))
+            self.environment.bind(p, first_unit=6)
         self.vao.render(vertices=3)
         acc.swap()
 
@@ -91,7 +129,7 @@ class AccumulatePass:
 
 
 class ComposePass:
-    """The displayed image: every-frame mean + (direct-light mean or frame 0's preview)."""
+    """The displayed image: every-frame mean + (direct-light mean or frame 0's preview) + the environment light."""
 
     def __init__(self, ctx, size: tuple[int, int]):
         self.ctx = ctx
@@ -99,15 +137,31 @@ class ComposePass:
         self.vao = ctx.vertex_array(self.program, [])
         self.out = Target(ctx, size)
 
-    def run(self, base_texture, direct_texture=None):
+    def run(self, base: PingPong, direct_texture=None, env_visible=None):
+        """Compose the display image.
+
+        ``base`` is the every-frame ping-pong (a second attachment holds the
+        unoccluded environment light); ``env_visible`` the per-kind running means
+        of the occluded environment light
+        (:class:`~compare.progressive.environment.EnvOcclusionTargets`) or None.
+        The environment term is the unoccluded mean until both kinds have
+        samples, then the two means of visible light.
+        """
         ctx = self.ctx
         self.out.fbo.use()
         ctx.enable_only(ctx.NOTHING)
-        base_texture.use(location=0)
-        (direct_texture or base_texture).use(location=1)
-        set_uniform(self.program, "u_base", 0)
-        set_uniform(self.program, "u_direct", 1)
+        has_env = len(base.textures[0]) > 1
+        occluded = env_visible is not None and min(env_visible.counts) > 0
+        env_mode = 0 if not has_env else 2 if occluded else 1
+        base.current.use(location=0)
+        (direct_texture or base.current).use(location=1)
+        (base.current_of(1) if has_env else base.current).use(location=2)
+        (env_visible.current(0) if occluded else base.current).use(location=3)
+        (env_visible.current(1) if occluded else base.current).use(location=4)
+        for loc, name in enumerate(("u_base", "u_direct", "u_env", "u_env_diffuse", "u_env_specular")):
+            set_uniform(self.program, name, loc)
         set_uniform(self.program, "u_direct_scale", 1.0 if direct_texture is not None else 0.0)
+        set_uniform(self.program, "u_env_mode", env_mode)
         self.vao.render(vertices=3)
         return self.out.fbo
 

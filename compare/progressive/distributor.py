@@ -12,10 +12,15 @@ A render of ``m`` frames (paper default 128) is planned before the first frame.
   counts (the samples of all lights are merged by the key ``(k + ½)/n_i``), so
   that at any frame every light has done about the same fraction of its samples.
   Frame 0 never carries light samples when ``m ≥ 2``: it needs no shadow map.
-* **Environment samples** (none yet; the IBL issue adds them): they go into
-  :attr:`FramePlan.env_samples`, spread over all frames ``0 … m−1`` (the paper
-  puts sample ``k`` of ``count`` in frame ``⌊k·(m−1)/count⌋``), with their own
-  weights; nothing else here has to change.
+* **Environment samples** (scenes with an environment): ``N`` occlusion
+  samples (default ``N = m``), as in the paper's public code ``n_d = round(N/2)``
+  diffuse and ``n_s = N − n_d`` specular, alternating (even k diffuse, odd k
+  specular). The paper puts sample ``k`` in frame ``⌊k·(m−1)/N⌋``, which would
+  put two occlusion samples into frame 0; here the same spacing is shifted by
+  one frame, ``1 + ⌊k·(m−1)/N⌋``, so that frame 0 stays environment-only
+  (split sum without occlusion, no shadow maps: the cheap first frame of the
+  paper's Algorithm 1). Each sample carries a point of the 3D R3 sequence of
+  its kind (azimuth, polar angle, distance fraction).
 
 Weights
 -------
@@ -33,6 +38,15 @@ over all frames. Frame 0's cheap preview of the direct light (unshadowed, from
 each light's centre) is only what is *displayed* until the first light frame;
 it never enters either mean, so it cannot bias the result.
 (:attr:`Plan.paper_weights` gives the ``m / n_i`` of the paper for reports.)
+
+The environment light is split the same way: frame 0 shows the unoccluded
+split sum (a running mean over all frames, display only, like the direct
+preview), and the occluded light has one running mean per kind κ (diffuse,
+specular) over that kind's samples, which replaces it once both kinds have
+samples. The paper weights a sample by ``m / n_κ`` (:attr:`EnvSample.weight`,
+:attr:`Plan.paper_env_weights`) in its single mean over all m frames; the
+final value is the same, ``Σ_κ (1/n_κ) Σ_k term_κ V_k``, but every
+intermediate image is an unbiased estimate too and never negative.
 """
 
 from __future__ import annotations
@@ -43,7 +57,7 @@ from typing import Iterator, Sequence
 
 import numpy as np
 
-from .sampling import light_sample_points, pixel_jitter
+from .sampling import env_sample_points, light_sample_points, pixel_jitter
 
 #: Paper default: direct-light samples start at 30 % of the frames.
 DEFAULT_DIRECT_FRACTION = 0.3
@@ -72,13 +86,18 @@ class LightSample:
 
 @dataclass(frozen=True)
 class EnvSample:
-    """One environment-light sample (placeholder for the IBL issue)."""
+    """One screen-space occlusion sample of the environment light, evaluated in exactly one frame."""
 
     kind: str
-    """``"diffuse"`` (cosine-weighted) or ``"specular"`` (GGX)."""
+    """``"diffuse"`` (cosine-weighted) or ``"specular"`` (GGX visible normal, reflected)."""
     index: int
+    """Index k among all N environment samples (even: diffuse, odd: specular)."""
     weight: float
+    """The paper's weight ``m / n_kind`` (for reports; see the module notes on weights)."""
     u: tuple[float, float] = (0.0, 0.0)
+    """(ξ₁, ξ₂): azimuth and polar-angle numbers of the direction."""
+    t: float = 1.0
+    """ξ₃: the sample's distance along the direction as a fraction of d_occ."""
 
 
 @dataclass(frozen=True)
@@ -115,6 +134,10 @@ class Plan:
     """Number of frames that carry light samples (F, the direct running mean's length)."""
     seed: int = 0
     notes: tuple[str, ...] = field(default=())
+    env_counts: tuple[int, int] = (0, 0)
+    """(n_d, n_s): diffuse and specular environment samples."""
+    env_frames: int = 0
+    """Number of frames that carry environment samples (E)."""
 
     def __len__(self) -> int:
         return len(self.frames)
@@ -131,6 +154,12 @@ class Plan:
         m = len(self.frames)
         return tuple(m / n for n in self.samples_per_light)
 
+    @property
+    def paper_env_weights(self) -> tuple[float, float]:
+        """The paper's environment-sample weights ``m / n_d`` and ``m / n_s`` (0 where a kind has no samples)."""
+        m = len(self.frames)
+        return tuple(m / n if n else 0.0 for n in self.env_counts)  # type: ignore[return-value]
+
     def samples_of(self, light: int) -> list[tuple[int, LightSample]]:
         """(frame, sample) for every sample of ``light``, in frame order."""
         return [(fp.frame, s) for fp in self.frames for s in fp.light_samples if s.light == light]
@@ -142,8 +171,8 @@ def default_samples_per_light(frames: int, lights: int) -> int:
 
 
 def plan(scene, frames: int = DEFAULT_FRAMES, *, seed: int = 0, direct_fraction: float = DEFAULT_DIRECT_FRACTION,
-         samples_per_light: int | Sequence[int] | None = None) -> Plan:
-    """Distribute pixel jitter and light samples over ``frames`` frames.
+         samples_per_light: int | Sequence[int] | None = None, env_samples: int | None = None) -> Plan:
+    """Distribute pixel jitter, light samples and environment samples over ``frames`` frames.
 
     Parameters
     ----------
@@ -157,6 +186,9 @@ def plan(scene, frames: int = DEFAULT_FRAMES, *, seed: int = 0, direct_fraction:
     samples_per_light : int or sequence of int, keyword-only
         n_i for every light (one int) or per light; None uses the paper's
         ``round(m / lights / 4)``.
+    env_samples : int, keyword-only
+        N, the environment's occlusion samples (scenes with an environment
+        only); None uses the paper's N = m; 0 plans none.
 
     Returns
     -------
@@ -192,6 +224,8 @@ def plan(scene, frames: int = DEFAULT_FRAMES, *, seed: int = 0, direct_fraction:
         per_frame[start + (g * window) // total].append((i, k))
     light_frames = sum(1 for f in per_frame if f)
 
+    env_per_frame, env_counts, env_frames, env_notes = _env_plan(scene, frames, seed, env_samples)
+
     jitter = pixel_jitter(frames, seed)
     plans = []
     for f in range(frames):
@@ -202,9 +236,41 @@ def plan(scene, frames: int = DEFAULT_FRAMES, *, seed: int = 0, direct_fraction:
             frame=f,
             jitter=(float(jitter[f, 0]), float(jitter[f, 1])),
             light_samples=samples,
+            env_samples=tuple(env_per_frame[f]),
             preview=bool(f == 0 and lights and not samples),
         ))
-    notes = ()
+    notes: tuple[str, ...] = ()
     if frames == 1 and lights:
         notes = ("with a single frame, frame 0 evaluates the light samples itself (no cheap first frame)",)
-    return Plan(tuple(plans), start, float(direct_fraction), tuple(counts), light_frames, int(seed), notes)
+    return Plan(tuple(plans), start, float(direct_fraction), tuple(counts), light_frames, int(seed),
+                notes + env_notes, env_counts, env_frames)
+
+
+def _env_plan(scene, frames: int, seed: int, env_samples: int | None):
+    """Environment samples per frame, (n_d, n_s), the number of frames carrying them, notes."""
+    per_frame: list[list[EnvSample]] = [[] for _ in range(frames)]
+    if getattr(scene, "environment", None) is None:
+        return per_frame, (0, 0), 0, ()
+    count = frames if env_samples is None else env_samples
+    if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 0:
+        raise ValueError(f"env_samples: expected a non-negative integer, got {env_samples!r}")
+    count = int(count)
+    if count == 0:
+        return per_frame, (0, 0), 0, ()
+    if frames < 2:
+        return per_frame, (0, 0), 0, ("with a single frame there is no frame for environment occlusion samples "
+                                      "(frame 0 is environment-only)",)
+    n_d = round_half_up(count / 2)
+    n_s = count - n_d
+    window = frames - 1
+    points = {"diffuse": env_sample_points(n_d, seed, 0), "specular": env_sample_points(n_s, seed, 1)}
+    frames_with = sorted({1 + (k * window) // count for k in range(count)})
+    e = len(frames_with)
+    for k in range(count):
+        kind = "diffuse" if k % 2 == 0 else "specular"
+        j = k // 2
+        n = n_d if kind == "diffuse" else n_s
+        x = points[kind][j]
+        per_frame[1 + (k * window) // count].append(
+            EnvSample(kind, k, frames / n, (float(x[0]), float(x[1])), float(x[2])))
+    return per_frame, (n_d, n_s), e, ()

@@ -3,19 +3,30 @@
 One frame f of the :class:`~compare.progressive.distributor.Plan`:
 
 1. G-buffer pass with frame f's sub-pixel jitter (``gbuffer.glsl``);
-2. the every-frame running mean (emission, background) over all frames
-   (``accumulate.glsl``);
+2. the every-frame running mean over all frames (``accumulate.glsl``):
+   emission and the background, and — with an environment, in a second
+   target — the unoccluded environment light (split-sum specular + diffuse
+   irradiance, ``compare/ibl/ibl.glsl``; :mod:`compare.progressive.environment`);
 3. frame 0 only, while no light frame has run: the unshadowed preview of the
    direct light from each light's centre (``direct.glsl`` without shadows);
 4. for each light sample of the frame: its shadow atlas (``shadow.glsl``, five
    faces) and its direct-light pass (``direct.glsl``); the last one folds the
-   frame's sum into the direct-light running mean over light frames.
+   frame's sum into the direct-light running mean over light frames;
+5. frames with environment samples (1 … m−1, never frame 0): the screen-space
+   occlusion of the environment light (``env_occlusion.glsl``): the visible
+   light, folded into one running mean per kind (diffuse, specular) over that
+   kind's samples.
 
 The displayed image (``compose.glsl``) is the every-frame mean plus the
-direct-light mean, or plus the preview before the first light frame. After the
-last frame it is the full estimate; see ``distributor.py`` for why the weights
-make intermediate images nearly unbiased too and keep the preview out of the
-result.
+direct-light mean (or the preview before the first light frame) plus the
+environment light: the unoccluded mean until both kinds of occlusion samples
+have run, then the two means of visible light. After the last frame it is the full estimate; see
+``distributor.py`` for why the weights make intermediate images nearly
+unbiased too and keep the preview out of the result. Frame 0 is the
+environment-only split-sum image: no occlusion, no shadow maps.
+
+A scene without an environment gets none of this: no preprocessing, no
+environment textures or programs, no environment samples.
 
 Timing: each frame's wall time runs from its first GL call to ``ctx.finish()``
 (as a real-time renderer presents each frame), and a GL timer query measures its
@@ -38,11 +49,19 @@ from .. import __version__
 from .accumulate import AccumulatePass, ComposePass, PingPong, Target
 from .context import create_context, gl_renderer_name
 from .direct import AREA_MODELS, MATERIAL_MODES, DirectPass
+from .environment import ENV_DIFFUSE, EnvironmentLighting, EnvOcclusionPass, EnvOcclusionTargets
+from ..ibl import DEFAULT_LEVELS, DEFAULT_SAMPLES, DEFAULT_SIZE
 from .distributor import DEFAULT_DIRECT_FRACTION, DEFAULT_FRAMES, Plan, plan
 from .gbuffer import GBuffer
-from .gpu_scene import CameraSetup, GpuScene, scene_extent
+from .gpu_scene import CameraSetup, GpuScene, mat_bytes, scene_extent
 from .readback import read_rgb
 from .shadow import DEFAULT_BIAS, DEFAULT_SHADOW_SIZE, ShadowAtlas
+
+
+#: Default occlusion distance d_occ as a fraction of the diagonal of the scene's bounds.
+DEFAULT_D_OCC_FRACTION = 0.1
+#: Default depth bias of the occlusion test, as a fraction of d_occ.
+DEFAULT_OCCLUSION_BIAS = 0.01
 
 
 class Checkpoint(NamedTuple):
@@ -72,7 +91,7 @@ class ProgressiveResult:
 
 
 class ProgressiveRenderer:
-    """Otto et al.'s progressive rasterizer (area-light part) for one scene.
+    """Otto et al.'s progressive rasterizer (environment and area lights) for one scene.
 
     Parameters
     ----------
@@ -95,6 +114,24 @@ class ProgressiveRenderer:
         Face resolution S of the shadow atlas (3S × S texels).
     shadow_bias : (float, float, float), keyword-only
         (normal offset, constant, slope-scaled) in shadow texels; see :mod:`.shadow`.
+    d_occ : float, keyword-only
+        Occlusion distance of the environment's screen-space occlusion, in
+        world units; 0 turns occlusion off (no samples, no pass); None uses
+        :data:`DEFAULT_D_OCC_FRACTION` × the diagonal of the scene's bounds.
+    env_samples : int, keyword-only
+        N environment occlusion samples (half diffuse, half specular); None
+        uses the paper's N = frames.
+    occlusion_bias : float, keyword-only
+        Depth bias of the occlusion test as a fraction of d_occ.
+    env_format : {"float", "rgbm", "octahedral"}, keyword-only
+        Storage of the prefiltered environment (:mod:`compare.ibl.atlas`).
+    env_diffuse : {"cube", "sh9"}, keyword-only
+        Diffuse irradiance from the convolved cube or from 9 SH coefficients.
+    ibl_size, ibl_levels, ibl_samples : int, keyword-only
+        Cube face size, prefiltered levels and GGX samples per texel of the
+        environment preprocessing (:func:`compare.ibl.preprocess`).
+    cache_dir : path, None or False, keyword-only
+        Cache root of the environment preprocessing (None: the default cache; False: none).
     warm_up : bool, keyword-only
         Draw frame 0 and the first light frame once before timing starts, so
         that lazy shader compilation is not counted in frame 1 (default True).
@@ -105,20 +142,37 @@ class ProgressiveRenderer:
     def __init__(self, scene, *, frames: int = DEFAULT_FRAMES, seed: int = 0, area_model: str = "radiometric",
                  materials: str = "shared", direct_fraction: float = DEFAULT_DIRECT_FRACTION,
                  samples_per_light: int | Sequence[int] | None = None, shadow_size: int = DEFAULT_SHADOW_SIZE,
-                 shadow_bias: tuple[float, float, float] = DEFAULT_BIAS, warm_up: bool = True, ctx=None):
+                 shadow_bias: tuple[float, float, float] = DEFAULT_BIAS, d_occ: float | None = None,
+                 env_samples: int | None = None, occlusion_bias: float = DEFAULT_OCCLUSION_BIAS,
+                 env_format: str = "float", env_diffuse: str = "cube", ibl_size: int = DEFAULT_SIZE,
+                 ibl_levels: int = DEFAULT_LEVELS, ibl_samples: int = DEFAULT_SAMPLES, cache_dir=None,
+                 warm_up: bool = True, ctx=None):
         if area_model not in AREA_MODELS:
             raise ValueError(f"area_model: expected one of {', '.join(map(repr, AREA_MODELS))}, got {area_model!r}")
         if materials not in MATERIAL_MODES:
             raise ValueError(f"materials: expected one of {', '.join(map(repr, MATERIAL_MODES))}, got {materials!r}")
         if len(tuple(shadow_bias)) != 3 or not all(np.isfinite(b) and b >= 0 for b in shadow_bias):
             raise ValueError(f"shadow_bias: expected three non-negative numbers, got {shadow_bias!r}")
+        if env_diffuse not in ENV_DIFFUSE:
+            raise ValueError(f"env_diffuse: expected one of {', '.join(map(repr, ENV_DIFFUSE))}, got {env_diffuse!r}")
+        if d_occ is not None and not (np.isfinite(d_occ) and d_occ >= 0):
+            raise ValueError(f"d_occ: expected a non-negative distance (0 turns occlusion off), got {d_occ!r}")
+        if not (np.isfinite(occlusion_bias) and 0 <= occlusion_bias < 1):
+            raise ValueError(f"occlusion_bias: expected a fraction of d_occ in [0, 1), got {occlusion_bias!r}")
         self.scene = scene
         self.area_model = area_model
         self.materials = materials
         self.seed = int(seed)
         self.shadow_bias = tuple(float(b) for b in shadow_bias)
+        has_env = scene.features().environment
+        if d_occ is None:
+            lo, hi = scene_extent(scene)
+            d_occ = DEFAULT_D_OCC_FRACTION * float(np.linalg.norm(hi - lo))
+        self.d_occ = float(d_occ) if has_env else 0.0
+        self.occlusion_bias = float(occlusion_bias)
         self.plan = plan(scene, frames, seed=seed, direct_fraction=direct_fraction,
-                         samples_per_light=samples_per_light)
+                         samples_per_light=samples_per_light,
+                         env_samples=env_samples if self.d_occ > 0 else 0)
         self.notes: list[str] = list(self.plan.notes)
         self._check_features()
 
@@ -133,8 +187,17 @@ class ProgressiveRenderer:
             self.camera = CameraSetup(scene)
             self.gpu_scene = self._keep(GpuScene(ctx, scene))
             self.gbuffer = self._keep(GBuffer(ctx, self.gpu_scene, size))
-            self.accumulate = self._keep(AccumulatePass(ctx))
-            self.base = self._keep(PingPong(ctx, size))
+            # Leave out what the scene does not need: no environment work without an environment.
+            self.environment = self.env_occlusion = self.env_acc = None
+            if has_env:
+                self.environment = self._keep(EnvironmentLighting(
+                    ctx, scene, env_format=env_format, env_diffuse=env_diffuse, ibl_size=ibl_size,
+                    ibl_levels=ibl_levels, ibl_samples=ibl_samples, cache_dir=cache_dir))
+                if self.plan.env_frames > 0:
+                    self.env_occlusion = self._keep(EnvOcclusionPass(ctx, self.environment, materials))
+                    self.env_acc = self._keep(EnvOcclusionTargets(ctx, size))
+            self.accumulate = self._keep(AccumulatePass(ctx, self.environment, materials))
+            self.base = self._keep(PingPong(ctx, size, attachments=self.accumulate.attachments))
             self.compose = self._keep(ComposePass(ctx, size))
             has_lights = bool(scene.lights)
             # Leave out what the scene does not need: no shadow or direct-light work without area lights.
@@ -179,12 +242,6 @@ class ProgressiveRenderer:
 
     def _check_features(self) -> None:
         feats = self.scene.features()
-        if feats.environment:
-            msg = ("environment lighting is not implemented in compare.progressive yet: the image has the area "
-                   "lights and emission only" + (" (the constant environment shows as the background)"
-                                                 if self.scene.environment.constant is not None else ""))
-            warnings.warn(msg, stacklevel=3)
-            self.notes.append(msg)
         if feats.emissive_meshes:
             msg = ("emissive meshes are shown with their emission but do not light other surfaces in "
                    "compare.progressive (only [[lights]] rectangles are sampled)")
@@ -215,8 +272,14 @@ class ProgressiveRenderer:
     def _draw(self, fp) -> None:
         """Issue the GL work of one frame plan ``fp``."""
         cam_pos = self.camera.position
-        self.gbuffer.render(self.camera.view_proj(fp.jitter), cam_pos)
-        self.accumulate.run(self.base, self.gbuffer, self.background)
+        view_proj = self.camera.view_proj(fp.jitter)
+        self.gbuffer.render(view_proj, cam_pos)
+        self.accumulate.run(self.base, self.gbuffer, self.background,
+                            inv_view_proj=mat_bytes(np.linalg.inv(view_proj)), camera_position=cam_pos)
+        if fp.env_samples and self.env_occlusion is not None:
+            self.env_occlusion.run(self.env_acc, self.gbuffer, mat_bytes(view_proj), cam_pos,
+                                   self.camera.camera.basis()[2], fp.env_samples, self.d_occ,
+                                   self.occlusion_bias * self.d_occ)
         if fp.preview and self.preview is not None:
             self.direct.preview(self.preview, self.gbuffer, self.scene.lights, cam_pos)
             self._preview_valid = True
@@ -246,6 +309,9 @@ class ProgressiveRenderer:
         light_frames = [fp for fp in self.plan if fp.light_samples]
         if light_frames and light_frames[0].frame != 0:
             self._draw(light_frames[0])
+        env_frames = [fp for fp in self.plan if fp.env_samples]
+        if env_frames and env_frames[0].frame != 0 and not env_frames[0].light_samples:
+            self._draw(env_frames[0])
         self.ctx.finish()
         self.reset()
 
@@ -285,7 +351,7 @@ class ProgressiveRenderer:
             direct = self.direct_acc.current
         elif self._preview_valid:
             direct = self.preview.texture
-        fbo = self.compose.run(self.base.current, direct)
+        fbo = self.compose.run(self.base, direct, self.env_acc)
         return read_rgb(self.ctx, fbo, what=f"progressive render of {self.scene.path} (frame {self.frame})")
 
     def reset(self) -> None:
@@ -293,6 +359,8 @@ class ProgressiveRenderer:
         self.base.reset()
         if self.direct_acc is not None:
             self.direct_acc.reset()
+        if self.env_acc is not None:
+            self.env_acc.reset()
         self._preview_valid = False
         self.frame = 0
         self.frame_seconds, self.gpu_frame_seconds, self.shadow_passes = [], [], []
@@ -317,8 +385,14 @@ class ProgressiveRenderer:
             "direct_start_frame": p.direct_start,
             "light_frames": p.light_frames,
             "samples_per_light": ",".join(str(n) for n in p.samples_per_light),
-            "environment": "none" if self.scene.environment is None else "omitted (not implemented)",
+            "environment": "none",
         }
+        if self.environment is not None:
+            meta.update(self.environment.describe())
+            meta.update({"d_occ": self.d_occ, "occlusion_bias": self.occlusion_bias,
+                         "env_samples": int(sum(p.env_counts)), "env_samples_diffuse": int(p.env_counts[0]),
+                         "env_samples_specular": int(p.env_counts[1]), "env_frames": int(p.env_frames),
+                         "occlusion": "screen-space, progressive" if p.env_frames else "off"})
         if self.shadow is not None:
             meta.update({"shadow_projection": "half-cube (5 faces)", "shadow_size": int(self.shadow.size),
                          "shadow_bias": ",".join(f"{b:g}" for b in self.shadow_bias)})
@@ -356,7 +430,9 @@ def render_progressive(scene, *, frames: int = DEFAULT_FRAMES, seed: int = 0, ar
         back, e.g. ``(1, 2, 4, …, 128)``; readback is not counted in the seconds.
     **options
         Further :class:`ProgressiveRenderer` options (materials, direct_fraction,
-        samples_per_light, shadow_size, shadow_bias).
+        samples_per_light, shadow_size, shadow_bias, d_occ, env_samples,
+        occlusion_bias, env_format, env_diffuse, ibl_size, ibl_levels,
+        ibl_samples, cache_dir).
 
     Returns
     -------

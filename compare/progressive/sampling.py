@@ -20,6 +20,9 @@ import numpy as np
 #: The plastic number, the real root of x³ = x + 1.
 PLASTIC = 1.324717957244746
 R2_ALPHA = np.array([1.0 / PLASTIC, 1.0 / PLASTIC**2])
+#: The real root > 1 of x⁴ = x + 1, generator of the 3D sequence (R3).
+PHI3 = 1.2207440846057596
+R3_ALPHA = np.array([1.0 / PHI3, 1.0 / PHI3**2, 1.0 / PHI3**3])
 
 
 def seed_offset(seed: int, stream: int = 0) -> np.ndarray:
@@ -92,3 +95,17 @@ def light_sample_points(light, count: int, seed: int = 0, light_index: int = 0) 
     b = np.asarray(light.bitangent, dtype=np.float64)
     points = c + local[:, :1] * t + local[:, 1:] * b
     return points, uv
+
+
+def env_sample_points(count: int, seed: int = 0, stream: int = 0) -> np.ndarray:
+    """``count`` points (count, 3) in [0, 1)³ for environment samples (R3, Roberts' 3D sequence).
+
+    Axis 0 drives the azimuth, axis 1 the polar angle (cosine or GGX), axis 2 the
+    distance along the occlusion ray (fraction of d_occ). Seed 0 starts at
+    (½, ½, ½); other seeds (and every ``stream``) get an independent offset.
+    """
+    if count < 0:
+        raise ValueError(f"count: expected a non-negative number of samples, got {count}")
+    offset = np.full(3, 0.5) if seed == 0 else np.random.default_rng([int(seed), 1000 + int(stream)]).random(3)
+    k = np.arange(count, dtype=np.float64)[:, None]
+    return np.mod(offset + k * R3_ALPHA, 1.0)

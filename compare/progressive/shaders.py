@@ -4,7 +4,9 @@ Each program lives in one file beside the pass that uses it, with its stages
 behind ``#if defined VERTEX_SHADER`` / ``#elif defined FRAGMENT_SHADER``. The
 loader prepends ``#version 330 core``, the stage define and any pass defines,
 and replaces a line ``#include "brdf.glsl"`` by the shared BRDF
-(:func:`compare.brdf.glsl.glsl_source`), so the BRDF has one definition.
+(:func:`compare.brdf.glsl.glsl_source`), so the BRDF has one definition;
+``#include "mapping.glsl"`` and ``"ibl.glsl"`` are the environment's shared
+GLSL in ``compare/ibl/`` (one level of includes; list them in order).
 """
 
 from __future__ import annotations
@@ -17,14 +19,20 @@ _INCLUDE = re.compile(r'^[ \t]*#include[ \t]+"([^"]+)"[ \t]*$', re.MULTILINE)
 _HERE = Path(__file__).parent
 
 
+#: Shared includes that live elsewhere: the environment's mappings and lighting (compare/ibl/).
+_IBL = _HERE.parent / "ibl"
+_SHARED = {"mapping.glsl": _IBL / "mapping.glsl", "ibl.glsl": _IBL / "ibl.glsl"}
+
+
 def _include(name: str) -> str:
     if name == "brdf.glsl":
         from ..brdf.glsl import glsl_source
 
         return glsl_source()
-    path = _HERE / name
+    path = _SHARED.get(name, _HERE / name)
     if not path.is_file():
-        raise FileNotFoundError(f'#include "{name}": no such file beside {_HERE} (and not the shared brdf.glsl)')
+        raise FileNotFoundError(f'#include "{name}": no such file beside {_HERE} (and not the shared brdf.glsl, '
+                                f'{", ".join(_SHARED)})')
     return path.read_text(encoding="utf-8")
 
 

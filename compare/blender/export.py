@@ -1,0 +1,450 @@
+"""The neutral scene as the job a Blender worker builds its scene from (numpy only, no bpy).
+
+Everything that decides how a :class:`compare.scene.Scene` maps onto Blender's
+data model is computed here, in the caller's process, so that it can be
+tested without bpy and so that the worker (:mod:`compare.blender.worker`) only
+copies numbers into Blender. The job is a folder with ``job.json`` (settings,
+camera, materials, lights, environment), ``meshes.npz`` (world-space triangle
+arrays) and, for a map environment, ``environment.exr``.
+
+Coordinates
+-----------
+No axis conversion: the scene's coordinates go into Blender unchanged. Blender
+calls +Z "up" only in its tools and in its world texture lookup; the renderers
+themselves do not care. So the scene stays right-handed with +Y up, and only the
+environment map lookup is turned (:data:`ENV_TO_BLENDER`).
+
+Camera
+------
+Blender cameras look along their local −Z with +Y up, so the camera object's
+matrix has the columns (right, up, −forward, position) of
+:meth:`compare.scene.Camera.basis`. The vertical field of view is set through
+``sensor_fit = 'VERTICAL'``: ``lens = (sensor_height / 2) / tan(fov / 2)``.
+
+Area lights and their radiometry
+--------------------------------
+A Blender area light of power ``P`` watts (``energy``), colour ``c`` and area
+``A`` (with ``normalize`` on, the default) emits the radiance
+
+    L = c · P / (π · A)            [W sr⁻¹ m⁻²]
+
+uniformly in every direction of the hemisphere in front of it (its local −Z),
+and nothing behind it: a one-sided Lambertian emitter, as in the scene model.
+Cycles: ``eval_fac = M_1_PI_F * invarea`` in its area-light kernel with
+``invarea = 1 / area`` (``intern/cycles/scene/light.cpp``); EEVEE: radiance
+``= M_1_PI / area`` × power for rectangle lights (``eevee_light.cc``). The ``spread`` must stay at 180° (the
+default): a smaller spread narrows the emission lobe and renormalises it, which
+is no longer Lambertian. So each light gets ``energy = π · A · max(L)`` and
+``color = L / max(L)`` (:func:`light_power`), which keeps the colour in [0, 1].
+``tests/test_blender.py`` checks this convention by rendering a diffuse plane
+under one light against Lambert's closed form (:func:`compare.analytic.polygon_irradiance`).
+
+Differences a Blender area light has from Mitsuba's ``rectangle`` + ``area``
+emitter, and what is done about them:
+
+* Mitsuba's rectangle is also a surface (with a black BSDF): it absorbs what
+  hits its back and occludes. A Blender light is not a surface. So the worker
+  adds a black, one-sided *backing* quad just behind each light
+  (:data:`LIGHT_BACKING_OFFSET`), which absorbs and occludes like Mitsuba's.
+* Mitsuba shows the emitter to the camera (``hide_emitters = False``). Cycles
+  does with ``visible_camera = True`` on the light object; EEVEE never draws
+  lights, so for EEVEE the backing quad also carries an emission of ``L`` on its
+  front face (visible to the camera, casting no shadow, hidden from light probes).
+
+Materials (glTF metallic-roughness → Principled BSDF v2 of Blender 4/5)
+----------------------------------------------------------------------
+``Base Color`` = base colour (or the base-colour texture, sRGB-decoded for
+PNG/JPEG, linear for EXR, as Mitsuba's ``bitmap`` with ``raw = False``),
+``Metallic`` = metallic, ``Roughness`` = perceptual roughness (Blender squares
+it to α like glTF), ``IOR`` = 1.5 and ``Specular IOR Level`` = 0.5 (its neutral
+value) so that F0 = ((1.5 − 1)/(1.5 + 1))² = 0.04 for dielectrics, ``Specular
+Tint`` = white (no tint; for metals the F82 tint is then white too),
+``Diffuse Roughness`` = 0 (Lambert; >0 would be Oren–Nayar), coat, sheen,
+subsurface and transmission 0, ``distribution = 'GGX'`` (single scattering,
+as glTF and Mitsuba's ``principled``; Blender's default ``MULTI_GGX`` adds the
+energy lost between microfacets back, a few percent at roughness 1 for metals).
+Residual differences that remain by design of the two BSDFs: Principled v2 uses
+the exact dielectric Fresnel for IOR 1.5 (Mitsuba's ``principled``: Schlick
+with F0 = 0.08·specular) and an albedo-scaled diffuse under the specular layer;
+Mitsuba's ``principled`` has a Disney (retro-reflective, roughness-brightened)
+diffuse where Blender has Lambert. Measured at 64×48, 64 spp
+(:mod:`compare.blender.likeness`): on the Cornell box (rough white walls)
+Blender's Principled agrees with the suite's glTF BSDF (the reference's
+``shared`` mode) within 2 % on every region's brightest channel (up to 6 % on
+the dim channels of the coloured walls, seen at grazing angles), while Mitsuba's
+``principled`` (the ``cycles`` mode) is 18–47 % brighter per region. Glossy
+materials differ more between Principled and the glTF BSDF: 6 % on the car's
+floor (roughness 0.55), 9–15 % on its paint and glass, 12 % on the kitchen's
+dark glossy countertop. With Lambert on both sides the regions of all three
+scenes agree within noise (one of the kitchen's 41 at z = 3.2, a 34-pixel
+drawer front), so the rest of the mapping is not the cause. Emission = ``Emission Color`` with strength 1, made one-sided (as
+Mitsuba's ``area`` emitter on a mesh) by zeroing it on back faces. The
+``metallic_roughness_texture`` is ignored, as in :mod:`compare.mitsuba_dict`.
+Texture coordinates: Mitsuba's v runs down the image, Blender's up, so v → 1 − v.
+
+Environment
+-----------
+A constant environment is the world's Background colour × intensity. A map is
+looked up, in Mitsuba's convention (:mod:`compare.environments`), through the
+fixed rotation :data:`ENV_TO_BLENDER` applied to the world direction (after the
+scene's ``rotation``), because Blender's equirectangular lookup puts +Z at the
+top row and +X at the centre column, where Mitsuba has +Y and +Z. The rotation
+is fed to the Environment Texture as three dot products (Vector Math nodes), so
+no Euler-angle convention is involved. The map is resampled once to Blender's texel
+positions (rows at (j + ½)/H) from Mitsuba's (rows at j/(H − 1), on the poles),
+so both interpolate the same function at their texel centres.
+
+Pixel filter
+------------
+Mitsuba's reference uses a box filter one pixel wide. Cycles has one:
+``pixel_filter_type = 'BOX'`` with ``filter_width = 1.0`` is exactly that (its
+filter table is constant over [−½, ½]² px). EEVEE has only its film filter, a
+Gaussian with σ = 0.284 × ``filter_size`` truncated at ``filter_size`` px
+(``film_filter_weight`` in ``eevee_film_shared.hh``). :data:`EEVEE_FILTER_SIZE`
+matches its variance to the box's (σ = 1/√12 px). The residual difference is
+the Gaussian's shape: 84 % of its weight lies over the pixel's own square, 16 %
+over its neighbours (Blender's default 1.5 px: 42 %), so edges are slightly
+softer than the box's; on smooth shading it makes no difference.
+
+Cycles settings
+---------------
+CPU device, ``samples`` = N with a fixed ``seed`` (no animated seed), adaptive
+sampling off (every pixel gets N samples), denoising off, no clamping
+(``sample_clamp_direct`` = ``sample_clamp_indirect`` = 0; the indirect default
+is 10), "Filter Glossy" (``blur_glossy``) 0 (it blurs glossy paths after a
+diffuse bounce: a bias), ``light_sampling_threshold`` 0, caustics on, path
+guiding off. Sampling stays Blender's: the Tabulated Sobol pattern; next-event
+estimation with multiple importance sampling against BSDF sampling
+(``direct_light_sampling_type = 'MULTIPLE_IMPORTANCE_SAMPLING'``, MIS on every
+light, the world sampled through its importance map, ``AUTOMATIC``); the light
+tree (``use_light_tree``) picks lights by their estimated contribution. These
+change the noise, not the expectation, and Mitsuba's ``path`` integrator (also
+NEE + MIS) converges to the same image. Russian roulette in both.
+
+EEVEE settings
+--------------
+``taa_render_samples`` = N (the paper: 64), shadows on with *jittered* soft
+shadows on every light (``use_shadow_jitter``: the shadow map's origin moves
+over the light from sample to sample, so penumbrae converge instead of being
+filtered; ``shadow_jitter_overblur`` stays at Blender's 10 %), the shadow ray
+and step counts, resolution scale and pool at Blender's defaults, no clamping
+of direct or indirect light (``clamp_surface_*`` = 0), screen-space ray
+tracing off (its default; pass ``settings={"use_raytracing": True}`` to
+measure it), no baked light probes, so indirect light between surfaces is
+absent apart from the world's. Each light's influence distance is set to the
+scene's size (``use_custom_distance``): with the default ``light_threshold``
+a weak light would be culled where it still contributes. EEVEE is
+deterministic (its sample sequence has no seed). The first render of a
+process compiles shaders, so by default one sample is rendered first and left
+out of the timing (``warmup``).
+
+Path depth
+----------
+Mitsuba's ``max_depth`` counts path segments (2 = direct light only); Cycles'
+``max_bounces`` counts scattering events after the first hit (0 = direct light
+only), so ``max_bounces = max_depth − 2`` (:func:`cycles_bounces`); every
+per-type bounce limit gets the same value, so none is tighter. Unbounded
+(``-1``) becomes 1024, Cycles' maximum.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from ..scene import AreaLight, Camera, Scene
+
+#: Version of the job format shared by this module and the worker.
+JOB_VERSION = 1
+#: Material models: the glTF → Principled mapping, or Lambert only.
+MATERIAL_MODES = ("principled", "diffuse")
+#: Public engine names → Blender's engine identifiers.
+ENGINES = {"cycles": "CYCLES", "eevee": "BLENDER_EEVEE"}
+#: EEVEE samples the paper used (Otto et al. 2020, Table 1).
+EEVEE_PAPER_SAMPLES = 64
+#: Cycles samples the paper used for its reference.
+CYCLES_PAPER_SAMPLES = 1024
+#: EEVEE's film filter: σ of its Gaussian per pixel of ``filter_size``.
+EEVEE_FILTER_SIGMA_PER_SIZE = 0.284
+#: Standard deviation (px) of a box filter one pixel wide.
+BOX_FILTER_SIGMA = 1.0 / math.sqrt(12.0)
+#: EEVEE ``filter_size`` whose Gaussian has the variance of the box filter (≈ 1.017 px).
+EEVEE_FILTER_SIZE = BOX_FILTER_SIGMA / EEVEE_FILTER_SIGMA_PER_SIZE
+#: Cycles' largest bounce count, used for an unbounded path depth (-1).
+CYCLES_MAX_BOUNCES = 1024
+#: Distance of a light's backing quad behind the light, as a fraction of its larger side.
+LIGHT_BACKING_OFFSET = 1e-4
+#: Rows of this matrix turn a direction in the map's frame (Mitsuba's: +Y up, centre +Z,
+#: u = ¼ at +X) into the direction Blender's equirectangular lookup needs for the same
+#: texel (+Z up, centre +X, u = ¼ at +Y): Blender (X, Y, Z) = (z, x, y), a cyclic
+#: permutation (a proper rotation). Measured, not assumed: tests/test_blender.py renders
+#: a map whose texels hold their own direction and checks every pixel.
+ENV_TO_BLENDER = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+#: Height (mm) of the virtual sensor; any value works with sensor_fit = VERTICAL.
+SENSOR_HEIGHT_MM = 24.0
+
+
+def engine_id(engine: str) -> str:
+    """Blender's identifier for ``engine`` ('cycles' or 'eevee')."""
+    try:
+        return ENGINES[engine]
+    except KeyError:
+        raise ValueError(f"engine: expected one of {', '.join(ENGINES)}, got {engine!r}") from None
+
+
+def cycles_bounces(max_depth: int) -> int:
+    """Cycles ``max_bounces`` for Mitsuba's ``max_depth`` (2 → 0 = direct light only; -1 → 1024)."""
+    if max_depth == -1:
+        return CYCLES_MAX_BOUNCES
+    if max_depth < 2:
+        raise ValueError(f"max_depth: Cycles cannot render max_depth={max_depth} (emitters only); "
+                         "use 2 (direct light) or more")
+    return min(int(max_depth) - 2, CYCLES_MAX_BOUNCES)
+
+
+def camera_matrix(camera: Camera) -> np.ndarray:
+    """4×4 object-to-world matrix of a Blender camera (looks along local −Z, +Y up)."""
+    r, u, f = camera.basis()
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = r, u, -f, camera.position
+    return m
+
+
+def camera_lens_mm(camera: Camera) -> float:
+    """Focal length (mm) giving ``camera.fov`` vertically on a :data:`SENSOR_HEIGHT_MM` sensor."""
+    return 0.5 * SENSOR_HEIGHT_MM / math.tan(math.radians(camera.fov) / 2)
+
+
+def clip_range(scene: Scene) -> tuple[float, float]:
+    """Near and far clip distances enclosing the whole scene (EEVEE's depth buffer needs a sane ratio)."""
+    lo, hi = scene.bounds()
+    for light in scene.lights:
+        c = light.corners()
+        lo, hi = np.minimum(lo, c.min(0)), np.maximum(hi, c.max(0))
+    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    far = float(np.linalg.norm(corners - np.asarray(scene.camera.position), axis=1).max())
+    far = max(far, 1e-3)
+    return 1e-3 * far, 10.0 * far
+
+
+def light_matrix(light: AreaLight) -> np.ndarray:
+    """4×4 object-to-world matrix of a Blender area light: local X = tangent, local −Z = normal.
+
+    Right-handed: X × Y = Z with Y = −bitangent (the light is symmetric in Y, so
+    the sign does not matter for its shape).
+    """
+    m = np.eye(4)
+    m[:3, 0] = light.tangent
+    m[:3, 1] = -light.bitangent
+    m[:3, 2] = -np.asarray(light.normal)
+    m[:3, 3] = light.center
+    return m
+
+
+def light_power(light: AreaLight) -> tuple[list[float], float]:
+    """Blender ``(color, energy)`` of an area light: energy = π·A·max(L), colour = L / max(L).
+
+    Blender's area light emits L = colour · energy / (π · A) (see the module notes).
+    """
+    radiance = np.asarray(light.radiance, dtype=np.float64)
+    peak = float(radiance.max())
+    return (radiance / peak).tolist(), math.pi * light.area * peak
+
+
+def environment_lookup_matrix(rotation_deg: float) -> np.ndarray:
+    """3×3 matrix taking a world direction to the vector Blender's equirect lookup needs.
+
+    World → map frame (undo the scene's rotation about +Y, as Mitsuba's
+    ``to_world``), then map frame → Blender's lookup frame (:data:`ENV_TO_BLENDER`).
+    """
+    from ..environments import rotation_matrix
+
+    return ENV_TO_BLENDER @ rotation_matrix(rotation_deg).T
+
+
+def blender_environment_map(image: np.ndarray) -> np.ndarray:
+    """Resample a map (Mitsuba's texel rows on the poles) to Blender's texel centres, same size.
+
+    Row j of the result holds Mitsuba's interpolated radiance at v = (j + ½)/H,
+    column i at u = (i + ½)/W (the same in both).
+    """
+    from ..environments import sample_equirect, uv_to_direction
+
+    h, w = image.shape[:2]
+    u = (np.arange(w) + 0.5) / w
+    v = (np.arange(h) + 0.5) / h
+    uu, vv = np.meshgrid(u, v)
+    out = sample_equirect(image, uv_to_direction(uu, vv))
+    return np.ascontiguousarray(out, dtype=np.float32)
+
+
+def _material(mat, mode: str) -> dict[str, Any]:
+    tex = mat.base_color_texture
+    return {
+        "base_color": list(mat.base_color),
+        "metallic": mat.metallic if mode == "principled" else 0.0,
+        "roughness": mat.roughness,
+        # 0.5 is neutral (F0 = 0.04 at IOR 1.5); 0 removes the specular layer (pure Lambert).
+        "specular_ior_level": 0.5 if mode == "principled" else 0.0,
+        "emission": list(mat.emission),
+        "base_color_texture": str(tex) if tex else None,
+        # 8-bit images hold sRGB-encoded colour; EXR holds linear values.
+        "base_color_texture_colorspace": (None if not tex else
+                                          "Linear Rec.709" if Path(tex).suffix.lower() == ".exr" else "sRGB"),
+    }
+
+
+def _cycles_settings(scene: Scene, samples: int, seed: int) -> dict[str, Any]:
+    b = cycles_bounces(scene.max_depth)
+    return {
+        "device": "CPU",
+        "samples": int(samples),
+        "seed": int(seed) % 2**31,  # Blender's seed is a signed 32-bit int
+        "use_animated_seed": False,
+        "use_adaptive_sampling": False,
+        "use_denoising": False,
+        "use_preview_denoising": False,
+        "sample_clamp_direct": 0.0,
+        "sample_clamp_indirect": 0.0,
+        "blur_glossy": 0.0,  # "Filter Glossy" blurs glossy paths after a diffuse bounce: biased
+        "light_sampling_threshold": 0.0,
+        "caustics_reflective": True,
+        "caustics_refractive": True,
+        "use_light_tree": True,
+        "direct_light_sampling_type": "MULTIPLE_IMPORTANCE_SAMPLING",
+        "use_guiding": False,
+        "max_bounces": b,
+        "diffuse_bounces": b,
+        "glossy_bounces": b,
+        "transmission_bounces": b,
+        "volume_bounces": b,
+        "transparent_max_bounces": b,
+        "min_light_bounces": 0,
+        "min_transparent_bounces": 0,
+        "pixel_filter_type": "BOX",
+        "filter_width": 1.0,
+        "film_exposure": 1.0,
+        "time_limit": 0.0,
+    }
+
+
+def _eevee_settings(samples: int) -> dict[str, Any]:
+    return {
+        "taa_render_samples": int(samples),
+        "use_shadows": True,
+        # No clamping of indirect light (EEVEE's default clamps it at 10).
+        "clamp_surface_direct": 0.0,
+        "clamp_surface_indirect": 0.0,
+        # Screen-space ray tracing stays at its default (off): the paper's EEVEE had
+        # no ray tracing either. Pass settings={"use_raytracing": True} to measure it.
+        "use_raytracing": False,
+    }
+
+
+def build_job(scene: Scene, *, engine: str, samples: int, seed: int, folder: Path,
+              materials: str = "principled", settings: Mapping[str, Any] | None = None, warmup: bool = False,
+              threads: int = 0, ladder: Sequence[int] = ()) -> dict[str, Any]:
+    """Write the job for one render into ``folder`` and return its ``job.json`` content.
+
+    ``materials``: ``"principled"`` (the mapping in the module notes) or
+    ``"diffuse"`` (Lambert only, reflectance = base colour: the same Principled
+    BSDF with metallic 0 and ``Specular IOR Level`` 0, which removes the specular
+    layer; the counterpart of the reference's ``diffuse`` mode, for closed forms).
+
+    ``settings`` overrides attributes of ``scene.cycles`` or ``scene.eevee`` by
+    name (recorded in the metadata). ``warmup`` renders one sample first
+    (shader compilation, buffers) and leaves it out of the timed render.
+    ``ladder``: sample counts below ``samples`` to render first as checkpoints.
+    """
+    eng = engine_id(engine)
+    if materials not in MATERIAL_MODES:
+        raise ValueError(f"materials: expected one of {', '.join(MATERIAL_MODES)}, got {materials!r}")
+    if int(samples) < 1:
+        raise ValueError(f"samples: expected a positive integer, got {samples}")
+    ladder = sorted({int(n) for n in ladder})
+    if ladder and (ladder[0] < 1 or ladder[-1] >= int(samples)):
+        raise ValueError(f"ladder: expected sample counts in [1, {int(samples) - 1}], got {ladder}")
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    cam = scene.camera
+    near, far = clip_range(scene)
+
+    arrays: dict[str, np.ndarray] = {}
+    meshes = []
+    for k, mesh in enumerate(scene.meshes):
+        tri = mesh.triangles()
+        uv = np.array(tri.uvs, dtype=np.float32, copy=True)
+        uv[:, 1] = 1.0 - uv[:, 1]  # Mitsuba's v runs down the image, Blender's up
+        arrays[f"m{k}_positions"] = np.asarray(tri.positions, dtype=np.float32)
+        arrays[f"m{k}_normals"] = np.asarray(tri.normals, dtype=np.float32)
+        arrays[f"m{k}_uvs"] = uv
+        arrays[f"m{k}_indices"] = np.asarray(tri.indices, dtype=np.int32)
+        meshes.append({"name": mesh.name, "material": mesh.material, "key": f"m{k}"})
+    np.savez(folder / "meshes.npz", **arrays)
+
+    lights = []
+    for light in scene.lights:
+        color, energy = light_power(light)
+        lights.append({
+            "name": light.name,
+            "matrix": light_matrix(light).tolist(),
+            "size": [light.size[0], light.size[1]],
+            "color": color,
+            "energy": energy,
+            "radiance": list(light.radiance),
+            "backing_offset": LIGHT_BACKING_OFFSET * max(light.size),
+            "corners": light.corners().tolist(),
+            "normal": list(light.normal),
+            # EEVEE culls a light beyond the distance where it falls under light_threshold;
+            # a custom distance as large as the scene's far clip turns that off.
+            "cutoff_distance": far,
+        })
+
+    env = scene.environment
+    environment: dict[str, Any] | None = None
+    if env is not None and env.constant is not None:
+        environment = {"constant": [c * env.intensity for c in env.constant]}
+    elif env is not None:
+        from ..environments import environment_image
+        from ..exr import write_exr
+
+        write_exr(folder / "environment.exr", blender_environment_map(environment_image(env)),
+                  metadata={"renderer": "blender-environment"})
+        environment = {"file": "environment.exr", "strength": env.intensity,
+                       "lookup": environment_lookup_matrix(env.rotation).tolist()}
+
+    engine_settings = _cycles_settings(scene, samples, seed) if eng == "CYCLES" else _eevee_settings(samples)
+    overrides = dict(settings or {})
+    for key, value in overrides.items():
+        if not isinstance(key, str) or not isinstance(value, (bool, int, float, str)):
+            raise ValueError(f"settings: expected name → bool/int/float/str, got {key!r}: {value!r}")
+    engine_settings.update(overrides)
+
+    job = {
+        "version": JOB_VERSION,
+        "engine": eng,
+        "samples": int(samples),
+        "seed": int(seed),
+        "threads": int(threads),
+        "warmup": bool(warmup),
+        "ladder": ladder,
+        "resolution": [cam.width, cam.height],
+        "camera": {"matrix": camera_matrix(cam).tolist(), "lens": camera_lens_mm(cam),
+                   "sensor_height": SENSOR_HEIGHT_MM, "clip_start": near, "clip_end": far},
+        "eevee_filter_size": EEVEE_FILTER_SIZE,
+        "materials": {name: _material(m, materials) for name, m in scene.materials.items()},
+        "material_model": materials,
+        "meshes": meshes,
+        "lights": lights,
+        "environment": environment,
+        "settings": engine_settings,
+        "overrides": overrides,
+        "output": "render.exr",
+        "result": "result.json",
+    }
+    (folder / "job.json").write_text(json.dumps(job, indent=1))
+    return job

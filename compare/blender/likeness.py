@@ -1,0 +1,377 @@
+"""Is the Mitsuba reference "Cycles-like"? FLIP against Cycles' own seed-to-seed FLIP, and region means.
+
+Two Cycles renders with different seeds (A, B) and two independent Mitsuba
+renders (M1, M2), all of N samples per pixel, at the scene's resolution:
+
+* ``flip_seed`` = FLIP(A, B): what noise alone costs at N spp.
+* ``flip_cross`` = ½ (FLIP(M1, A) + FLIP(M2, B)): Mitsuba against Cycles.
+* ``ratio`` = ``flip_cross`` / ``flip_seed``. Two renderers that converge to the
+  same image with the same noise level give ≈ 1; a bias shows as > 1, and so
+  does a reference noisier than Cycles at equal spp (``flip_mitsuba_seed`` =
+  FLIP(M1, M2) tells which).
+* Region means: the pixels of each mesh, and of its lit and shadowed parts,
+  found by casting the camera's pixel rays and shadow rays towards each light
+  (:func:`region_masks`). A region's mean agrees when, in every channel, the
+  Cycles and Mitsuba means differ by at most :data:`Z_SCORE` combined standard
+  errors or by :data:`REL_TOLERANCE` of the region's brightest channel (so a
+  channel 20× dimmer than the others, e.g. green on the red wall, is not held
+  to 2 % of its own tiny value). Standard errors come from the seed
+  differences: per pixel, (A − B)² / 2 estimates the variance of one render, so
+  the mean of (A + B)/2 over n pixels has variance mean((A − B)²) / (4n)
+  (assuming pixels are independent, as they are for both samplers).
+
+Noise levels differ: Mitsuba's ``independent`` sampler is noisier at equal spp
+than Cycles' Sobol sequence. When FLIP grows like the noise's standard
+deviation, unbiased renderers give FLIP(M, A)² ≈ (FLIP(A, B)² + FLIP(M1, M2)²)/2,
+so ``ratio_noise_matched`` = ``flip_cross`` / √((``flip_seed``² +
+``flip_mitsuba_seed``²)/2) is ≈ 1 without bias, where ``ratio`` has a floor
+above 1 set by the noise ratio alone.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..scene import Scene
+
+#: Standard errors within which two region means count as agreeing (3: p ≈ 0.003 per test).
+Z_SCORE = 3.0
+#: Relative difference within which two region means count as agreeing regardless of noise.
+REL_TOLERANCE = 0.02
+#: Smallest region, in pixels, worth a mean.
+MIN_REGION_PIXELS = 12
+#: Shadow-ray samples per light (a stratified grid) for the lit/shadowed split.
+SHADOW_GRID = 4
+
+
+# ----------------------------------------------------------------------------- ray casting
+
+
+def _triangles(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
+    """All triangles (T, 3, 3) of meshes and lights, with labels (mesh index, or −1 − light index)."""
+    tris, labels = [], []
+    for k, mesh in enumerate(scene.meshes):
+        t = mesh.triangles()
+        tris.append(t.positions[t.indices].astype(np.float64))
+        labels.append(np.full(len(t.indices), k))
+    for k, light in enumerate(scene.lights):
+        c = light.corners()
+        tris.append(np.array([[c[0], c[1], c[2]], [c[0], c[2], c[3]]]))
+        labels.append(np.full(2, -1 - k))
+    return np.concatenate(tris), np.concatenate(labels)
+
+
+def ray_cast(origins: np.ndarray, directions: np.ndarray, tris: np.ndarray, *, chunk: int = 256,
+             t_max: np.ndarray | float = np.inf) -> tuple[np.ndarray, np.ndarray]:
+    """Closest hit (Möller–Trumbore) of rays (R, 3) against triangles (T, 3, 3).
+
+    Returns the distance (inf for a miss) and the triangle index (−1) per ray.
+    Hits farther than ``t_max`` count as misses.
+    """
+    o = np.asarray(origins, dtype=np.float64)
+    d = np.asarray(directions, dtype=np.float64)
+    best_t = np.full(len(o), np.inf)
+    best_i = np.full(len(o), -1)
+    t_max = np.broadcast_to(np.asarray(t_max, dtype=np.float64), (len(o),))
+    for start in range(0, len(tris), chunk):
+        v0, v1, v2 = (tris[start:start + chunk, i][None] for i in range(3))
+        e1, e2 = v1 - v0, v2 - v0
+        p = np.cross(d[:, None], e2)
+        det = np.sum(e1 * p, axis=-1)
+        ok = np.abs(det) > 1e-14
+        inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+        s = o[:, None] - v0
+        u = np.sum(s * p, axis=-1) * inv
+        q = np.cross(s, e1)
+        v = np.sum(d[:, None] * q, axis=-1) * inv
+        t = np.sum(e2 * q, axis=-1) * inv
+        hit = ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 1e-7) & (t < t_max[:, None])
+        t = np.where(hit, t, np.inf)
+        j = np.argmin(t, axis=1)
+        tj = t[np.arange(len(o)), j]
+        closer = tj < best_t
+        best_t = np.where(closer, tj, best_t)
+        best_i = np.where(closer, start + j, best_i)
+    return best_t, best_i
+
+
+class _NumpyCaster:
+    """Rays against the scene's triangles in numpy (for Mitsuba's scalar variant; fine for small scenes)."""
+
+    def __init__(self, scene: Scene):
+        self.tris, self.labels = _triangles(scene)
+
+    def closest(self, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        t, idx = ray_cast(o, d, self.tris)
+        label = np.where(idx >= 0, self.labels[np.maximum(idx, 0)], _MISS)
+        tri = self.tris[np.maximum(idx, 0)]
+        ng = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        return t, label, ng / np.maximum(np.linalg.norm(ng, axis=1, keepdims=True), 1e-300)
+
+    def occluded(self, o: np.ndarray, d: np.ndarray, t_max: np.ndarray) -> np.ndarray:
+        return np.isfinite(ray_cast(o, d, self.tris, t_max=t_max)[0])
+
+
+class _MitsubaCaster:
+    """Rays against the reference's own Mitsuba scene (its BVH; vectorised variants only)."""
+
+    def __init__(self, scene: Scene, mi):
+        import drjit as dr
+
+        from ..mitsuba_dict import scene_dict
+
+        self.mi, self.dr = mi, dr
+        self.scene = mi.load_dict(scene_dict(scene, spp=1, materials="diffuse"))
+        # Shape pointers reinterpreted as integers identify the shape hit; names say which mesh.
+        self.ids = {}
+        for shape in self.scene.shapes():
+            ptr = int(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(shape))[0])
+            name = shape.id()
+            self.ids[ptr] = int(name[4:]) if name.startswith("mesh") else -1 - int(name[5:])
+
+    def _ray(self, o, d, t_max=None):
+        mi = self.mi
+        ray = mi.Ray3f(mi.Point3f(*(np.ascontiguousarray(o[:, k], dtype=np.float32) for k in range(3))),
+                       mi.Vector3f(*(np.ascontiguousarray(d[:, k], dtype=np.float32) for k in range(3))))
+        if t_max is not None:
+            ray.maxt = mi.Float(np.ascontiguousarray(t_max, dtype=np.float32))
+        return ray
+
+    def closest(self, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        si = self.scene.ray_intersect(self._ray(o, d))
+        ptr = np.asarray(self.dr.reinterpret_array(self.mi.UInt32, si.shape))
+        label = np.array([self.ids.get(int(p), _MISS) for p in ptr])
+        t = np.asarray(si.t, dtype=np.float64)
+        ng = np.stack([np.asarray(si.n[k], dtype=np.float64) for k in range(3)], axis=1)
+        return np.where(label == _MISS, np.inf, t), label, ng
+
+    def occluded(self, o: np.ndarray, d: np.ndarray, t_max: np.ndarray) -> np.ndarray:
+        return np.asarray(self.scene.ray_test(self._ray(o, d, t_max)), dtype=bool)
+
+
+_MISS = -10**6
+
+
+def _caster(scene: Scene):
+    from ..backend import load_mitsuba
+
+    mi = load_mitsuba(None)
+    return _NumpyCaster(scene) if mi.variant().startswith("scalar") else _MitsubaCaster(scene, mi)
+
+
+def region_masks(scene: Scene, *, min_pixels: int = MIN_REGION_PIXELS, caster=None) -> dict[str, np.ndarray]:
+    """Boolean (H, W) masks of image regions: each mesh, and its lit and shadowed parts.
+
+    A pixel belongs to a mesh when its centre and its four corners all hit that
+    mesh (edge pixels, where pixel filters differ, are left out). ``lit``: every
+    shadow ray from the centre's hit point to a :data:`SHADOW_GRID`² grid on
+    every light arrives; ``shadowed``: none does (umbra). Penumbra pixels belong
+    to neither. Regions smaller than ``min_pixels`` are dropped. Rays are cast
+    in the reference's Mitsuba scene (lights are occluders there, as in the
+    Blender export), or in numpy on Mitsuba's scalar variant (``caster="numpy"``
+    forces that).
+    """
+    cam = scene.camera
+    h, w = cam.height, cam.width
+    caster = _NumpyCaster(scene) if caster == "numpy" else caster or _caster(scene)
+    jj, ii = np.mgrid[0:h, 0:w]
+    origin = np.broadcast_to(np.asarray(cam.position, dtype=np.float64), (h * w, 3))
+    label = None
+    same = np.ones(h * w, dtype=bool)
+    for dx, dy in ((0.5, 0.5), (0.02, 0.02), (0.98, 0.02), (0.02, 0.98), (0.98, 0.98)):
+        d = cam.ray_directions(ii + dx, jj + dy).reshape(-1, 3)
+        t, lab, ng = caster.closest(origin, d)
+        if label is None:
+            label, centre_t, centre_d, centre_ng = lab, t, d, ng
+        else:
+            same &= lab == label
+    hit = np.isfinite(centre_t) & (label >= 0) & same
+
+    # Shadow rays from the centre hits, offset along the geometric normal towards the camera.
+    points = origin + centre_d * np.where(np.isfinite(centre_t), centre_t, 0.0)[:, None]
+    ng = centre_ng * -np.sign(np.sum(centre_ng * centre_d, axis=1, keepdims=True))
+    points = points + ng * 1e-4 * max(1.0, float(np.abs(points[hit]).max(initial=1.0)))
+    seen = np.zeros(h * w)
+    total = 0
+    for light in scene.lights:
+        c = light.corners()
+        g = (np.arange(SHADOW_GRID) + 0.5) / SHADOW_GRID
+        for a in g:
+            for b in g:
+                target = c[0] + a * (c[1] - c[0]) + b * (c[3] - c[0])
+                to = target - points
+                dist = np.linalg.norm(to, axis=1)
+                dirs = to / np.maximum(dist, 1e-300)[:, None]
+                facing = (dirs @ np.asarray(light.normal)) < 0  # the point is in front of the light
+                front = np.sum(dirs * ng, axis=1) > 0
+                vis = np.zeros(h * w, dtype=bool)
+                vis[hit] = ~caster.occluded(points[hit], dirs[hit], dist[hit] * (1 - 1e-4))
+                seen += vis & facing & front
+                total += 1
+    frac = seen / max(total, 1)
+
+    out: dict[str, np.ndarray] = {}
+    for k, mesh in enumerate(scene.meshes):
+        m = hit & (label == k)
+        parts = [(mesh.name, m)]
+        if scene.lights:
+            parts += [(f"{mesh.name} lit", m & (frac >= 1.0)), (f"{mesh.name} shadowed", m & (frac <= 0.0))]
+        for name, mask in parts:
+            # A part equal to the whole mesh (a ceiling behind a one-sided light) says nothing new.
+            if mask.sum() >= min_pixels and name not in out and (name == mesh.name or mask.sum() < m.sum()):
+                out[name] = mask.reshape(h, w)
+    return out
+
+
+# ----------------------------------------------------------------------------- statistics
+
+
+@dataclass
+class RegionStat:
+    """Mean radiance of one region in both renderers, with standard errors."""
+
+    name: str
+    pixels: int
+    cycles: list[float]
+    mitsuba: list[float]
+    se_cycles: list[float]
+    se_mitsuba: list[float]
+
+    @property
+    def scale(self) -> float:
+        """The region's brightest Mitsuba channel: the unit of the relative tolerance."""
+        return max(max(abs(m) for m in self.mitsuba), 1e-12)
+
+    @property
+    def rel_diff(self) -> float:
+        """Largest difference over the channels, relative to the brightest channel (:attr:`scale`)."""
+        return max(abs(c - m) for c, m in zip(self.cycles, self.mitsuba)) / self.scale
+
+    @property
+    def rel_diff_channel(self) -> float:
+        """Largest difference over the channels, each relative to its own Mitsuba mean."""
+        return max(abs(c - m) / max(abs(m), 1e-12) for c, m in zip(self.cycles, self.mitsuba))
+
+    @property
+    def z(self) -> float:
+        """Largest difference in combined standard errors over the channels."""
+        return max(abs(c - m) / max(math.hypot(sc, sm), 1e-300)
+                   for c, m, sc, sm in zip(self.cycles, self.mitsuba, self.se_cycles, self.se_mitsuba))
+
+    @property
+    def agrees(self) -> bool:
+        """Within :data:`Z_SCORE` standard errors or :data:`REL_TOLERANCE` relatively, in every channel."""
+        return all(abs(c - m) <= max(Z_SCORE * math.hypot(sc, sm), REL_TOLERANCE * self.scale)
+                   for c, m, sc, sm in zip(self.cycles, self.mitsuba, self.se_cycles, self.se_mitsuba))
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"name": self.name, "pixels": self.pixels, "cycles": self.cycles, "mitsuba": self.mitsuba,
+                "se_cycles": self.se_cycles, "se_mitsuba": self.se_mitsuba, "rel_diff": self.rel_diff,
+                "rel_diff_channel": self.rel_diff_channel, "z": self.z, "agrees": self.agrees}
+
+
+def region_stats(masks: dict[str, np.ndarray], a: np.ndarray, b: np.ndarray, m1: np.ndarray,
+                 m2: np.ndarray) -> list[RegionStat]:
+    """Region means of (A+B)/2 and (M1+M2)/2 with standard errors from the pair differences."""
+    out = []
+    for name, mask in masks.items():
+        n = int(mask.sum())
+
+        def mean_se(x, y):
+            x, y = x[mask].astype(np.float64), y[mask].astype(np.float64)
+            mean = 0.5 * (x + y).mean(axis=0)
+            se = np.sqrt(np.mean((x - y) ** 2, axis=0) / (4 * n))
+            return mean.tolist(), se.tolist()
+
+        c, sc = mean_se(a, b)
+        m, sm = mean_se(m1, m2)
+        out.append(RegionStat(name, n, c, m, sc, sm))
+    return out
+
+
+@dataclass
+class Likeness:
+    """The outcome of :func:`cycles_likeness` for one scene."""
+
+    scene: str
+    spp: int
+    resolution: tuple[int, int]
+    materials: str
+    flip_seed: float
+    flip_cross: float
+    flip_mitsuba_seed: float
+    regions: list[RegionStat] = field(default_factory=list)
+    images: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
+    seconds: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def ratio(self) -> float:
+        """FLIP(Mitsuba, Cycles) / FLIP(Cycles seed A, seed B)."""
+        return self.flip_cross / max(self.flip_seed, 1e-12)
+
+    @property
+    def ratio_noise_matched(self) -> float:
+        """FLIP(Mitsuba, Cycles) / √((FLIP(A, B)² + FLIP(M1, M2)²)/2): ≈ 1 for unbiased renderers."""
+        return self.flip_cross / max(math.sqrt(0.5 * (self.flip_seed ** 2 + self.flip_mitsuba_seed ** 2)), 1e-12)
+
+    @property
+    def regions_agree(self) -> bool:
+        return all(r.agrees for r in self.regions)
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready summary (no images)."""
+        return {"scene": self.scene, "spp": self.spp, "resolution": list(self.resolution),
+                "materials": self.materials, "flip_seed": self.flip_seed, "flip_cross": self.flip_cross,
+                "flip_mitsuba_seed": self.flip_mitsuba_seed, "ratio": self.ratio,
+                "ratio_noise_matched": self.ratio_noise_matched,
+                "regions_agree": self.regions_agree, "regions": [r.as_dict() for r in self.regions],
+                "seconds": self.seconds}
+
+
+def cycles_likeness(scene: Scene, *, spp: int, materials: str = "cycles", seeds: tuple[int, int] = (0, 1),
+                    exposure: float = 1.0, operator: str = "aces", cache_dir=None, progress: bool = False,
+                    cycles=None) -> Likeness:
+    """Compare Cycles with the Mitsuba reference at ``spp`` samples per pixel (see the module notes).
+
+    ``materials`` is the reference's material mode (``"cycles"``: Mitsuba's
+    ``principled``; ``"shared"``: the suite's glTF BSDF; ``"diffuse"``: Lambert).
+    Cycles uses the Principled mapping of :mod:`compare.blender.export`, or
+    Lambert for ``"diffuse"`` (which isolates geometry, camera, lights and
+    bounces from the BSDF models). FLIP is LDR-FLIP after
+    ``exposure`` and ``operator`` (:func:`compare.metrics.flip`). ``cycles``:
+    two finished Cycles renders (:class:`~compare.blender.render.BlenderResult`)
+    of ``spp`` samples, seeds A and B, to reuse instead of rendering them again.
+    """
+    from ..metrics import flip
+    from ..reference import ReferenceRenderer
+    from .render import render_blender
+
+    bm = "diffuse" if materials == "diffuse" else "principled"
+    if cycles is None:
+        cycles = tuple(render_blender(scene, engine="cycles", samples=spp, seed=sd, materials=bm) for sd in seeds)
+    ra, rb = cycles
+    if ra.samples != spp or rb.samples != spp or ra.metadata.get("materials") != bm:
+        raise ValueError(f"cycles: expected two {bm} renders of {spp} spp, got {ra.samples} and {rb.samples}")
+    ref = ReferenceRenderer(scene, materials=materials, cache_dir=cache_dir, progress=progress)
+    t0 = time.perf_counter()
+    m1, m2 = ref.independent_passes(2, spp, seed=seeds[0])
+    t_ref = time.perf_counter() - t0
+
+    def f(r, t):
+        return flip(r, t, exposure=exposure, operator=operator)[0]
+
+    cross = 0.5 * (f(m1, ra.image) + f(m2, rb.image))
+    masks = region_masks(scene)
+    cam = scene.camera
+    return Likeness(
+        scene=scene.name, spp=int(spp), resolution=(cam.width, cam.height), materials=materials,
+        flip_seed=f(ra.image, rb.image), flip_cross=cross, flip_mitsuba_seed=f(m1, m2),
+        regions=region_stats(masks, ra.image, rb.image, m1, m2),
+        images={"cycles_a": ra.image, "cycles_b": rb.image, "mitsuba_1": m1, "mitsuba_2": m2},
+        seconds={"cycles_each": 0.5 * (ra.seconds + rb.seconds), "mitsuba_both": t_ref},
+    )

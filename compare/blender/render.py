@@ -1,0 +1,247 @@
+"""Run one Blender render in its own process and bring back the image and timings.
+
+bpy (Blender as a Python module) keeps global state, takes a second or two to
+import and can take its process down on a driver problem, so each render runs
+``worker.py`` in a fresh interpreter: the job goes in through a temporary
+folder (JSON + npz), an EXR and a JSON of timings come back.
+
+Which interpreter: ``$COMPARE_BLENDER_PYTHON`` if set (a Python 3.11 with
+``bpy`` installed, e.g. a separate virtual environment: bpy 5.0.1 pins
+``numpy<2``), else this interpreter when it can import bpy.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from .. import __version__
+from ..errors import CompareError, MissingComponentError
+from ..exr import read_exr
+from ..reference import Checkpoint
+from ..scene import Scene
+from .export import ENGINES, build_job, cycles_bounces
+
+#: Environment variable naming a Python interpreter that has bpy.
+PYTHON_ENV = "COMPARE_BLENDER_PYTHON"
+WORKER = Path(__file__).with_name("worker.py")
+INSTALL_HINT = ("install the blender extra (`pip install '.[blender]'`, bpy 5.0.1, Python 3.11; about 380 MB "
+                "download, 1 GB installed) or point $COMPARE_BLENDER_PYTHON at a Python that has bpy")
+
+
+class BlenderError(CompareError, RuntimeError):
+    """The Blender worker failed; the message carries the end of its log."""
+
+
+@dataclass
+class BlenderResult:
+    """A finished Blender render.
+
+    Attributes
+    ----------
+    image
+        Linear radiance, float32 (H, W, 3).
+    seconds
+        Wall time of the render call alone (no interpreter start, bpy import,
+        scene building, warm-up or file writing).
+    startup_seconds
+        Interpreter start + ``import bpy`` + building the scene.
+    metadata
+        Flat ``str``/``int``/``float`` values (EXR-ready): renderer, engine,
+        samples, seed, settings, versions, every timing (``cpu_seconds``: CPU
+        time of the render, all threads; unlike wall time it does not grow when
+        other processes share the cores).
+    checkpoints
+        With ``ladder=``: one :class:`compare.reference.Checkpoint` (spp,
+        seconds, image) per sample count, the full render last. Each is a
+        separate render with the same seed, which for Cycles' and EEVEE's
+        deterministic sample sequences is the first n samples of the full
+        render; its seconds are that render's own time.
+    """
+
+    image: np.ndarray
+    seconds: float
+    startup_seconds: float
+    metadata: dict[str, str | int | float] = field(default_factory=dict)
+    checkpoints: list[Checkpoint] = field(default_factory=list)
+
+    @property
+    def engine(self) -> str:
+        return str(self.metadata.get("engine", ""))
+
+    @property
+    def samples(self) -> int:
+        return int(self.metadata.get("samples", 0))
+
+
+def blender_python() -> tuple[str | None, str]:
+    """The interpreter that will run the worker, or None with the reason there is none."""
+    env = os.environ.get(PYTHON_ENV)
+    if env:
+        if not Path(env).is_file():
+            return None, f"${PYTHON_ENV}={env} does not exist"
+        return env, f"${PYTHON_ENV}"
+    if importlib.util.find_spec("bpy") is None:
+        return None, f"bpy is not installed in {sys.executable}; {INSTALL_HINT}"
+    return sys.executable, "this interpreter"
+
+
+def blender_available() -> tuple[bool, str]:
+    """Whether Blender renders can run here, and why not (cheap: bpy is not imported)."""
+    py, why = blender_python()
+    return py is not None, why
+
+
+def render_blender(scene: Scene, *, engine: str = "cycles", samples: int, seed: int = 0,
+                   materials: str = "principled", settings: Mapping[str, Any] | None = None,
+                   ladder: Sequence[int] = (), warmup: bool | None = None, threads: int = 0,
+                   timeout: float | None = None, keep: str | os.PathLike | None = None) -> BlenderResult:
+    """Render ``scene`` with Blender Cycles (CPU) or EEVEE in a separate process.
+
+    Parameters
+    ----------
+    scene
+        The scene; its resolution is the render resolution.
+    engine
+        ``"cycles"`` or ``"eevee"``.
+    samples
+        Samples per pixel (Cycles) or temporal samples (EEVEE; the paper used 64).
+    seed
+        Cycles' sampling seed (taken modulo 2³¹). EEVEE is deterministic and ignores it.
+    materials
+        ``"principled"`` (glTF → Principled BSDF, see :mod:`compare.blender.export`)
+        or ``"diffuse"`` (Lambert only, for closed-form checks).
+    settings
+        Overrides of ``scene.cycles`` / ``scene.eevee`` attributes by name, e.g.
+        ``{"use_raytracing": True}``; recorded in the metadata.
+    ladder
+        Sample counts below ``samples`` to render too, as checkpoints for
+        error-against-time curves (:attr:`BlenderResult.checkpoints`); each costs
+        a render of its own.
+    warmup
+        Render one sample before the timed renders (shader compilation). Default:
+        on for EEVEE, off for Cycles.
+    threads
+        CPU threads (0 = all).
+    timeout
+        Seconds before the worker is killed (:class:`BlenderError`); None waits.
+    keep
+        A folder to keep the job, log and EXRs in (default: a temporary folder, removed).
+
+    Raises
+    ------
+    MissingComponentError
+        No interpreter with bpy (see :func:`blender_available`).
+    BlenderError
+        The worker failed or timed out; the message ends with its log.
+    ValueError
+        A bad argument (engine, samples, materials, settings, ladder).
+    """
+    py, why = blender_python()
+    if py is None:
+        raise MissingComponentError(f"Blender renders need bpy: {why}")
+    opts = dict(engine=engine, samples=int(samples), seed=int(seed), materials=materials, settings=settings,
+                ladder=tuple(ladder), warmup=(engine == "eevee") if warmup is None else bool(warmup),
+                threads=int(threads))
+    if keep is not None:
+        Path(keep).mkdir(parents=True, exist_ok=True)
+        return _run(py, scene, opts, timeout, Path(keep))
+    with tempfile.TemporaryDirectory(prefix="compare-blender-") as tmp:
+        return _run(py, scene, opts, timeout, Path(tmp))
+
+
+def _run(py: str, scene: Scene, opts: dict, timeout: float | None, folder: Path) -> BlenderResult:
+    engine, samples, seed = opts["engine"], opts["samples"], opts["seed"]
+    job = build_job(scene, folder=folder, **opts)
+    log_path = folder / "worker.log"
+    t_spawn = time.time()
+    t0 = time.perf_counter()
+    with open(log_path, "wb") as log:
+        try:
+            proc = subprocess.run([py, str(WORKER), str(folder), repr(t_spawn)], stdout=log, stderr=subprocess.STDOUT,
+                                  cwd=folder, timeout=timeout, check=False)
+        except subprocess.TimeoutExpired:
+            raise BlenderError(f"Blender {engine} render timed out after {timeout:g} s; "
+                               f"log:\n{_tail(log_path)}") from None
+    wall = time.perf_counter() - t0
+    if proc.returncode != 0:
+        raise BlenderError(f"Blender {engine} worker exited with status {proc.returncode} "
+                           f"({'signal ' + str(-proc.returncode) if proc.returncode < 0 else 'error'}); "
+                           f"log:\n{_tail(log_path)}")
+    try:
+        info = json.loads((folder / job["result"]).read_text())
+        image, _ = read_exr(folder / job["output"])
+    except (OSError, ValueError, CompareError) as exc:
+        raise BlenderError(f"Blender {engine} worker left no usable result ({exc}); log:\n{_tail(log_path)}") from exc
+    if not np.all(np.isfinite(image)):
+        raise BlenderError(f"Blender {engine} produced {int((~np.isfinite(image)).sum())} non-finite values")
+    startup = info["interpreter_seconds"] + info["import_seconds"] + info["build_seconds"]
+    cam = scene.camera
+    meta: dict[str, str | int | float] = {
+        "renderer": f"blender-{engine}",
+        "engine": engine,
+        "variant": job["engine"],
+        "samples": int(samples),
+        "spp": int(samples),
+        "seed": int(seed),
+        "materials": opts["materials"],
+        "seconds": float(info["render_seconds"]),
+        "cpu_seconds": float(info["render_cpu_seconds"]),
+        "load_average": float(os.getloadavg()[0]),
+        "startup_seconds": float(startup),
+        "warmup_seconds": float(info.get("warmup_seconds", 0.0)),
+        "import_seconds": float(info["import_seconds"]),
+        "build_seconds": float(info["build_seconds"]),
+        "write_seconds": float(info["write_seconds"]),
+        "wall_seconds": float(wall),
+        "resolution": json.dumps([cam.width, cam.height]),
+        "scene_hash": scene.hash,
+        "blender": str(info["blender_version"]),
+        "blender_build": str(info["blender_build_hash"]),
+        "threads": int(info["threads"]),
+        "settings": json.dumps(job["settings"], sort_keys=True),
+        "overrides": json.dumps(job["overrides"], sort_keys=True),
+        "package": __version__,
+    }
+    if engine == "cycles":
+        meta.update({"device": "CPU", "max_bounces": cycles_bounces(scene.max_depth),
+                     "pixel_filter": "box 1.0 px"})
+    else:
+        meta.update({"gl_driver": str(info["gl_driver"]),
+                     "pixel_filter": f"gaussian filter_size {job['eevee_filter_size']:.4f} px",
+                     "deterministic": 1})
+    checkpoints = []
+    for cp in info.get("ladder", []):
+        try:
+            cp_image, _ = read_exr(folder / cp["file"])
+        except (OSError, ValueError, CompareError) as exc:
+            raise BlenderError(f"Blender {engine} checkpoint {cp['file']} is unreadable ({exc})") from exc
+        checkpoints.append(Checkpoint(int(cp["samples"]), float(cp["seconds"]), cp_image))
+    if checkpoints:
+        checkpoints.append(Checkpoint(int(samples), float(info["render_seconds"]), image))
+        meta["ladder"] = json.dumps([c.spp for c in checkpoints])
+    return BlenderResult(image=image, seconds=float(info["render_seconds"]), startup_seconds=float(startup),
+                         metadata=meta, checkpoints=checkpoints)
+
+
+def _tail(path: Path, lines: int = 40) -> str:
+    try:
+        text = path.read_text(errors="replace").splitlines()
+    except OSError:
+        return "(no log)"
+    # EEVEE on Mesa prints harmless EGL_BAD_MATCH lines while it probes for a context.
+    text = [t for t in text if "EGL_BAD_MATCH" not in t]
+    return "\n".join(text[-lines:])
+
+
+__all__ = ["ENGINES", "BlenderError", "BlenderResult", "blender_available", "blender_python", "render_blender"]

@@ -1,0 +1,374 @@
+"""Render one job with bpy: run as ``python worker.py JOB_FOLDER SPAWN_TIME`` by :mod:`compare.blender.render`.
+
+This file runs in its own process under a Python that has ``bpy`` (Blender as
+a module keeps global state and may crash; a process per render keeps both
+away from the caller). It imports only the standard library, numpy and bpy,
+never :mod:`compare`, so it works under any such interpreter. It reads
+``job.json`` and ``meshes.npz`` written by :func:`compare.blender.export.build_job`,
+builds the scene, renders, and writes ``render.exr`` (linear scene-referred
+RGB, Blender's own EXR writer) and ``result.json`` (timings and what was used).
+Every decision about the mapping lives in ``export.py``; this file only
+copies numbers into Blender.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+import time
+import traceback
+
+
+def _matrix(rows):
+    from mathutils import Matrix
+
+    return Matrix([list(r) for r in rows])
+
+
+def _principled(bpy, name: str, mat: dict, folder: str):
+    """A material with one Principled BSDF set from the glTF parameters (see export.py)."""
+    m = bpy.data.materials.new(name)
+    if getattr(m, "node_tree", None) is None:
+        m.use_nodes = True
+    nodes, links = m.node_tree.nodes, m.node_tree.links
+    nodes.clear()
+    out = nodes.new("ShaderNodeOutputMaterial")
+    bsdf = nodes.new("ShaderNodeBsdfPrincipled")
+    bsdf.distribution = "GGX"
+    inp = bsdf.inputs
+    inp["Base Color"].default_value = (*mat["base_color"], 1.0)
+    inp["Metallic"].default_value = mat["metallic"]
+    inp["Roughness"].default_value = mat["roughness"]
+    inp["IOR"].default_value = 1.5
+    inp["Specular IOR Level"].default_value = mat["specular_ior_level"]
+    inp["Specular Tint"].default_value = (1.0, 1.0, 1.0, 1.0)
+    inp["Diffuse Roughness"].default_value = 0.0
+    for key in ("Coat Weight", "Sheen Weight", "Subsurface Weight", "Transmission Weight", "Anisotropic",
+                "Thin Film Thickness"):
+        inp[key].default_value = 0.0
+    if mat.get("base_color_texture"):
+        tex = nodes.new("ShaderNodeTexImage")
+        img = bpy.data.images.load(mat["base_color_texture"], check_existing=True)
+        img.colorspace_settings.name = mat["base_color_texture_colorspace"]
+        tex.image = img
+        tex.interpolation = "Linear"
+        tex.extension = "REPEAT"
+        uv = nodes.new("ShaderNodeUVMap")
+        uv.uv_map = "UVMap"
+        links.new(uv.outputs["UV"], tex.inputs["Vector"])
+        links.new(tex.outputs["Color"], inp["Base Color"])
+    if max(mat["emission"]) > 0:
+        _one_sided_emission(nodes, links, inp["Emission Color"], mat["emission"])
+        inp["Emission Strength"].default_value = 1.0
+        if hasattr(m, "cycles") and hasattr(m.cycles, "emission_sampling"):
+            m.cycles.emission_sampling = "FRONT"
+    links.new(bsdf.outputs["BSDF"], out.inputs["Surface"])
+    return m
+
+
+def _one_sided_emission(nodes, links, socket, color) -> None:
+    """Drive ``socket`` with ``color`` on front faces and black on back faces (Mitsuba's area emitter)."""
+    geo = nodes.new("ShaderNodeNewGeometry")
+    mix = nodes.new("ShaderNodeMix")
+    mix.data_type = "RGBA"
+    mix.inputs["A"].default_value = (*color, 1.0)
+    mix.inputs["B"].default_value = (0.0, 0.0, 0.0, 1.0)
+    links.new(geo.outputs["Backfacing"], mix.inputs["Factor"])
+    links.new(mix.outputs["Result"], socket)
+
+
+def _emission_material(bpy, name: str, color, strength: float = 1.0):
+    """Black diffuse on the back, ``color`` emitted from the front (EEVEE's visible stand-in for a light)."""
+    m = bpy.data.materials.new(name)
+    if getattr(m, "node_tree", None) is None:
+        m.use_nodes = True
+    nodes, links = m.node_tree.nodes, m.node_tree.links
+    nodes.clear()
+    out = nodes.new("ShaderNodeOutputMaterial")
+    em = nodes.new("ShaderNodeEmission")
+    em.inputs["Strength"].default_value = strength
+    _one_sided_emission(nodes, links, em.inputs["Color"], color)
+    links.new(em.outputs["Emission"], out.inputs["Surface"])
+    return m
+
+
+def _black_material(bpy, name: str):
+    m = bpy.data.materials.new(name)
+    if getattr(m, "node_tree", None) is None:
+        m.use_nodes = True
+    nodes = m.node_tree.nodes
+    nodes.clear()
+    out = nodes.new("ShaderNodeOutputMaterial")
+    d = nodes.new("ShaderNodeBsdfDiffuse")
+    d.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+    m.node_tree.links.new(d.outputs["BSDF"], out.inputs["Surface"])
+    return m
+
+
+def _mesh(bpy, np, name: str, positions, normals, uvs, indices):
+    """A mesh object from world-space triangles with per-vertex normals and UVs."""
+    me = bpy.data.meshes.new(name)
+    nv, nt = len(positions), len(indices)
+    me.vertices.add(nv)
+    me.vertices.foreach_set("co", np.ascontiguousarray(positions, dtype=np.float32).ravel())
+    me.loops.add(3 * nt)
+    me.loops.foreach_set("vertex_index", np.ascontiguousarray(indices, dtype=np.int32).ravel())
+    me.polygons.add(nt)
+    me.polygons.foreach_set("loop_start", np.arange(0, 3 * nt, 3, dtype=np.int32))
+    # No me.validate(): it would drop degenerate triangles (a UV sphere's poles) and put the
+    # per-loop arrays below out of step; Blender renders such triangles as nothing anyway.
+    me.update(calc_edges=True)
+    uv_layer = me.uv_layers.new(name="UVMap")
+    uv_layer.data.foreach_set("uv", np.ascontiguousarray(uvs[indices.ravel()], dtype=np.float32).ravel())
+    me.shade_smooth()
+    me.normals_split_custom_set_from_vertices(np.asarray(normals, dtype=np.float32))
+    obj = bpy.data.objects.new(name, me)
+    return obj
+
+
+def _quad(bpy, np, name: str, corners, normal):
+    """A one-triangle-pair quad from four corners, wound so that its front faces ``normal``."""
+    p = np.asarray(corners, dtype=np.float32)
+    idx = np.array([[0, 1, 2], [0, 2, 3]], dtype=np.int32)
+    if np.dot(np.cross(p[1] - p[0], p[2] - p[0]), normal) < 0:
+        idx = idx[:, ::-1].copy()
+    n = np.tile(np.asarray(normal, dtype=np.float32), (4, 1))
+    uv = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=np.float32)
+    return _mesh(bpy, np, name, p, n, uv, idx)
+
+
+def _world(bpy, env, folder: str):
+    world = bpy.data.worlds.new("World")
+    if getattr(world, "node_tree", None) is None:
+        world.use_nodes = True
+    nodes, links = world.node_tree.nodes, world.node_tree.links
+    nodes.clear()
+    out = nodes.new("ShaderNodeOutputWorld")
+    bg = nodes.new("ShaderNodeBackground")
+    links.new(bg.outputs["Background"], out.inputs["Surface"])
+    if env is None:
+        bg.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+        bg.inputs["Strength"].default_value = 0.0
+    elif "constant" in env:
+        bg.inputs["Color"].default_value = (*env["constant"], 1.0)
+        bg.inputs["Strength"].default_value = 1.0
+    else:
+        tex = nodes.new("ShaderNodeTexEnvironment")
+        tex.image = bpy.data.images.load(os.path.join(folder, env["file"]))
+        tex.image.colorspace_settings.name = "Linear Rec.709"
+        tex.interpolation = "Linear"
+        tex.projection = "EQUIRECTANGULAR"
+        coord = nodes.new("ShaderNodeTexCoord")
+        combine = nodes.new("ShaderNodeCombineXYZ")
+        # lookup = M · d, one dot product per row: no Euler-angle conventions involved.
+        for k, row in enumerate(env["lookup"]):
+            dot = nodes.new("ShaderNodeVectorMath")
+            dot.operation = "DOT_PRODUCT"
+            dot.inputs[1].default_value = tuple(row)
+            links.new(coord.outputs["Generated"], dot.inputs[0])
+            links.new(dot.outputs["Value"], combine.inputs[k])
+        links.new(combine.outputs["Vector"], tex.inputs["Vector"])
+        links.new(tex.outputs["Color"], bg.inputs["Color"])
+        bg.inputs["Strength"].default_value = env["strength"]
+    return world
+
+
+def _gl_driver() -> str:
+    """Which OpenGL/Vulkan driver this process loaded (EEVEE), read from its memory map."""
+    try:
+        with open("/proc/self/maps") as f:
+            libs = {line.split()[-1].rsplit("/", 1)[-1] for line in f if ".so" in line}
+    except OSError:
+        return "unknown"
+    if any(lib.startswith("libnvidia-glcore") or lib.startswith("libnvidia-eglcore") for lib in libs):
+        return "NVIDIA"
+    names = []
+    if "libEGL_mesa.so.0.0.0" in libs or any(lib.startswith("libEGL_mesa") for lib in libs):
+        names.append("Mesa EGL")
+    if "swrast_dri.so" in libs or any("gallium" in lib for lib in libs):
+        names.append("llvmpipe (software)")
+    return ", ".join(names) or "unknown"
+
+
+def build(bpy, np, job: dict, folder: str):
+    """Build the Blender scene of ``job``; returns the bpy scene."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    sc = bpy.context.scene
+    engine = job["engine"]
+    sc.render.engine = engine
+    w, h = job["resolution"]
+    sc.render.resolution_x, sc.render.resolution_y = int(w), int(h)
+    sc.render.resolution_percentage = 100
+    sc.render.pixel_aspect_x = sc.render.pixel_aspect_y = 1.0
+    sc.render.film_transparent = False
+    sc.render.use_compositing = False
+    sc.render.use_sequencer = False
+    sc.render.dither_intensity = 0.0
+    sc.render.use_motion_blur = False
+    if job["threads"] > 0:
+        sc.render.threads_mode = "FIXED"
+        sc.render.threads = int(job["threads"])
+    sc.view_settings.view_transform = "Standard"
+    sc.view_settings.look = "None"
+    sc.view_settings.exposure = 0.0
+    sc.view_settings.gamma = 1.0
+
+    cam_data = bpy.data.cameras.new("camera")
+    cam_data.type = "PERSP"
+    cam_data.sensor_fit = "VERTICAL"
+    cam_data.sensor_height = job["camera"]["sensor_height"]
+    cam_data.lens = job["camera"]["lens"]
+    cam_data.shift_x = cam_data.shift_y = 0.0
+    cam_data.clip_start = job["camera"]["clip_start"]
+    cam_data.clip_end = job["camera"]["clip_end"]
+    cam = bpy.data.objects.new("camera", cam_data)
+    cam.matrix_world = _matrix(job["camera"]["matrix"])
+    sc.collection.objects.link(cam)
+    sc.camera = cam
+
+    mats = {name: _principled(bpy, name, m, folder) for name, m in job["materials"].items()}
+    arrays = np.load(os.path.join(folder, "meshes.npz"))
+    for mesh in job["meshes"]:
+        k = mesh["key"]
+        obj = _mesh(bpy, np, mesh["name"], arrays[f"{k}_positions"], arrays[f"{k}_normals"], arrays[f"{k}_uvs"],
+                    arrays[f"{k}_indices"])
+        obj.data.materials.append(mats[mesh["material"]])
+        sc.collection.objects.link(obj)
+
+    black = _black_material(bpy, "light backing")
+    for k, light in enumerate(job["lights"]):
+        data = bpy.data.lights.new(light["name"], "AREA")
+        data.shape = "RECTANGLE"
+        data.size, data.size_y = light["size"]
+        data.color = light["color"]
+        data.energy = light["energy"]
+        data.spread = 3.141592653589793  # 180°: Lambertian; smaller spreads renormalise the lobe
+        data.normalize = True
+        data.use_shadow = True
+        if engine == "BLENDER_EEVEE":
+            data.use_shadow_jitter = True  # soft shadows: the shadow origin moves over the light per sample
+            data.use_custom_distance = True
+            data.cutoff_distance = light["cutoff_distance"]
+        obj = bpy.data.objects.new(light["name"], data)
+        obj.matrix_world = _matrix(light["matrix"])
+        obj.visible_camera = True
+        sc.collection.objects.link(obj)
+        # The backing quad: black and occluding like Mitsuba's rectangle; for EEVEE it also
+        # shows the light's radiance to the camera, since EEVEE never draws lights.
+        n = np.asarray(light["normal"], dtype=np.float64)
+        corners = np.asarray(light["corners"], dtype=np.float64) - n * light["backing_offset"]
+        quad = _quad(bpy, np, f"{light['name']} backing", corners, n)
+        if engine == "BLENDER_EEVEE":
+            quad.data.materials.append(_emission_material(bpy, f"{light['name']} emission", light["radiance"]))
+            quad.visible_shadow = False
+            quad.hide_probe_volume = quad.hide_probe_sphere = quad.hide_probe_plane = True
+        else:
+            quad.data.materials.append(black)
+        sc.collection.objects.link(quad)
+
+    sc.world = _world(bpy, job["environment"], folder)
+
+    settings = job["settings"]
+    if engine == "CYCLES":
+        try:
+            prefs = bpy.context.preferences.addons["cycles"].preferences
+            prefs.compute_device_type = "NONE"
+        except (KeyError, AttributeError, TypeError):
+            pass
+        target = sc.cycles
+        if sc.world is not None:
+            sc.world.cycles.sampling_method = "AUTOMATIC"
+    else:
+        target = sc.eevee
+        sc.render.filter_size = job["eevee_filter_size"]
+    for key, value in settings.items():
+        if not hasattr(target, key):
+            raise ValueError(f"settings: {engine} has no setting {key!r}")
+        setattr(target, key, value)
+    return sc
+
+
+def main(folder: str, spawn_time: float) -> int:
+    t_start = time.time()
+    result: dict = {"interpreter_seconds": max(0.0, t_start - spawn_time)}
+    t0 = time.perf_counter()
+    import numpy as np
+
+    import bpy
+
+    result["import_seconds"] = time.perf_counter() - t0
+    with open(os.path.join(folder, "job.json")) as f:
+        job = json.load(f)
+    t0 = time.perf_counter()
+    sc = build(bpy, np, job, folder)
+    result["build_seconds"] = time.perf_counter() - t0
+
+    key = "samples" if job["engine"] == "CYCLES" else "taa_render_samples"
+    target = sc.cycles if job["engine"] == "CYCLES" else sc.eevee
+    full = getattr(target, key)
+    s = sc.render.image_settings
+    s.file_format = "OPEN_EXR"
+    s.color_mode = "RGB"
+    s.color_depth = "32"
+    s.exr_codec = "ZIP"
+
+    if job["warmup"]:
+        # One sample first: compiles shaders and allocates buffers outside the timed render.
+        setattr(target, key, 1)
+        t0 = time.perf_counter()
+        bpy.ops.render.render(write_still=False)
+        result["warmup_seconds"] = time.perf_counter() - t0
+
+    # Checkpoints: renders of fewer samples with the same seed. Cycles' and EEVEE's
+    # sample sequences are deterministic, so a render of n samples is the first n
+    # samples of the full one, i.e. what a progressive render shows after n samples.
+    result["ladder"] = []
+    for n in job.get("ladder") or []:
+        setattr(target, key, int(n))
+        t0, c0 = time.perf_counter(), time.process_time()
+        bpy.ops.render.render(write_still=False)
+        seconds, cpu = time.perf_counter() - t0, time.process_time() - c0
+        name = f"checkpoint-{int(n)}.exr"
+        bpy.data.images["Render Result"].save_render(os.path.join(folder, name), scene=sc)
+        result["ladder"].append({"samples": int(n), "seconds": seconds, "cpu_seconds": cpu, "file": name})
+
+    setattr(target, key, full)
+    # Wall time is what a user waits; CPU time (all threads of this process, llvmpipe's
+    # included) is what it costs, and does not grow when other processes share the cores.
+    t0, c0 = time.perf_counter(), time.process_time()
+    bpy.ops.render.render(write_still=False)
+    result["render_seconds"] = time.perf_counter() - t0
+    result["render_cpu_seconds"] = time.process_time() - c0
+
+    t0 = time.perf_counter()
+    bpy.data.images["Render Result"].save_render(os.path.join(folder, job["output"]), scene=sc)
+    result["write_seconds"] = time.perf_counter() - t0
+
+    result.update({
+        "blender_version": bpy.app.version_string,
+        "blender_build_hash": bpy.app.build_hash.decode() if isinstance(bpy.app.build_hash, bytes)
+        else str(bpy.app.build_hash),
+        "engine": job["engine"],
+        "threads": sc.render.threads,
+        "gl_driver": _gl_driver() if job["engine"] == "BLENDER_EEVEE" else "",
+        "working_space": _working_space(bpy),
+    })
+    with open(os.path.join(folder, job["result"]), "w") as f:
+        json.dump(result, f, indent=1)
+    return 0
+
+
+def _working_space(bpy) -> str:
+    try:
+        return str(bpy.data.colorspace.working_space)
+    except AttributeError:
+        return "Linear Rec.709"
+
+
+if __name__ == "__main__":
+    try:
+        sys.exit(main(sys.argv[1], float(sys.argv[2])))
+    except Exception:  # noqa: BLE001 - report everything to the caller through stderr and the exit status
+        traceback.print_exc()
+        sys.exit(3)

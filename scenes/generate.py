@@ -1,0 +1,327 @@
+"""Regenerate the mesh data and the generated stress scenes under scenes/ (deterministic).
+
+    .venv/bin/python scenes/generate.py            # rewrite everything
+    .venv/bin/python scenes/generate.py --check    # exit 1 if a committed file is out of date
+
+Written here, never at scene load time (scene files are data):
+
+* ``kitchen/kitchen.glb`` and ``car/coupe.glb`` from :mod:`compare.procedural_meshes`,
+  with the materials of ``kitchen.toml`` / ``car.toml`` (the TOML is the single
+  source: its materials are copied into the GLB so the file looks right in any
+  glTF viewer, and replace the GLB's when the scene is loaded);
+* ``stress/many_lights.toml`` (64 area lights), ``stress/scale_1e-3.toml`` and
+  ``stress/scale_1e4.toml`` (one scene at two scales), ``stress/dark.toml``
+  (the Cornell box at 1e-6 of its light), ``stress/degenerate.obj``,
+  ``stress/long_accumulation.toml`` (edges placed between the jitter samples)
+  and ``stress/env/sun_sky.exr`` (a sky with a 1e5 sun).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tomllib
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent))
+
+from compare import procedural_meshes as pm  # noqa: E402
+from compare.gltf import GltfWriter  # noqa: E402
+
+
+# ----------------------------------------------------------------------------- GLB stand-ins
+
+
+def _materials_of(scene_toml: Path) -> dict[str, dict]:
+    return tomllib.loads(scene_toml.read_text(encoding="utf-8")).get("materials", {})
+
+
+def stand_in_glb(parts: list[pm.Part], materials: dict[str, dict], generator: str) -> bytes:
+    """One node per part, materials by name from the scene's TOML."""
+    w = GltfWriter(generator=generator)
+    index = {}
+    for name, m in materials.items():
+        index[name] = w.material(name, m.get("base_color", [0.8, 0.8, 0.8]), m.get("metallic", 0.0),
+                                 m.get("roughness", 0.5), m.get("emission", [0.0, 0.0, 0.0]))
+    for name, mesh, material in parts:
+        if material not in index:
+            raise KeyError(f"part {name!r} uses material {material!r}, which the scene file does not define")
+        w.node(name, mesh=w.mesh(name, [(mesh, index[material])]))
+    return w.glb()
+
+
+def kitchen_glb() -> bytes:
+    return stand_in_glb(pm.kitchen_parts(), _materials_of(HERE / "kitchen.toml"), "compare scenes/generate.py kitchen")
+
+
+def coupe_glb() -> bytes:
+    return stand_in_glb(pm.coupe_parts(), _materials_of(HERE / "car.toml"), "compare scenes/generate.py coupe")
+
+
+# ----------------------------------------------------------------------------- outputs
+
+
+def outputs() -> dict[str, Callable[[], bytes]]:
+    """Relative path → function returning the file's bytes."""
+    return {"kitchen/kitchen.glb": kitchen_glb, "car/coupe.glb": coupe_glb, **STRESS_OUTPUTS}
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--check", action="store_true", help="only report files that differ from what would be written")
+    ap.add_argument("--out", type=Path, default=HERE, help="folder to write into (default: scenes/)")
+    args = ap.parse_args(argv)
+    stale = []
+    for rel, make in outputs().items():
+        data = make()
+        path = args.out / rel
+        if path.is_file() and path.read_bytes() == data:
+            continue
+        stale.append(rel)
+        if not args.check:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_bytes(data)
+            print(f"wrote {path} ({len(data) / 1024:.0f} KiB)")
+    if args.check and stale:
+        print("out of date: " + ", ".join(stale))
+        return 1
+    return 0
+
+
+# ----------------------------------------------------------------------------- stress scenes
+
+
+def _fmt(v) -> str:
+    if isinstance(v, str):
+        return '"' + v + '"'
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_fmt(x) for x in v) + "]"
+    if isinstance(v, float):
+        return repr(float(f"{v:.12g}"))
+    return str(v)
+
+
+def toml_text(header: str, doc: dict) -> str:
+    """A scene dict as TOML: scalars first, then tables, then arrays of tables (enough for scene files)."""
+    lines = [f"# {line}".rstrip() for line in header.strip().splitlines()]
+    scalars = {k: v for k, v in doc.items() if not isinstance(v, (dict, list)) or
+               (isinstance(v, list) and not (v and isinstance(v[0], dict)))}
+    lines += [f"{k} = {_fmt(v)}" for k, v in scalars.items()]
+
+    def table(name: str, t: dict) -> None:
+        plain = {k: v for k, v in t.items() if not isinstance(v, dict)}
+        if plain or not t:
+            lines.extend(["", f"[{name}]"] + [f"{k} = {_fmt(v)}" for k, v in plain.items()])
+        for k, v in t.items():
+            if isinstance(v, dict):
+                table(f"{name}.{k}", v)
+
+    for k, v in doc.items():
+        if isinstance(v, dict):
+            table(k, v)
+    for k, v in doc.items():
+        if isinstance(v, list) and v and isinstance(v[0], dict):
+            for item in v:
+                lines.extend(["", f"[[{k}]]"] + [f"{kk} = {_fmt(vv)}" for kk, vv in item.items()])
+    return "\n".join(lines) + "\n"
+
+
+def many_lights() -> bytes:
+    """64 small area lights in an 8 × 8 grid over a floor with three objects; colours vary per light."""
+    doc: dict = {
+        "name": "64 area lights",
+        "camera": {"position": [0.0, 3.4, 4.2], "target": [0.0, 0.2, 0.0], "fov": 45.0, "resolution": [320, 240]},
+        "render": {"max_depth": 4},
+        "materials": {"floor": {"base_color": [0.7, 0.7, 0.7], "roughness": 1.0},
+                      "clay": {"base_color": [0.6, 0.55, 0.5], "roughness": 0.7},
+                      "metal": {"base_color": [0.9, 0.9, 0.9], "metallic": 1.0, "roughness": 0.3}},
+        "meshes": [
+            {"name": "floor", "shape": "quad", "size": [6.0, 6.0], "material": "floor"},
+            {"name": "sphere", "shape": "sphere", "radius": 0.4, "translate": [-0.7, 0.4, 0.3], "material": "metal"},
+            {"name": "box", "shape": "box", "size": [0.6, 0.6, 0.6], "translate": [0.6, 0.3, -0.2],
+             "rotate": [0.0, 30.0, 0.0], "material": "clay"},
+            {"name": "post", "shape": "cylinder", "radius": 0.05, "height": 1.4, "translate": [0.1, 0.7, 0.9],
+             "material": "clay"},
+        ],
+        "lights": [],
+    }
+    for i in range(8):
+        for j in range(8):
+            u, v = i / 7, j / 7
+            doc["lights"].append({
+                "name": f"light {i}.{j}", "center": [-1.575 + 0.45 * i, 2.2, -1.575 + 0.45 * j],
+                "size": [0.14, 0.14], "normal": [0.0, -1.0, 0.0], "tangent": [1.0, 0.0, 0.0],
+                "radiance": [round(6.0 + 6.0 * u, 3), round(8.0 - 2.0 * abs(u - v), 3), round(6.0 + 6.0 * v, 3)]})
+    header = """64 area lights (generated by scenes/generate.py): an 8 x 8 grid of small lights, each with its own
+colour, over a floor with a metal sphere, a box and a thin post. Tests the per-light bookkeeping of the
+sample distributor (n_i = round(m / 64 / 4) samples per light) and many overlapping shadows."""
+    return toml_text(header, doc).encode()
+
+
+#: The scale-invariance scene at unit scale; :func:`scaled` multiplies every length.
+SCALE_BASE: dict = {
+    "camera": {"position": [0.0, 1.2, 3.2], "target": [0.0, 0.3, 0.0], "fov": 40.0, "resolution": [320, 240]},
+    "render": {"max_depth": 4},
+    "materials": {"floor": {"base_color": [0.6, 0.6, 0.6], "roughness": 0.8},
+                  "red": {"base_color": [0.7, 0.1, 0.1], "roughness": 0.4},
+                  "metal": {"base_color": [0.9, 0.85, 0.7], "metallic": 1.0, "roughness": 0.3}},
+    "meshes": [
+        {"name": "floor", "shape": "quad", "size": [4.0, 4.0], "material": "floor"},
+        {"name": "box", "shape": "box", "size": [0.6, 0.6, 0.6], "translate": [-0.5, 0.3, 0.0],
+         "rotate": [0.0, 25.0, 0.0], "material": "red"},
+        {"name": "sphere", "shape": "sphere", "radius": 0.35, "translate": [0.55, 0.35, 0.2], "material": "metal"},
+        {"name": "pole", "shape": "cylinder", "radius": 0.03, "height": 1.0, "translate": [0.1, 0.5, -0.6],
+         "material": "red"},
+    ],
+    "lights": [{"name": "key", "center": [0.3, 1.6, 0.4], "size": [0.5, 0.3], "normal": [-0.2, -1.0, -0.1],
+                "tangent": [1.0, 0.0, 0.0], "radiance": [30.0, 30.0, 30.0]}],
+}
+#: Fields holding lengths, per section, that :func:`scaled` multiplies.
+LENGTH_FIELDS = {"camera": ("position", "target"), "meshes": ("size", "radius", "height", "translate", "corners"),
+                 "lights": ("center", "size")}
+
+
+def scaled(doc: dict, factor: float) -> dict:
+    """The same scene with every length multiplied by ``factor`` (radiance is scale-invariant)."""
+    import copy
+
+    out = copy.deepcopy(doc)
+
+    def mul(v):
+        return [mul(x) for x in v] if isinstance(v, list) else float(f"{v * factor:.12g}")
+
+    for key in LENGTH_FIELDS["camera"]:
+        out["camera"][key] = mul(out["camera"][key])
+    for section in ("meshes", "lights"):
+        for item in out.get(section, []):
+            for key in LENGTH_FIELDS[section]:
+                if key in item:
+                    item[key] = mul(item[key])
+    return out
+
+
+def scale_scene(factor: float, label: str) -> bytes:
+    doc = {"name": f"scale {label}", **scaled(SCALE_BASE, factor)}
+    header = f"""One small scene (floor, box, metal sphere, thin pole, one area light) with every length multiplied
+by {label} (generated by scenes/generate.py from SCALE_BASE). Radiance does not depend on scale, so both
+renderers must give the image of the unit-scale scene: this exercises shadow-map depth precision and bias
+(in texels and relative depth), ray epsilons and near/far planes."""
+    return toml_text(header, doc).encode()
+
+
+def dark_scene() -> bytes:
+    """The Cornell box with its light at 1e-6 of its radiance."""
+    text = (HERE / "cornell.toml").read_text(encoding="utf-8")
+    old = "radiance = [18.387, 13.9873, 6.75357]"
+    if old not in text:
+        raise ValueError(f"scenes/cornell.toml no longer has {old!r}; update dark_scene()")
+    body = text[text.index("[camera]"):].replace(old, "radiance = [1.8387e-05, 1.39873e-05, 6.75357e-06]")
+    header = """A very dark scene (generated by scenes/generate.py from cornell.toml): the Cornell box with its
+light at 1e-6 of its radiance. Both renderers are linear in radiance, so the image times 1e6 must be
+the Cornell box's image: any absolute epsilon or clamp in a shader or integrator shows here."""
+    return ("\n".join(f"# {line}" for line in header.splitlines()) + '\nname = "Dark Cornell box"\n\n'
+            + body).encode()
+
+
+def degenerate_obj() -> bytes:
+    """A bumpy 6 × 6 patch, no normals, every vertex listed twice, with zero-area faces mixed in."""
+    rng = np.random.default_rng(7)
+    n = 7
+    xs = np.linspace(-1.0, 1.0, n)
+    heights = np.round(rng.uniform(0.0, 0.25, (n, n)), 4)
+    lines = ["# Degenerate mesh for the stress suite (generated by scenes/generate.py): no normals,",
+             "# every vertex listed twice (faces use either copy), zero-area faces: repeated indices,",
+             "# three distinct indices at one position, collinear points, and a polygon with a repeated corner."]
+    for i in range(n):
+        for j in range(n):
+            lines.append(f"v {xs[j]:.6g} {heights[i, j]:.6g} {xs[i]:.6g}")
+    for i in range(n):  # the duplicate copies
+        for j in range(n):
+            lines.append(f"v {xs[j]:.6g} {heights[i, j]:.6g} {xs[i]:.6g}")
+    count = n * n
+    # Collinear extras: the midpoint of the first row's first edge.
+    mid = 0.5 * (np.array([xs[0], heights[0, 0], xs[0]]) + np.array([xs[1], heights[0, 1], xs[0]]))
+    lines.append(f"v {mid[0]:.6g} {mid[1]:.6g} {mid[2]:.6g}")
+    extra = 2 * count + 1
+
+    def vid(i, j):  # 1-based, either copy
+        return i * n + j + 1 + (count if rng.random() < 0.5 else 0)
+
+    faces = []
+    for i in range(n - 1):
+        for j in range(n - 1):
+            a, b, c, d = vid(i, j), vid(i, j + 1), vid(i + 1, j + 1), vid(i + 1, j)
+            faces.append(f"f {a} {d} {c}")
+            faces.append(f"f {a} {c} {b}")
+            if (i + j) % 3 == 0:
+                faces.append(f"f {a} {a} {b}")                      # repeated index
+            if (i + j) % 4 == 1:
+                faces.append(f"f {a} {a + count if a <= count else a - count} {a}")  # one position, two copies
+    faces.append(f"f 1 2 {extra}")                                  # collinear (zero area)
+    faces.append(f"f 1 {extra} 2")
+    faces.append(f"f {vid(2, 2)} {vid(2, 3)} {vid(2, 3)} {vid(3, 3)}")  # polygon with a repeated corner
+    return ("\n".join(lines + faces) + "\n").encode()
+
+
+def long_accumulation() -> bytes:
+    """A 4 × 4 view of an emissive strip whose two edges cross pixel columns 1 and 2.
+
+    Film x maps to world x = film_x / 2 − 1 on the plane z = 0 (camera at z = 1, 90° field of view,
+    square image). With sub-pixel jitter, those two columns see the strip in some frames and black in
+    the others, so their running means keep changing for as long as frames accumulate.
+    """
+    left, right = 1.3, 2.6
+    xl, xr = left / 2 - 1, right / 2 - 1
+    doc = {
+        "name": "long accumulation",
+        "camera": {"position": [0.0, 0.0, 1.0], "target": [0.0, 0.0, 0.0], "fov": 90.0, "resolution": [4, 4]},
+        "materials": {"glow": {"base_color": [0.0, 0.0, 0.0], "roughness": 1.0, "emission": [0.7, 0.3, 0.11]}},
+        "meshes": [{"name": "strip", "shape": "quad", "material": "glow",
+                    "corners": [[xl, -3.0, 0.0], [xr, -3.0, 0.0], [xr, 3.0, 0.0], [xl, 3.0, 0.0]]}],
+    }
+    header = f"""Long accumulation (generated by scenes/generate.py): a 4 x 4 view of an emissive strip whose edges
+cross pixel columns 1 and 2 (film x = {left} and {right}). With sub-pixel jitter those pixels are 0 in some
+frames and the emission in others, so their running means keep changing: tests/test_stress.py compares
+the rasterizer's float32 running mean after 1e4 (and 1e5, slow) frames with the float64 mean of the
+same per-frame values. No lights, no environment: nothing but jitter and accumulation."""
+    return toml_text(header, doc).encode()
+
+
+def sun_sky_exr() -> bytes:
+    """A 256 × 128 equirectangular sky: a gradient from 0.3 (horizon) to 1.0 (zenith), black below the
+    horizon, and a one-pixel sun of radiance 1e5 at 45° elevation."""
+    import tempfile
+
+    from compare.exr import write_exr
+
+    w, h = 256, 128
+    theta = (np.arange(h) + 0.5) / h * np.pi  # row centre, from +Y
+    sky = np.where(theta < np.pi / 2, 0.3 + 0.7 * np.sqrt(np.clip(np.cos(theta), 0.0, None)), 0.0)
+    img = np.repeat(np.repeat(sky[:, None, None], w, 1), 3, 2).astype(np.float32)
+    img[..., 2] *= 1.15
+    img[..., 0] *= 0.85
+    img[h // 4, w // 3] = (1e5, 1e5, 1e5)  # theta = 45.7 deg
+    with tempfile.TemporaryDirectory() as d:
+        path = Path(d) / "sun_sky.exr"
+        write_exr(path, img, metadata={"description": "sky gradient with a 1e5 sun (scenes/generate.py)"})
+        return path.read_bytes()
+
+
+STRESS_OUTPUTS: dict = {
+    "stress/many_lights.toml": many_lights,
+    "stress/scale_1e-3.toml": lambda: scale_scene(1e-3, "1e-3"),
+    "stress/scale_1e4.toml": lambda: scale_scene(1e4, "1e4"),
+    "stress/dark.toml": dark_scene,
+    "stress/degenerate.obj": degenerate_obj,
+    "stress/long_accumulation.toml": long_accumulation,
+    "stress/env/sun_sky.exr": sun_sky_exr,
+}
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,431 @@
+"""glTF 2.0 import (compare.gltf): accessors, hierarchy, materials, cameras, lights, and [[include]]."""
+
+from __future__ import annotations
+
+import base64
+import json
+import math
+import struct
+import textwrap
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from compare import geometry
+from compare.errors import SceneError
+from compare.gltf import GltfError, GltfWriter, load_gltf
+from compare.scene import load_scene
+
+# A 2×2 PNG (red, green / blue, white), 8-bit RGB.
+PNG_2X2 = base64.b64decode(
+    "iVBORw0KGgoAAAANSUhEUgAAAAIAAAACCAIAAAD91JpzAAAAFklEQVR4nGP4z8DAwMDAxMDAwMDAAAANHQEDasKb6QAAAABJRU5ErkJggg=="
+)
+
+
+def write_toml(folder: Path, text: str, name: str = "scene.toml") -> Path:
+    path = folder / name
+    path.write_text(textwrap.dedent(text))
+    return path
+
+
+def quiet_load(path):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return load_scene(path)
+
+
+def simple_writer() -> GltfWriter:
+    """A red box at y = 0.5 under a 0.5 m emissive quad at y = 2 facing down, a camera and a point light."""
+    w = GltfWriter()
+    red = w.material("paint", (0.8, 0.1, 0.1), 0.0, 0.3)
+    lamp = w.material("lamp", (1.0, 1.0, 1.0), 0.0, 1.0, emission=(5.0, 4.0, 3.0))
+    box = w.mesh("box", [(geometry.box((1.0, 1.0, 1.0)), red)])
+    down = geometry.quad((0.5, 0.5)).transformed(geometry.transform_matrix(rotate=(180.0, 0.0, 0.0)))
+    quad = w.mesh("lamp", [(down, lamp)])
+    w.node("box", mesh=box, translation=(0.0, 0.5, 0.0))
+    w.node("lamp", mesh=quad, translation=(0.0, 2.0, 0.0))
+    w.node("camera", camera=w.camera("cam", 40.0, 4 / 3), translation=(0.0, 1.0, 4.0))
+    w.node("bulb", light=w.light("bulb", "point", 683.0), translation=(1.0, 2.0, 1.0))
+    return w
+
+
+# ----------------------------------------------------------------------------- reading
+
+
+@pytest.mark.parametrize("suffix", [".glb", ".gltf"])
+def test_round_trip_geometry_materials_camera_light(tmp_path, suffix):
+    path = simple_writer().write(tmp_path / f"m{suffix}")
+    doc = load_gltf(path)
+    assert [p.name for p in doc.primitives] == ["box", "lamp"]
+    box = geometry.box((1.0, 1.0, 1.0))
+    np.testing.assert_array_equal(doc.primitives[0].mesh.positions, box.positions)
+    np.testing.assert_array_equal(doc.primitives[0].mesh.indices, box.indices)
+    np.testing.assert_allclose(doc.primitives[0].mesh.normals, box.normals)
+    np.testing.assert_allclose(doc.primitives[0].matrix[:3, 3], [0.0, 0.5, 0.0])
+    paint, lamp = doc.materials
+    assert paint.name == "paint" and paint.base_color == pytest.approx((0.8, 0.1, 0.1)) and paint.roughness == 0.3
+    assert paint.metallic == 0.0
+    # Emission above 1 is stored as a normalised factor times KHR_materials_emissive_strength.
+    assert lamp.emission == pytest.approx((5.0, 4.0, 3.0))
+    (cam,) = doc.cameras
+    assert cam.yfov == pytest.approx(math.radians(40.0)) and cam.aspect == pytest.approx(4 / 3)
+    (light,) = doc.lights
+    assert light.kind == "point" and light.intensity == 683.0
+    np.testing.assert_allclose(light.matrix[:3, 3], [1.0, 2.0, 1.0])
+
+
+def test_node_hierarchy_trs_and_matrix(tmp_path):
+    w = GltfWriter()
+    tri = geometry._mesh([[1, 0, 0], [0, 1, 0], [0, 0, 1]], [[0, 0, 1]] * 3, [[0, 0]] * 3, [[0, 1, 2]])
+    mesh = w.mesh("t", [(tri, None)])
+    # child: rotate 90° about +Y (quaternion), scale 2; parent: translate (10, 0, 0) as a matrix.
+    s = math.sqrt(0.5)
+    child = w.node("child", mesh=mesh, rotation=(0.0, s, 0.0, s), scale=(2.0, 2.0, 2.0))
+    parent = np.eye(4)
+    parent[:3, 3] = (10.0, 0.0, 0.0)
+    w.node("parent", matrix=parent, children=(child,))
+    doc = load_gltf(w.write(tmp_path / "h.glb"))
+    (prim,) = doc.primitives
+    world = prim.mesh.transformed(prim.matrix).positions
+    # Rotating +X by 90° about +Y gives −Z; then ×2, then +10 in x.
+    np.testing.assert_allclose(world, [[10, 0, -2], [10, 2, 0], [12, 0, 0]], atol=1e-6)
+
+
+def test_instanced_mesh_gives_one_primitive_per_node(tmp_path):
+    w = GltfWriter()
+    mesh = w.mesh("box", [(geometry.box((1, 1, 1)), None)])
+    for x in (0.0, 3.0, 6.0):
+        w.node(f"box{x:g}", mesh=mesh, translation=(x, 0.0, 0.0))
+    doc = load_gltf(w.write(tmp_path / "i.glb"))
+    assert [p.matrix[0, 3] for p in doc.primitives] == [0.0, 3.0, 6.0]
+    assert doc.primitives[0].mesh is doc.primitives[1].mesh  # decoded once
+
+
+def _raw_doc(w: GltfWriter) -> dict:
+    return w.document(embed_buffer=True)
+
+
+def _write_doc(path: Path, doc: dict) -> Path:
+    path.write_text(json.dumps(doc))
+    return path
+
+
+def test_strided_normalized_and_sparse_accessors(tmp_path):
+    """Interleaved positions/UVs with byteStride, normalized uint16 UVs, and a sparse override."""
+    p = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], dtype=np.float32)
+    uv = np.array([[0, 0], [65535, 0], [65535, 65535], [0, 32768]], dtype=np.uint16)
+    rows = b"".join(p[i].tobytes() + uv[i].tobytes() for i in range(4))  # 16-byte stride
+    w = GltfWriter()
+    view = w.view(rows)
+    w.doc["bufferViews"][view]["byteStride"] = 16
+    w._add("accessors", {"bufferView": view, "componentType": 5126, "count": 4, "type": "VEC3"})
+    w._add("accessors", {"bufferView": view, "byteOffset": 12, "componentType": 5123, "normalized": True,
+                         "count": 4, "type": "VEC2"})
+    idx = w.accessor(np.array([[0, 1, 2], [0, 2, 3]]), indices=True)
+    # Sparse: move vertex 2 to z = 5 on top of the same positions.
+    si = w.view(np.array([2], dtype=np.uint16).tobytes())
+    sv = w.view(np.array([1, 1, 5], dtype=np.float32).tobytes())
+    w._add("accessors", {"bufferView": view, "componentType": 5126, "count": 4, "type": "VEC3",
+                         "sparse": {"count": 1, "indices": {"bufferView": si, "componentType": 5123},
+                                    "values": {"bufferView": sv}}})
+    nrm = w.accessor(np.tile([0.0, 0.0, 1.0], (4, 1)))
+    w._add("meshes", {"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1, "NORMAL": nrm},
+                                      "indices": idx}]})
+    w._add("meshes", {"primitives": [{"attributes": {"POSITION": idx + 1, "NORMAL": nrm}, "indices": idx}]})
+    w.node("plain", mesh=0)
+    w.node("sparse", mesh=1)
+    doc = load_gltf(_write_doc(tmp_path / "s.gltf", _raw_doc(w)))
+    plain, sparse = doc.primitives
+    np.testing.assert_array_equal(plain.mesh.positions, p)
+    np.testing.assert_allclose(plain.mesh.uvs, [[0, 0], [1, 0], [1, 1], [0, 32768 / 65535]], atol=1e-7)
+    np.testing.assert_array_equal(sparse.mesh.positions[2], [1, 1, 5])
+    np.testing.assert_array_equal(sparse.mesh.positions[[0, 1, 3]], p[[0, 1, 3]])
+
+
+def test_strip_fan_nonindexed_and_points(tmp_path):
+    pts = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [0, 2, 0]], dtype=np.float32)
+    w = GltfWriter()
+    pos = w.accessor(pts)
+    nrm = w.accessor(np.tile([0.0, 0.0, 1.0], (5, 1)))
+    for mode in (5, 6, 4, 0):
+        w._add("meshes", {"name": f"mode{mode}",
+                          "primitives": [{"attributes": {"POSITION": pos, "NORMAL": nrm}, "mode": mode}]})
+        w.node(f"mode{mode}", mesh=len(w.doc["meshes"]) - 1)
+    doc = load_gltf(w.write(tmp_path / "m.glb"))
+    strip, fan, tris = (p.mesh.indices.tolist() for p in doc.primitives)
+    assert strip == [[0, 1, 2], [1, 3, 2], [2, 3, 4]]  # the spec's order: every triangle counter-clockwise
+    assert fan == [[1, 2, 0], [2, 3, 0], [3, 4, 0]]
+    assert tris == [[0, 1, 2]]  # 5 vertices: one whole triangle, the rest ignored
+    assert any("mode 0" in n for n in doc.warnings)  # points: skipped and said so
+    # Strips keep a consistent facing: every triangle's normal is +Z.
+    p = doc.primitives[0].mesh.positions.astype(np.float64)
+    for a, b, c in doc.primitives[0].mesh.indices:
+        assert np.cross(p[b] - p[a], p[c] - p[a])[2] > 0
+
+
+def test_missing_normals_are_flat_and_zero_normals_repaired(tmp_path):
+    pts = np.array([[0, 0, 0], [1, 0, 0], [0, 0, -1], [0, 1, -1]], dtype=np.float32)
+    idx = np.array([[0, 1, 2], [0, 2, 3]])
+    w = GltfWriter()
+    pos = w.accessor(pts)
+    ind = w.accessor(idx, indices=True)
+    bad = w.accessor(np.array([[0, 0, 0], [0, 1, 0], [np.nan, 0, 0], [0, 1, 0]], dtype=np.float32))
+    w._add("meshes", {"primitives": [{"attributes": {"POSITION": pos}, "indices": ind}]})
+    w._add("meshes", {"primitives": [{"attributes": {"POSITION": pos, "NORMAL": bad}, "indices": ind}]})
+    w.node("flat", mesh=0)
+    w.node("repaired", mesh=1)
+    doc = load_gltf(w.write(tmp_path / "n.glb"))
+    flat, repaired = doc.primitives
+    assert len(flat.mesh.positions) == 6  # unwelded: one face normal per triangle
+    np.testing.assert_allclose(flat.mesh.normals[:3], [[0, 1, 0]] * 3, atol=1e-7)
+    np.testing.assert_allclose(flat.mesh.normals[3:], [[1, 0, 0]] * 3, atol=1e-7)
+    n = repaired.mesh.normals
+    assert np.all(np.isfinite(n)) and np.allclose(np.linalg.norm(n, axis=1), 1.0, atol=1e-6)
+    assert any("normals replaced" in m for m in doc.warnings)
+
+
+@pytest.mark.parametrize("break_it, message", [
+    (lambda d: d["accessors"][0].update(count=10_000), r"accessors\[0\]: 10000 elements need"),
+    (lambda d: d["meshes"][0]["primitives"][0].update(indices=99), r"accessors index 99 out of range"),
+    (lambda d: d.update(extensionsRequired=["KHR_draco_mesh_compression"]),
+     "unsupported required extension.*KHR_draco_mesh_compression"),
+    (lambda d: d["asset"].update(version="1.0"), r"asset\.version: only glTF 2\.x"),
+    (lambda d: d["nodes"][0].update(children=[0]), r"nodes\[0\]: the node hierarchy has a cycle"),
+    (lambda d: d["buffers"][0].update(uri="../outside.bin"), "leaves the scene file's folder"),
+    (lambda d: d["buffers"][0].update(uri="missing.bin"), "file 'missing.bin' not found"),
+])
+def test_malformed_files_name_file_and_json_path(tmp_path, break_it, message):
+    w = GltfWriter()
+    w.node("box", mesh=w.mesh("box", [(geometry.box((1, 1, 1)), None)]))
+    doc = _raw_doc(w)
+    break_it(doc)
+    sub = tmp_path / "sub"
+    sub.mkdir()
+    (tmp_path / "outside.bin").write_bytes(bytes(w.bin))
+    path = _write_doc(sub / "bad.gltf", doc)
+    with pytest.raises(GltfError, match=message) as info:
+        load_gltf(path)
+    assert str(path) in str(info.value)
+
+
+def test_truncated_glb(tmp_path):
+    data = simple_writer().glb()
+    path = tmp_path / "t.glb"
+    path.write_bytes(data[: len(data) // 2])
+    with pytest.raises(GltfError, match="t.glb"):
+        load_gltf(path)
+
+
+def test_external_buffer_and_image_files_count_for_the_hash(tmp_path):
+    w = simple_writer()
+    doc = _raw_doc(w)
+    (tmp_path / "m.bin").write_bytes(bytes(w.bin))
+    doc["buffers"][0]["uri"] = "m.bin"
+    _write_doc(tmp_path / "m.gltf", doc)
+    scene = write_toml(tmp_path, 'include = "m.gltf"\n')
+    s1 = quiet_load(scene)
+    assert tmp_path / "m.bin" in s1.referenced_files and tmp_path / "m.gltf" in s1.referenced_files
+    data = bytearray(w.bin)
+    data[0:4] = struct.pack("<f", 0.25)  # move one vertex
+    (tmp_path / "m.bin").write_bytes(bytes(data))
+    assert quiet_load(scene).hash != s1.hash
+
+
+# ----------------------------------------------------------------------------- into a scene
+
+
+def test_include_maps_materials_camera_and_lights(tmp_path):
+    simple_writer().write(tmp_path / "m.glb")
+    s = quiet_load(write_toml(tmp_path, """
+        include = "m.glb"
+
+        [[meshes]]
+        name = "floor"
+        shape = "quad"
+        size = [10, 10]
+        material = "m/paint"
+    """))
+    # Camera from the glTF (no [camera] table): looks down its −Z, 320 wide at the glTF aspect.
+    assert s.camera.position == (0.0, 1.0, 4.0) and s.camera.target == (0.0, 1.0, 3.0)
+    assert s.camera.fov == pytest.approx(40.0) and s.camera.resolution == (320, 240)
+    assert [m.name for m in s.meshes] == ["floor", "m/box"]
+    assert s.materials["m/paint"].base_color == pytest.approx((0.8, 0.1, 0.1))
+    # The emissive quad became a rectangle light facing down with the emission as radiance.
+    lamp = s.lights[0]
+    assert lamp.name == "m/lamp" and lamp.size == pytest.approx((0.5, 0.5))
+    np.testing.assert_allclose(lamp.center, [0, 2, 0], atol=1e-7)
+    np.testing.assert_allclose(lamp.normal, [0, -1, 0], atol=1e-7)
+    assert lamp.radiance == pytest.approx((5.0, 4.0, 3.0))
+    # The point light (683 cd = 1 W/sr) became a closed cube of six lights emitting 4π W in all.
+    cube = s.lights[1:]
+    assert len(cube) == 6
+    total = sum(light.power for light in cube)
+    np.testing.assert_allclose(total, 4 * math.pi, rtol=1e-9)
+    centre = np.mean([light.center for light in cube], axis=0)
+    np.testing.assert_allclose(centre, [1, 2, 1], atol=1e-9)
+    for light in cube:  # each face emits away from the cube's centre
+        assert np.dot(np.subtract(light.center, centre), light.normal) > 0
+
+
+def test_include_options_transform_override_and_toml_camera(tmp_path):
+    simple_writer().write(tmp_path / "m.glb")
+    s = quiet_load(write_toml(tmp_path, """
+        [camera]
+        resolution = [64, 48]
+        fov = 30
+
+        [[include]]
+        file = "m.glb"
+        prefix = ""
+        translate = [5, 0, 0]
+        scale = 2
+        emissive_quads = "meshes"
+        punctual = "ignore"
+
+        [materials.paint]
+        base_color = [0.1, 0.8, 0.1]
+        roughness = 0.9
+    """))
+    assert s.camera.resolution == (64, 48) and s.camera.fov == 30  # the TOML's fields win
+    assert s.camera.position == pytest.approx((5.0, 2.0, 8.0))  # glTF camera moved with the include
+    assert s.materials["paint"].base_color == (0.1, 0.8, 0.1)  # replaced by the TOML
+    assert not s.lights and s.features().emissive_meshes  # quad kept as an emissive mesh, no punctual lights
+    lo, hi = s.bounds()
+    np.testing.assert_allclose(lo, [4.0, 0.0, -1.0], atol=1e-6)  # box ×2 about the glTF origin, then +5 x
+    np.testing.assert_allclose(hi, [6.0, 4.0, 1.0], atol=1e-6)
+
+
+def test_spot_and_directional_lights(tmp_path):
+    w = GltfWriter()
+    w.node("floor", mesh=w.mesh("floor", [(geometry.quad((4, 4)), w.material("white"))]))
+    w.node("spot", light=w.light("spot", "spot", 683.0 * 2), translation=(0, 3, 0),
+           rotation=(-math.sqrt(0.5), 0, 0, math.sqrt(0.5)))  # −Z turned to −Y
+    w.node("sun", light=w.light("sun", "directional", 5.0))
+    w.write(tmp_path / "l.glb")
+    with pytest.warns(UserWarning) as record:
+        s = load_scene(write_toml(tmp_path, """
+            [camera]
+            position = [0, 2, 5]
+            target = [0, 0, 0]
+
+            [[include]]
+            file = "l.glb"
+            punctual_size = 0.1
+        """))
+    notes = [str(w.message) for w in record]
+    assert any("directional light 'sun' skipped" in n for n in notes)
+    assert any("spot light 'spot'" in n and "cone not reproduced" in n for n in notes)
+    (spot,) = s.lights
+    np.testing.assert_allclose(spot.normal, [0, -1, 0], atol=1e-9)
+    # On-axis intensity L·A = 2 W/sr.
+    assert spot.radiance[0] * spot.area == pytest.approx(2.0)
+
+
+@pytest.mark.parametrize("text, message", [
+    ('include = "none.glb"\n', r"include\.file: file 'none.glb' not found"),
+    ('[[include]]\nfile = "m.glb"\nemissive_quads = "yes"\n', r"include\[0\]\.emissive_quads: expected 'lights'"),
+    ('[[include]]\nfile = "m.glb"\ncamera = "nope"\n', r"include\[0\]\.camera: no camera named 'nope'"),
+    ('[[include]]\nfile = "m.glb"\ncolour = 1\n', r"include\[0\]\.colour: unknown field"),
+    ('include = "bad.glb"\n', r"scene\.toml: include\.file: .*bad\.glb: "),
+    ('include = "m.obj"\n', r"include\.file: 'm.obj': unsupported file type"),
+])
+def test_include_errors_name_scene_and_field(tmp_path, text, message):
+    simple_writer().write(tmp_path / "m.glb")
+    (tmp_path / "bad.glb").write_bytes(b"glTF\x02\x00\x00\x00\x20\x00\x00\x00" + b"\x00" * 20)
+    (tmp_path / "m.obj").write_text("v 0 0 0\n")
+    with pytest.raises(SceneError, match=message):
+        quiet_load(write_toml(tmp_path, text))
+
+
+def test_embedded_and_external_textures(tmp_path, monkeypatch):
+    monkeypatch.setenv("COMPARE_CACHE", str(tmp_path / "cache"))
+    w = simple_writer()
+    img = w._add("images", {"bufferView": w.view(PNG_2X2), "mimeType": "image/png"})
+    ext = w._add("images", {"uri": "tex/mr.png"})
+    w._add("textures", {"source": img})
+    w._add("textures", {"source": ext})
+    pbr = w.doc["materials"][0]["pbrMetallicRoughness"]
+    pbr["baseColorTexture"] = {"index": 0}
+    pbr["metallicRoughnessTexture"] = {"index": 1}
+    (tmp_path / "tex").mkdir()
+    (tmp_path / "tex" / "mr.png").write_bytes(PNG_2X2)
+    w.write(tmp_path / "t.glb")
+    s = quiet_load(write_toml(tmp_path, 'include = "t.glb"\n'))
+    mat = s.materials["t/paint"]
+    assert mat.base_color_texture.read_bytes() == PNG_2X2
+    assert mat.base_color_texture.is_relative_to(tmp_path / "cache")
+    assert mat.metallic_roughness_texture == tmp_path / "tex" / "mr.png"
+    assert s.features().textures
+
+
+# ----------------------------------------------------------------------------- rendering
+
+
+def _pair(tmp_path: Path):
+    """The same lit box twice: once from a glTF include, once written as TOML primitives and lights."""
+    simple_writer().write(tmp_path / "m.glb")
+    cam = """
+        [camera]
+        position = [2.5, 2.0, 3.5]
+        target = [0, 0.5, 0]
+        resolution = [48, 36]
+    """
+    floor = """
+        [materials.grey]
+        base_color = [0.5, 0.5, 0.5]
+        roughness = 1.0
+
+        [[meshes]]
+        name = "floor"
+        shape = "quad"
+        size = [6, 6]
+        material = "grey"
+    """
+    via_gltf = quiet_load(write_toml(tmp_path, cam + floor + """
+        [[include]]
+        file = "m.glb"
+        punctual = "ignore"
+    """, "a.toml"))
+    via_toml = quiet_load(write_toml(tmp_path, cam + floor + """
+        [materials.paint]
+        base_color = [0.8, 0.1, 0.1]
+        roughness = 0.3
+
+        [[meshes]]
+        shape = "box"
+        size = [1, 1, 1]
+        translate = [0, 0.5, 0]
+        material = "paint"
+
+        [[lights]]
+        center = [0, 2, 0]
+        size = [0.5, 0.5]
+        normal = [0, -1, 0]
+        tangent = [1, 0, 0]
+        radiance = [5, 4, 3]
+    """, "b.toml"))
+    return via_gltf, via_toml
+
+
+@pytest.mark.gl
+def test_included_scene_renders_like_its_toml_twin_progressive(tmp_path, gl_ctx):
+    from compare.progressive import render_progressive
+
+    a, b = _pair(tmp_path)
+    ia = render_progressive(a, frames=24, ctx=gl_ctx).image
+    ib = render_progressive(b, frames=24, ctx=gl_ctx).image
+    assert np.isfinite(ia).all() and ia.mean() > 2e-3
+    # The emissive quad's light must light the floor: same light, same pixels.
+    np.testing.assert_allclose(ia, ib, rtol=1e-4, atol=1e-6)
+
+
+def test_included_scene_renders_like_its_toml_twin_reference(tmp_path):
+    from compare.reference import ReferenceRenderer
+
+    a, b = _pair(tmp_path)
+    ia = ReferenceRenderer(a, cache_dir=False, progress=False).render(16).image
+    ib = ReferenceRenderer(b, cache_dir=False, progress=False).render(16).image
+    assert np.isfinite(ia).all() and ia.mean() > 2e-3
+    assert abs(ia.mean() - ib.mean()) < 0.03 * ib.mean()
