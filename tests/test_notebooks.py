@@ -14,7 +14,7 @@ nbformat = pytest.importorskip("nbformat", reason="notebook tools are in the dev
 
 
 def test_there_are_notebooks():
-    assert {p.name for p in NOTEBOOKS} >= {"quickstart.ipynb"}
+    assert {p.name for p in NOTEBOOKS} >= {"quickstart.ipynb", "ablations.ipynb", "stability.ipynb"}
 
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
