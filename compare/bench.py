@@ -23,6 +23,12 @@ absolute times are printed for context only. How to read each figure:
     high-spp ground truth) ÷ the progressive renderer's seconds for all its
     frames: > 1 means the rasterizer reaches that error faster. Given against
     the full reference and against the direct-light-only reference.
+``frame-budget``
+    seconds to reach a target FLIP (1.1 × the fixed plan's final FLIP against
+    the direct-light-only reference, which more samples converge to) with a per-frame time budget
+    (:mod:`compare.progressive.budget`; 16 ms and 100 ms) ÷ the same with the
+    paper's fixed plan of ``--frames`` frames. < 1 means the budget gets there
+    sooner. Medians of ``--repeats`` alternating runs.
 ``peak-rss``
     peak resident memory (MiB) of a separate process doing a 1080p progressive
     run and one doing a 1080p reference pass; their ratio is progressive ÷ reference.
@@ -47,7 +53,9 @@ import numpy as np
 
 from .fsutil import write_text_atomic
 
-ITEMS = ("first-frame", "depth-floor", "wrapper-overhead", "equal-error", "peak-rss", "eevee")
+ITEMS = ("first-frame", "depth-floor", "wrapper-overhead", "equal-error", "frame-budget", "peak-rss", "eevee")
+#: Per-frame budgets (ms) of the frame-budget item.
+BUDGETS_MS = (16.0, 100.0)
 
 
 @dataclass
@@ -195,6 +203,39 @@ def bench_equal_error(scene, *, frames: int, spp: int, ctx) -> list[Figure]:
     return out
 
 
+def bench_frame_budget(scene, *, frames: int, spp: int, repeats: int, ctx) -> list[Figure]:
+    """Time to a target FLIP with a frame budget ÷ with the fixed plan (checkpoints at every frame)."""
+    from .metrics import flip
+    from .progressive import render_progressive
+    from .reference import ReferenceRenderer, derive_seed
+
+    # Against the direct-light-only reference: that is what more samples converge to (the full
+    # reference's error is dominated by the missing indirect light at every frame count).
+    truth = ReferenceRenderer(scene, max_depth=2, progress=False).render(
+        4 * spp, seed=derive_seed("bench-ground-truth")).image
+
+    def curve(budget):
+        res = render_progressive(scene, frames=frames, ctx=ctx, checkpoints="every", frame_budget_ms=budget)
+        return ([c.seconds for c in res.checkpoints], [flip(truth, c.image)[0] for c in res.checkpoints],
+                len(res.frame_seconds))
+
+    runs: dict = {None: [], **{b: [] for b in BUDGETS_MS}}
+    for _ in range(repeats):
+        for budget in runs:
+            runs[budget].append(curve(budget))
+    target = 1.1 * _median([errors[-1] for _, errors, _ in runs[None]])
+    fixed = [time_to_error(t, e, target) for t, e, _ in runs[None]]
+    out = []
+    for budget in BUDGETS_MS:
+        times = [time_to_error(t, e, target) for t, e, _ in runs[budget]]
+        n = _median([k for _, _, k in runs[budget]])
+        final = _median([e[-1] for _, e, _ in runs[budget]])
+        out.append(Figure(f"frame-budget-{budget:g}ms", f"budget {budget:g} ms to FLIP {target:.4f}",
+                          f"fixed {frames} frames to it", _median(times), _median(fixed), "s", repeats,
+                          f"{n:g} frames with the budget, final FLIP {final:.4f}", times, fixed))
+    return out
+
+
 _RSS_SCRIPT = """
 import resource, sys
 from compare.scene import load_scene
@@ -288,6 +329,8 @@ def run_bench(scene_path: str | Path, *, size: tuple[int, int], frames: int, spp
                     figures += bench_wrapper_overhead(scene, spp=min(spp, 64), repeats=repeats)
                 elif item == "equal-error":
                     figures += bench_equal_error(scene, frames=frames, spp=spp, ctx=ctx)
+                elif item == "frame-budget":
+                    figures += bench_frame_budget(scene, frames=frames, spp=spp, repeats=repeats, ctx=ctx)
                 elif item == "peak-rss":
                     figures += bench_peak_rss(str(scene_path), frames=frames, spp=spp)
                 elif item == "eevee":

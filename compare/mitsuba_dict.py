@@ -60,18 +60,11 @@ def material_dict(mat: Material, mode: str) -> dict:
         register()
         return {"type": SHARED_BSDF, "base_color": base, "metallic": mat.metallic, "roughness": mat.roughness}
     if mode == "cycles":
-        return {
-            "type": "principled",
-            "base_color": base,
-            "metallic": mat.metallic,
-            "roughness": mat.roughness,
-            "specular": 0.5,  # F0 = 0.08·specular = 0.04, the glTF dielectric value
-            "spec_tint": 0.0,
-            "anisotropic": 0.0,
-            "sheen": 0.0,
-            "clearcoat": 0.0,
-            "spec_trans": 0.0,
-        }
+        from .brdf.mitsuba_plugin import register
+
+        register()
+        return {"type": SHARED_BSDF, "flavour": "cycles", "base_color": base, "metallic": mat.metallic,
+                "roughness": mat.roughness}
     if mode == "diffuse":
         return {"type": "diffuse", "reflectance": base}
     raise ValueError(f"materials: expected one of {', '.join(MATERIAL_MODES)}, got {mode!r}")

@@ -19,7 +19,9 @@ For each scene and resolution this module
    ``noise_floor(spp)`` (two half-budget renders) would cost a third full
    render to say the same thing;
 3. renders each **progressive** variant (``progressive`` or
-   ``progressive:<area_model>``) with checkpoints at frames 1, 2, 4, …,
+   ``progressive:<option>[+<option>]``, :mod:`compare.variants`: the paper's
+   area model, irradiance probes, variance shadow maps, a frame budget) with
+   checkpoints at frames 1, 2, 4, …,
    ``--frames``, every checkpoint measured against the ground truth;
 4. writes ``results.json`` (:mod:`compare.results`) and the HTML report
    (:mod:`compare.report`).
@@ -91,7 +93,7 @@ __all__ = [
     "scene_id",
 ]
 
-#: Renderer specs accepted by ``--renderers`` (``progressive:<area_model>`` too).
+#: Renderer specs accepted by ``--renderers`` (``progressive:<option>`` too, see compare.variants).
 RENDERER_NAMES = ("mitsuba", "progressive")
 _HALF_MAX = 65504.0
 
@@ -131,32 +133,24 @@ def parse_sizes(text: str) -> list[tuple[int, int]]:
 
 
 def parse_renderers(text: str | Iterable[str]) -> list[str]:
-    """Validate a comma-separated renderer list (``mitsuba``, ``progressive[:area_model]``)."""
+    """Validate a comma-separated renderer list (``mitsuba``, ``progressive[:<option>[+<option>]]``)."""
+    from .variants import renderer_options
+
     items = [s.strip() for s in (text.split(",") if isinstance(text, str) else text) if s.strip()]
     if not items:
         raise ValueError("expected at least one renderer, e.g. mitsuba,progressive")
     for item in items:
         base, _, option = item.partition(":")
         if base not in RENDERER_NAMES or (base == "mitsuba" and option) or (":" in item and not option):
-            raise ValueError(f"unknown renderer {item!r}; expected mitsuba, progressive or progressive:<area_model>")
+            raise ValueError(f"unknown renderer {item!r}; expected mitsuba, progressive or "
+                             f"progressive:<option> (compare.variants: paper, probes, vsm, budget<ms>)")
+        if base == "progressive":
+            renderer_options(item)  # names an unknown option before hours of reference rendering
     if len(set(items)) != len(items):
         raise ValueError(f"renderer listed twice in {items}")
     return items
 
 
-def _check_area_models(specs: list[str]) -> None:
-    """Refuse an unknown ``progressive:<area_model>`` before hours of reference rendering."""
-    models = [spec.partition(":")[2] for spec in specs if spec.startswith("progressive:")]
-    if not models:
-        return
-    try:
-        from .progressive.direct import AREA_MODELS
-    except ImportError:  # the renderer will say what is missing when it runs
-        return
-    for m in models:
-        if m not in AREA_MODELS:
-            raise ValueError(f"renderer progressive:{m}: unknown area model; expected one of "
-                             f"{', '.join('progressive:' + a for a in AREA_MODELS)}")
 
 
 def _cpu_model() -> str:
@@ -323,7 +317,7 @@ def _maps(unit: _Unit, gt: np.ndarray, image: np.ndarray, settings: RunSettings)
 # --------------------------------------------------------------------------- renderers
 
 
-def _progressive_checkpoints(scene: Scene, *, frames: int, seed: int, area_model: str | None,
+def _progressive_checkpoints(scene: Scene, *, frames: int, seed: int, options: dict,
                              checkpoints: list[int], ctx) -> tuple[list[tuple[int, float, np.ndarray]], float, dict]:
     """Run the progressive renderer; returns (checkpoints, setup seconds, metadata).
 
@@ -333,16 +327,16 @@ def _progressive_checkpoints(scene: Scene, *, frames: int, seed: int, area_model
     """
     from .progressive import render_progressive
 
-    kwargs: dict[str, Any] = {"frames": frames, "seed": seed, "checkpoints": tuple(checkpoints), "ctx": ctx}
-    if area_model:
-        kwargs["area_model"] = area_model
+    kwargs: dict[str, Any] = {"frames": frames, "seed": seed, "checkpoints": tuple(checkpoints), "ctx": ctx,
+                              **options}
     t0 = time.perf_counter()
     result = render_progressive(scene, **kwargs)
     wall = time.perf_counter() - t0
     cps = [(int(f), float(s), np.asarray(img, dtype=np.float32)) for f, s, img in result.checkpoints]
-    if not cps or cps[-1][0] != frames:
+    done = len(result.frame_seconds) or frames  # a frame budget decides the count itself
+    if not cps or cps[-1][0] != done:
         # The final image is the result even if the renderer did not list it as a checkpoint.
-        cps.append((frames, float(result.seconds), np.asarray(result.image, dtype=np.float32)))
+        cps.append((done, float(result.seconds), np.asarray(result.image, dtype=np.float32)))
     meta = dict(result.metadata or {})
     # Prefer the renderer's own set-up time; otherwise everything in the call that was not a timed frame.
     setup = meta.get("setup_seconds")
@@ -458,7 +452,9 @@ class _Runner:
     def progressive(self, scene: Scene, sid: str, spec: str, ref: Reference, gt: Callable[[], np.ndarray],
                     bar) -> RendererRun:
         s = self.settings
-        area_model = spec.partition(":")[2] or None
+        from .variants import describe, renderer_options
+
+        options = renderer_options(spec)
         key = _key("progressive", spec, scene.hash, s.frames, s.seed, ref.key, s.exposure, s.tonemap,
                    self.machine, __version__)
         unit = self._unit(sid, spec)
@@ -471,7 +467,7 @@ class _Runner:
         if self.gl_ctx is None:
             self.gl_ctx = _create_gl_context()
         bar.set_postfix_str(f"{scene.name[:30]} {spec} {s.frames} frames")
-        cps, setup, meta = _progressive_checkpoints(scene, frames=s.frames, seed=s.seed, area_model=area_model,
+        cps, setup, meta = _progressive_checkpoints(scene, frames=s.frames, seed=s.seed, options=options,
                                                     checkpoints=checkpoint_steps(s.frames), ctx=self.gl_ctx)
         meta = _flat_metadata(meta)
         if isinstance(meta.get("gl_renderer"), str):
@@ -487,8 +483,8 @@ class _Runner:
             metrics = _measure(truth, image, s, f"{scene.name}: {spec} at frame {frame}", final=frame == cps[-1][0])
             points.append(Point(int(frame), float(seconds), metrics, unit.rel(path),
                                 unit.rel(path.with_suffix(".png"))))
-        model = area_model or meta.get("area_model")
-        label = "Progressive rasterizer" + (f" ({model})" if isinstance(model, str) and model else "")
+        words = describe(spec) or meta.get("area_model")
+        label = "Progressive rasterizer" + (f" ({words})" if isinstance(words, str) and words else "")
         run = RendererRun(
             renderer=spec, label=label, unit="frame", steps=s.frames, key=key,
             seconds=points[-1].seconds, first_frame_seconds=points[0].seconds, setup_seconds=setup,
@@ -585,7 +581,6 @@ def run(scene_paths: Iterable[str | os.PathLike], out: str | os.PathLike, settin
     settings.renderers = parse_renderers(settings.renderers)
     if settings.frames < 1 or settings.spp < 1:
         raise ValueError(f"frames and spp must be positive, got frames={settings.frames}, spp={settings.spp}")
-    _check_area_models(settings.renderers)
     out = Path(out)
     paths = [Path(p) for p in scene_paths]
     if not paths:
@@ -698,7 +693,8 @@ def add_run_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--spp", type=_positive, default=1024, help="reference samples per pixel (ground truth)")
     p.add_argument("--renderers", type=_renderers_arg, default="mitsuba,progressive",
                    metavar="LIST", help="comma-separated: mitsuba (reference convergence + noise floor), "
-                                        "progressive, progressive:<area_model> (e.g. progressive:paper)")
+                                        "progressive, progressive:<option>[+<option>] with options paper, probes, vsm, "
+                                        "budget<ms> (e.g. progressive:paper,progressive:probes,progressive:budget16)")
     p.add_argument("--seed", type=int, default=0, help="seed of the ground truth (its convergence ladder uses seed+1)")
     p.add_argument("--exposure", type=_positive_float, default=1.0,
                    help="linear exposure before ACES tone mapping (LDR metrics and previews)")

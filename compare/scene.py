@@ -36,6 +36,13 @@ TEXTURE_SUFFIXES = (".png", ".jpg", ".jpeg", ".exr")
 ENV_FILE_SUFFIXES = (".exr", ".hdr")
 #: A material counts as glossy (needs specular lighting work) below this roughness, or when metallic.
 GLOSSY_ROUGHNESS = 0.6
+#: Indirect diffuse light in the rasterizer: none (the paper's technique) or an irradiance volume.
+INDIRECT_MODES = ("none", "probes")
+#: Default probes per axis and bounces of the irradiance volume (compare.progressive.probes).
+DEFAULT_PROBE_GRID = (6, 6, 6)
+DEFAULT_PROBE_BOUNCES = 2
+#: Largest number of probes along one axis (keeps the volume's textures small).
+MAX_PROBES_PER_AXIS = 64
 
 
 @dataclass(frozen=True)
@@ -258,6 +265,14 @@ class Scene:
     max_depth: int
     referenced_files: tuple[Path, ...]
     file_hash: str
+    # Rasterizer-only options ([render] table): they do not change the reference's pixels,
+    # so they stay out of :attr:`hash` beyond the file's own bytes (which carry them).
+    indirect: str = "none"
+    """Indirect diffuse light of the rasterizer: ``"none"`` or ``"probes"`` (an irradiance volume)."""
+    probe_grid: tuple[int, int, int] = DEFAULT_PROBE_GRID
+    """Probes along x, y, z of the irradiance volume (each >= 2)."""
+    probe_bounces: int = DEFAULT_PROBE_BOUNCES
+    """Diffuse bounces baked into the irradiance volume (>= 1)."""
 
     def features(self) -> Features:
         """What this scene needs (environment, area lights, glossy materials, textures, ...)."""
@@ -610,7 +625,7 @@ def parse_scene(data: dict[str, Any], path: Path) -> Scene:
     lights += tuple(light for inc in includes for light in inc.lights)
     ctx.files.extend(f for inc in includes for f in inc.files)
     env = _environment(ctx, data["environment"]) if "environment" in data else None
-    render = _table(ctx, "render", data.get("render", {}), {"max_depth"})
+    render = _table(ctx, "render", data.get("render", {}), {"max_depth", "indirect", "probe_grid", "probe_bounces"})
     max_depth = render.get("max_depth", 16)
     if not (isinstance(max_depth, int) and not isinstance(max_depth, bool) and (max_depth == -1 or max_depth >= 1)):
         raise ctx.err("render.max_depth", f"expected -1 (unbounded) or an integer >= 1, got {_fmt(max_depth)}")
@@ -618,8 +633,27 @@ def parse_scene(data: dict[str, Any], path: Path) -> Scene:
     if not lights and env is None and not emissive:
         raise ctx.err("lights", "the scene has no light: add [[lights]], an [environment] or an emissive material")
     files = tuple(sorted(set(ctx.files)))
+    indirect, probe_grid, probe_bounces = _indirect(ctx, render)
     return Scene(ctx.path, name, camera, materials, meshes, lights, env, max_depth, files,
-                 file_hash=_content_hash(ctx.path, files, data))
+                 file_hash=_content_hash(ctx.path, files, data), indirect=indirect, probe_grid=probe_grid,
+                 probe_bounces=probe_bounces)
+
+
+def _indirect(ctx: _Ctx, render: dict[str, Any]) -> tuple[str, tuple[int, int, int], int]:
+    """The rasterizer's indirect-light fields of ``[render]``: indirect, probe_grid, probe_bounces."""
+    indirect = render.get("indirect", "none")
+    if indirect not in INDIRECT_MODES:
+        raise ctx.err("render.indirect",
+                      f"expected one of {', '.join(map(repr, INDIRECT_MODES))}, got {_fmt(indirect)}")
+    grid = render.get("probe_grid", list(DEFAULT_PROBE_GRID))
+    if not (isinstance(grid, list) and len(grid) == 3
+            and all(isinstance(n, int) and not isinstance(n, bool) and 2 <= n <= MAX_PROBES_PER_AXIS for n in grid)):
+        raise ctx.err("render.probe_grid", f"expected three integers in [2, {MAX_PROBES_PER_AXIS}] (probes along x, "
+                                           f"y, z), got {_fmt(grid)}")
+    bounces = render.get("probe_bounces", DEFAULT_PROBE_BOUNCES)
+    if not (isinstance(bounces, int) and not isinstance(bounces, bool) and bounces >= 1):
+        raise ctx.err("render.probe_bounces", f"expected an integer >= 1, got {_fmt(bounces)}")
+    return indirect, (grid[0], grid[1], grid[2]), bounces
 
 
 def _includes(ctx: _Ctx, raw: Any) -> list:

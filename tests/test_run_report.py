@@ -77,8 +77,9 @@ class FakeReference:
             yield Checkpoint(total, 0.01 * total, (acc / total).clip(0).astype(np.float32))
 
 
-def fake_progressive(scene, *, frames, seed, area_model, checkpoints, ctx):
+def fake_progressive(scene, *, frames, seed, options, checkpoints, ctx):
     """A biased, quickly converging stand-in for the progressive renderer."""
+    area_model = options.get("area_model")
     w, h = scene.camera.resolution
     truth = _truth(w, h) * (0.8 if area_model == "paper" else 0.9)
     rng = np.random.default_rng(seed + 7)
@@ -253,6 +254,15 @@ def test_run_writes_results_images_and_report(tmp_path):
     for name in ("index.html", "static/report.js", "static/report.css", "static/magma.png",
                  f"data/{scene.id}.js", f"plots/{scene.id}-error.png", f"plots/{scene.id}-equal.png"):
         assert (out / name).stat().st_size > 0, name
+    # the paper-model variant is an ablation against the plain renderer: a row with its FLIP change
+    html = (out / "index.html").read_text(encoding="utf-8")
+    assert "<h3>Ablations</h3>" in html
+    from compare.report import _ablations
+
+    (row,) = _ablations(scene)
+    assert row["label"] == paper.label and row["flip"] == f"{paper.final.metrics['flip']:.4f}"
+    sign = "+" if paper.final.metrics["flip"] > prog.final.metrics["flip"] else "-"
+    assert row["flip_delta"].startswith(sign)
 
 
 def test_rerun_reuses_finished_units_and_redoes_changed_ones(tmp_path):

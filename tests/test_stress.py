@@ -127,11 +127,12 @@ def test_grazing_views_reference_stays_bounded():
 
 
 @pytest.mark.gl
-@pytest.mark.xfail(strict=True, reason=(
-    "finding: at grazing view angles the rasterizer's representative-point specular (Karis' normalisation "
-    "applied to a rectangle) reflects up to ~4x the light's radiance, and the glossy plane below the "
-    "reflection is ~10x the reference's (diffuse-only renders agree); see the issue 7 report"))
-@pytest.mark.parametrize("what", ["energy bound", "plane radiance"])
+@pytest.mark.parametrize("what", ["energy bound", pytest.param("plane radiance", marks=pytest.mark.xfail(
+    strict=True, reason=(
+        "finding: the representative-point specular still overestimates the glossy plane's tail at N.V ~ 0.1: "
+        "measured 2.0x the reference (6.4x with Karis' isotropic normalisation; the foreshortened, albedo-bounded "
+        "form in direct.glsl brought it down); a lobe-coverage factor that reaches 0.95 here breaks the "
+        "roughness sweep's metal spheres (0.57x), so the remaining gap needs an exact polygon integral (LTC)")))])
 def test_grazing_views_rasterizer_energy(gl_ctx, what):
     s = load("grazing.toml", (64, 48))
     image = progressive(s, gl_ctx, frames=64).image
@@ -141,7 +142,7 @@ def test_grazing_views_rasterizer_energy(gl_ctx, what):
     else:
         ref = reference(s, 64, max_depth=2)
         low = slice(s.camera.height * 3 // 4, None)  # the plane's near part: N.V about 0.1
-        assert image[low].mean() < 1.5 * ref[low].mean()
+        assert 0.67 * ref[low].mean() < image[low].mean() < 1.5 * ref[low].mean()
 
 
 # ----------------------------------------------------------------------------- sun and tiny light

@@ -14,6 +14,21 @@ Properties (each a float/rgb or a nested texture; defaults are glTF's):
 ``base_color``  linear base colour, default 1.0
 ``metallic``    default 1.0
 ``roughness``   perceptual roughness, default 1.0
+``flavour``     string, ``"gltf"`` (default) or ``"cycles"``
+
+Flavours. ``"gltf"`` is the shared BRDF of :mod:`compare.brdf`, the same
+definition as the rasterizer's GLSL. ``"cycles"`` is Blender's Principled BSDF
+v2 as :mod:`compare.blender.export` configures it, the model of
+:mod:`compare.brdf.principled` (read its docstring): the same GGX D and
+height-correlated Smith V, but the exact dielectric Fresnel for IOR 1.5 in
+place of Schlick with F0 = 0.04 (metals keep Schlick: Cycles' F82-tint with a
+white tint), and the Lambert lobe weighted by the view-only
+``(1 - m)(1 - E_s(r, cos_i))`` (Cycles' albedo scaling under the specular layer,
+``E_s`` read from :data:`compare.brdf.principled.LAYER_S_TABLE`, held in a
+Dr.Jit ``Texture2f`` with Cycles' grid and bilinear interpolation) in place of
+the per-direction ``(1 - m)(1 - F_d(v.h))``. The ``"gltf"`` flavour traces
+exactly the code it always has, so its results are bit-identical to the
+plugin without the option.
 
 Conventions (Mitsuba's): directions in the local shading frame (z = normal),
 ``si.wi`` towards the viewer; ``eval`` returns ``f * cos(theta_o)``. One-sided,
@@ -23,7 +38,9 @@ below the horizon. Components: 0 = diffuse (``DiffuseReflection``), 1 = specular
 
 Sampling: with probability ``p_spec`` (:func:`compare.brdf.specular_sampling_probability`:
 the Fresnel-weighted specular versus the diffuse albedo estimate at
-``cos(theta_i)``, floored at 0.1 while a diffuse lobe exists) a GGX visible
+``cos(theta_i)``, floored at 0.1 while a diffuse lobe exists; the ``cycles``
+flavour uses its own Fresnel and diffuse weight in the same estimate,
+:func:`compare.brdf.principled.specular_sampling_probability`) a GGX visible
 normal is drawn (Dupuy & Benyoub 2023, spherical caps; the distribution of Heitz
 2018) and ``wi`` reflected about it; otherwise a cosine-weighted direction.
 ``pdf`` is the mixture ``p_spec pdf_spec + (1 - p_spec) cos/pi`` whichever lobe
@@ -40,12 +57,14 @@ from __future__ import annotations
 
 import sys
 
-from . import ALPHA_MIN, COS_MIN, DIELECTRIC_F0, H_LEN2_MIN, SPECULAR_PROB_MIN
+from . import ALPHA_MIN, COS_MIN, DIELECTRIC_F0, H_LEN2_MIN, SPECULAR_PROB_MIN, principled
 
-__all__ = ["PLUGIN_NAME", "evaluate", "register", "registered_variants"]
+__all__ = ["FLAVOURS", "PLUGIN_NAME", "evaluate", "register", "registered_variants"]
 
 #: Name under which the plugin is registered (``{"type": PLUGIN_NAME, ...}``).
 PLUGIN_NAME = "gltf_pbr"
+#: Values of the ``flavour`` property: the shared glTF BRDF, Blender's Principled BSDF v2.
+FLAVOURS = ("gltf", "cycles")
 
 _CLASSES: dict[str, type] = {}
 _DENOM_MIN = 1e-30
@@ -113,6 +132,29 @@ def _make_class(mv, mitsuba):
     def mean3(c):
         return (c[0] + c[1] + c[2]) * (1.0 / 3.0)
 
+    eta = principled.IOR
+
+    def fresnel_dielectric(c):
+        """Exact dielectric Fresnel at IOR 1.5 for c = cos in [0, 1] (no total internal reflection)."""
+        g = dr.sqrt(eta * eta - 1.0 + c * c)
+        a = (g - c) / (g + c)
+        b = (c * (g + c) - 1.0) / (c * (g - c) + 1.0)
+        return 0.5 * a * a * (1.0 + b * b)
+
+    layer = {}
+
+    def layer_albedo(r, cos_i):
+        """E_s(r, cos_i) = F0 + (1 - F0) S: bilinear in Cycles' grid (texel i at coordinate i/15)."""
+        if "texture" not in layer:  # built on first use, once per variant
+            table = principled.LAYER_S_TABLE.astype("float32")[..., None]
+            layer["texture"] = mv.Texture2f(mv.TensorXf(table), filter_mode=dr.FilterMode.Linear,
+                                            wrap_mode=dr.WrapMode.Clamp)
+        n = principled.LAYER_TABLE_SIZE
+        pos = mv.Point2f((dr.clip(r, 0.0, 1.0) * (n - 1) + 0.5) * (1.0 / n),
+                         (dr.clip(cos_i, 0.0, 1.0) * (n - 1) + 0.5) * (1.0 / n))
+        s = layer["texture"].eval(pos)[0]
+        return DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * s
+
     class GltfPbrBSDF(mv.BSDF):
         """glTF 2.0 metallic-roughness BSDF (see :mod:`compare.brdf.mitsuba_plugin`)."""
 
@@ -121,6 +163,10 @@ def _make_class(mv, mitsuba):
             self.base_color = props.get_texture("base_color", 1.0)
             self.metallic = props.get_texture("metallic", 1.0)
             self.roughness = props.get_texture("roughness", 1.0)
+            self.flavour = props.get("flavour", "gltf")
+            if self.flavour not in FLAVOURS:
+                raise ValueError(f"{PLUGIN_NAME}: flavour must be one of {', '.join(FLAVOURS)}, "
+                                 f"got {self.flavour!r}")
             self.m_components = [diffuse_flags, glossy_flags]
             self.m_flags = diffuse_flags | glossy_flags
 
@@ -130,26 +176,31 @@ def _make_class(mv, mitsuba):
             m = dr.clip(self.metallic.eval_1(si, active), 0.0, 1.0)
             r = dr.clip(self.roughness.eval_1(si, active), 0.0, 1.0)
             alpha = dr.maximum(r * r, ALPHA_MIN)
-            return c, m, alpha
+            return c, m, alpha, r
 
         @staticmethod
         def _lobes_enabled(ctx):
             return (ctx.is_enabled(Flags.DiffuseReflection, 0),
                     ctx.is_enabled(Flags.GlossyReflection, 1))
 
-        @staticmethod
-        def _lobe_probabilities(cos_i, c, m, has_diffuse, has_specular):
-            """(p_spec, p_diff) of compare.brdf.specular_sampling_probability; p_diff is
-            computed directly (not as 1 - p_spec), which keeps it accurate in float32."""
+        def _lobe_probabilities(self, cos_i, c, m, r, has_diffuse, has_specular):
+            """(p_spec, p_diff) of compare.brdf.specular_sampling_probability (or
+            cycles_specular_sampling_probability); p_diff is computed directly (not as
+            1 - p_spec), which keeps it accurate in float32."""
             if not has_specular:
                 return Float(0.0), Float(1.0)
             if not has_diffuse:
                 return Float(1.0), Float(0.0)
             ci = dr.clip(cos_i, 0.0, 1.0)
-            f0 = DIELECTRIC_F0 + (c - DIELECTRIC_F0) * m
             w = schlick_weight(ci)
-            w_s = mean3(f0 + (1.0 - f0) * w)
-            w_d = (1.0 - m) * (1.0 - (DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * w)) * mean3(c)
+            if self.flavour == "cycles":
+                cc = dr.clip(c, 0.0, 1.0)
+                w_s = mean3(cc + (1.0 - cc) * w) * m + fresnel_dielectric(ci) * (1.0 - m)
+                w_d = (1.0 - m) * dr.clip(1.0 - layer_albedo(r, ci), 0.0, 1.0) * mean3(c)
+            else:
+                f0 = DIELECTRIC_F0 + (c - DIELECTRIC_F0) * m
+                w_s = mean3(f0 + (1.0 - f0) * w)
+                w_d = (1.0 - m) * (1.0 - (DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * w)) * mean3(c)
             inv_total = 1.0 / dr.select(w_s + w_d > 0.0, w_s + w_d, 1.0)
             has_d = w_d > 0.0
             p_spec = dr.select(has_d, dr.maximum(w_s * inv_total, SPECULAR_PROB_MIN), 1.0)
@@ -165,7 +216,7 @@ def _make_class(mv, mitsuba):
             hu = wi + wo
             len2 = dr.dot(hu, hu)
             valid = active & (cos_i > 0.0) & (cos_o > 0.0) & (len2 > H_LEN2_MIN)
-            c, m, alpha = self._params(si, valid)
+            c, m, alpha, r = self._params(si, valid)
 
             h = hu * dr.rsqrt(dr.maximum(len2, H_LEN2_MIN))
             nh = dr.clip(h.z, 0.0, 1.0)
@@ -182,21 +233,27 @@ def _make_class(mv, mitsuba):
                          + nv * dr.sqrt(nl * nl * (1.0 - a2) + a2))
 
             w = schlick_weight(vh)
-            f0 = DIELECTRIC_F0 + (c - DIELECTRIC_F0) * m
-            f = f0 + (1.0 - f0) * w
-            fd = DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * w
+            if self.flavour == "cycles":
+                cc = dr.clip(c, 0.0, 1.0)
+                f = (cc + (1.0 - cc) * w) * m + fresnel_dielectric(vh) * (1.0 - m)
+                w_diff = (1.0 - m) * dr.clip(1.0 - layer_albedo(r, cos_i), 0.0, 1.0)
+            else:
+                f0 = DIELECTRIC_F0 + (c - DIELECTRIC_F0) * m
+                f = f0 + (1.0 - f0) * w
+                fd = DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * w
+                w_diff = (1.0 - m) * (1.0 - fd)
 
             value = Color3f(0.0)
             if has_s:
                 value += f * (d * vis)
             if has_d:
-                value += c * ((1.0 - m) * (1.0 - fd) * (1.0 / dr.pi))
+                value += c * (w_diff * (1.0 / dr.pi))
             value = value * dr.maximum(cos_o, 0.0)
 
             ci = dr.maximum(cos_i, 0.0)
             pdf_spec = d / (2.0 * (ci + dr.sqrt(ci * ci * (1.0 - a2) + a2)))
             pdf_diff = dr.maximum(cos_o, 0.0) * (1.0 / dr.pi)
-            p_spec, p_diff = self._lobe_probabilities(cos_i, c, m, has_d, has_s)
+            p_spec, p_diff = self._lobe_probabilities(cos_i, c, m, r, has_d, has_s)
             pdf = p_spec * pdf_spec + p_diff * pdf_diff
 
             value = dr.select(valid, value, Color3f(0.0))
@@ -222,8 +279,8 @@ def _make_class(mv, mitsuba):
             bs = dr.zeros(mv.BSDFSample3f)
             if not (has_d or has_s):
                 return bs, Color3f(0.0)
-            c, m, alpha = self._params(si, active)
-            p_spec, _ = self._lobe_probabilities(cos_i, c, m, has_d, has_s)
+            c, m, alpha, r = self._params(si, active)
+            p_spec, _ = self._lobe_probabilities(cos_i, c, m, r, has_d, has_s)
             pick_spec = sample1 < p_spec
 
             # specular: reflect wi about a GGX visible normal (spherical caps)
@@ -252,7 +309,7 @@ def _make_class(mv, mitsuba):
             return bs, weight
 
         def eval_diffuse_reflectance(self, si, active=True):
-            c, m, _ = self._params(si, active)
+            c, m, _, _ = self._params(si, active)
             return c * (1.0 - m)
 
         def traverse(self, callback):
@@ -265,13 +322,13 @@ def _make_class(mv, mitsuba):
             pass  # nothing is precomputed from the textures
 
         def to_string(self):
-            return (f"GltfPbrBSDF[\n  base_color = {self.base_color},\n"
+            return (f"GltfPbrBSDF[\n  flavour = {self.flavour},\n  base_color = {self.base_color},\n"
                     f"  metallic = {self.metallic},\n  roughness = {self.roughness}\n]")
 
     return GltfPbrBSDF
 
 
-def evaluate(wi, wo, base_color, metallic, roughness, *, variant: str | None = None):
+def evaluate(wi, wo, base_color, metallic, roughness, *, variant: str | None = None, flavour: str = "gltf"):
     """Evaluate the plugin's ``eval_pdf`` for per-direction materials; numpy in, numpy out.
 
     The materials vary per row: they are passed as N x 1 ``bitmap`` textures
@@ -286,6 +343,8 @@ def evaluate(wi, wo, base_color, metallic, roughness, *, variant: str | None = N
     metallic, roughness : array_like, shape (N,)
     variant : str, optional
         Passed to :func:`register`.
+    flavour : str
+        The plugin's ``flavour`` (:data:`FLAVOURS`).
 
     Returns
     -------
@@ -309,7 +368,7 @@ def evaluate(wi, wo, base_color, metallic, roughness, *, variant: str | None = N
         return {"type": "bitmap", "data": mi.TensorXf(np.ascontiguousarray(data.reshape(1, count, -1))),
                 "raw": True, "filter_type": "nearest", "wrap_mode": "clamp"}
 
-    bsdf = mi.load_dict({"type": PLUGIN_NAME, "base_color": bitmap(base),
+    bsdf = mi.load_dict({"type": PLUGIN_NAME, "base_color": bitmap(base), "flavour": flavour,
                          "metallic": bitmap(met), "roughness": bitmap(rough)})
     ctx = mi.BSDFContext()
     u = (np.arange(count, dtype=np.float64) + 0.5) / count

@@ -88,14 +88,14 @@ class IBL:
         return build_atlas(self.radiance, octahedral_levels=self.octahedral, env_format=env_format)
 
 
-def _cache_root(cache_dir) -> Path | None:
+def _cache_root(cache_dir, folder: str = "ibl") -> Path | None:
     if cache_dir is False:
         return None
     if cache_dir is None:
         from ..reference import default_cache_dir
 
-        return default_cache_dir() / "ibl"
-    return Path(cache_dir) / "ibl"
+        return default_cache_dir() / folder
+    return Path(cache_dir) / folder
 
 
 def _save(path: Path, arrays: dict[str, np.ndarray], meta: dict) -> None:
@@ -213,15 +213,18 @@ def preprocess(equirect: np.ndarray, *, size: int = DEFAULT_SIZE, levels: int = 
     return result
 
 
-def split_sum(size: int = DEFAULT_LUT_SIZE, samples: int = DEFAULT_LUT_SAMPLES, *, cache_dir=None
-              ) -> tuple[np.ndarray, float, bool]:
+def split_sum(size: int = DEFAULT_LUT_SIZE, samples: int = DEFAULT_LUT_SAMPLES, *, cache_dir=None,
+              folder: str = "ibl") -> tuple[np.ndarray, float, bool]:
     """The split-sum LUT (size, size, 3) (:func:`compare.ibl.lut.split_sum_lut`), cached.
 
+    ``folder`` is the cache's sub-folder: the table depends on the BRDF alone, and
+    the direct-light pass (which bounds its specular term with it) keeps its copy
+    under ``brdf/`` so that a scene without an environment does no environment work.
     Returns (table, seconds it took to compute, whether it came from the cache).
     """
     settings = {"size": int(size), "samples": int(samples), "version": IBL_VERSION}
     key = sha256_bytes("split-sum-lut", json.dumps(settings, sort_keys=True))
-    root = _cache_root(cache_dir)
+    root = _cache_root(cache_dir, folder)
     path = root / f"lut-{key[:24]}.npz" if root is not None else None
     if path is not None and path.is_file():
         loaded = _load(path)

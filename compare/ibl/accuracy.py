@@ -116,8 +116,10 @@ def split_sum_table(envs: dict[str, dict] | None = None, *, roughness=(0.0, 0.1,
                     scene = _sphere_scene(env, {**MATERIALS[mat_name], "roughness": float(r)}, size)
                     truth = None
                     for variant in variants:
+                        # The G-buffer path for frame 0: its targets are read back below.
                         with ProgressiveRenderer(scene, frames=1, ctx=ctx, d_occ=0.0, ibl_size=ibl_size,
-                                                 ibl_samples=ibl_samples, **VARIANTS[variant]) as rend:
+                                                 ibl_samples=ibl_samples, first_frame="gbuffer",
+                                                 **VARIANTS[variant]) as rend:
                             rend.render_frame()
                             image = rend.image()
                             if truth is None:

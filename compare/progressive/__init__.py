@@ -21,7 +21,8 @@ Module map (each pass with its shader): ``distributor`` + ``sampling`` (Algorith
 R2 points), ``gpu_scene`` (upload, camera), ``gbuffer`` (``gbuffer.glsl``),
 ``shadow`` (``shadow.glsl``), ``direct`` (``direct.glsl``), ``environment``
 (``env_occlusion.glsl``; the IBL GLSL is ``compare/ibl/ibl.glsl``), ``accumulate``
-(``accumulate.glsl``, ``compose.glsl``), ``readback``, ``renderer``.
+(``accumulate.glsl``, ``compose.glsl``), ``probes`` (the irradiance volume for
+indirect diffuse light, ``probes*.glsl``; optional), ``readback``, ``renderer``.
 """
 
 from .context import create_context

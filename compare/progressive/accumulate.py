@@ -32,6 +32,8 @@ class PingPong:
         self.index = 0
         self.count = 0
         """Number of means accumulated so far."""
+        self.units = 0
+        """Units (frames, or samples with a frame budget) the current mean covers."""
 
     @property
     def current(self):
@@ -46,13 +48,15 @@ class PingPong:
         """Framebuffer of the next mean (the textures that are not :attr:`current`)."""
         return self.fbos[1 - self.index]
 
-    def swap(self) -> None:
+    def swap(self, units: int = 1) -> None:
         self.index = 1 - self.index
         self.count += 1
+        self.units += units
 
     def reset(self) -> None:
         self.index = 0
         self.count = 0
+        self.units = 0
 
     def release(self) -> None:
         for obj in self.fbos + [t for texs in self.textures for t in texs]:
@@ -137,7 +141,7 @@ class ComposePass:
         self.vao = ctx.vertex_array(self.program, [])
         self.out = Target(ctx, size)
 
-    def run(self, base: PingPong, direct_texture=None, env_visible=None):
+    def run(self, base: PingPong, direct_texture=None, env_visible=None, indirect_texture=None):
         """Compose the display image.
 
         ``base`` is the every-frame ping-pong (a second attachment holds the
@@ -145,7 +149,8 @@ class ComposePass:
         of the occluded environment light
         (:class:`~compare.progressive.environment.EnvOcclusionTargets`) or None.
         The environment term is the unoccluded mean until both kinds have
-        samples, then the two means of visible light.
+        samples, then the two means of visible light. ``indirect_texture`` is
+        the irradiance volume's indirect light (:mod:`.indirect`), or None.
         """
         ctx = self.ctx
         self.out.fbo.use()
@@ -158,8 +163,10 @@ class ComposePass:
         (base.current_of(1) if has_env else base.current).use(location=2)
         (env_visible.current(0) if occluded else base.current).use(location=3)
         (env_visible.current(1) if occluded else base.current).use(location=4)
-        for loc, name in enumerate(("u_base", "u_direct", "u_env", "u_env_diffuse", "u_env_specular")):
+        (indirect_texture or base.current).use(location=5)
+        for loc, name in enumerate(("u_base", "u_direct", "u_env", "u_env_diffuse", "u_env_specular", "u_indirect")):
             set_uniform(self.program, name, loc)
+        set_uniform(self.program, "u_indirect_scale", 1.0 if indirect_texture is not None else 0.0)
         set_uniform(self.program, "u_direct_scale", 1.0 if direct_texture is not None else 0.0)
         set_uniform(self.program, "u_env_mode", env_mode)
         self.vao.render(vertices=3)

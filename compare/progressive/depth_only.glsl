@@ -6,6 +6,8 @@
 
 in vec3 in_position;
 uniform mat4 u_view_proj;
+// The first frame's depth pre-pass and shading pass must agree on depth bit for bit.
+invariant gl_Position;
 
 void main() {
     gl_Position = u_view_proj * vec4(in_position, 1.0);

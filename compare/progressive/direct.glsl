@@ -14,7 +14,8 @@
 // reflection ray) with the sphere-light energy normalisation; it is the same for
 // every sample, so its mean is the MRP specular times the mean visibility.
 //
-// Defines: SHADOWS (0 for the unshadowed preview), AREA_MODEL_PAPER (the paper's
+// Defines: SHADOWS (0 for the unshadowed preview), SHADOW_VSM (variance shadow maps:
+// Chebyshev visibility from filtered moments, see shadow.py), AREA_MODEL_PAPER (the paper's
 // isotropic point light Phi / (4 pi d^2) instead of L A cos_l / d^2),
 // MATERIALS_DIFFUSE (Lambert f = c / pi only, for closed-form validation).
 
@@ -46,7 +47,8 @@ uniform float u_light_area;
 uniform vec3 u_sample;         // the sample point y on the light
 uniform float u_weight;        // F / n_i (1 for the preview)
 uniform int u_mode;            // 0: output weight * est (blended additively); 1: update the running mean
-uniform float u_count;         // mode 1: 1-based index of this light frame
+uniform float u_count;         // mode 1: units of the mean after this frame (light frames, or samples)
+uniform float u_units;         // mode 1: units this frame adds (1 per frame, or its number of samples)
 uniform float u_use_partial;   // mode 1: add u_partial (the frame's earlier samples)
 
 #if SHADOWS
@@ -56,80 +58,16 @@ uniform mat4 u_face_view_proj[5];      // front (+n), +t, -t, +b, -b
 uniform vec4 u_face_rect[5];           // tile origin (xy) and size (zw) in texels
 uniform float u_shadow_texel;          // size of one texel in tangent units (2 / S)
 uniform vec3 u_bias;                   // normal offset, constant and slope-scaled bias, in texels
+#if SHADOW_VSM
+// With SHADOW_VSM, u_shadow holds the filtered moments (d, d^2) in world units instead of the depth.
+uniform vec2 u_vsm;                    // minimum standard deviation (fraction of d), light-bleeding reduction
+#include "vsm.glsl"
+#endif
 #endif
 
 out vec4 out_color;
 
-// Solid angle of the triangle (a, b, c) seen from the origin (Van Oosterom & Strackee 1983).
-float triangle_solid_angle(vec3 a, vec3 b, vec3 c) {
-    float la = length(a);
-    float lb = length(b);
-    float lc = length(c);
-    float num = abs(dot(a, cross(b, c)));
-    float den = la * lb * lc + dot(a, b) * lc + dot(a, c) * lb + dot(b, c) * la;
-    return 2.0 * atan(num, den);
-}
-
-// Solid angle of the light's rectangle seen from x.
-float light_solid_angle(vec3 x) {
-    vec3 c = u_light_center - x;
-    vec3 du = u_light_t * u_light_half.x;
-    vec3 dv = u_light_b * u_light_half.y;
-    vec3 p0 = c - du - dv;
-    vec3 p1 = c + du - dv;
-    vec3 p2 = c + du + dv;
-    vec3 p3 = c - du + dv;
-    return triangle_solid_angle(p0, p1, p2) + triangle_solid_angle(p0, p2, p3);
-}
-
-// Karis' most representative point: the point of the rectangle closest to the ray
-// x + t r, taken as the ray's hit on the light's plane clamped to the rectangle
-// (exact where the ray hits the rectangle); a ray parallel to or leaving the plane
-// heads for the rectangle's edge in the ray's direction.
-vec3 representative_point(vec3 x, vec3 r) {
-    float denom = dot(r, u_light_n);
-    vec3 h;
-    if (denom < -1e-6) {
-        h = x + r * max(dot(u_light_center - x, u_light_n) / denom, 0.0);
-    } else {
-        vec3 along = r - u_light_n * denom;
-        h = x + along * (1e4 * (distance(x, u_light_center) + u_light_half.x + u_light_half.y));
-    }
-    vec3 q = h - u_light_center;
-    vec2 uv = clamp(vec2(dot(q, u_light_t), dot(q, u_light_b)), -u_light_half, u_light_half);
-    return u_light_center + uv.x * u_light_t + uv.y * u_light_b;
-}
-
-#if !MATERIALS_DIFFUSE
-// Specular through the representative point, with the energy normalisation
-// (alpha / alpha')^2, alpha' = min(alpha + r / (2 d), 1), where r = sqrt(A / pi) is the
-// radius of the disc of the light's area and d the distance to its centre: the light
-// subtends a half-angle of about r / d, which widens the lobe of half vectors by
-// r / (2 d); without it a smooth surface would see the lobe's peak D = 1 / (pi alpha^2)
-// over the whole solid angle and reflect far more than L.
-vec3 specular_mrp(vec3 x, vec3 n, vec3 v, vec3 base, float metallic, float roughness) {
-    vec3 p = representative_point(x, reflect(-v, n));
-    vec3 to_p = p - x;
-    float dp2 = max(dot(to_p, to_p), 1e-12);
-    vec3 l = to_p * inversesqrt(dp2);
-    float cos_p = dot(n, l);
-    vec3 spec;
-    vec3 diff;
-    if (cos_p <= 0.0 || !brdf_eval_lobes(n, v, l, base, metallic, roughness, spec, diff)) {
-        return vec3(0.0);
-    }
-    float alpha = brdf_alpha_from_roughness(roughness);
-    float radius = sqrt(u_light_area / BRDF_PI);
-    float alpha_wide = min(alpha + radius / (2.0 * distance(x, u_light_center)), 1.0);
-    float k = alpha / alpha_wide;
-#if AREA_MODEL_PAPER
-    float omega = u_light_area / (4.0 * dp2);  // Phi / (4 pi d^2) / L with Phi = pi A L
-#else
-    float omega = light_solid_angle(x);
-#endif
-    return spec * u_light_radiance * (omega * cos_p * k * k);
-}
-#endif
+#include "area_light.glsl"
 
 #if SHADOWS
 // Visibility of y from x through the five-face shadow atlas.
@@ -139,6 +77,8 @@ vec3 specular_mrp(vec3 x, vec3 n, vec3 v, vec3 base, float metallic, float rough
 // (normal offset), then compared with the stored distance plus
 // u_bias.y + u_bias.z * tan(theta) texels (constant + slope-scaled; theta is the angle
 // between the normal and the direction to y, tan capped at 10).
+// SHADOW_VSM: the same face, offset and bias, then Chebyshev's bound of the filtered
+// moments (bilinear, clamped half a texel inside the face's tile) instead of the hard test.
 float visibility(vec3 x, vec3 n) {
     vec3 to_y = u_sample - x;
     float dist = length(to_y);
@@ -161,47 +101,23 @@ float visibility(vec3 x, vec3 n) {
     vec4 clip = u_face_view_proj[face] * vec4(xo, 1.0);
     vec2 ndc = clip.xy / max(clip.w, 1e-20);
     vec4 rect = u_face_rect[face];
+#if SHADOW_VSM
+    vec2 pos = clamp(rect.xy + (ndc * 0.5 + 0.5) * rect.zw, rect.xy + 0.5, rect.xy + rect.zw - 0.5);
+    vec2 moments = textureLod(u_shadow, pos / vec2(textureSize(u_shadow, 0)), 0.0).rg;
+    float r = length(d) - texel * (u_bias.y + u_bias.z * tan_theta);
+    float sigma = u_vsm.x * r;
+    return vsm_visibility(moments, r, sigma * sigma, u_vsm.y);
+#else
     vec2 texel_pos = clamp(rect.xy + (ndc * 0.5 + 0.5) * rect.zw, rect.xy, rect.xy + rect.zw - 1.0);
     float stored = texelFetch(u_shadow, ivec2(texel_pos), 0).r * u_shadow_far;
     float bias = texel * (u_bias.y + u_bias.z * tan_theta);
     return length(d) <= stored + bias ? 1.0 : 0.0;
+#endif
 }
 #endif
 
 vec3 sample_estimate(vec3 x, vec3 n, vec3 base, float metallic, float roughness) {
-    if (dot(x - u_light_center, u_light_n) <= 0.0) {
-        return vec3(0.0);  // behind the one-sided emitter
-    }
-    vec3 v = normalize(u_camera_position - x);
-    if (dot(n, v) <= 0.0) {
-        return vec3(0.0);  // one-sided BRDF seen from behind
-    }
-    vec3 to_y = u_sample - x;
-    float d2 = max(dot(to_y, to_y), 1e-12);
-    vec3 l = to_y * inversesqrt(d2);
-    float cos_s = dot(n, l);
-    float cos_l = -dot(u_light_n, l);
-
-    vec3 diffuse = vec3(0.0);
-    if (cos_s > 0.0 && cos_l > 0.0) {
-        vec3 diff_lobe;
-#if MATERIALS_DIFFUSE
-        diff_lobe = base * (1.0 / BRDF_PI);
-#else
-        vec3 spec_lobe;
-        brdf_eval_lobes(n, v, l, base, metallic, roughness, spec_lobe, diff_lobe);
-#endif
-#if AREA_MODEL_PAPER
-        diffuse = diff_lobe * u_light_radiance * (u_light_area * cos_s / (4.0 * d2));
-#else
-        diffuse = diff_lobe * u_light_radiance * (u_light_area * cos_s * cos_l / d2);
-#endif
-    }
-    vec3 specular = vec3(0.0);
-#if !MATERIALS_DIFFUSE
-    specular = specular_mrp(x, n, v, base, metallic, roughness);
-#endif
-    vec3 est = diffuse + specular;
+    vec3 est = light_estimate(x, n, normalize(u_camera_position - x), u_sample, base, metallic, roughness);
 #if SHADOWS
     if (max(est.r, max(est.g, est.b)) > 0.0) {
         est *= visibility(x, n);
@@ -226,8 +142,8 @@ void main() {
     if (u_use_partial > 0.5) {
         c += texelFetch(u_partial, p, 0).rgb;
     }
-    vec3 a = u_count > 1.0 ? texelFetch(u_previous, p, 0).rgb : vec3(0.0);
-    out_color = vec4(a + (c - a) / u_count, 1.0);
+    vec3 a = u_count > u_units ? texelFetch(u_previous, p, 0).rgb : vec3(0.0);
+    out_color = vec4(a + (c - u_units * a) / u_count, 1.0);
 }
 
 #endif

@@ -31,38 +31,69 @@ The specular direction is Karis' most representative point: the point of the
 rectangle closest to the reflection ray (the ray's hit on the light's plane
 clamped to the rectangle). Evaluating the GGX lobe there puts its peak on the
 light however small α is, so the energy is normalised as for Karis' sphere
-lights: ``(α/α')²`` with ``α' = min(α + r/(2d), 1)``, r = √(A/π) the radius of
-the disc of equal area and d the distance to the light's centre (the light
-subtends a half-angle ≈ r/d, the half vectors half of that). At α = 1 the
-factor is 1. The term is the same for all samples of a light and is multiplied
-by each sample's visibility, so its mean is the MRP specular × mean visibility.
+lights, with the light's half-angle mapped to half vectors: ``ρ = r/(2d)``,
+r = √(A/π) the radius of the disc of equal area and d the distance to the
+light's centre. Karis' ``(α/α')²``, ``α' = α + ρ``, holds at normal incidence;
+in general the map from l to h has the Jacobian ``dω_h/dω_l = 1/(4 v·h)``:
+within the plane of incidence h turns by half of l's angle, across it by
+``1/(2 v·h)`` of it, so the factor is ``α² / ((α + ρ)(α + ρ/(v·h)))`` (each
+bracket capped at 1). Without the ``v·h`` the glossy plane of
+``scenes/stress/grazing.toml`` reflected up to 1.8× the light's radiance and
+its near part (N·V ≈ 0.1) was 6.4× the reference; with it 2.0×. Last, the
+term is bounded by ``L · (F0·A + B)``, the lobe's directional albedo from the
+split-sum table (:mod:`compare.ibl.lut`): no light reflects more than that,
+whatever part of the hemisphere it covers. The term is the same for all
+samples of a light and is multiplied by each sample's visibility, so its mean
+is the MRP specular × mean visibility.
 """
 
 from __future__ import annotations
 
+import numpy as np
+
 from .accumulate import PingPong, Target
 from .shaders import load_program, set_uniform
+from .shadow import SHADOW_FILTERS
 
 AREA_MODELS = ("radiometric", "paper")
 #: Material modes as in compare.mitsuba_dict: the shared BRDF, or Lambert only for closed forms.
 MATERIAL_MODES = ("shared", "diffuse")
+#: Texture unit of the split-sum table (units 0-5 hold the G-buffer, shadow atlas and running means).
+LUT_UNIT = 7
 
 
 class DirectPass:
     """Programs of the direct-light pass: shadowed (light frames) and unshadowed (preview)."""
 
-    def __init__(self, ctx, *, area_model: str = "radiometric", materials: str = "shared", shadows: bool = True):
+    def __init__(self, ctx, *, area_model: str = "radiometric", materials: str = "shared", shadows: bool = True,
+                 spec_lut=None, shadow_filter: str = "hard"):
+        # shadow_filter: "hard" (depth test) or "vsm" (Chebyshev visibility of filtered moments; see .shadow).
+        if shadow_filter not in SHADOW_FILTERS:
+            raise ValueError(f"shadow_filter: expected one of {', '.join(map(repr, SHADOW_FILTERS))}, "
+                             f"got {shadow_filter!r}")
         if area_model not in AREA_MODELS:
             raise ValueError(f"area_model: expected one of {', '.join(map(repr, AREA_MODELS))}, got {area_model!r}")
         if materials not in MATERIAL_MODES:
             raise ValueError(f"materials: expected one of {', '.join(map(repr, MATERIAL_MODES))}, got {materials!r}")
         self.ctx = ctx
+        self.lut_texture = None
+        if materials != "diffuse":
+            # The split-sum table bounds the light a specular lobe can reflect (direct.glsl).
+            if spec_lut is None:
+                from ..ibl import split_sum
+
+                spec_lut = split_sum(folder="brdf")[0]
+            lut = np.ascontiguousarray(spec_lut, dtype=np.float32)
+            self.lut_texture = ctx.texture((lut.shape[1], lut.shape[0]), lut.shape[2], lut.tobytes(), dtype="f4")
+            self.lut_texture.filter = (ctx.LINEAR, ctx.LINEAR)
+            self.lut_texture.repeat_x = self.lut_texture.repeat_y = False
         defines = {"AREA_MODEL_PAPER": int(area_model == "paper"), "MATERIALS_DIFFUSE": int(materials == "diffuse")}
         self.preview_program = load_program(ctx, "direct.glsl", {**defines, "SHADOWS": 0})
         self.preview_vao = ctx.vertex_array(self.preview_program, [])
         self.program = self.vao = None
         if shadows:
-            self.program = load_program(ctx, "direct.glsl", {**defines, "SHADOWS": 1})
+            vsm = int(shadow_filter == "vsm")
+            self.program = load_program(ctx, "direct.glsl", {**defines, "SHADOWS": 1, "SHADOW_VSM": vsm})
             self.vao = ctx.vertex_array(self.program, [])
 
     @staticmethod
@@ -78,11 +109,13 @@ class DirectPass:
         set_uniform(program, "u_sample", tuple(float(x) for x in point))
         set_uniform(program, "u_weight", float(weight))
 
-    @staticmethod
-    def _bind_gbuffer(program, gbuffer) -> None:
+    def _bind_gbuffer(self, program, gbuffer) -> None:
         for loc, name in enumerate(("position", "normal", "material")):
             gbuffer[name].use(location=loc)
             set_uniform(program, f"u_{name}", loc)
+        if self.lut_texture is not None:
+            self.lut_texture.use(location=LUT_UNIT)
+            set_uniform(program, "u_spec_lut", LUT_UNIT)
 
     def preview(self, target: Target, gbuffer, lights, camera_position) -> None:
         """Unshadowed direct light from every light's centre (one sample, full area), summed into ``target``."""
@@ -114,8 +147,13 @@ class DirectPass:
         self.vao.render(vertices=3)
 
     def accumulate(self, acc: PingPong, partial: Target | None, gbuffer, shadow, bias, light, point, weight,
-                   camera_position) -> None:
-        """Last sample of a frame: frame value = partial + weight·estimate, folded into the running mean."""
+                   camera_position, *, units: int = 1) -> None:
+        """Last sample of a frame: frame value = partial + weight·estimate, folded into the running mean.
+
+        The mean counts ``units`` per frame: 1 when it runs over light frames (the fixed plan),
+        the frame's number of samples when it runs over samples (the frame budget):
+        ``A' = A + (c − units·A) / (n + units)`` with n the units folded in so far.
+        """
         ctx = self.ctx
         acc.target.use()
         ctx.enable_only(ctx.NOTHING)
@@ -128,13 +166,14 @@ class DirectPass:
         set_uniform(p, "u_partial", 5)
         set_uniform(p, "u_use_partial", 1.0 if partial is not None else 0.0)
         set_uniform(p, "u_mode", 1)
-        set_uniform(p, "u_count", float(acc.count + 1))
+        set_uniform(p, "u_count", float(acc.units + units))
+        set_uniform(p, "u_units", float(units))
         self._set_light(p, light, point, weight, camera_position)
         self.vao.render(vertices=3)
-        acc.swap()
+        acc.swap(units)
 
     def release(self) -> None:
-        for obj in (self.vao, self.program, self.preview_vao, self.preview_program):
+        for obj in (self.vao, self.program, self.preview_vao, self.preview_program, self.lut_texture):
             if obj is not None:
                 obj.release()
 

@@ -133,15 +133,19 @@ class GpuScene:
             return vao
         return vao[0]
 
-    def draw_shaded(self, program) -> None:
-        """Draw meshes and light quads with their material uniforms (G-buffer pass)."""
+    def draw_shaded(self, program, instances: int = 1) -> None:
+        """Draw meshes and light quads with their material uniforms (G-buffer pass).
+
+        ``instances`` > 1 draws every mesh that many times in one call (the
+        irradiance volume's bake places each instance in its own cube face).
+        """
         for index, mesh in enumerate(self.meshes + self.light_quads):
             set_uniform(program, "u_base_color", mesh.base_color)
             set_uniform(program, "u_metallic", mesh.metallic)
             set_uniform(program, "u_roughness", mesh.roughness)
             set_uniform(program, "u_emission", mesh.emission)
             set_uniform(program, "u_kind", mesh.kind)
-            self._vao(program, index, mesh, True).render()
+            self._vao(program, index, mesh, True).render(instances=instances)
 
     def draw_occluders(self, program, skip_light: int | None = None) -> None:
         """Draw positions only: every mesh and every light quad except ``skip_light``'s (shadow pass)."""
@@ -149,6 +153,11 @@ class GpuScene:
             if mesh.light is not None and mesh.light == skip_light:
                 continue
             self._vao(program, index, mesh, False).render()
+
+    def forget(self, program) -> None:
+        """Release the vertex arrays made for ``program`` (call before releasing a short-lived program)."""
+        for key in [k for k, (_, prog) in self._vaos.items() if prog is program]:
+            self._vaos.pop(key)[0].release()
 
     def release(self) -> None:
         for vao, _ in self._vaos.values():

@@ -7,6 +7,10 @@ One frame f of the :class:`~compare.progressive.distributor.Plan`:
    emission and the background, and — with an environment, in a second
    target — the unoccluded environment light (split-sum specular + diffuse
    irradiance, ``compare/ibl/ibl.glsl``; :mod:`compare.progressive.environment`);
+   with ``indirect="probes"``, in the first frames only, the running mean of the
+   indirect diffuse light of an irradiance volume baked at setup
+   (:mod:`compare.progressive.probes`, ``probe_bake_seconds``;
+   :mod:`compare.progressive.indirect` says why only the first frames);
 3. frame 0 only, while no light frame has run: the unshadowed preview of the
    direct light from each light's centre (``direct.glsl`` without shadows);
 4. for each light sample of the frame: its shadow atlas (``shadow.glsl``, five
@@ -16,6 +20,12 @@ One frame f of the :class:`~compare.progressive.distributor.Plan`:
    occlusion of the environment light (``env_occlusion.glsl``): the visible
    light, folded into one running mean per kind (diffuse, specular) over that
    kind's samples.
+
+Frame 0 carries no samples and is drawn differently (``first_frame="forward"``,
+:mod:`compare.progressive.first_frame`): a depth pre-pass and one forward-shaded
+pass write its every-frame terms straight into the running mean and the
+unshadowed preview into its own target, without the G-buffer and its
+full-screen passes: the cheap first frame of the paper.
 
 The displayed image (``compose.glsl``) is the every-frame mean plus the
 direct-light mean (or the preview before the first light frame) plus the
@@ -38,6 +48,7 @@ for (:meth:`ProgressiveRenderer.image`).
 
 from __future__ import annotations
 
+import math
 import time
 import warnings
 from dataclasses import dataclass, field
@@ -49,13 +60,18 @@ from .. import __version__
 from .accumulate import AccumulatePass, ComposePass, PingPong, Target
 from .context import create_context, gl_renderer_name
 from .direct import AREA_MODELS, MATERIAL_MODES, DirectPass
-from .environment import ENV_DIFFUSE, EnvironmentLighting, EnvOcclusionPass, EnvOcclusionTargets
+from .environment import (ENV_DIFFUSE, MAX_SAMPLES_PER_FRAME, EnvironmentLighting, EnvOcclusionPass,
+                          EnvOcclusionTargets)
 from ..ibl import DEFAULT_LEVELS, DEFAULT_SAMPLES, DEFAULT_SIZE
-from .distributor import DEFAULT_DIRECT_FRACTION, DEFAULT_FRAMES, Plan, plan
+from .budget import BudgetScheduler, FrameCosts
+from .distributor import DEFAULT_DIRECT_FRACTION, DEFAULT_FRAMES, FramePlan, Plan, plan
+from .first_frame import FIRST_FRAME_MODES, FirstFramePass
 from .gbuffer import GBuffer
+from .indirect import IndirectPass
 from .gpu_scene import CameraSetup, GpuScene, mat_bytes, scene_extent
+from .probes import ProbeVolume, indirect_options
 from .readback import read_rgb
-from .shadow import DEFAULT_BIAS, DEFAULT_SHADOW_SIZE, ShadowAtlas
+from .shadow import DEFAULT_BIAS, DEFAULT_SHADOW_SIZE, SHADOW_FILTERS, ShadowAtlas
 
 
 #: Default occlusion distance d_occ as a fraction of the diagonal of the scene's bounds.
@@ -114,6 +130,10 @@ class ProgressiveRenderer:
         Face resolution S of the shadow atlas (3S × S texels).
     shadow_bias : (float, float, float), keyword-only
         (normal offset, constant, slope-scaled) in shadow texels; see :mod:`.shadow`.
+    shadow_filter : {"hard", "vsm"}, keyword-only
+        Visibility of a light sample: a hard depth test, or variance shadow maps
+        filtered to about the penumbra of the sample's share of the light (the
+        atlas then has at most ``shadow_size`` texels a side); see :mod:`.shadow`.
     d_occ : float, keyword-only
         Occlusion distance of the environment's screen-space occlusion, in
         world units; 0 turns occlusion off (no samples, no pass); None uses
@@ -135,6 +155,25 @@ class ProgressiveRenderer:
     warm_up : bool, keyword-only
         Draw frame 0 and the first light frame once before timing starts, so
         that lazy shader compilation is not counted in frame 1 (default True).
+    indirect : {"none", "probes"} or None, keyword-only
+        Indirect diffuse light: none (the paper's technique) or an irradiance
+        volume (:mod:`compare.progressive.probes`); None uses the scene's
+        ``[render] indirect``.
+    probe_grid : (int, int, int) or None, keyword-only
+        Probes along x, y, z; None uses the scene's ``probe_grid``.
+    probe_bounces : int or None, keyword-only
+        Diffuse bounces baked into the probes; None uses the scene's ``probe_bounces``.
+    first_frame : {"forward", "gbuffer"}, keyword-only
+        How frame 0 (display only) is drawn: one forward-shaded pass
+        (:mod:`compare.progressive.first_frame`, the cheap first frame) or the
+        G-buffer and full-screen passes of every other frame. The forward pass
+        is used when frame 0 carries no samples (its preview then has no
+        indirect light of probes: that needs the G-buffer).
+    frame_budget_ms : float or None, keyword-only
+        A per-frame time budget: each frame evaluates as many of the plan's
+        samples as a measured cost model says fit (:mod:`compare.progressive.budget`),
+        at least one, so the render takes as many frames as it needs; None
+        keeps the paper's fixed plan of ``frames`` frames.
     ctx : moderngl.Context, keyword-only
         A context to use (not released here); None creates a headless one.
     """
@@ -142,28 +181,40 @@ class ProgressiveRenderer:
     def __init__(self, scene, *, frames: int = DEFAULT_FRAMES, seed: int = 0, area_model: str = "radiometric",
                  materials: str = "shared", direct_fraction: float = DEFAULT_DIRECT_FRACTION,
                  samples_per_light: int | Sequence[int] | None = None, shadow_size: int = DEFAULT_SHADOW_SIZE,
-                 shadow_bias: tuple[float, float, float] = DEFAULT_BIAS, d_occ: float | None = None,
-                 env_samples: int | None = None, occlusion_bias: float = DEFAULT_OCCLUSION_BIAS,
+                 shadow_bias: tuple[float, float, float] = DEFAULT_BIAS, shadow_filter: str = "hard",
+                 d_occ: float | None = None, env_samples: int | None = None,
+                 occlusion_bias: float = DEFAULT_OCCLUSION_BIAS,
                  env_format: str = "float", env_diffuse: str = "cube", ibl_size: int = DEFAULT_SIZE,
                  ibl_levels: int = DEFAULT_LEVELS, ibl_samples: int = DEFAULT_SAMPLES, cache_dir=None,
-                 warm_up: bool = True, ctx=None):
+                 warm_up: bool = True, indirect: str | None = None, probe_grid: Sequence[int] | None = None,
+                 probe_bounces: int | None = None, first_frame: str = "forward",
+                 frame_budget_ms: float | None = None, ctx=None):
         if area_model not in AREA_MODELS:
             raise ValueError(f"area_model: expected one of {', '.join(map(repr, AREA_MODELS))}, got {area_model!r}")
         if materials not in MATERIAL_MODES:
             raise ValueError(f"materials: expected one of {', '.join(map(repr, MATERIAL_MODES))}, got {materials!r}")
         if len(tuple(shadow_bias)) != 3 or not all(np.isfinite(b) and b >= 0 for b in shadow_bias):
             raise ValueError(f"shadow_bias: expected three non-negative numbers, got {shadow_bias!r}")
+        if first_frame not in FIRST_FRAME_MODES:
+            raise ValueError(f"first_frame: expected one of {', '.join(map(repr, FIRST_FRAME_MODES))}, "
+                             f"got {first_frame!r}")
+        if shadow_filter not in SHADOW_FILTERS:
+            raise ValueError(f"shadow_filter: expected one of {', '.join(map(repr, SHADOW_FILTERS))}, "
+                             f"got {shadow_filter!r}")
         if env_diffuse not in ENV_DIFFUSE:
             raise ValueError(f"env_diffuse: expected one of {', '.join(map(repr, ENV_DIFFUSE))}, got {env_diffuse!r}")
         if d_occ is not None and not (np.isfinite(d_occ) and d_occ >= 0):
             raise ValueError(f"d_occ: expected a non-negative distance (0 turns occlusion off), got {d_occ!r}")
         if not (np.isfinite(occlusion_bias) and 0 <= occlusion_bias < 1):
             raise ValueError(f"occlusion_bias: expected a fraction of d_occ in [0, 1), got {occlusion_bias!r}")
+        self.indirect, self.probe_grid, self.probe_bounces = indirect_options(scene, indirect, probe_grid,
+                                                                              probe_bounces)
         self.scene = scene
         self.area_model = area_model
         self.materials = materials
         self.seed = int(seed)
         self.shadow_bias = tuple(float(b) for b in shadow_bias)
+        self.shadow_filter = shadow_filter
         has_env = scene.features().environment
         if d_occ is None:
             lo, hi = scene_extent(scene)
@@ -174,6 +225,14 @@ class ProgressiveRenderer:
                          samples_per_light=samples_per_light,
                          env_samples=env_samples if self.d_occ > 0 else 0)
         self.notes: list[str] = list(self.plan.notes)
+        self.scheduler = None
+        if frame_budget_ms is not None:
+            if isinstance(frame_budget_ms, bool) or not (isinstance(frame_budget_ms, (int, float))
+                                                          and np.isfinite(frame_budget_ms) and frame_budget_ms > 0):
+                raise ValueError(f"frame_budget_ms: expected a positive number of milliseconds, "
+                                 f"got {frame_budget_ms!r}")
+            self.scheduler = BudgetScheduler(self.plan, frame_budget_ms / 1000.0,
+                                             max_env_per_frame=MAX_SAMPLES_PER_FRAME)
         self._check_features()
 
         t0 = time.perf_counter()
@@ -196,7 +255,17 @@ class ProgressiveRenderer:
                 if self.plan.env_frames > 0:
                     self.env_occlusion = self._keep(EnvOcclusionPass(ctx, self.environment, materials))
                     self.env_acc = self._keep(EnvOcclusionTargets(ctx, size))
+            # No probe work unless indirect = "probes"; the bake is part of setup (timed on its own too).
+            self.probes = None
+            if self.indirect == "probes":
+                self.probes = self._keep(ProbeVolume(
+                    ctx, scene, self.gpu_scene, grid=self.probe_grid, bounces=self.probe_bounces,
+                    shadow_bias=self.shadow_bias, environment=self.environment, materials=materials, seed=seed,
+                    cache_dir=cache_dir))
             self.accumulate = self._keep(AccumulatePass(ctx, self.environment, materials))
+            self.indirect_pass = None
+            if self.probes is not None:
+                self.indirect_pass = self._keep(IndirectPass(ctx, self.probes, size, materials))
             self.base = self._keep(PingPong(ctx, size, attachments=self.accumulate.attachments))
             self.compose = self._keep(ComposePass(ctx, size))
             has_lights = bool(scene.lights)
@@ -205,14 +274,28 @@ class ProgressiveRenderer:
             if has_lights:
                 lo, hi = scene_extent(scene)
                 self.shadow = self._keep(ShadowAtlas(ctx, self.gpu_scene, size=shadow_size,
-                                                     extent=float(np.linalg.norm(hi - lo))))
+                                                     extent=float(np.linalg.norm(hi - lo)), filter=shadow_filter,
+                                                     lights=scene.lights,
+                                                     samples_per_light=self.plan.samples_per_light))
+                spec_lut = None
+                if materials != "diffuse":
+                    from ..ibl import split_sum
+
+                    spec_lut = split_sum(cache_dir=cache_dir, folder="brdf")[0]
                 self.direct = self._keep(DirectPass(ctx, area_model=area_model, materials=materials,
-                                                    shadows=self.plan.light_frames > 0))
+                                                    shadows=self.plan.light_frames > 0, spec_lut=spec_lut,
+                                                    shadow_filter=shadow_filter))
                 self.direct_acc = self._keep(PingPong(ctx, size))
-                if any(fp.shadow_passes > 1 for fp in self.plan):
+                if self.scheduler is not None or any(fp.shadow_passes > 1 for fp in self.plan):
                     self.partial = self._keep(Target(ctx, size))
-                if any(fp.preview for fp in self.plan):
-                    self.preview = self._keep(Target(ctx, size))
+            fp0 = self.plan[0]
+            self.first = None
+            if first_frame == "forward" and not fp0.light_samples and not fp0.env_samples:
+                self.first = self._keep(FirstFramePass(
+                    ctx, self.gpu_scene, self.base, scene.lights, environment=self.environment, area_model=area_model,
+                    materials=materials, lut_texture=self.direct.lut_texture if self.direct is not None else None))
+            if has_lights and self.first is None and any(fp.preview for fp in self.plan):
+                self.preview = self._keep(Target(ctx, size))
             self.query = ctx.query(time=True)  # moderngl queries have no release(); freed with the context
         except BaseException:
             self.release()
@@ -224,12 +307,19 @@ class ProgressiveRenderer:
         self.gpu_frame_seconds: list[float] = []
         self.shadow_passes: list[int] = []
         """Shadow atlases rendered in each frame."""
+        self.env_passes: list[int] = []
+        """Environment occlusion samples evaluated in each frame."""
         self._preview_valid = False
         for fp in self.plan:
             self._matrices(fp)
-        if warm_up:
+        if self.scheduler is not None:
+            for jitter in self.scheduler.jitter:
+                self._matrices(FramePlan(0, (float(jitter[0]), float(jitter[1]))))
+        if warm_up or self.scheduler is not None:
             try:
                 self._warm_up()
+                if self.scheduler is not None:
+                    self._calibrate()
             except BaseException:
                 self.release()
                 raise
@@ -247,6 +337,9 @@ class ProgressiveRenderer:
         if feats.emissive_meshes:
             msg = ("emissive meshes are shown with their emission but do not light other surfaces in "
                    "compare.progressive (only [[lights]] rectangles are sampled)")
+            if self.indirect == "probes":
+                msg = ("emissive meshes light other surfaces only through the irradiance volume in "
+                       "compare.progressive (baked diffuse light; only [[lights]] rectangles are sampled)")
             warnings.warn(msg, stacklevel=3)
             self.notes.append(msg)
         if feats.textures:
@@ -278,18 +371,24 @@ class ProgressiveRenderer:
         can wake a BLAS thread pool, whose start-up is no part of a frame's cost.
         """
         cache = self.__dict__.setdefault("_matrix_cache", {})
-        if fp.frame not in cache:
+        if fp.jitter not in cache:
             view_proj = self.camera.view_proj(fp.jitter)
-            cache[fp.frame] = (view_proj, mat_bytes(np.linalg.inv(view_proj)))
-        return cache[fp.frame]
+            cache[fp.jitter] = (view_proj, mat_bytes(np.linalg.inv(view_proj)))
+        return cache[fp.jitter]
 
     def _draw(self, fp) -> None:
         """Issue the GL work of one frame plan ``fp``."""
         cam_pos = self.camera.position
         view_proj, inv_view_proj = self._matrices(fp)
+        if fp.frame == 0 and self.first is not None:
+            self.first.render(view_proj, inv_view_proj, cam_pos)
+            self._preview_valid = bool(self.scene.lights)
+            return
         self.gbuffer.render(view_proj, cam_pos)
         self.accumulate.run(self.base, self.gbuffer, self.background,
                             inv_view_proj=inv_view_proj, camera_position=cam_pos)
+        if self.indirect_pass is not None:
+            self.indirect_pass.run(self.gbuffer, cam_pos)
         if fp.env_samples and self.env_occlusion is not None:
             self.env_occlusion.run(self.env_acc, self.gbuffer, mat_bytes(view_proj), cam_pos,
                                    self.camera.camera.basis()[2], fp.env_samples, self.d_occ,
@@ -308,8 +407,10 @@ class ProgressiveRenderer:
                 self.direct.add(self.partial, self.gbuffer, self.shadow, self.shadow_bias, light, s.point,
                                 s.weight, cam_pos)
             else:
+                # With a budget the direct mean runs over samples (budget.py), else over light frames.
                 self.direct.accumulate(self.direct_acc, self.partial if last > 0 else None, self.gbuffer,
-                                       self.shadow, self.shadow_bias, light, s.point, s.weight, cam_pos)
+                                       self.shadow, self.shadow_bias, light, s.point, s.weight, cam_pos,
+                                       units=len(fp.light_samples) if self.scheduler is not None else 1)
 
     def _warm_up(self) -> None:
         """Run frame 0 and the first light frame once, then forget them.
@@ -329,11 +430,34 @@ class ProgressiveRenderer:
         self.ctx.finish()
         self.reset()
 
+    def _calibrate(self, repeats: int = 3) -> None:
+        """Measure the cost model of the frame budget (:mod:`.budget`): a frame without samples,
+        with one light sample, with one environment sample (medians of ``repeats``, after warm-up)."""
+        def timed(fp) -> float:
+            xs = []
+            for _ in range(repeats):
+                self.ctx.finish()
+                t0 = time.perf_counter()
+                self._draw(fp)
+                self.ctx.finish()
+                xs.append(time.perf_counter() - t0)
+            return float(np.median(xs))
+
+        jitter = self.plan[min(1, len(self.plan) - 1)].jitter
+        base = timed(FramePlan(1, jitter))
+        light = env = 0.0
+        if self.scheduler.lights:
+            light = max(timed(FramePlan(1, jitter, light_samples=self.scheduler.lights[:1])) - base, 1e-6)
+        if self.scheduler.envs:
+            env = max(timed(FramePlan(1, jitter, env_samples=self.scheduler.envs[:1])) - base, 1e-6)
+        self.scheduler.costs = FrameCosts(base, light, env)
+        self.reset()
+
     def render_frame(self) -> float:
         """Render the next frame of the plan; returns its wall seconds."""
-        if self.frame >= len(self.plan):
-            raise RuntimeError(f"all {len(self.plan)} frames of the plan are rendered; call reset() to start again")
-        fp = self.plan[self.frame]
+        if self.finished:
+            raise RuntimeError(f"all {self.frame} frames of the plan are rendered; call reset() to start again")
+        fp = self.scheduler.next() if self.scheduler is not None else self.plan[self.frame]
         t0 = time.perf_counter()
         with self.query:
             self._draw(fp)
@@ -344,15 +468,25 @@ class ProgressiveRenderer:
         # Some drivers answer the first query with an all-ones error value: record it as unknown.
         self.gpu_frame_seconds.append(elapsed * 1e-9 if 0 <= elapsed < 0xFFFFFFFF else float("nan"))
         self.shadow_passes.append(len(fp.light_samples))
+        self.env_passes.append(len(fp.env_samples))
         self.frame += 1
+        if self.scheduler is not None:
+            self.scheduler.observe(fp, seconds)
         return seconds
+
+    @property
+    def finished(self) -> bool:
+        """Every frame of the plan (every sample, with a frame budget) is rendered."""
+        if self.scheduler is not None:
+            return self.scheduler.done
+        return self.frame >= len(self.plan)
 
     def frames(self) -> Iterator[tuple[int, float]]:
         """Render the remaining frames; after each yield (frames done, cumulative wall seconds).
 
         The accumulated image is read only when asked for, with :meth:`image`.
         """
-        while self.frame < len(self.plan):
+        while not self.finished:
             self.render_frame()
             yield self.frame, self.seconds
 
@@ -360,24 +494,30 @@ class ProgressiveRenderer:
         """The displayed image after the frames so far: linear (H, W, 3) float32."""
         if self.frame == 0:
             raise RuntimeError("no frame rendered yet; iterate frames() or call render_frame() first")
+        what = f"progressive render of {self.scene.path} (frame {self.frame})"
         direct = None
         if self.direct_acc is not None and self.direct_acc.count > 0:
             direct = self.direct_acc.current
         elif self._preview_valid:
-            direct = self.preview.texture
-        fbo = self.compose.run(self.base, direct, self.env_acc)
-        return read_rgb(self.ctx, fbo, what=f"progressive render of {self.scene.path} (frame {self.frame})")
+            direct = self.first.direct if self.first is not None else self.preview.texture
+        fbo = self.compose.run(self.base, direct, self.env_acc,
+                               self.indirect_pass.texture if self.indirect_pass is not None else None)
+        return read_rgb(self.ctx, fbo, what=what)
 
     def reset(self) -> None:
         """Start the plan again (same seed, same image)."""
         self.base.reset()
+        if self.indirect_pass is not None:
+            self.indirect_pass.reset()
         if self.direct_acc is not None:
             self.direct_acc.reset()
         if self.env_acc is not None:
             self.env_acc.reset()
         self._preview_valid = False
         self.frame = 0
-        self.frame_seconds, self.gpu_frame_seconds, self.shadow_passes = [], [], []
+        self.frame_seconds, self.gpu_frame_seconds, self.shadow_passes, self.env_passes = [], [], [], []
+        if self.scheduler is not None:
+            self.scheduler.reset()
 
     def metadata(self) -> dict:
         """str/int/float description of the render so far (for EXR headers and reports)."""
@@ -395,6 +535,8 @@ class ProgressiveRenderer:
             "area_model": self.area_model,
             "materials": self.materials,
             "jitter": "R2",
+            "first_frame": "forward" if self.first is not None else "gbuffer",
+            "distributor": "fixed plan" if self.scheduler is None else "frame budget",
             "direct_fraction": p.direct_fraction,
             "direct_start_frame": p.direct_start,
             "light_frames": p.light_frames,
@@ -409,7 +551,15 @@ class ProgressiveRenderer:
                          "occlusion": "screen-space, progressive" if p.env_frames else "off"})
         if self.shadow is not None:
             meta.update({"shadow_projection": "half-cube (5 faces)", "shadow_size": int(self.shadow.size),
-                         "shadow_bias": ",".join(f"{b:g}" for b in self.shadow_bias)})
+                         "shadow_bias": ",".join(f"{b:g}" for b in self.shadow_bias),
+                         "shadow_filter": self.shadow_filter})
+        meta["indirect"] = self.indirect
+        if self.probes is not None:
+            meta.update(self.probes.describe())
+        if self.scheduler is not None:
+            c = self.scheduler.costs
+            meta.update({"frame_budget_ms": self.scheduler.budget * 1e3, "cost_base_ms": c.base * 1e3,
+                         "cost_light_sample_ms": c.light * 1e3, "cost_env_sample_ms": c.env * 1e3})
         if self.notes:
             meta["notes"] = "; ".join(self.notes)
         return meta
@@ -431,7 +581,7 @@ class ProgressiveRenderer:
 
 
 def render_progressive(scene, *, frames: int = DEFAULT_FRAMES, seed: int = 0, area_model: str = "radiometric",
-                       ctx=None, checkpoints: Sequence[int] = (), **options) -> ProgressiveResult:
+                       ctx=None, checkpoints: Sequence[int] | str = (), **options) -> ProgressiveResult:
     """Render ``scene`` progressively for ``frames`` frames.
 
     Parameters
@@ -439,12 +589,15 @@ def render_progressive(scene, *, frames: int = DEFAULT_FRAMES, seed: int = 0, ar
     scene : compare.scene.Scene
     frames, seed, area_model, ctx : keyword-only
         See :class:`ProgressiveRenderer`.
-    checkpoints : sequence of int, keyword-only
+    checkpoints : sequence of int or "every", keyword-only
         Frame counts (1 … frames) after which the accumulated image is read
-        back, e.g. ``(1, 2, 4, …, 128)``; readback is not counted in the seconds.
+        back, e.g. ``(1, 2, 4, …, 128)``, or ``"every"`` frame; readback is not
+        counted in the seconds. With ``frame_budget_ms`` the render may end
+        before ``frames`` (or after: each frame then evaluates at least one
+        sample); counts it does not reach are not taken.
     **options
         Further :class:`ProgressiveRenderer` options (materials, direct_fraction,
-        samples_per_light, shadow_size, shadow_bias, d_occ, env_samples,
+        samples_per_light, shadow_size, shadow_bias, shadow_filter, d_occ, env_samples,
         occlusion_bias, env_format, env_diffuse, ibl_size, ibl_levels,
         ibl_samples, cache_dir).
 
@@ -454,14 +607,18 @@ def render_progressive(scene, *, frames: int = DEFAULT_FRAMES, seed: int = 0, ar
         ``.image`` (H, W, 3) float32 linear radiance, ``.seconds``,
         ``.frame_seconds``, ``.metadata``, ``.checkpoints`` (frame, seconds, image).
     """
-    wanted = sorted({int(c) for c in checkpoints})
-    bad = [c for c in wanted if not 1 <= c <= frames]
+    every = isinstance(checkpoints, str)
+    if every and checkpoints != "every":
+        raise ValueError(f'checkpoints: expected frame counts or "every", got {checkpoints!r}')
+    wanted = set() if every else {int(c) for c in checkpoints}
+    limit = math.inf if options.get("frame_budget_ms") is not None else frames
+    bad = sorted(c for c in wanted if not 1 <= c <= limit)
     if bad:
         raise ValueError(f"checkpoints: frame counts must lie in 1 … {frames} (frames), got {bad}")
     with ProgressiveRenderer(scene, frames=frames, seed=seed, area_model=area_model, ctx=ctx, **options) as r:
         taken = []
         for n, seconds in r.frames():
-            if n in wanted:
+            if every or n in wanted:
                 taken.append(Checkpoint(n, seconds, r.image()))
         image = taken[-1].image if taken and taken[-1].frame == r.frame else r.image()
         return ProgressiveResult(

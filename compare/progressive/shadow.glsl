@@ -5,6 +5,10 @@
 // far distance (gl_FragDepth), not the perspective depth: the five faces share one
 // metric, the lookup's bias is in world units, and the 24-bit depth has the same
 // absolute precision (far / 2^24) at every distance.
+//
+// Define MOMENTS (variance shadow maps, shadow.py): the pass also writes the first two
+// moments (d, d^2) of the distance d in world units to an RG32F colour attachment; the
+// depth test still keeps the nearest surface.
 
 #if defined VERTEX_SHADER
 
@@ -26,8 +30,16 @@ in vec3 v_position;
 uniform vec3 u_sample;
 uniform float u_inv_far;
 
+#if defined MOMENTS
+out vec2 out_moments;
+#endif
+
 void main() {
     gl_FragDepth = clamp(distance(v_position, u_sample) * u_inv_far, 0.0, 1.0);
+#if defined MOMENTS
+    float d = distance(v_position, u_sample);
+    out_moments = vec2(d, d * d);
+#endif
 }
 
 #endif

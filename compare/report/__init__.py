@@ -219,11 +219,54 @@ def _scene_view(scene: SceneResult, plots: dict[str, Path], out: Path, exposure:
         "noise_floor": None if nf is None else {"spp": nf.spp, "seeds": nf.seeds, "vals": _metrics_row(nf.metrics)},
         "runs": runs,
         "equal": equal,
+        "ablations": _ablations(scene),
         "plots": {k: rel(v) for k, v in plots.items()},
         "viewer": viewer,
         "viewer_right": right,
         "exposure": exposure,
     }
+
+
+def _ablations(scene: SceneResult) -> list[dict]:
+    """Each ``progressive:<option>`` variant against the plain ``progressive`` run (compare.variants).
+
+    Final FLIP and relMSE of both, the time ratio, and the equal-time view: the
+    variant's FLIP when the paper's technique has spent its whole time, and the
+    paper's FLIP at the variant's total time (log–log interpolated, final image held).
+    """
+    from ..variants import describe
+
+    base = scene.run("progressive")
+    if base is None or not base.points:
+        return []
+    rows = []
+    for run in scene.runs:
+        if not run.renderer.startswith("progressive:") or not run.points:
+            continue
+        try:
+            what = describe(run.renderer)
+        except ValueError:
+            what = run.renderer
+        f, b = run.final.metrics, base.final.metrics
+
+        def delta(key: str) -> str:
+            v, w = metric_value(f, key), metric_value(b, key)
+            if v is None or w is None or not w:
+                return "—"
+            return f"{(v / w - 1) * 100:+.1f} %"
+
+        rows.append({
+            "label": run.label, "what": what,
+            "flip": fmt_num(metric_value(f, "flip"), 4), "flip_delta": delta("flip"),
+            "relmse": fmt_num(metric_value(f, "relmse"), 4), "relmse_delta": delta("relmse"),
+            "seconds": fmt_seconds(run.seconds),
+            "time_ratio": fmt_num(run.seconds / base.seconds if base.seconds else None, 3),
+            "setup": fmt_seconds(run.setup_seconds),
+            "steps": run.steps if not run.points else run.points[-1].step,
+            "at_base_time": fmt_num(run.error_at(base.seconds, "flip", hold=True), 4),
+            "base_at_time": fmt_num(base.error_at(run.seconds, "flip", hold=True), 4),
+        })
+    return rows
 
 
 def _table1(results: Results) -> dict:

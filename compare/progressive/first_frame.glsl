@@ -1,0 +1,135 @@
+// The first frame, forward-shaded: the scene from frame 0's camera straight into the
+// targets, without the G-buffer and its full-screen passes (first_frame.py).
+//
+// out_color:  the every-frame mean's first value, as accumulate.glsl writes it for
+//             n = 1: emission, or the background where no surface is seen (with
+//             ENVIRONMENT the map, drawn by a full-screen triangle behind the scene;
+//             without it the clear colour, black);
+// out_env:    (ENVIRONMENT) the unoccluded environment light, the split sum of
+//             compare/ibl/ibl.glsl;
+// out_direct: the unshadowed direct light of each area light from its centre
+//             (light_preview in area_light.glsl), shown until the first light frame.
+//
+// A depth pre-pass runs first, so each pixel is shaded once.
+//
+// Defines: LIGHTS (number of area lights, 0 for none), ENVIRONMENT, AREA_MODEL_PAPER,
+// MATERIALS_DIFFUSE.
+
+#if defined VERTEX_SHADER
+
+in vec3 in_position;
+in vec3 in_normal;
+
+uniform mat4 u_view_proj;
+// The first frame's depth pre-pass and shading pass must agree on depth bit for bit.
+invariant gl_Position;
+uniform float u_background_pass;  // 1: the full-screen background triangle at the far plane
+
+out vec3 v_position;
+out vec3 v_normal;
+
+void main() {
+    v_position = in_position;
+    v_normal = in_normal;
+    if (u_background_pass > 0.5) {
+        vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2));
+        gl_Position = vec4(p * 2.0 - 1.0, 1.0, 1.0);
+    } else {
+        gl_Position = u_view_proj * vec4(in_position, 1.0);
+    }
+}
+
+#elif defined FRAGMENT_SHADER
+
+#include "brdf.glsl"
+#if ENVIRONMENT
+#include "mapping.glsl"
+#include "ibl.glsl"
+uniform mat4 u_inv_view_proj;
+uniform vec2 u_viewport;
+#endif
+
+in vec3 v_position;
+in vec3 v_normal;
+
+uniform vec3 u_camera_position;
+uniform vec3 u_base_color;
+uniform float u_metallic;
+uniform float u_roughness;
+uniform vec3 u_emission;
+uniform float u_kind;             // 1 = shaded surface, 2 = emitter that reflects nothing
+uniform float u_background_pass;
+
+layout(location = 0) out vec4 out_color;
+#if ENVIRONMENT
+layout(location = 1) out vec4 out_env;
+layout(location = 2) out vec4 out_direct;
+#else
+layout(location = 1) out vec4 out_direct;
+#endif
+
+#if LIGHTS > 0
+uniform vec3 u_lights_center[LIGHTS];
+uniform vec3 u_lights_t[LIGHTS];
+uniform vec3 u_lights_b[LIGHTS];
+uniform vec3 u_lights_n[LIGHTS];
+uniform vec2 u_lights_half[LIGHTS];
+uniform vec3 u_lights_radiance[LIGHTS];
+uniform float u_lights_area[LIGHTS];
+
+// area_light.glsl reads the current light from these; the loop below sets them.
+vec3 u_light_center;
+vec3 u_light_t;
+vec3 u_light_b;
+vec3 u_light_n;
+vec2 u_light_half;
+vec3 u_light_radiance;
+float u_light_area;
+#include "area_light.glsl"
+#endif
+
+void main() {
+#if ENVIRONMENT
+    if (u_background_pass > 0.5) {
+        vec2 ndc = gl_FragCoord.xy / u_viewport * 2.0 - 1.0;
+        vec4 far_point = u_inv_view_proj * vec4(ndc, 1.0, 1.0);
+        vec4 near_point = u_inv_view_proj * vec4(ndc, -1.0, 1.0);
+        out_color = vec4(env_background(far_point.xyz / far_point.w - near_point.xyz / near_point.w), 1.0);
+        out_env = vec4(0.0, 0.0, 0.0, 1.0);
+        out_direct = vec4(0.0, 0.0, 0.0, 1.0);
+        return;
+    }
+#endif
+    vec3 n = normalize(v_normal);
+    vec3 v = normalize(u_camera_position - v_position);
+    vec3 c = dot(n, v) > 0.0 ? u_emission : vec3(0.0);
+    vec3 direct = vec3(0.0);
+    vec3 env = vec3(0.0);
+    if (u_kind < 1.5) {
+#if ENVIRONMENT
+        vec3 diffuse;
+        vec3 specular;
+        env_split_sum(n, v, u_base_color, u_metallic, u_roughness, diffuse, specular);
+        env = diffuse + specular;
+#endif
+#if LIGHTS > 0
+        for (int i = 0; i < LIGHTS; ++i) {
+            u_light_center = u_lights_center[i];
+            u_light_t = u_lights_t[i];
+            u_light_b = u_lights_b[i];
+            u_light_n = u_lights_n[i];
+            u_light_half = u_lights_half[i];
+            u_light_radiance = u_lights_radiance[i];
+            u_light_area = u_lights_area[i];
+            direct += light_preview(v_position, n, v, u_base_color, u_metallic, u_roughness);
+        }
+#endif
+    }
+    out_color = vec4(c, 1.0);
+#if ENVIRONMENT
+    out_env = vec4(env, 1.0);
+#endif
+    out_direct = vec4(direct, 1.0);
+}
+
+#endif

@@ -1,0 +1,127 @@
+"""The cheap first frame: one forward-shaded pass instead of the G-buffer and its passes.
+
+Frame 0 of a plan carries no light samples and no occlusion samples: it shows
+emission, the unoccluded environment light (split sum) and the unshadowed
+direct light of each area light from its centre. Shading that from the
+G-buffer costs a full frame (four RGBA32F targets written, then full-screen
+passes reading them), which made frame 1 as dear as an average frame. Here the
+scene is rasterized once for depth and once with a forward shader
+(``first_frame.glsl``) that writes what frame 0 adds to the every-frame running
+mean (its first value: emission and background, and the unoccluded environment
+light) straight into that mean's next target, and the unshadowed direct-light
+preview (a cheaper form than the direct pass's, :func:`light_preview` in
+``area_light.glsl``) into its own target, shown until the first light frame.
+The displayed image is composed from them as after any other frame.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .gpu_scene import mat_bytes
+from .shaders import load_program, set_uniform
+
+#: How frame 0 is drawn (ProgressiveRenderer's ``first_frame``).
+FIRST_FRAME_MODES = ("forward", "gbuffer")
+#: Texture unit of the split-sum table; the environment's textures follow from ENV_UNIT on.
+LUT_UNIT = 0
+ENV_UNIT = 1
+
+
+class FirstFramePass:
+    """Program and targets of the forward-shaded frame 0.
+
+    ``lut_texture`` is the direct pass's split-sum table (None with Lambert-only
+    materials); ``environment`` an :class:`~compare.progressive.environment.EnvironmentLighting` or None.
+    """
+
+    def __init__(self, ctx, gpu_scene, base, lights, *, environment=None, area_model: str = "radiometric",
+                 materials: str = "shared", lut_texture=None):
+        self.ctx = ctx
+        self.scene = gpu_scene
+        size = base.textures[0][0].size
+        self.size = size
+        self.base = base
+        self.lights = tuple(lights)
+        self.environment = environment
+        self.lut_texture = lut_texture
+        defines = {"LIGHTS": len(self.lights), "ENVIRONMENT": int(environment is not None),
+                   "AREA_MODEL_PAPER": int(area_model == "paper"), "MATERIALS_DIFFUSE": int(materials == "diffuse")}
+        if environment is not None:
+            defines.update(environment.defines(materials))
+        self._objects: list = []
+        try:
+            self.program = self._keep(load_program(ctx, "first_frame.glsl", defines))
+            self.background_vao = self._keep(ctx.vertex_array(self.program, []))
+            self.direct = self._keep(ctx.texture(size, 4, dtype="f4"))
+            self.direct.filter = (ctx.NEAREST, ctx.NEAREST)
+            self.depth = self._keep(ctx.depth_renderbuffer(size))
+            # Frame 0 is the every-frame mean's first value: after reset() its next target is set 1.
+            self.fbo = self._keep(ctx.framebuffer(list(base.textures[1]) + [self.direct], self.depth))
+            # Depth pre-pass: with the nearest depth known, each pixel is shaded once, however
+            # much the scene overdraws (the kitchen's frame 0 cost 3x an average frame without it).
+            self.depth_fbo = self._keep(ctx.framebuffer(depth_attachment=self.depth))
+            self.depth_program = self._keep(load_program(ctx, "depth_only.glsl"))
+        except BaseException:
+            self.release()
+            raise
+        self._set_lights()
+
+    def _keep(self, obj):
+        self._objects.append(obj)
+        return obj
+
+    def _set_lights(self) -> None:
+        if not self.lights:
+            return
+        p = self.program
+
+        def arr(values) -> bytes:
+            return np.ascontiguousarray(values, dtype=np.float32).tobytes()
+
+        set_uniform(p, "u_lights_center", arr([lt.center for lt in self.lights]))
+        set_uniform(p, "u_lights_t", arr([lt.tangent for lt in self.lights]))
+        set_uniform(p, "u_lights_b", arr([lt.bitangent for lt in self.lights]))
+        set_uniform(p, "u_lights_n", arr([lt.normal for lt in self.lights]))
+        set_uniform(p, "u_lights_half", arr([(lt.size[0] / 2, lt.size[1] / 2) for lt in self.lights]))
+        set_uniform(p, "u_lights_radiance", arr([lt.radiance for lt in self.lights]))
+        set_uniform(p, "u_lights_area", arr([lt.area for lt in self.lights]))
+
+    def render(self, view_proj, inv_view_proj: bytes, camera_position) -> None:
+        """Draw frame 0: the every-frame mean's first value (then swapped in) and :attr:`direct`, the preview."""
+        if self.base.count != 0 or self.base.index != 0:
+            raise RuntimeError("the first frame must be drawn right after reset()")
+        ctx = self.ctx
+        p = self.program
+        self.fbo.use()
+        ctx.enable_only(ctx.DEPTH_TEST)
+        ctx.depth_func = "<="
+        # Without an environment the background is black (the clear colour).
+        self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        self.depth_fbo.use()
+        set_uniform(self.depth_program, "u_view_proj", mat_bytes(view_proj))
+        self.scene.draw_occluders(self.depth_program)
+        self.fbo.use()
+        if self.lut_texture is not None:
+            self.lut_texture.use(location=LUT_UNIT)
+            set_uniform(p, "u_spec_lut", LUT_UNIT)
+        set_uniform(p, "u_view_proj", mat_bytes(view_proj))
+        set_uniform(p, "u_camera_position", tuple(float(x) for x in camera_position))
+        set_uniform(p, "u_background_pass", 0.0)
+        if self.environment is not None:
+            self.environment.bind(p, first_unit=ENV_UNIT)
+        self.scene.draw_shaded(p)
+        if self.environment is not None:
+            set_uniform(p, "u_background_pass", 1.0)
+            set_uniform(p, "u_inv_view_proj", inv_view_proj)
+            set_uniform(p, "u_viewport", tuple(float(x) for x in self.size))
+            self.background_vao.render(vertices=3)
+        self.base.swap()
+
+    def release(self) -> None:
+        for name in ("program", "depth_program"):
+            if getattr(self, name, None) is not None:
+                self.scene.forget(getattr(self, name))
+        for obj in reversed(self._objects):
+            obj.release()
+        self._objects = []

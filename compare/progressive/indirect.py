@@ -1,0 +1,70 @@
+"""The irradiance volume's indirect diffuse light as a pass of its own (``indirect.glsl``).
+
+Looking the volume up costs far more than the rest of an every-frame pass on a
+software rasterizer (8 probes × 9 coefficients and 8 distance maps per pixel:
+about 20 ms at 320×240 on llvmpipe against 2 ms), and its result is smooth and
+noise-free: the running mean over jittered frames only anti-aliases it. So it
+has its own running mean, updated in the first :data:`PROBE_FRAMES` frames that
+draw the G-buffer and then kept as it is; ``compose.glsl`` adds it. The
+forward-shaded frame 0 has no G-buffer, so its preview shows no indirect light;
+every later image does.
+"""
+
+from __future__ import annotations
+
+from .accumulate import PingPong
+from .shaders import load_program, set_uniform
+
+#: Frames whose jitter anti-aliases the indirect light (then its mean is kept).
+PROBE_FRAMES = 16
+
+
+class IndirectPass:
+    """Program and running mean of the volume's indirect light."""
+
+    def __init__(self, ctx, probes, size: tuple[int, int], materials: str = "shared", frames: int = PROBE_FRAMES):
+        if frames < 1:
+            raise ValueError(f"probe frames: expected at least 1, got {frames}")
+        self.ctx = ctx
+        self.probes = probes
+        self.frames = int(frames)
+        self.program = load_program(ctx, "indirect.glsl", probes.defines(materials))
+        self.vao = ctx.vertex_array(self.program, [])
+        self.acc = PingPong(ctx, size)
+
+    @property
+    def done(self) -> bool:
+        """The mean has all its frames: the pass need not run again until reset."""
+        return self.acc.count >= self.frames
+
+    def run(self, gbuffer, camera_position) -> None:
+        """Fold this frame's indirect light into the running mean (nothing once :attr:`done`)."""
+        if self.done:
+            return
+        ctx = self.ctx
+        p = self.program
+        self.acc.target.use()
+        ctx.enable_only(ctx.NOTHING)
+        self.acc.current.use(location=0)
+        set_uniform(p, "u_previous", 0)
+        for loc, name in enumerate(("position", "normal", "material"), start=1):
+            gbuffer[name].use(location=loc)
+            set_uniform(p, f"u_{name}", loc)
+        set_uniform(p, "u_camera_position", tuple(float(x) for x in camera_position))
+        set_uniform(p, "u_count", float(self.acc.count + 1))
+        self.probes.bind(p, first_unit=4)
+        self.vao.render(vertices=3)
+        self.acc.swap()
+
+    @property
+    def texture(self):
+        """The running mean, or None before the first update."""
+        return self.acc.current if self.acc.count > 0 else None
+
+    def reset(self) -> None:
+        self.acc.reset()
+
+    def release(self) -> None:
+        self.acc.release()
+        self.vao.release()
+        self.program.release()
