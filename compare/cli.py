@@ -37,6 +37,19 @@ def positive_int(text: str) -> int:
     return v
 
 
+def _renderer_arg(text: str) -> str:
+    """``--renderer``: mitsuba, or progressive with variant options (checked here, before any work)."""
+    if text == "mitsuba":
+        return text
+    from .variants import renderer_options
+
+    try:
+        renderer_options(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return text
+
+
 def _build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="compare", description=__doc__.splitlines()[0],
                                 formatter_class=argparse.ArgumentDefaultsHelpFormatter)
@@ -45,7 +58,9 @@ def _build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("render", help="render one scene with one renderer to an EXR (+ PNG preview)",
                        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     r.add_argument("--scene", required=True, type=Path, help="scene file (TOML)")
-    r.add_argument("--renderer", default="mitsuba", choices=["mitsuba", "progressive"], help="renderer")
+    r.add_argument("--renderer", default="mitsuba", type=_renderer_arg,
+                   help="mitsuba, progressive or progressive:<option>[+<option>] (options: paper, probes, vsm, "
+                        "budget<ms>; see compare/variants.py)")
     r.add_argument("--spp", type=positive_int, default=256, help="samples per pixel (mitsuba)")
     r.add_argument("--frames", type=positive_int, default=128, help="frames to accumulate (progressive)")
     r.add_argument("--size", type=parse_size, default=None, help="WIDTHxHEIGHT; default: the scene's resolution")
@@ -103,9 +118,11 @@ def cmd_render(args: argparse.Namespace) -> int:
     else:
         from .progressive import render_progressive
 
-        result = render_progressive(scene, frames=args.frames, seed=args.seed)
+        from .variants import renderer_options
+
+        result = render_progressive(scene, frames=args.frames, seed=args.seed, **renderer_options(args.renderer))
         image, meta = result.image, result.metadata
-        summary = f"{args.frames} frames in {result.seconds:.2f} s"
+        summary = f"{len(result.frame_seconds)} frames in {result.seconds:.2f} s"
     write_exr(args.output, image, metadata={**meta, "scene": str(args.scene)})
     png = args.png or args.output.with_suffix(".png")
     write_png(png, image, exposure=args.exposure, operator=args.tonemap)

@@ -46,6 +46,23 @@ def test_render_progressive_and_diff(tmp_path, capsys, monkeypatch):
     assert list((tmp_path / "maps").glob("*.png"))
 
 
+@pytest.mark.gl
+def test_render_progressive_variant(tmp_path, capsys):
+    out = tmp_path / "vsm.exr"
+    assert main(["render", "--scene", CORNELL, "--renderer", "progressive:vsm+budget1000", "--frames", "8",
+                 "--size", "32x24", "-o", str(out)]) == 0
+    meta = read_exr(out)[1]
+    assert meta["shadow_filter"] == "vsm" and meta["distributor"] == "frame budget"
+    assert "2 frames" in capsys.readouterr().out  # an ample budget: frame 0, then every sample in frame 1
+
+
+def test_unknown_variant_is_refused_before_rendering(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["render", "--scene", CORNELL, "--renderer", "progressive:ssao", "-o", str(tmp_path / "x.exr")])
+    assert exc.value.code == 2
+    assert "unknown option 'ssao'" in capsys.readouterr().err
+
+
 def test_bad_scene_is_one_line_and_exit_2(tmp_path, capsys):
     bad = tmp_path / "bad.toml"
     bad.write_text('[camera]\nposition = [0, 0, 1]\ntarget = [0, 0, 0]\nfov = -3\n')
