@@ -66,7 +66,8 @@ def _build_parser() -> argparse.ArgumentParser:
     r.add_argument("--size", type=parse_size, default=None, help="WIDTHxHEIGHT; default: the scene's resolution")
     r.add_argument("--seed", type=int, default=0, help="random seed")
     r.add_argument("--materials", choices=["shared", "cycles"], default="shared",
-                   help="reference material mode: the shared BRDF plugin or Mitsuba's principled (Cycles-like)")
+                   help="reference material mode: the shared BRDF plugin or its Blender Principled v2 flavour "
+                        "(Cycles-like)")
     r.add_argument("--max-depth", type=int, default=None, help="path depth override (2 = direct light only)")
     r.add_argument("--variant", default=None, help="Mitsuba variant (default: best available)")
     r.add_argument("--no-cache", action="store_true", help="do not read or write the reference cache")

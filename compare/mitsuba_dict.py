@@ -1,17 +1,64 @@
 """Translate a :class:`compare.scene.Scene` into a Mitsuba 3 scene dictionary.
 
-Two material modes:
+Three material modes:
 
 ``shared``
     the suite's own glTF metallic-roughness BSDF plugin (:mod:`compare.brdf`),
     the same definition the rasterizer evaluates in GLSL, so that
     reference-versus-rasterizer error measures lighting, not materials.
 ``cycles``
-    Mitsuba's ``principled`` BSDF with the same parameters, for references meant
-    to look like Blender Cycles (whose Principled BSDF it mirrors).
+    the same plugin with ``flavour = "cycles"``: Blender's Principled BSDF v2
+    as :mod:`compare.blender.export` sets it up (:mod:`compare.brdf.principled`),
+    for references meant to look like Blender Cycles.
 ``diffuse``
     Lambert only (reflectance = base colour), for validation against closed
     forms such as the white furnace, where any specular lobe would get in the way.
+
+The ``cycles`` mapping
+----------------------
+Base colour, metallic and roughness go in unchanged (Blender squares the
+roughness like glTF). The model is what Cycles evaluates for the exporter's
+Principled node (IOR 1.5, Specular IOR Level 0.5, white Specular Tint, Diffuse
+Roughness 0, ``distribution = 'GGX'``): GGX with height-correlated Smith
+masking (as ``shared``); the exact dielectric Fresnel of IOR 1.5 on the
+dielectric specular layer (``shared``: Schlick, F0 = 0.04), Schlick with
+F0 = base colour on the metal layer (Cycles' F82-tint with a white tint); and
+a Lambert lobe ``(1 - m)(1 - E_s(r, n.v)) c / pi`` under the specular layer,
+where ``E_s`` is Cycles' own albedo estimate of that layer, tabulated as
+Cycles tabulates it (``ggx_gen_schlick_ior_s``) and depending on the view
+direction only (``shared``: ``(1 - m)(1 - F_d(v.h))`` per light direction).
+Until this mode used the plugin it was Mitsuba's ``principled`` BSDF (Disney
+2015: Disney diffuse with retro-reflection, Schlick Fresnel, no layering), which
+made the Cornell box 18-47 % brighter per region than Cycles.
+
+What remains different from Cycles: the roughness floor (alpha >= 0.002025,
+roughness 0.045; Cycles keeps roughness down to ~0.004 glossy, below that a
+mirror), the float32 guards of V, Cycles' bending of shading normals for
+specular reflection on smooth-shaded meshes (``ensure_valid_specular_reflection``),
+Monte Carlo noise in the two tabulations of ``E_s`` (~3e-4), and sampling
+(lobe choice, light sampling, Sobol versus Mitsuba's samplers), which changes
+noise, not the expectation. Measured with :func:`compare.blender.likeness.cycles_likeness`
+(FLIP(Mitsuba, Cycles) / FLIP(Cycles seed A, seed B); Mitsuba's independent
+sampler is noisier than Cycles' Sobol at equal spp, which alone puts this ratio
+above 1): Cornell box 64x48 at 64 spp 1.06 (``shared`` 1.10, ``principled``
+5.17), kitchen and car at 96x72, 64 spp 1.11 and 1.39 (``shared`` 1.25 and 2.17,
+``principled`` 3.40 and 3.11), every region mean agreeing within 3 standard
+errors or 2 %; at 1024 spp (Cornell) and 512 spp (kitchen, car) every region
+still agrees (means at most 1.7, 2.9 and 2.1 % apart), ratio 1.14, 1.14 and
+1.53, noise-matched ratio (``Likeness.ratio_noise_matched``) 1.00, 1.02 and
+1.06 (``shared``: ratio 1.52, 1.78 and 5.20; 14 of 15, 42 of 53 and 5 of 12
+regions agree).
+Variants measured and dropped (same renders, 1024/512 spp; region means
+averaged over pixels, Cornell/kitchen/car): Schlick in place of the exact
+Fresnel, 0.9/1.2/1.7 % too dark (ratio 1.55/1.49/2.41); the specular lobe's
+true directional albedo in place of Cycles' table, +6.3/+3.0/+2.0 %
+(4.99/2.25/2.14); glTF's per-direction ``1 - F(v.h)``, +0.6/+2.6/+8.2 %
+(1.45/2.06/5.50); Kulla-Conty multiple-scattering compensation as Blender's
+``MULTI_GGX`` does it (which the exporter does not use), +6.5/+3.1/+1.7 %
+(5.08/2.31/2.00).
+
+:data:`MATERIAL_MODELS` names the model behind a mode whose meaning changed
+after it was introduced; the reference's cache key includes it.
 """
 
 from __future__ import annotations
@@ -23,6 +70,8 @@ from .scene import AreaLight, Material, Scene
 MATERIAL_MODES = ("shared", "cycles", "diffuse")
 #: BSDF plugin name of the shared BRDF (registered by compare.brdf.mitsuba_plugin).
 SHARED_BSDF = "gltf_pbr"
+#: Model identifiers of modes whose model changed (part of the reference's cache key).
+MATERIAL_MODELS = {"cycles": "gltf_pbr:cycles"}
 
 
 def sensor_dict(scene: Scene, *, spp: int, sampler: str = "independent") -> dict:
@@ -51,7 +100,7 @@ def sensor_dict(scene: Scene, *, spp: int, sampler: str = "independent") -> dict
 
 
 def material_dict(mat: Material, mode: str) -> dict:
-    """BSDF dictionary for one material in ``mode`` ('shared' or 'cycles')."""
+    """BSDF dictionary for one material in ``mode`` (one of :data:`MATERIAL_MODES`)."""
     base = ({"type": "bitmap", "filename": str(mat.base_color_texture), "raw": False}
             if mat.base_color_texture else {"type": "rgb", "value": list(mat.base_color)})
     if mode == "shared":

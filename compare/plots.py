@@ -168,14 +168,19 @@ def equal_figure(scene: SceneResult, path: str | Path, metric: str = "flip") -> 
     """
     path = Path(path)
     label = dict(PLOT_METRICS).get(metric, metric)
-    fig = _new_figure(11, 4.2)
-    left, right = fig.subplots(1, 2)
+    n = max(1, len(scene.runs))
+    crowded = n > 4  # n × n bars a panel: stack the panels, drop the value labels (the tables hold them)
+    if crowded:
+        fig = _new_figure(max(11.0, 1.9 * n), 8.6)
+        left, right = fig.subplots(2, 1)
+    else:
+        fig = _new_figure(11, 4.2)
+        left, right = fig.subplots(1, 2)
     panels = (
         (left, equal_time(scene, metric), label, "time of", lambda v: f"{v:.3g} s", "no image\nyet"),
         (right, equal_error(scene, metric), "seconds", "final error of", lambda v: f"{v:.3g}", "not\nreached"),
     )
     for ax, rows, ylabel, prefix, fmt, missing_text in panels:
-        n = max(1, len(scene.runs))
         width = 0.8 / n
         for k, run in enumerate(scene.runs):
             xs, hs, hatch, missing = [], [], [], []
@@ -191,11 +196,14 @@ def equal_figure(scene: SceneResult, path: str | Path, metric: str = "flip") -> 
             bars = ax.bar(xs, hs, width=width * 0.95, color=f"C{k}", alpha=0.9)
             for bar, h in zip(bars, hatch):
                 bar.set_hatch(h)
-            ax.bar_label(bars, fmt="%.3g", fontsize=7, padding=1)
+            if not crowded:
+                ax.bar_label(bars, fmt="%.3g", fontsize=7, padding=1)
             for x in missing:
-                ax.annotate(missing_text, (x, 0), xycoords=("data", "axes fraction"), xytext=(0, 4),
-                            textcoords="offset points", ha="center", va="bottom", fontsize=6, color=f"C{k}")
-        ax.set_xticks(range(len(rows)), [_text(f"{prefix} {r.source}\n({fmt(r.target)})") for r in rows],
+                ax.annotate("×" if crowded else missing_text, (x, 0), xycoords=("data", "axes fraction"),
+                            xytext=(0, 4), textcoords="offset points", ha="center", va="bottom",
+                            fontsize=8 if crowded else 6, color=f"C{k}")
+        gap = "\n" if crowded else " "
+        ax.set_xticks(range(len(rows)), [_text(f"{prefix}{gap}{r.source}\n({fmt(r.target)})") for r in rows],
                       fontsize=7)
         ax.set_yscale("log")
         ax.set_ylabel(ylabel)
@@ -203,13 +211,16 @@ def equal_figure(scene: SceneResult, path: str | Path, metric: str = "flip") -> 
         ax.grid(True, axis="y", which="both", alpha=0.25)
     left.set_title(f"Equal time: {label} within each run's total time\n(hatched: finished earlier, final image)",
                    fontsize=9)
-    right.set_title(f"Equal error: seconds to reach each run's final {label}", fontsize=9)
+    right.set_title(f"Equal error: seconds to reach each run's final {label}"
+                    + (" (×: not reached)" if crowded else ""), fontsize=9)
+    if crowded:
+        left.set_title(left.get_title().replace("final image)", "final image; ×: no image yet)"), fontsize=9)
     if scene.runs:
         from matplotlib.patches import Patch
 
         # Explicit handles: the first bar of a series may be hatched, which must not define its legend entry.
         handles = [Patch(color=f"C{k}", label=_text(run.label)) for k, run in enumerate(scene.runs)]
-        fig.legend(handles=handles, loc="outside lower center", ncols=min(len(scene.runs), 4), fontsize=8)
+        fig.legend(handles=handles, loc="outside lower center", ncols=min(len(scene.runs), 3), fontsize=8)
     fig.suptitle(_text(f"{scene.name} — {scene.size}"), fontsize=11)
     _save(fig, path)
     return path

@@ -30,7 +30,7 @@ from .backend import load_mitsuba
 from .exr import read_exr, write_exr
 from .errors import ImageError
 from .fsutil import sha256_bytes
-from .mitsuba_dict import MATERIAL_MODES, scene_dict
+from .mitsuba_dict import MATERIAL_MODELS, MATERIAL_MODES, scene_dict
 from .scene import Scene
 
 #: Largest number of samples per pixel rendered in one Mitsuba call.
@@ -87,7 +87,8 @@ class ReferenceRenderer:
     scene
         The scene (its resolution is the render resolution).
     materials
-        ``"shared"`` (the suite's BRDF plugin) or ``"cycles"`` (Mitsuba's principled BSDF).
+        ``"shared"`` (the suite's BRDF plugin), ``"cycles"`` (the plugin's Blender Principled v2
+        flavour) or ``"diffuse"`` (Lambert); see :mod:`compare.mitsuba_dict`.
     variant
         Mitsuba variant; None picks cuda_ad_rgb > llvm_ad_rgb > scalar_rgb.
     max_depth
@@ -143,7 +144,7 @@ class ReferenceRenderer:
     def settings(self) -> dict:
         """Every setting that changes the pixels (the cache key, also written as metadata)."""
         cam = self.scene.camera
-        return {
+        settings = {
             "scene_hash": self.scene.hash,
             "variant": self.variant,
             "materials": self.materials,
@@ -152,6 +153,9 @@ class ReferenceRenderer:
             "resolution": [cam.width, cam.height],
             "mitsuba": self.mi.__version__,
         }
+        if self.materials in MATERIAL_MODELS:  # a changed model must not reuse the old model's passes
+            settings["material_model"] = MATERIAL_MODELS[self.materials]
+        return settings
 
     # -- one chunk: the unit of work and of caching ---------------------------------------
 

@@ -486,7 +486,8 @@ class _Runner:
         words = describe(spec) or meta.get("area_model")
         label = "Progressive rasterizer" + (f" ({words})" if isinstance(words, str) and words else "")
         run = RendererRun(
-            renderer=spec, label=label, unit="frame", steps=s.frames, key=key,
+            # steps: the frames rendered (a frame budget decides the count itself)
+            renderer=spec, label=label, unit="frame", steps=int(cps[-1][0]), key=key,
             seconds=points[-1].seconds, first_frame_seconds=points[0].seconds, setup_seconds=setup,
             metadata=meta, image=points[-1].image, preview=points[-1].preview,
             maps=_maps(unit, truth, cps[-1][2], s), points=points)

@@ -209,6 +209,76 @@ def test_plugin_traverse_and_string(mi_llvm):
     np.testing.assert_allclose(after, expect, rtol=1e-5)
 
 
+# -- the plugin's ``cycles`` flavour (Blender's Principled BSDF v2, compare.brdf.principled) --
+
+def _compare_cycles_flavour(mi, name, wi, wo, c, m, r):
+    from compare.brdf import principled
+    from compare.brdf.mitsuba_plugin import evaluate
+
+    value, pdf = evaluate(wi, wo, c, m, r, variant=mi.variant(), flavour="cycles")
+    n = np.array([0.0, 0.0, 1.0])
+    ref = principled.eval_principled(n, wi, wo, c, m, r)
+    _check(f"cycles flavour {name} eval", value / wo[:, 2:], ref, PLUGIN_RTOL, _scale(n, wi, wo, r)[:, None])
+    p = principled.specular_sampling_probability(wi[:, 2], c, m, r)
+    ref_pdf = p * brdf.pdf_ggx_vndf_reflection(wi, wo, brdf.alpha_from_roughness(r)) + (1 - p) * wo[:, 2] / np.pi
+    _check(f"cycles flavour {name} pdf", pdf, ref_pdf, 1e-5, np.zeros_like(ref_pdf))
+
+
+def test_cycles_flavour_matches_numpy_llvm(mi_llvm):
+    _compare_cycles_flavour(mi_llvm, "llvm_ad_rgb", *_case_set(4))
+
+
+def test_cycles_flavour_matches_numpy_scalar(mi_scalar):
+    wi, wo, c, m, r = _case_set(5)
+    sel = np.r_[0:150, N_RANDOM // 2:N_RANDOM // 2 + 150]
+    _compare_cycles_flavour(mi_scalar, "scalar_rgb", wi[sel], wo[sel], c[sel], m[sel], r[sel])
+
+
+def test_cycles_flavour_differs_from_gltf_only_where_documented():
+    """Same D V; exact dielectric Fresnel (not Schlick); the diffuse weight depends on n.v only."""
+    from compare.brdf import principled
+
+    rng = np.random.default_rng(6)
+    wi, wo = _local_directions(rng, 512)
+    n = np.array([0.0, 0.0, 1.0])
+    c = np.array([0.7, 0.5, 0.3])
+    spec_m, _ = principled.eval_principled_lobes(n, wi, wo, c, 1.0, 0.4)
+    gltf_m, _ = brdf.eval_brdf_lobes(n, wi, wo, c, 1.0, 0.4)
+    np.testing.assert_allclose(spec_m, gltf_m, rtol=1e-12)  # metals: Schlick with F0 = c in both
+    h = _unit(wi + wo)
+    vh = np.sum(wi * h, -1)
+    spec_d, diff_d = principled.eval_principled_lobes(n, wi, wo, c, 0.0, 0.4)
+    unit, _ = brdf.eval_brdf_lobes(n, wi, wo, np.ones(3), 1.0, 0.4)  # D V
+    np.testing.assert_allclose(spec_d, unit * principled.fresnel_dielectric(vh)[:, None], rtol=1e-12)
+    w = diff_d[:, 0] * np.pi / c[0]
+    np.testing.assert_allclose(w, 1.0 - principled.specular_layer_albedo(0.4, wi[:, 2]), rtol=1e-12)
+    assert principled.fresnel_dielectric(1.0) == pytest.approx(brdf.DIELECTRIC_F0)
+
+
+def test_cycles_layer_table_reproduces_cycles():
+    """S(r, n.v) looked up as Cycles does, against values read from Cycles' ggx_gen_schlick_ior_s at IOR 1.5."""
+    from compare.brdf import principled
+
+    cycles = {0.0: (0.0000, 0.0117, 0.0955, 0.5628), 0.25: (0.0001, 0.0126, 0.0927, 0.4092),
+              0.5: (0.0006, 0.0138, 0.0639, 0.1705), 1.0: (0.0014, 0.0058, 0.0161, 0.0403)}
+    for r, row in cycles.items():
+        got = principled.layer_s(r, np.array([1.0, 0.7, 0.4, 0.1]))
+        np.testing.assert_allclose(got, row, atol=3e-4, err_msg=f"roughness {r}")
+
+
+def test_cycles_layer_table_is_what_layer_table_computes():
+    from compare.brdf import principled
+
+    np.testing.assert_allclose(principled.layer_table(), principled.LAYER_S_TABLE, atol=1e-6)
+
+
+def test_cycles_flavour_is_checked(mi_llvm):
+    with pytest.raises(Exception, match="flavour"):
+        mi_llvm.load_dict({"type": "gltf_pbr", "flavour": "disney"})
+    bsdf = mi_llvm.load_dict({"type": "gltf_pbr", "flavour": "cycles"})
+    assert "cycles" in str(bsdf)
+
+
 def test_register_is_idempotent(mi_llvm):
     from compare.brdf.mitsuba_plugin import register, registered_variants
 

@@ -134,3 +134,19 @@ def test_budget_checkpoints_every_frame(gl_ctx):
     assert [c.frame for c in res.checkpoints] == list(range(1, n + 1))
     assert n == 1 + 4  # a budget below one sample's cost: one sample per frame (4 samples for 16 frames)
     assert res.metadata["frames"] == n
+
+
+@pytest.mark.gl
+def test_preview_stays_until_every_light_has_a_sample(gl_ctx):
+    """Kitchen, 6 lights, one sample a frame: the unshadowed preview is shown until each light has a sample,
+    not one light's estimate scaled up to stand for all six (FLIP 0.58 at frame 2 before this rule)."""
+    s = _scene("kitchen.toml")
+    with ProgressiveRenderer(s, frames=64, ctx=gl_ctx, shadow_size=128, frame_budget_ms=1e-3) as r:
+        means, seen = [], []
+        for _ in r.frames():
+            means.append(float(r.image().mean()))
+            seen.append(len(r._lights_sampled))
+    first_all = seen.index(len(s.lights))
+    assert first_all == len(s.lights)  # the merged order gives every light its first sample first
+    assert all(m == pytest.approx(means[0]) for m in means[:first_all])  # preview only
+    assert max(means[first_all:]) < 1.1 * means[-1]  # measured 1.04

@@ -61,24 +61,27 @@ value) so that F0 = ((1.5 − 1)/(1.5 + 1))² = 0.04 for dielectrics, ``Specular
 Tint`` = white (no tint; for metals the F82 tint is then white too),
 ``Diffuse Roughness`` = 0 (Lambert; >0 would be Oren–Nayar), coat, sheen,
 subsurface and transmission 0, ``distribution = 'GGX'`` (single scattering,
-as glTF and Mitsuba's ``principled``; Blender's default ``MULTI_GGX`` adds the
-energy lost between microfacets back, a few percent at roughness 1 for metals).
-Residual differences that remain by design of the two BSDFs: Principled v2 uses
-the exact dielectric Fresnel for IOR 1.5 (Mitsuba's ``principled``: Schlick
-with F0 = 0.08·specular) and an albedo-scaled diffuse under the specular layer;
-Mitsuba's ``principled`` has a Disney (retro-reflective, roughness-brightened)
-diffuse where Blender has Lambert. Measured at 64×48, 64 spp
-(:mod:`compare.blender.likeness`): on the Cornell box (rough white walls)
-Blender's Principled agrees with the suite's glTF BSDF (the reference's
-``shared`` mode) within 2 % on every region's brightest channel (up to 6 % on
-the dim channels of the coloured walls, seen at grazing angles), while Mitsuba's
-``principled`` (the ``cycles`` mode) is 18–47 % brighter per region. Glossy
-materials differ more between Principled and the glTF BSDF: 6 % on the car's
-floor (roughness 0.55), 9–15 % on its paint and glass, 12 % on the kitchen's
-dark glossy countertop. With Lambert on both sides the regions of all three
-scenes agree within noise (one of the kitchen's 41 at z = 3.2, a 34-pixel
-drawer front), so the rest of the mapping is not the cause. Emission = ``Emission Color`` with strength 1, made one-sided (as
-Mitsuba's ``area`` emitter on a mesh) by zeroing it on back faces. The
+as glTF; Blender's default ``MULTI_GGX`` adds the energy lost between
+microfacets back, a few percent at roughness 1 for metals, and darkens the
+diffuse under it accordingly). What Cycles then evaluates differs from the
+suite's glTF BSDF (the reference's ``shared`` mode) in two ways: the exact
+dielectric Fresnel for IOR 1.5 in place of Schlick, and a Lambert lobe
+scaled by one minus Cycles' estimate of the specular layer's albedo at the view
+direction, in place of glTF's per-direction ``1 − F(v·h)``. The reference's
+``cycles`` mode models exactly this (:mod:`compare.brdf.principled`, the
+plugin's ``cycles`` flavour). Measured (:mod:`compare.blender.likeness`; Cornell
+box 64×48, kitchen and car 96×72, 64 spp): with ``shared`` the Cornell box
+(rough white walls) agrees within 2 % on every region's brightest channel, but
+glossy materials differ: 6 % on the car's floor (roughness 0.55), 10–16 % on
+its paint and glass, 12 % on the kitchen's dark glossy countertop; with
+``cycles`` every region of the three scenes agrees (within 3 standard errors or
+2 %), also at 512–1024 spp, where the largest difference is 1.7–2.9 %. (The
+``cycles`` mode used to be Mitsuba's ``principled``, a Disney BSDF: 18–47 %
+brighter per region on the Cornell box.) With Lambert on both sides the regions
+of all three scenes agree within noise (one of the kitchen's 41 at z = 3.2, a
+34-pixel drawer front), so the rest of the mapping is not the cause.
+Emission = ``Emission Color`` with strength 1, made one-sided (as Mitsuba's
+``area`` emitter on a mesh) by zeroing it on back faces. The
 ``metallic_roughness_texture`` is ignored, as in :mod:`compare.mitsuba_dict`.
 Texture coordinates: Mitsuba's v runs down the image, Blender's up, so v → 1 − v.
 

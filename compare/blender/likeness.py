@@ -338,8 +338,9 @@ def cycles_likeness(scene: Scene, *, spp: int, materials: str = "cycles", seeds:
                     cycles=None) -> Likeness:
     """Compare Cycles with the Mitsuba reference at ``spp`` samples per pixel (see the module notes).
 
-    ``materials`` is the reference's material mode (``"cycles"``: Mitsuba's
-    ``principled``; ``"shared"``: the suite's glTF BSDF; ``"diffuse"``: Lambert).
+    ``materials`` is the reference's material mode (``"cycles"``: the plugin's
+    model of Blender's Principled BSDF v2; ``"shared"``: the suite's glTF BSDF;
+    ``"diffuse"``: Lambert; see :mod:`compare.mitsuba_dict`).
     Cycles uses the Principled mapping of :mod:`compare.blender.export`, or
     Lambert for ``"diffuse"`` (which isolates geometry, camera, lights and
     bounces from the BSDF models). FLIP is LDR-FLIP after

@@ -143,12 +143,18 @@ def _make_class(mv, mitsuba):
 
     layer = {}
 
+    def make_layer_texture():
+        """The S table as a Texture2f (row = cos_i, column = roughness), once per variant, at load
+        time (never while a kernel is being traced)."""
+        if "texture" not in layer:
+            table = principled.LAYER_S_TABLE.astype("float32")[..., None]
+            # use_accel=False: CUDA's texture units interpolate with 8-bit weights; the software
+            # path is float32 on every backend.
+            layer["texture"] = mv.Texture2f(mv.TensorXf(table), use_accel=False,
+                                            filter_mode=dr.FilterMode.Linear, wrap_mode=dr.WrapMode.Clamp)
+
     def layer_albedo(r, cos_i):
         """E_s(r, cos_i) = F0 + (1 - F0) S: bilinear in Cycles' grid (texel i at coordinate i/15)."""
-        if "texture" not in layer:  # built on first use, once per variant
-            table = principled.LAYER_S_TABLE.astype("float32")[..., None]
-            layer["texture"] = mv.Texture2f(mv.TensorXf(table), filter_mode=dr.FilterMode.Linear,
-                                            wrap_mode=dr.WrapMode.Clamp)
         n = principled.LAYER_TABLE_SIZE
         pos = mv.Point2f((dr.clip(r, 0.0, 1.0) * (n - 1) + 0.5) * (1.0 / n),
                          (dr.clip(cos_i, 0.0, 1.0) * (n - 1) + 0.5) * (1.0 / n))
@@ -167,6 +173,8 @@ def _make_class(mv, mitsuba):
             if self.flavour not in FLAVOURS:
                 raise ValueError(f"{PLUGIN_NAME}: flavour must be one of {', '.join(FLAVOURS)}, "
                                  f"got {self.flavour!r}")
+            if self.flavour == "cycles":
+                make_layer_texture()
             self.m_components = [diffuse_flags, glossy_flags]
             self.m_flags = diffuse_flags | glossy_flags
 
@@ -184,9 +192,9 @@ def _make_class(mv, mitsuba):
                     ctx.is_enabled(Flags.GlossyReflection, 1))
 
         def _lobe_probabilities(self, cos_i, c, m, r, has_diffuse, has_specular):
-            """(p_spec, p_diff) of compare.brdf.specular_sampling_probability (or
-            cycles_specular_sampling_probability); p_diff is computed directly (not as
-            1 - p_spec), which keeps it accurate in float32."""
+            """(p_spec, p_diff) of compare.brdf.specular_sampling_probability (flavour ``cycles``:
+            compare.brdf.principled.specular_sampling_probability); p_diff is computed directly
+            (not as 1 - p_spec), which keeps it accurate in float32."""
             if not has_specular:
                 return Float(0.0), Float(1.0)
             if not has_diffuse:

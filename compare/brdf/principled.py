@@ -29,10 +29,12 @@ Cycles' estimate of the dielectric specular layer's albedo
 its table ``ggx_gen_schlick_ior_s``, the mean over GGX visible normals ``h``
 drawn for ``v`` of ``(F_d(v.h) - F0) / (1 - F0)``, counting 0 where the
 reflected direction falls below the horizon. It averages the Fresnel
-interpolation factor only, not the lobe's masking loss, so ``E_s`` is *not*
-the specular lobe's directional albedo (``E_s`` stays near F0 + (1 - F0) S at
-roughness 1, where the lobe itself loses up to half its energy). The diffuse
-weight depends on the view direction only, so the BSDF is not reciprocal;
+interpolation factor only, so ``E_s`` is *not* the specular lobe's directional
+albedo: at roughness 1 the GGX lobe's albedo with F = 1 is only 0.31 at
+normal incidence (0.41 averaged over directions; Cycles' ``ggx_E`` and
+``ggx_Eavg``), a loss ``E_s`` does not see, so the diffuse is darkened by more
+than the specular layer reflects. The diffuse weight depends on the view
+direction only, so the BSDF is not reciprocal;
 Cycles evaluates it with ``v`` = the direction towards the previous path
 vertex, which is Mitsuba's ``si.wi``.
 
@@ -41,8 +43,9 @@ does (16 x 16 x 16 over roughness, ``n.v`` and ``z = F0**(1/4)``, grid point
 ``i`` at ``i/15``), for the two z slices that bracket IOR 1.5 (z = 6/15 and
 7/15; IOR 1.5 sits at z = sqrt(0.2) = 0.4472), interpolated in z as Cycles'
 ``lookup_table_read_3D`` does; :data:`LAYER_S_TABLE` is its result at 128 x 128
-stratified samples per cell. It matches the values read from Cycles' own table
-within 3e-4 (roughness 0, 0.25, 0.5, 1 at n.v = 1, 0.7, 0.4, 0.1).
+stratified samples per cell. Looked up, it reproduces values read from Cycles'
+own table within 3e-4 (roughness 0, 0.25, 0.5, 1 at n.v = 1, 0.7, 0.4, 0.1;
+``tests/test_brdf_agreement.py``).
 :func:`layer_s` looks it up with ``lookup_table_read_2D``'s bilinear
 interpolation (texel i at coordinate i/15).
 
@@ -275,7 +278,8 @@ def specular_sampling_probability(cos_theta_i, base_color, metallic, roughness):
     base = np.asarray(base_color, dtype=np.float64)
     m = np.clip(np.asarray(metallic, dtype=np.float64), 0.0, 1.0)
     r = np.clip(np.asarray(roughness, dtype=np.float64), 0.0, 1.0)
-    w_s = m * np.mean(fresnel_schlick(np.clip(base, 0.0, 1.0), c[..., None]), axis=-1) + (1.0 - m) * fresnel_dielectric(c)
+    f_metal = np.mean(fresnel_schlick(np.clip(base, 0.0, 1.0), c[..., None]), axis=-1)
+    w_s = m * f_metal + (1.0 - m) * fresnel_dielectric(c)
     w_d = (1.0 - m) * np.clip(1.0 - specular_layer_albedo(r, c), 0.0, 1.0) * np.mean(base, axis=-1)
     total = w_s + w_d
     ratio = w_s / np.where(total > 0.0, total, 1.0)

@@ -310,6 +310,7 @@ class ProgressiveRenderer:
         self.env_passes: list[int] = []
         """Environment occlusion samples evaluated in each frame."""
         self._preview_valid = False
+        self._lights_sampled: set[int] = set()
         for fp in self.plan:
             self._matrices(fp)
         if self.scheduler is not None:
@@ -402,6 +403,7 @@ class ProgressiveRenderer:
             self.partial.fbo.clear(0.0, 0.0, 0.0, 0.0)
         for j, s in enumerate(fp.light_samples):
             light = self.scene.lights[s.light]
+            self._lights_sampled.add(s.light)
             self.shadow.render(light, s.light, s.point)
             if j < last:
                 self.direct.add(self.partial, self.gbuffer, self.shadow, self.shadow_bias, light, s.point,
@@ -496,7 +498,10 @@ class ProgressiveRenderer:
             raise RuntimeError("no frame rendered yet; iterate frames() or call render_frame() first")
         what = f"progressive render of {self.scene.path} (frame {self.frame})"
         direct = None
-        if self.direct_acc is not None and self.direct_acc.count > 0:
+        # The preview (every light, unshadowed) stays until every light has a sample: before that
+        # the direct mean would show a few lights scaled up to stand for all of them.
+        if (self.direct_acc is not None and self.direct_acc.count > 0
+                and (len(self._lights_sampled) == len(self.scene.lights) or not self._preview_valid)):
             direct = self.direct_acc.current
         elif self._preview_valid:
             direct = self.first.direct if self.first is not None else self.preview.texture
@@ -514,6 +519,7 @@ class ProgressiveRenderer:
         if self.env_acc is not None:
             self.env_acc.reset()
         self._preview_valid = False
+        self._lights_sampled: set[int] = set()
         self.frame = 0
         self.frame_seconds, self.gpu_frame_seconds, self.shadow_passes, self.env_passes = [], [], [], []
         if self.scheduler is not None:
