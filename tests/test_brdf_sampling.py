@@ -43,6 +43,9 @@ RES = 101
 IRES = 16
 SIGNIFICANCE = 0.01
 N_CHI2 = len(ROUGHNESS) * len(METALLIC) * len(COS_THETA_I) + len(METALLIC) * len(COS_THETA_I)
+#: (roughness, metallic, cos_i) of the chi-square tests of the ``cycles`` flavour (its own lobe
+#: probabilities; the same sampler otherwise): a family of its own, also 1% family-wise.
+CYCLES_CHI2 = ((0.3, 0.0, 0.5), (1.0, 0.5, 0.999), (0.05, 0.0, 0.01))
 
 _p_values: dict[tuple, float] = {}
 
@@ -121,13 +124,14 @@ def _half_vector_domain(mi):
     return HalfVectorDomain
 
 
-def _chi2(mi, roughness, metallic, cos_i, domain="half-vec", pdf_roughness=None, seed=0):
+def _chi2(mi, roughness, metallic, cos_i, domain="half-vec", pdf_roughness=None, seed=0, flavour="gltf",
+          test_count=N_CHI2):
     import drjit as dr
     from mitsuba.chi2 import BSDFAdapter, ChiSquareTest, SphericalDomain
 
     wi = [math.sqrt(1.0 - cos_i * cos_i), 0.0, cos_i]
     spec = {"type": "gltf_pbr", "base_color": {"type": "rgb", "value": list(BASE_COLOR)},
-            "metallic": metallic, "roughness": roughness}
+            "metallic": metallic, "roughness": roughness, "flavour": flavour}
     sample_func, pdf_func = BSDFAdapter("gltf_pbr", spec, wi=wi)
     if pdf_roughness is not None:
         _, pdf_func = BSDFAdapter("gltf_pbr", dict(spec, roughness=pdf_roughness), wi=wi)
@@ -149,7 +153,7 @@ def _chi2(mi, roughness, metallic, cos_i, domain="half-vec", pdf_roughness=None,
 
     test = ChiSquareTest(domain=dom, sample_func=sample_fn, pdf_func=pdf_fn, sample_dim=3,
                          sample_count=SAMPLE_COUNT, res=RES, ires=IRES, seed=seed)
-    ok = test.run(significance_level=SIGNIFICANCE, test_count=N_CHI2, quiet=True)
+    ok = test.run(significance_level=SIGNIFICANCE, test_count=test_count, quiet=True)
     return ok, float(test.p_value), test.messages
 
 
@@ -173,6 +177,14 @@ def test_chi2_spherical_domain_rough(mi, metallic, cos_i):
     assert ok, messages
 
 
+@pytest.mark.parametrize(("roughness", "metallic", "cos_i"), CYCLES_CHI2)
+def test_chi2_cycles_flavour(mi, roughness, metallic, cos_i):
+    ok, p, messages = _chi2(mi, roughness, metallic, cos_i, flavour="cycles", test_count=len(CYCLES_CHI2))
+    _p_values[("cycles half-vec", roughness, metallic, cos_i)] = p
+    print(f"\n[chi2 cycles half-vec r={roughness} m={metallic} cos={cos_i}] p = {p:.4f}")
+    assert ok, messages
+
+
 @pytest.mark.parametrize("metallic", METALLIC)
 def test_chi2_detects_wrong_pdf(mi, metallic):
     """Power check: sampling roughness 0.30 against the pdf of roughness 0.33 must be rejected."""
@@ -182,7 +194,7 @@ def test_chi2_detects_wrong_pdf(mi, metallic):
 
 # -- sample() weights ------------------------------------------------------------------
 
-def _random_batch(mi, n, seed):
+def _random_batch(mi, n, seed, flavour="gltf"):
     """A bitmap-textured plugin with per-lane materials and random upper-hemisphere wi."""
     import drjit as dr
 
@@ -198,7 +210,7 @@ def _random_batch(mi, n, seed):
                 "raw": True, "filter_type": "nearest"}
 
     bsdf = mi.load_dict({"type": "gltf_pbr", "base_color": bitmap(c), "metallic": bitmap(m),
-                         "roughness": bitmap(r)})
+                         "roughness": bitmap(r), "flavour": flavour})
     wi = rng.normal(size=(n, 3))
     wi /= np.linalg.norm(wi, axis=1, keepdims=True)
     wi[:, 2] = np.abs(wi[:, 2])
@@ -210,9 +222,10 @@ def _random_batch(mi, n, seed):
     return bsdf, si, u1, u2
 
 
-def test_sample_weight_is_eval_over_pdf(mi):
+@pytest.mark.parametrize("flavour", ["gltf", "cycles"])
+def test_sample_weight_is_eval_over_pdf(mi, flavour):
     n = 20000
-    bsdf, si, u1, u2 = _random_batch(mi, n, seed=11)
+    bsdf, si, u1, u2 = _random_batch(mi, n, seed=11, flavour=flavour)
     ctx = mi.BSDFContext()
     bs, weight = bsdf.sample(ctx, si, u1, u2)
     value = np.array(bsdf.eval(ctx, si, bs.wo)).T

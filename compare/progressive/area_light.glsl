@@ -67,6 +67,21 @@ uniform sampler2D u_spec_lut;  // split-sum table (compare/ibl/lut.py): A, B ove
 // form reflects many times the light's radiance (scenes/stress/grazing.toml).
 // Last, a light can never reflect more than L times the lobe's directional albedo
 // F0 A + B (the split-sum table), whatever part of the hemisphere it covers.
+//
+// specular_normalised applies both to spec (the specular lobe towards l) times
+// omega_cos (the light's solid angle times the cosine at the surface); d is the
+// distance to the light's centre.
+vec3 specular_normalised(vec3 spec, float omega_cos, vec3 n, vec3 v, vec3 l, float d, vec3 base, float metallic,
+                         float roughness) {
+    float alpha = brdf_alpha_from_roughness(roughness);
+    float rho = sqrt(u_light_area / BRDF_PI) / (2.0 * d);
+    float vh = clamp(dot(v, normalize(v + l)), 1e-3, 1.0);
+    float k2 = alpha * alpha / (min(alpha + rho, 1.0) * min(alpha + rho / vh, 1.0));
+    vec2 ab = textureLod(u_spec_lut, vec2(dot(n, v), clamp(roughness, 0.0, 1.0)), 0.0).rg;
+    vec3 f0 = vec3(BRDF_DIELECTRIC_F0) + (base - vec3(BRDF_DIELECTRIC_F0)) * clamp(metallic, 0.0, 1.0);
+    return min(spec * (omega_cos * k2), f0 * ab.x + ab.y) * u_light_radiance;
+}
+
 vec3 specular_mrp(vec3 x, vec3 n, vec3 v, vec3 base, float metallic, float roughness) {
     vec3 p = representative_point(x, reflect(-v, n));
     vec3 to_p = p - x;
@@ -78,18 +93,13 @@ vec3 specular_mrp(vec3 x, vec3 n, vec3 v, vec3 base, float metallic, float rough
     if (cos_p <= 0.0 || !brdf_eval_lobes(n, v, l, base, metallic, roughness, spec, diff)) {
         return vec3(0.0);
     }
-    float alpha = brdf_alpha_from_roughness(roughness);
-    float rho = sqrt(u_light_area / BRDF_PI) / (2.0 * distance(x, u_light_center));
-    float vh = clamp(dot(v, normalize(v + l)), 1e-3, 1.0);
-    float k2 = alpha * alpha / (min(alpha + rho, 1.0) * min(alpha + rho / vh, 1.0));
 #if AREA_MODEL_PAPER
     float omega = u_light_area / (4.0 * dp2);  // Phi / (4 pi d^2) / L with Phi = pi A L
 #else
     float omega = light_solid_angle(x);
 #endif
-    vec2 ab = textureLod(u_spec_lut, vec2(dot(n, v), clamp(roughness, 0.0, 1.0)), 0.0).rg;
-    vec3 f0 = vec3(BRDF_DIELECTRIC_F0) + (base - vec3(BRDF_DIELECTRIC_F0)) * clamp(metallic, 0.0, 1.0);
-    return min(spec * (omega * cos_p * k2), f0 * ab.x + ab.y) * u_light_radiance;
+    return specular_normalised(spec, omega * cos_p, n, v, l, distance(x, u_light_center), base, metallic,
+                               roughness);
 }
 #endif
 
@@ -156,13 +166,8 @@ vec3 light_preview(vec3 x, vec3 n, vec3 v, vec3 base, float metallic, float roug
     vec3 spec;
     vec3 diff;
     brdf_eval_lobes(n, v, l, base, metallic, roughness, spec, diff);
-    float alpha = brdf_alpha_from_roughness(roughness);
-    float rho = sqrt(u_light_area / BRDF_PI) / (2.0 * sqrt(d2));
-    float vh = clamp(dot(v, normalize(v + l)), 1e-3, 1.0);
-    float k2 = alpha * alpha / (min(alpha + rho, 1.0) * min(alpha + rho / vh, 1.0));
-    vec2 ab = textureLod(u_spec_lut, vec2(dot(n, v), clamp(roughness, 0.0, 1.0)), 0.0).rg;
-    vec3 f0 = vec3(BRDF_DIELECTRIC_F0) + (base - vec3(BRDF_DIELECTRIC_F0)) * clamp(metallic, 0.0, 1.0);
-    return (diff * (omega * cos_s) + min(spec * (omega * cos_s * k2), f0 * ab.x + ab.y)) * u_light_radiance;
+    return diff * (omega * cos_s) * u_light_radiance
+           + specular_normalised(spec, omega * cos_s, n, v, l, sqrt(d2), base, metallic, roughness);
 #endif
 }
 

@@ -4,9 +4,9 @@
 //   E += V(x, y) L (A / n) cos_s cos_l / |y - x|^2         (radiometric point-on-area estimate)
 //
 // for the front side of shaded surfaces (kind 1); y is the sample point, n the samples of the
-// light. V is a hard shadow test in ShadowAtlas's five-face depth atlas, the same test as the
-// direct-light pass's visibility() in direct.glsl (normal offset, constant and slope bias in
-// shadow texels), written here against the uniforms that ShadowAtlas.bind() sets.
+// light. V is the hard shadow test of ShadowAtlas's five-face depth atlas, shadow_test.glsl,
+// the same test as the direct-light pass's (normal offset, constant and slope bias in shadow
+// texels).
 
 #if defined VERTEX_SHADER
 
@@ -30,39 +30,9 @@ uniform float u_light_area;
 uniform vec3 u_sample;
 uniform float u_weight;        // 1 / n
 
-uniform sampler2D u_shadow;            // depth atlas: distance from y to the nearest surface / far
-uniform float u_shadow_far;
-uniform mat4 u_face_view_proj[5];      // front (+n), +t, -t, +b, -b
-uniform vec4 u_face_rect[5];
-uniform float u_shadow_texel;
-uniform vec3 u_bias;                   // normal offset, constant, slope-scaled (shadow texels)
+#include "shadow_test.glsl"
 
 out vec4 out_irradiance;
-
-float bake_visibility(vec3 x, vec3 n) {
-    vec3 to_y = u_sample - x;
-    float dist = length(to_y);
-    float texel = u_shadow_texel * dist;
-    float c = clamp(abs(dot(n, to_y)) / max(dist, 1e-20), 1e-3, 1.0);
-    float tan_theta = min(sqrt(1.0 - c * c) / c, 10.0);
-    vec3 xo = x + n * (u_bias.x * texel);
-    vec3 d = xo - u_sample;
-    vec3 q = vec3(dot(d, u_light_t), dot(d, u_light_b), dot(d, u_light_n));
-    int face;
-    if (q.z >= abs(q.x) && q.z >= abs(q.y)) {
-        face = 0;
-    } else if (abs(q.x) >= abs(q.y)) {
-        face = q.x > 0.0 ? 1 : 2;
-    } else {
-        face = q.y > 0.0 ? 3 : 4;
-    }
-    vec4 clip = u_face_view_proj[face] * vec4(xo, 1.0);
-    vec2 ndc = clip.xy / max(clip.w, 1e-20);
-    vec4 rect = u_face_rect[face];
-    vec2 texel_pos = clamp(rect.xy + (ndc * 0.5 + 0.5) * rect.zw, rect.xy, rect.xy + rect.zw - 1.0);
-    float stored = texelFetch(u_shadow, ivec2(texel_pos), 0).r * u_shadow_far;
-    return length(d) <= stored + texel * (u_bias.y + u_bias.z * tan_theta) ? 1.0 : 0.0;
-}
 
 void main() {
     ivec2 p = ivec2(gl_FragCoord.xy);
@@ -78,7 +48,7 @@ void main() {
         float cos_s = dot(n, l);
         float cos_l = -dot(u_light_n, l);
         if (cos_s > 0.0 && cos_l > 0.0 && dot(x - u_light_center, u_light_n) > 0.0) {
-            e = u_light_radiance * (u_weight * u_light_area * cos_s * cos_l / d2) * bake_visibility(x, n);
+            e = u_light_radiance * (u_weight * u_light_area * cos_s * cos_l / d2) * visibility(x, n);
         }
     }
     out_irradiance = vec4(e, 1.0);
