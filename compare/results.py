@@ -200,7 +200,8 @@ class RunSettings:
         Seed of the ground truth; the reference's convergence ladder uses ``seed + 1``.
     renderers : list of str
         Renderer specs: ``"mitsuba"`` (reference convergence and noise floor),
-        ``"progressive"`` or ``"progressive:<area_model>"``.
+        ``"progressive"`` or ``"progressive:<option>"`` (:mod:`compare.variants`),
+        ``"cycles"``, ``"eevee"`` (Blender, the ``blender`` extra).
     sizes : list of [int, int]
         Resolutions; empty means each scene's own.
     exposure : float
@@ -210,6 +211,8 @@ class RunSettings:
         interactive view implements ``"aces"`` only).
     materials : str
         Reference material mode (``"shared"`` BRDF plugin or ``"cycles"``).
+    cycles_spp, eevee_samples : int
+        Samples of the Blender renderers ``cycles`` and ``eevee`` (the paper: 1024 and 64).
     """
 
     frames: int = 128
@@ -220,6 +223,8 @@ class RunSettings:
     exposure: float = 1.0
     tonemap: str = "aces"
     materials: str = "shared"
+    cycles_spp: int = 1024
+    eevee_samples: int = 64
 
     def to_json(self) -> dict:
         """JSON-ready dict."""

@@ -94,7 +94,11 @@ __all__ = [
 ]
 
 #: Renderer specs accepted by ``--renderers`` (``progressive:<option>`` too, see compare.variants).
-RENDERER_NAMES = ("mitsuba", "progressive")
+RENDERER_NAMES = ("mitsuba", "progressive", "cycles", "eevee")
+#: Blender's engines (the ``blender`` extra): the paper's reference and its rasterizer comparator.
+BLENDER_RENDERERS = ("cycles", "eevee")
+#: What ``--renderers all`` means: the paper's Table 1 (and both area models).
+ALL_RENDERERS = ("mitsuba", "progressive", "progressive:paper", "cycles", "eevee")
 _HALF_MAX = 65504.0
 
 
@@ -139,11 +143,14 @@ def parse_renderers(text: str | Iterable[str]) -> list[str]:
     items = [s.strip() for s in (text.split(",") if isinstance(text, str) else text) if s.strip()]
     if not items:
         raise ValueError("expected at least one renderer, e.g. mitsuba,progressive")
+    if "all" in items:  # the paper's Table 1, plus anything else listed
+        items = list(ALL_RENDERERS) + [i for i in items if i != "all" and i not in ALL_RENDERERS]
     for item in items:
         base, _, option = item.partition(":")
-        if base not in RENDERER_NAMES or (base == "mitsuba" and option) or (":" in item and not option):
-            raise ValueError(f"unknown renderer {item!r}; expected mitsuba, progressive or "
-                             f"progressive:<option> (compare.variants: paper, probes, vsm, budget<ms>)")
+        if base not in RENDERER_NAMES or (base != "progressive" and option) or (":" in item and not option):
+            raise ValueError(f"unknown renderer {item!r}; expected mitsuba, progressive, "
+                             f"progressive:<option> (compare.variants: paper, probes, vsm, budget<ms>), cycles, "
+                             f"eevee or all")
         if base == "progressive":
             renderer_options(item)  # names an unknown option before hours of reference rendering
     if len(set(items)) != len(items):
@@ -345,6 +352,33 @@ def _progressive_checkpoints(scene: Scene, *, frames: int, seed: int, options: d
     return cps, float(setup), meta
 
 
+def _blender_checkpoints(scene: Scene, *, engine: str, samples: int, seed: int,
+                         ladder: list[int]) -> tuple[list[tuple[int, float, np.ndarray]], float, dict]:
+    """Render with Blender (compare.blender); returns (checkpoints, start-up seconds, metadata).
+
+    A module-level function so that tests can stand in a synthetic renderer.
+    Each checkpoint is a render of its own with the same seed (Blender's
+    sample sequences are deterministic, so it is the first n samples).
+    """
+    from .blender import render_blender
+
+    result = render_blender(scene, engine=engine, samples=samples, seed=seed, ladder=ladder)
+    cps = [(int(c.spp), float(c.seconds), np.asarray(c.image, dtype=np.float32)) for c in result.checkpoints]
+    if not cps or cps[-1][0] != samples:
+        cps.append((samples, float(result.seconds), np.asarray(result.image, dtype=np.float32)))
+    return cps, float(result.startup_seconds), dict(result.metadata)
+
+
+def blender_ladder(samples: int) -> list[int]:
+    """Checkpoints of a Blender run below ``samples``: 1, 4, 16, … (each is a render of its own,
+    so powers of 4 keep the ladder's cost to about a third of the full render's)."""
+    out, k = [], 1
+    while k < samples:
+        out.append(k)
+        k *= 4
+    return out
+
+
 def _create_gl_context():
     from .progressive.context import create_context
 
@@ -494,6 +528,41 @@ class _Runner:
         unit.save(key, run.to_json())
         return run
 
+    # -- Blender ----------------------------------------------------------------------------------
+
+    def blender(self, scene: Scene, sid: str, spec: str, ref: Reference, gt: Callable[[], np.ndarray],
+                bar) -> RendererRun:
+        """Cycles (the paper's reference, CPU) or EEVEE (its rasterizer comparator) against the ground truth."""
+        s = self.settings
+        samples = s.cycles_spp if spec == "cycles" else s.eevee_samples
+        key = _key("blender", spec, scene.hash, samples, s.seed, ref.key, s.exposure, s.tonemap, self.machine,
+                   __version__)
+        unit = self._unit(sid, spec)
+        stored = self._stored(unit, key)
+        if stored is not None:
+            return RendererRun.from_json(stored)
+        bar.set_postfix_str(f"{scene.name[:30]} {spec} {samples} spp")
+        cps, startup, meta = _blender_checkpoints(scene, engine=spec, samples=samples, seed=s.seed,
+                                                  ladder=blender_ladder(samples))
+        meta = _flat_metadata(meta)
+        truth = gt()
+        points: list[Point] = []
+        for step, seconds, image in cps:
+            path = unit.dir / f"step-{step:05d}.exr"
+            _write_image(path, image, {**meta, "renderer": spec, "spp": step, "seed": s.seed, "seconds": seconds,
+                                       "scene_hash": scene.hash}, exposure=s.exposure, tonemap=s.tonemap)
+            metrics = _measure(truth, image, s, f"{scene.name}: {spec} at {step} spp", final=step == cps[-1][0])
+            points.append(Point(int(step), float(seconds), metrics, unit.rel(path),
+                                unit.rel(path.with_suffix(".png"))))
+        label = "Blender Cycles (CPU)" if spec == "cycles" else "Blender EEVEE"
+        run = RendererRun(
+            renderer=spec, label=label, unit="spp", steps=int(cps[-1][0]), key=key,
+            seconds=points[-1].seconds, first_frame_seconds=points[0].seconds, setup_seconds=startup,
+            metadata=meta, image=points[-1].image, preview=points[-1].preview,
+            maps=_maps(unit, truth, cps[-1][2], s), points=points)
+        unit.save(key, run.to_json())
+        return run
+
     # -- one scene at one size ------------------------------------------------------------------
 
     def scene(self, scene: Scene, bar) -> SceneResult:
@@ -515,6 +584,8 @@ class _Runner:
                 nf = run.final.metrics
                 noise_floor = NoiseFloor(method="independent-full", spp=ref.spp, seeds=[ref.seed, ref.seed + 1],
                                          metrics=dict(nf), mse_reference_estimate=float(nf["mse"]) / 2.0)
+            elif spec in BLENDER_RENDERERS:
+                run = self.blender(scene, sid, spec, ref, truth, bar)
             else:
                 run = self.progressive(scene, sid, spec, ref, truth, bar)
             runs.append(run)
@@ -582,6 +653,17 @@ def run(scene_paths: Iterable[str | os.PathLike], out: str | os.PathLike, settin
     settings.renderers = parse_renderers(settings.renderers)
     if settings.frames < 1 or settings.spp < 1:
         raise ValueError(f"frames and spp must be positive, got frames={settings.frames}, spp={settings.spp}")
+    if settings.cycles_spp < 1 or settings.eevee_samples < 1:
+        raise ValueError(f"Blender samples must be positive, got cycles_spp={settings.cycles_spp}, "
+                         f"eevee_samples={settings.eevee_samples}")
+    blender = [r for r in settings.renderers if r in BLENDER_RENDERERS]
+    if blender:  # before hours of reference rendering
+        from .blender import blender_available
+        from .errors import MissingComponentError
+
+        ok, why = blender_available()
+        if not ok:
+            raise MissingComponentError(f"renderers {', '.join(blender)} need Blender's bpy: {why}")
     out = Path(out)
     paths = [Path(p) for p in scene_paths]
     if not paths:
@@ -695,12 +777,17 @@ def add_run_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--renderers", type=_renderers_arg, default="mitsuba,progressive",
                    metavar="LIST", help="comma-separated: mitsuba (reference convergence + noise floor), "
                                         "progressive, progressive:<option>[+<option>] with options paper, probes, vsm, "
-                                        "budget<ms> (e.g. progressive:paper,progressive:probes,progressive:budget16)")
+                                        "budget<ms> (e.g. progressive:paper,progressive:probes,progressive:budget16), "
+                                        "cycles and eevee (Blender, the blender extra), or all (the paper's "
+                                        "Table 1: " + ",".join(ALL_RENDERERS) + ")")
+    p.add_argument("--cycles-spp", type=_positive, default=1024, help="Cycles samples per pixel (the paper: 1024)")
+    p.add_argument("--eevee-samples", type=_positive, default=64, help="EEVEE samples (the paper: 64)")
     p.add_argument("--seed", type=int, default=0, help="seed of the ground truth (its convergence ladder uses seed+1)")
     p.add_argument("--exposure", type=_positive_float, default=1.0,
                    help="linear exposure before ACES tone mapping (LDR metrics and previews)")
     p.add_argument("--materials", choices=["shared", "cycles"], default="shared",
-                   help="reference material mode")
+                   help="reference material mode: shared (the rasterizer's BRDF) or cycles (Blender's Principled "
+                        "BSDF v2, for comparisons with cycles and eevee)")
     p.add_argument("--fresh", action="store_true", help="redo finished units instead of reusing them")
     p.add_argument("--no-report", action="store_true", help="write results.json only")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
@@ -717,7 +804,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     """``compare run``; returns the exit status."""
     settings = RunSettings(frames=args.frames, spp=args.spp, seed=args.seed, renderers=list(args.renderers),
                            sizes=[list(s) for s in (args.size or [])], exposure=args.exposure, tonemap="aces",
-                           materials=args.materials)
+                           materials=args.materials, cycles_spp=args.cycles_spp, eevee_samples=args.eevee_samples)
     scenes = args.scenes if isinstance(args.scenes, list) else [args.scenes]  # the default is one Path
     out = args.output or Path("reports") / scenes[0].stem
     try:

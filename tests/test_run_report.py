@@ -88,6 +88,16 @@ def fake_progressive(scene, *, frames, seed, options, checkpoints, ctx):
     return cps, 0.05, {"gl_renderer": "fake GL", "area_model": area_model or "radiometric", "frames": frames}
 
 
+def fake_blender(scene, *, engine, samples, seed, ladder):
+    """Synthetic Blender renders: Cycles close to the truth, EEVEE biased; one render per ladder step."""
+    w, h = scene.camera.resolution
+    truth = _truth(w, h) * (1.0 if engine == "cycles" else 0.85)
+    rng = np.random.default_rng(seed + (11 if engine == "cycles" else 13))
+    cps = [(n, 0.01 * n, (truth + rng.normal(0, 0.05, truth.shape) / np.sqrt(n)).clip(0).astype(np.float32))
+           for n in list(ladder) + [samples]]
+    return cps, 1.5, {"engine": engine, "samples": samples, "blender": "fake 5.0.1"}
+
+
 @contextlib.contextmanager
 def synthetic_renderers(progressive=fake_progressive):
     """Patch run.py's renderers with the fakes above (usable outside function-scoped fixtures).
@@ -101,6 +111,8 @@ def synthetic_renderers(progressive=fake_progressive):
         mp.setattr("compare.reference.ReferenceRenderer", FakeReference)
         mp.setattr(run_mod, "_progressive_checkpoints", progressive)
         mp.setattr(run_mod, "_create_gl_context", lambda: None)
+        mp.setattr(run_mod, "_blender_checkpoints", fake_blender)
+        mp.setattr("compare.blender.blender_available", lambda: (True, "fake"))
         yield
     finally:
         mp.undo()
@@ -116,9 +128,9 @@ def scene_file(tmp_path: Path, name: str) -> Path:
 
 
 def synthetic_report(out: Path, scenes: list[Path], *, size=(48, 36), frames=8, spp=16,
-                     renderers=("mitsuba", "progressive"), report=True) -> Results:
+                     renderers=("mitsuba", "progressive"), report=True, **more) -> Results:
     """A full ``compare run`` output folder made with the synthetic renderers."""
-    settings = RunSettings(frames=frames, spp=spp, sizes=[list(size)], renderers=list(renderers))
+    settings = RunSettings(frames=frames, spp=spp, sizes=[list(size)], renderers=list(renderers), **more)
     with synthetic_renderers():
         return run_mod.run(scenes, out, settings, progress=False, report=report)
 
@@ -139,7 +151,7 @@ def test_parse_sizes_and_renderers():
     with pytest.raises(argparse.ArgumentTypeError):
         run_mod.parse_sizes("320by240")
     assert run_mod.parse_renderers("mitsuba,progressive:paper") == ["mitsuba", "progressive:paper"]
-    for bad in ("cycles", "mitsuba:x", "progressive:", "", "progressive,progressive"):
+    for bad in ("cyclesx", "mitsuba:x", "eevee:fast", "progressive:", "", "progressive,progressive"):
         with pytest.raises(ValueError):
             run_mod.parse_renderers(bad)
 
@@ -445,3 +457,34 @@ def test_real_renderers_tiny_cornell(tmp_path, gl_ctx):
     assert mits.points[-1].metrics["mse"] < mits.points[0].metrics["mse"]
     assert 0 < prog.final.metrics["flip"] < 1 and 0 < prog.final.metrics["ssim"] <= 1
     assert (out / prog.final.preview).is_file() and (out / scene.reference.image).is_file()
+
+
+def test_all_renderers_give_the_papers_table_1(tmp_path):
+    """``--renderers all``: Mitsuba, both area models, Cycles and EEVEE, each a Table 1 row with its error."""
+    out = tmp_path / "out"
+    assert run_mod.parse_renderers("all") == list(run_mod.ALL_RENDERERS)
+    assert run_mod.parse_renderers("all,progressive:probes")[-1] == "progressive:probes"
+    with pytest.raises(ValueError, match="unknown renderer"):
+        run_mod.parse_renderers("cycles:fast")
+    res = synthetic_report(out, [CORNELL], renderers=("all",), cycles_spp=64, eevee_samples=16)
+    (scene,) = res.scenes
+    assert [r.renderer for r in scene.runs] == list(run_mod.ALL_RENDERERS)
+    cycles, eevee = scene.run("cycles"), scene.run("eevee")
+    assert [p.step for p in cycles.points] == [1, 4, 16, 64] and cycles.steps == 64
+    assert [p.step for p in eevee.points] == [1, 4, 16] and eevee.label == "Blender EEVEE"
+    assert cycles.setup_seconds == 1.5 and cycles.metadata["blender"] == "fake 5.0.1"
+    assert cycles.final.metrics["mse"] < eevee.final.metrics["mse"]  # EEVEE's fake is biased
+    html = (out / "index.html").read_text(encoding="utf-8")
+    assert "Blender Cycles (CPU)" in html and "Blender EEVEE" in html
+    for rel in run_mod._paths_in(Results.load(out / "results.json").to_json()):
+        assert (out / rel).is_file(), rel
+
+
+def test_blender_renderers_need_bpy_before_any_work(tmp_path, monkeypatch):
+    from compare.errors import MissingComponentError
+
+    monkeypatch.setattr("compare.blender.blender_available", lambda: (False, "bpy is not installed (test)"))
+    settings = RunSettings(frames=2, spp=2, sizes=[[8, 6]], renderers=["mitsuba", "eevee"])
+    with pytest.raises(MissingComponentError, match="eevee need Blender's bpy: bpy is not installed"):
+        run_mod.run([CORNELL], tmp_path / "out", settings, progress=False)
+    assert not (tmp_path / "out").exists()
