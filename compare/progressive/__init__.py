@@ -18,11 +18,14 @@ Public API
     a headless EGL context, or :class:`~compare.errors.MissingComponentError` saying what to install.
 
 Module map (each pass with its shader): ``distributor`` + ``sampling`` (Algorithm 1,
-R2 points), ``gpu_scene`` (upload, camera), ``gbuffer`` (``gbuffer.glsl``),
-``shadow`` (``shadow.glsl``), ``direct`` (``direct.glsl``), ``environment``
-(``env_occlusion.glsl``; the IBL GLSL is ``compare/ibl/ibl.glsl``), ``accumulate``
-(``accumulate.glsl``, ``compose.glsl``), ``probes`` (the irradiance volume for
-indirect diffuse light, ``probes*.glsl``; optional), ``readback``, ``renderer``.
+R2 points), ``budget`` (the adaptive frame budget), ``gpu_scene`` (upload, camera),
+``first_frame`` (the forward-shaded cheap frame 0, ``first_frame.glsl``), ``gbuffer``
+(``gbuffer.glsl``), ``shadow`` (``shadow.glsl``; variance shadow maps ``vsm.glsl``,
+``vsm_blur.glsl``; the shared test ``shadow_test.glsl``), ``direct`` (``direct.glsl``;
+the light's math ``area_light.glsl``), ``environment`` (``env_occlusion.glsl``; the
+IBL GLSL is ``compare/ibl/ibl.glsl``), ``accumulate`` (``accumulate.glsl``,
+``compose.glsl``), ``probes`` + ``indirect`` (the irradiance volume for indirect
+diffuse light, ``probes*.glsl``, ``indirect.glsl``; optional), ``readback``, ``renderer``.
 """
 
 from .context import create_context
