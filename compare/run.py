@@ -353,8 +353,8 @@ def _progressive_checkpoints(scene: Scene, *, frames: int, seed: int, options: d
 
 
 def _blender_checkpoints(scene: Scene, *, engine: str, samples: int, seed: int,
-                         ladder: list[int]) -> tuple[list[tuple[int, float, np.ndarray]], float, dict]:
-    """Render with Blender (compare.blender); returns (checkpoints, start-up seconds, metadata).
+                         ladder: list[int]) -> tuple[list[tuple[int, float, np.ndarray]], float, dict, Any]:
+    """Render with Blender (compare.blender); returns (checkpoints, start-up seconds, metadata, result).
 
     A module-level function so that tests can stand in a synthetic renderer.
     Each checkpoint is a render of its own with the same seed (Blender's
@@ -366,7 +366,23 @@ def _blender_checkpoints(scene: Scene, *, engine: str, samples: int, seed: int,
     cps = [(int(c.spp), float(c.seconds), np.asarray(c.image, dtype=np.float32)) for c in result.checkpoints]
     if not cps or cps[-1][0] != samples:
         cps.append((samples, float(result.seconds), np.asarray(result.image, dtype=np.float32)))
-    return cps, float(result.startup_seconds), dict(result.metadata)
+    return cps, float(result.startup_seconds), dict(result.metadata), result
+
+
+def _cycles_likeness(scene: Scene, *, samples: int, seed: int, first, cache_dir) -> dict:
+    """Is the ground truth Cycles-like (compare.blender.likeness)? The run's Cycles render is seed A;
+    one more Cycles render (seed B) and two independent Mitsuba passes of equal spp are made here."""
+    from .blender import render_blender
+    from .blender.likeness import cycles_likeness
+
+    second = render_blender(scene, engine="cycles", samples=samples, seed=seed + 1)
+    res = cycles_likeness(scene, spp=samples, materials="cycles", seeds=(seed, seed + 1), cache_dir=cache_dir,
+                          cycles=(first, second))
+    agree = sum(1 for r in res.regions if r.agrees)
+    return {"likeness_flip_cross": res.flip_cross, "likeness_flip_seed": res.flip_seed,
+            "likeness_flip_mitsuba_seed": res.flip_mitsuba_seed, "likeness_ratio": res.ratio,
+            "likeness_ratio_noise_matched": res.ratio_noise_matched, "likeness_spp": samples,
+            "likeness_regions": f"{agree}/{len(res.regions)}"}
 
 
 def blender_ladder(samples: int) -> list[int]:
@@ -542,8 +558,13 @@ class _Runner:
         if stored is not None:
             return RendererRun.from_json(stored)
         bar.set_postfix_str(f"{scene.name[:30]} {spec} {samples} spp")
-        cps, startup, meta = _blender_checkpoints(scene, engine=spec, samples=samples, seed=s.seed,
-                                                  ladder=blender_ladder(samples))
+        cps, startup, meta, result = _blender_checkpoints(scene, engine=spec, samples=samples, seed=s.seed,
+                                                          ladder=blender_ladder(samples))
+        if spec == "cycles" and s.materials == "cycles":
+            # The ground truth is meant to be Cycles-like: say how much (the report shows it).
+            bar.set_postfix_str(f"{scene.name[:30]} Cycles-likeness {samples} spp")
+            meta.update(_cycles_likeness(scene, samples=samples, seed=s.seed, first=result,
+                                         cache_dir=self.cache_dir))
         meta = _flat_metadata(meta)
         truth = gt()
         points: list[Point] = []

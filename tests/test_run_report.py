@@ -95,7 +95,13 @@ def fake_blender(scene, *, engine, samples, seed, ladder):
     rng = np.random.default_rng(seed + (11 if engine == "cycles" else 13))
     cps = [(n, 0.01 * n, (truth + rng.normal(0, 0.05, truth.shape) / np.sqrt(n)).clip(0).astype(np.float32))
            for n in list(ladder) + [samples]]
-    return cps, 1.5, {"engine": engine, "samples": samples, "blender": "fake 5.0.1"}
+    return cps, 1.5, {"engine": engine, "samples": samples, "blender": "fake 5.0.1"}, None
+
+
+def fake_likeness(scene, *, samples, seed, first, cache_dir):
+    return {"likeness_flip_cross": 0.05, "likeness_flip_seed": 0.045, "likeness_flip_mitsuba_seed": 0.05,
+            "likeness_ratio": 0.05 / 0.045, "likeness_ratio_noise_matched": 1.0, "likeness_spp": samples,
+            "likeness_regions": "15/15"}
 
 
 @contextlib.contextmanager
@@ -112,6 +118,7 @@ def synthetic_renderers(progressive=fake_progressive):
         mp.setattr(run_mod, "_progressive_checkpoints", progressive)
         mp.setattr(run_mod, "_create_gl_context", lambda: None)
         mp.setattr(run_mod, "_blender_checkpoints", fake_blender)
+        mp.setattr(run_mod, "_cycles_likeness", fake_likeness)
         mp.setattr("compare.blender.blender_available", lambda: (True, "fake"))
         yield
     finally:
@@ -466,7 +473,7 @@ def test_all_renderers_give_the_papers_table_1(tmp_path):
     assert run_mod.parse_renderers("all,progressive:probes")[-1] == "progressive:probes"
     with pytest.raises(ValueError, match="unknown renderer"):
         run_mod.parse_renderers("cycles:fast")
-    res = synthetic_report(out, [CORNELL], renderers=("all",), cycles_spp=64, eevee_samples=16)
+    res = synthetic_report(out, [CORNELL], renderers=("all",), cycles_spp=64, eevee_samples=16, materials="cycles")
     (scene,) = res.scenes
     assert [r.renderer for r in scene.runs] == list(run_mod.ALL_RENDERERS)
     cycles, eevee = scene.run("cycles"), scene.run("eevee")
@@ -476,6 +483,8 @@ def test_all_renderers_give_the_papers_table_1(tmp_path):
     assert cycles.final.metrics["mse"] < eevee.final.metrics["mse"]  # EEVEE's fake is biased
     html = (out / "index.html").read_text(encoding="utf-8")
     assert "Blender Cycles (CPU)" in html and "Blender EEVEE" in html
+    # with --materials cycles the run says how Cycles-like the ground truth is
+    assert cycles.metadata["likeness_regions"] == "15/15" and "Cycles-like" in html and "1.11" in html
     for rel in run_mod._paths_in(Results.load(out / "results.json").to_json()):
         assert (out / rel).is_file(), rel
 

@@ -220,11 +220,24 @@ def _scene_view(scene: SceneResult, plots: dict[str, Path], out: Path, exposure:
         "runs": runs,
         "equal": equal,
         "ablations": _ablations(scene),
+        "likeness": _likeness(scene),
         "plots": {k: rel(v) for k, v in plots.items()},
         "viewer": viewer,
         "viewer_right": right,
         "exposure": exposure,
     }
+
+
+def _likeness(scene: SceneResult) -> dict | None:
+    """The Cycles-likeness a ``cycles`` run measured (with ``--materials cycles``), formatted, or None."""
+    run = scene.run("cycles")
+    m = run.metadata if run is not None else {}
+    if "likeness_ratio" not in m:
+        return None
+    return {"spp": m.get("likeness_spp"), "cross": fmt_num(m.get("likeness_flip_cross"), 4),
+            "seed": fmt_num(m.get("likeness_flip_seed"), 4), "ratio": fmt_num(m.get("likeness_ratio"), 3),
+            "matched": fmt_num(m.get("likeness_ratio_noise_matched"), 3),
+            "mitsuba": fmt_num(m.get("likeness_flip_mitsuba_seed"), 4), "regions": m.get("likeness_regions")}
 
 
 def _ablations(scene: SceneResult) -> list[dict]:
