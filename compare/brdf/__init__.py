@@ -83,6 +83,8 @@ References
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 __all__ = [
@@ -227,6 +229,46 @@ def fresnel_schlick(f0, v_dot_h):
     return f0 + (1.0 - f0) * x5
 
 
+class _Geometry(NamedTuple):
+    """The inputs of a BRDF evaluation as float64 arrays, and the half-vector terms both models use."""
+
+    base: np.ndarray
+    m: np.ndarray
+    r: np.ndarray
+    alpha: np.ndarray
+    nv: np.ndarray
+    nl: np.ndarray
+    nh: np.ndarray
+    vh: np.ndarray
+    sin2: np.ndarray
+    front: np.ndarray
+
+
+def _geometry(n, v, l, base_color, metallic, roughness) -> _Geometry:  # noqa: E741
+    """Validate and convert the arguments of a BRDF evaluation; the half vector's cosines.
+
+    Shared by the glTF model here and the Principled v2 model of :mod:`compare.brdf.principled`.
+    """
+    n = np.asarray(n, dtype=np.float64)
+    v = np.asarray(v, dtype=np.float64)
+    l = np.asarray(l, dtype=np.float64)  # noqa: E741 - the usual name of the light direction
+    base = np.asarray(base_color, dtype=np.float64)
+    m = np.clip(np.asarray(metallic, dtype=np.float64), 0.0, 1.0)
+    r = np.clip(np.asarray(roughness, dtype=np.float64), 0.0, 1.0)
+    for name, arr in (("n", n), ("v", v), ("l", l), ("base_color", base)):
+        if arr.shape[-1:] != (3,):
+            raise ValueError(f"{name} must have a last axis of length 3, got shape {arr.shape}")
+    nv = _dot(n, v)
+    nl = _dot(n, l)
+    hu = v + l
+    len2 = _dot(hu, hu)
+    front = (nv > 0.0) & (nl > 0.0) & (len2 > H_LEN2_MIN)
+    h = hu / np.sqrt(np.maximum(len2, H_LEN2_MIN))[..., None]
+    nxh = np.cross(n, h)
+    return _Geometry(base, m, r, alpha_from_roughness(r), nv, nl, np.clip(_dot(n, h), 0.0, 1.0),
+                     np.clip(_dot(v, h), 0.0, 1.0), _dot(nxh, nxh), front)
+
+
 def eval_brdf_lobes(n, v, l, base_color, metallic, roughness):
     """The specular and diffuse terms of :func:`eval_brdf`, separately.
 
@@ -236,29 +278,10 @@ def eval_brdf_lobes(n, v, l, base_color, metallic, roughness):
         ``F D V`` and ``(1 - m)(1 - F_d) c / pi``, each ``(..., 3)`` float64, both
         zero below the horizon.
     """
-    n = np.asarray(n, dtype=np.float64)
-    v = np.asarray(v, dtype=np.float64)
-    l = np.asarray(l, dtype=np.float64)  # noqa: E741 - the usual name of the light direction
-    base = np.asarray(base_color, dtype=np.float64)
-    m = np.clip(np.asarray(metallic, dtype=np.float64), 0.0, 1.0)
-    alpha = alpha_from_roughness(roughness)
-    for name, arr in (("n", n), ("v", v), ("l", l), ("base_color", base)):
-        if arr.shape[-1:] != (3,):
-            raise ValueError(f"{name} must have a last axis of length 3, got shape {arr.shape}")
-
-    nv = _dot(n, v)
-    nl = _dot(n, l)
-    hu = v + l
-    len2 = _dot(hu, hu)
-    front = (nv > 0.0) & (nl > 0.0) & (len2 > H_LEN2_MIN)
-    h = hu / np.sqrt(np.maximum(len2, H_LEN2_MIN))[..., None]
-    nh = np.clip(_dot(n, h), 0.0, 1.0)
-    vh = np.clip(_dot(v, h), 0.0, 1.0)
-    nxh = np.cross(n, h)
-    sin2 = _dot(nxh, nxh)
-
-    d = ggx_d(nh, alpha, sin2)
-    vis = smith_v_height_correlated(nv, nl, alpha)
+    g = _geometry(n, v, l, base_color, metallic, roughness)
+    base, m, nv, nl, vh, front = g.base, g.m, g.nv, g.nl, g.vh, g.front
+    d = ggx_d(g.nh, g.alpha, g.sin2)
+    vis = smith_v_height_correlated(nv, nl, g.alpha)
     f0 = DIELECTRIC_F0 + (base - DIELECTRIC_F0) * m[..., None]
     f = fresnel_schlick(f0, vh[..., None])
     fd = fresnel_schlick(DIELECTRIC_F0, vh)

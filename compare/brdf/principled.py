@@ -67,7 +67,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import (DIELECTRIC_F0, H_LEN2_MIN, SPECULAR_PROB_MIN, _dot, alpha_from_roughness, fresnel_schlick, ggx_d,
+from . import (DIELECTRIC_F0, SPECULAR_PROB_MIN, _geometry, fresnel_schlick, ggx_d,
                sample_ggx_vndf, smith_v_height_correlated)
 
 __all__ = [
@@ -231,27 +231,9 @@ def eval_principled_lobes(n, v, l, base_color, metallic, roughness):
         ``[m F_m + (1 - m) F_d] D V`` and ``(1 - m)(1 - E_s(r, n.v)) c / pi``,
         each ``(..., 3)`` float64, both zero below the horizon.
     """
-    n = np.asarray(n, dtype=np.float64)
-    v = np.asarray(v, dtype=np.float64)
-    l = np.asarray(l, dtype=np.float64)  # noqa: E741 - the usual name of the light direction
-    base = np.asarray(base_color, dtype=np.float64)
-    m = np.clip(np.asarray(metallic, dtype=np.float64), 0.0, 1.0)
-    r = np.clip(np.asarray(roughness, dtype=np.float64), 0.0, 1.0)
-    alpha = alpha_from_roughness(r)
-    for name, arr in (("n", n), ("v", v), ("l", l), ("base_color", base)):
-        if arr.shape[-1:] != (3,):
-            raise ValueError(f"{name} must have a last axis of length 3, got shape {arr.shape}")
-
-    nv = _dot(n, v)
-    nl = _dot(n, l)
-    hu = v + l
-    len2 = _dot(hu, hu)
-    front = (nv > 0.0) & (nl > 0.0) & (len2 > H_LEN2_MIN)
-    h = hu / np.sqrt(np.maximum(len2, H_LEN2_MIN))[..., None]
-    nh = np.clip(_dot(n, h), 0.0, 1.0)
-    vh = np.clip(_dot(v, h), 0.0, 1.0)
-    nxh = np.cross(n, h)
-    dv = ggx_d(nh, alpha, _dot(nxh, nxh)) * smith_v_height_correlated(nv, nl, alpha)
+    g = _geometry(n, v, l, base_color, metallic, roughness)
+    base, m, r, nv, vh, front = g.base, g.m, g.r, g.nv, g.vh, g.front
+    dv = ggx_d(g.nh, g.alpha, g.sin2) * smith_v_height_correlated(nv, g.nl, g.alpha)
     f_metal = fresnel_schlick(np.clip(base, 0.0, 1.0), vh[..., None])
     f_diel = fresnel_dielectric(vh)[..., None]
     spec = (m[..., None] * f_metal + (1.0 - m[..., None]) * f_diel) * dv[..., None]
