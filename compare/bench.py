@@ -7,7 +7,8 @@ absolute times are printed for context only. How to read each figure:
 ``first-frame``
     median wall time of frame 1 ÷ median of the mean frame time of a whole
     run. Frame 1 is the cheap preview (environment only, or the unshadowed
-    direct estimate without an environment). The paper reports 0.98 ms against
+    direct estimate without an environment), forward-shaded in one pass
+    (:mod:`compare.progressive.first_frame`). The paper reports 0.98 ms against
     a 6.4 ms average (≈ 0.15). Lower is better. ``first-frame-total`` divides
     by the whole run instead.
 ``depth-floor``
