@@ -9,9 +9,14 @@ scene is rasterized once for depth and once with a forward shader
 (``first_frame.glsl``) that writes what frame 0 adds to the every-frame running
 mean (its first value: emission and background, and the unoccluded environment
 light) straight into that mean's next target, and the unshadowed direct-light
-preview (a cheaper form than the direct pass's, :func:`light_preview` in
+preview (a cheaper form than the direct pass's, ``light_preview`` in
 ``area_light.glsl``) into its own target, shown until the first light frame.
 The displayed image is composed from them as after any other frame.
+
+Measured on Mesa llvmpipe (Cornell box, 128 frames): frame 1 costs 0.39 of the
+mean frame at 320×240 and 0.38 at 1280×720, against 1.19 and 1.39 drawn
+through the G-buffer; on a CPU rasterizer the rest is per-pixel shading
+(clears, the preview's light evaluation) that a GPU does far faster.
 """
 
 from __future__ import annotations
