@@ -522,22 +522,29 @@ class _Runner:
         meta = _flat_metadata(meta)
         if isinstance(meta.get("gl_renderer"), str):
             self.gl_renderer = meta["gl_renderer"]
-        truth = gt()
-        points: list[Point] = []
-        for frame, seconds, image in tqdm(cps, desc="metrics", unit="checkpoint", leave=False,
-                                          disable=not self.progress):
-            path = unit.dir / f"step-{frame:05d}.exr"
-            _write_image(path, image, {**meta, "renderer": spec, "frames": frame, "seed": s.seed,
-                                       "seconds": seconds, "scene_hash": scene.hash},
-                         exposure=s.exposure, tonemap=s.tonemap)
-            metrics = _measure(truth, image, s, f"{scene.name}: {spec} at frame {frame}", final=frame == cps[-1][0])
-            points.append(Point(int(frame), float(seconds), metrics, unit.rel(path),
-                                unit.rel(path.with_suffix(".png"))))
         words = describe(spec) or meta.get("area_model")
         label = "Progressive rasterizer" + (f" ({words})" if isinstance(words, str) and words else "")
+        # steps: the frames rendered (a frame budget decides the count itself)
+        return self._finish(scene, unit, key, spec, label, "frame", cps, setup, meta, gt())
+
+    def _finish(self, scene: Scene, unit: _Unit, key: str, spec: str, label: str, step_unit: str,
+                cps: list[tuple[int, float, np.ndarray]], setup: float, meta: dict,
+                truth: np.ndarray) -> RendererRun:
+        """Write and measure every checkpoint (step, seconds, image) against ``truth``; save the unit's run."""
+        s = self.settings
+        step_key = "frames" if step_unit == "frame" else "spp"
+        points: list[Point] = []
+        for step, seconds, image in tqdm(cps, desc="metrics", unit="checkpoint", leave=False,
+                                         disable=not self.progress):
+            path = unit.dir / f"step-{step:05d}.exr"
+            _write_image(path, image, {**meta, "renderer": spec, step_key: step, "seed": s.seed, "seconds": seconds,
+                                       "scene_hash": scene.hash}, exposure=s.exposure, tonemap=s.tonemap)
+            metrics = _measure(truth, image, s, f"{scene.name}: {spec} at {step_unit} {step}",
+                               final=step == cps[-1][0])
+            points.append(Point(int(step), float(seconds), metrics, unit.rel(path),
+                                unit.rel(path.with_suffix(".png"))))
         run = RendererRun(
-            # steps: the frames rendered (a frame budget decides the count itself)
-            renderer=spec, label=label, unit="frame", steps=int(cps[-1][0]), key=key,
+            renderer=spec, label=label, unit=step_unit, steps=int(cps[-1][0]), key=key,
             seconds=points[-1].seconds, first_frame_seconds=points[0].seconds, setup_seconds=setup,
             metadata=meta, image=points[-1].image, preview=points[-1].preview,
             maps=_maps(unit, truth, cps[-1][2], s), points=points)
@@ -566,23 +573,8 @@ class _Runner:
             meta.update(_cycles_likeness(scene, samples=samples, seed=s.seed, first=result,
                                          cache_dir=self.cache_dir))
         meta = _flat_metadata(meta)
-        truth = gt()
-        points: list[Point] = []
-        for step, seconds, image in cps:
-            path = unit.dir / f"step-{step:05d}.exr"
-            _write_image(path, image, {**meta, "renderer": spec, "spp": step, "seed": s.seed, "seconds": seconds,
-                                       "scene_hash": scene.hash}, exposure=s.exposure, tonemap=s.tonemap)
-            metrics = _measure(truth, image, s, f"{scene.name}: {spec} at {step} spp", final=step == cps[-1][0])
-            points.append(Point(int(step), float(seconds), metrics, unit.rel(path),
-                                unit.rel(path.with_suffix(".png"))))
         label = "Blender Cycles (CPU)" if spec == "cycles" else "Blender EEVEE"
-        run = RendererRun(
-            renderer=spec, label=label, unit="spp", steps=int(cps[-1][0]), key=key,
-            seconds=points[-1].seconds, first_frame_seconds=points[0].seconds, setup_seconds=startup,
-            metadata=meta, image=points[-1].image, preview=points[-1].preview,
-            maps=_maps(unit, truth, cps[-1][2], s), points=points)
-        unit.save(key, run.to_json())
-        return run
+        return self._finish(scene, unit, key, spec, label, "spp", cps, startup, meta, gt())
 
     # -- one scene at one size ------------------------------------------------------------------
 
