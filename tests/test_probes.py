@@ -17,12 +17,11 @@ import pytest
 
 from compare.errors import SceneError
 from compare.ibl.cubemap import padded_directions, pad_from_interior
-from compare.ibl.irradiance import irradiance_at
+from compare.ibl.irradiance import irradiance_at, sh9_irradiance
 from compare.metrics import compare_images
 from compare.progressive import ProgressiveRenderer, render_progressive
 from compare.progressive import renderer as renderer_module
-from compare.progressive.probes import (ProbeVolume, backface_fraction, distance_moments, irradiance_sh9,
-                                        probe_grid, project_sh9)
+from compare.progressive.probes import ProbeVolume, backface_fraction, distance_moments, probe_grid, project_sh9
 from compare.scene import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -52,7 +51,7 @@ def test_projection_of_constant_radiance_gives_pi(face):
     np.testing.assert_allclose(coeffs[:, 0], 0.282095 * 4 * math.pi, rtol=1e-6)
     np.testing.assert_allclose(coeffs[:, 1:], 0.0, atol=1e-9)
     n = random_normals(50)
-    np.testing.assert_allclose(irradiance_sh9(coeffs[0], n), math.pi, rtol=1e-5)  # 6-digit constants
+    np.testing.assert_allclose(sh9_irradiance(coeffs[0], n), math.pi, rtol=1e-5)  # 6-digit constants
 
 
 def test_projection_of_linear_radiance_gives_cosine_irradiance():
@@ -62,7 +61,7 @@ def test_projection_of_linear_radiance_gives_cosine_irradiance():
     coeffs = project_sh9(radiance)[0]
     np.testing.assert_allclose(coeffs[2], 0.488603 * 4 * math.pi / 3, rtol=1e-5)  # ∫ z · 0.488603 z dω
     n = random_normals(100, 1)
-    np.testing.assert_allclose(irradiance_sh9(coeffs, n), (2 * math.pi + 2 * math.pi / 3 * n[:, 2])[:, None]
+    np.testing.assert_allclose(sh9_irradiance(coeffs, n), (2 * math.pi + 2 * math.pi / 3 * n[:, 2])[:, None]
                                * np.ones(3), rtol=1e-5)
 
 
@@ -74,7 +73,7 @@ def test_projection_agrees_with_brute_force_irradiance_for_quadratic_radiance():
     coeffs = project_sh9(radiance[None])[0]
     n = random_normals(40, 2)
     brute = irradiance_at(pad_from_interior(radiance), n)
-    np.testing.assert_allclose(irradiance_sh9(coeffs, n), brute, rtol=2e-3, atol=2e-3)
+    np.testing.assert_allclose(sh9_irradiance(coeffs, n), brute, rtol=2e-3, atol=2e-3)
 
 
 def test_distance_moments_of_a_constant_distance_and_backface_fraction():

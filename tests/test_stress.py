@@ -131,7 +131,7 @@ def test_grazing_views_reference_stays_bounded():
     strict=True, reason=(
         "finding: the representative-point specular still overestimates the glossy plane's tail at N.V ~ 0.1: "
         "measured 2.0x the reference (6.4x with Karis' isotropic normalisation; the foreshortened, albedo-bounded "
-        "form in direct.glsl brought it down); a lobe-coverage factor that reaches 0.95 here breaks the "
+        "form in area_light.glsl brought it down); a lobe-coverage factor that reaches 0.95 here breaks the "
         "roughness sweep's metal spheres (0.57x), so the remaining gap needs an exact polygon integral (LTC)")))])
 def test_grazing_views_rasterizer_energy(gl_ctx, what):
     s = load("grazing.toml", (64, 48))

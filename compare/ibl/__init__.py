@@ -213,18 +213,19 @@ def preprocess(equirect: np.ndarray, *, size: int = DEFAULT_SIZE, levels: int = 
     return result
 
 
-def split_sum(size: int = DEFAULT_LUT_SIZE, samples: int = DEFAULT_LUT_SAMPLES, *, cache_dir=None,
-              folder: str = "ibl") -> tuple[np.ndarray, float, bool]:
+def split_sum(size: int = DEFAULT_LUT_SIZE, samples: int = DEFAULT_LUT_SAMPLES, *, cache_dir=None
+              ) -> tuple[np.ndarray, float, bool]:
     """The split-sum LUT (size, size, 3) (:func:`compare.ibl.lut.split_sum_lut`), cached.
 
-    ``folder`` is the cache's sub-folder: the table depends on the BRDF alone, and
-    the direct-light pass (which bounds its specular term with it) keeps its copy
-    under ``brdf/`` so that a scene without an environment does no environment work.
+    The table depends on the BRDF alone, so its cache lives under ``brdf/``: the
+    environment light, the direct-light pass (which bounds its specular term with
+    it) and the irradiance volume share one copy, and a scene without an
+    environment does no environment work.
     Returns (table, seconds it took to compute, whether it came from the cache).
     """
     settings = {"size": int(size), "samples": int(samples), "version": IBL_VERSION}
     key = sha256_bytes("split-sum-lut", json.dumps(settings, sort_keys=True))
-    root = _cache_root(cache_dir, folder)
+    root = _cache_root(cache_dir, "brdf")
     path = root / f"lut-{key[:24]}.npz" if root is not None else None
     if path is not None and path.is_file():
         loaded = _load(path)

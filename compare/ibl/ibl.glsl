@@ -40,6 +40,15 @@ vec3 env_background(vec3 world_dir) {
     return u_env_intensity * textureLod(u_env_map, env_equirect_texcoord(uv, u_env_map_size), 0.0).rgb;
 }
 
+// The map seen through the pixel at frag_coord (gl_FragCoord.xy) of a camera whose
+// jittered view-projection has the inverse inv_view_proj, on a viewport of that size.
+vec3 env_background_at_pixel(vec2 frag_coord, vec2 viewport, mat4 inv_view_proj) {
+    vec2 ndc = frag_coord / viewport * 2.0 - 1.0;
+    vec4 far_point = inv_view_proj * vec4(ndc, 1.0, 1.0);
+    vec4 near_point = inv_view_proj * vec4(ndc, -1.0, 1.0);
+    return env_background(far_point.xyz / far_point.w - near_point.xyz / near_point.w);
+}
+
 // One face of a padded cube tile at (origin, size): bilinear through the hardware.
 vec2 env_cube_texel(vec3 d, vec2 origin, float size) {
     vec2 st;

@@ -63,10 +63,7 @@ void main() {
 #endif
     } else {
 #if ENVIRONMENT
-        vec2 ndc = gl_FragCoord.xy / u_viewport * 2.0 - 1.0;
-        vec4 far_point = u_inv_view_proj * vec4(ndc, 1.0, 1.0);
-        vec4 near_point = u_inv_view_proj * vec4(ndc, -1.0, 1.0);
-        c = env_background(far_point.xyz / far_point.w - near_point.xyz / near_point.w);
+        c = env_background_at_pixel(gl_FragCoord.xy, u_viewport, u_inv_view_proj);
 #else
         c = u_background;
 #endif

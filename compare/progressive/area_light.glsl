@@ -103,6 +103,17 @@ vec3 specular_mrp(vec3 x, vec3 n, vec3 v, vec3 base, float metallic, float rough
 }
 #endif
 
+// The solid angle that a sample point standing for the light's area A subtends at squared
+// distance d2 (cos_l: the emitter's cosine towards x): A cos_l / d2, or with AREA_MODEL_PAPER
+// the paper's isotropic point light, Phi / (4 pi d2) / L = A / (4 d2).
+float point_solid_angle(float d2, float cos_l) {
+#if AREA_MODEL_PAPER
+    return u_light_area / (4.0 * d2);
+#else
+    return u_light_area * cos_l / d2;
+#endif
+}
+
 // The unshadowed single-sample estimate of the light's direct light at x (normal n,
 // towards the viewer v) through the sample point y: diffuse through y, specular
 // through the representative point (see the notes at the top of direct.glsl).
@@ -128,11 +139,7 @@ vec3 light_estimate(vec3 x, vec3 n, vec3 v, vec3 y, vec3 base, float metallic, f
         vec3 spec_lobe;
         brdf_eval_lobes(n, v, l, base, metallic, roughness, spec_lobe, diff_lobe);
 #endif
-#if AREA_MODEL_PAPER
-        diffuse = diff_lobe * u_light_radiance * (u_light_area * cos_s / (4.0 * d2));
-#else
-        diffuse = diff_lobe * u_light_radiance * (u_light_area * cos_s * cos_l / d2);
-#endif
+        diffuse = diff_lobe * u_light_radiance * (point_solid_angle(d2, cos_l) * cos_s);
     }
     vec3 specular = vec3(0.0);
 #if !MATERIALS_DIFFUSE
@@ -155,11 +162,7 @@ vec3 light_preview(vec3 x, vec3 n, vec3 v, vec3 base, float metallic, float roug
     if (cos_s <= 0.0 || cos_l <= 0.0 || dot(n, v) <= 0.0) {
         return vec3(0.0);
     }
-#if AREA_MODEL_PAPER
-    float omega = u_light_area / (4.0 * d2);
-#else
-    float omega = u_light_area * cos_l / d2;
-#endif
+    float omega = point_solid_angle(d2, cos_l);
 #if MATERIALS_DIFFUSE
     return base * (1.0 / BRDF_PI) * u_light_radiance * (omega * cos_s);
 #else

@@ -88,8 +88,6 @@ class BudgetScheduler:
         self.frame = 0
         self._next_light = 0
         self._next_env = 0
-        self.predicted: list[float] = []
-        """Predicted seconds of each frame handed out (0 for frame 0)."""
 
     @property
     def done(self) -> bool:
@@ -100,7 +98,6 @@ class BudgetScheduler:
         """Start again from frame 0 (the cost model and its scale are kept)."""
         self.frame = 0
         self._next_light = self._next_env = 0
-        self.predicted = []
 
     def next(self) -> FramePlan:
         """The plan of the next frame."""
@@ -109,7 +106,6 @@ class BudgetScheduler:
         f = self.frame
         self.frame += 1
         if f == 0:
-            self.predicted.append(0.0)
             return self.first
         costs = self.costs or FrameCosts(0.0, 1.0, 1.0)  # uncalibrated: one sample per frame
         nl, ne = len(self.lights), len(self.envs)
@@ -131,7 +127,6 @@ class BudgetScheduler:
         envs = tuple(self.envs[self._next_env:self._next_env + ke])
         self._next_light += kl
         self._next_env += ke
-        self.predicted.append(self.scale * costs.predict(kl, ke))
         jx, jy = self.jitter[f]
         return FramePlan(frame=f, jitter=(float(jx), float(jy)), light_samples=lights, env_samples=envs)
 

@@ -66,7 +66,7 @@ class DirectPass:
     """Programs of the direct-light pass: shadowed (light frames) and unshadowed (preview)."""
 
     def __init__(self, ctx, *, area_model: str = "radiometric", materials: str = "shared", shadows: bool = True,
-                 spec_lut=None, shadow_filter: str = "hard"):
+                 shadow_filter: str = "hard", cache_dir=None):
         # shadow_filter: "hard" (depth test) or "vsm" (Chebyshev visibility of filtered moments; see .shadow).
         if shadow_filter not in SHADOW_FILTERS:
             raise ValueError(f"shadow_filter: expected one of {', '.join(map(repr, SHADOW_FILTERS))}, "
@@ -79,17 +79,17 @@ class DirectPass:
         self.lut_texture = None
         if materials != "diffuse":
             # The split-sum table bounds the light a specular lobe can reflect (direct.glsl).
-            if spec_lut is None:
-                from ..ibl import split_sum
+            from ..ibl import split_sum
 
-                spec_lut = split_sum(folder="brdf")[0]
-            lut = np.ascontiguousarray(spec_lut, dtype=np.float32)
+            lut = np.ascontiguousarray(split_sum(cache_dir=cache_dir)[0], dtype=np.float32)
             self.lut_texture = ctx.texture((lut.shape[1], lut.shape[0]), lut.shape[2], lut.tobytes(), dtype="f4")
             self.lut_texture.filter = (ctx.LINEAR, ctx.LINEAR)
             self.lut_texture.repeat_x = self.lut_texture.repeat_y = False
         defines = {"AREA_MODEL_PAPER": int(area_model == "paper"), "MATERIALS_DIFFUSE": int(materials == "diffuse")}
-        self.preview_program = load_program(ctx, "direct.glsl", {**defines, "SHADOWS": 0})
-        self.preview_vao = ctx.vertex_array(self.preview_program, [])
+        self._defines = defines
+        # The G-buffer preview is compiled at its first use: with the forward-shaded first
+        # frame (first_frame.py) it is never drawn.
+        self.preview_program = self.preview_vao = None
         self.program = self.vao = None
         if shadows:
             vsm = int(shadow_filter == "vsm")
@@ -125,6 +125,9 @@ class DirectPass:
         ctx.enable_only(ctx.BLEND)
         ctx.blend_func = ctx.ONE, ctx.ONE
         ctx.blend_equation = ctx.FUNC_ADD
+        if self.preview_program is None:
+            self.preview_program = load_program(ctx, "direct.glsl", {**self._defines, "SHADOWS": 0})
+            self.preview_vao = ctx.vertex_array(self.preview_program, [])
         p = self.preview_program
         self._bind_gbuffer(p, gbuffer)
         set_uniform(p, "u_mode", 0)

@@ -91,10 +91,7 @@ float u_light_area;
 void main() {
 #if ENVIRONMENT
     if (u_background_pass > 0.5) {
-        vec2 ndc = gl_FragCoord.xy / u_viewport * 2.0 - 1.0;
-        vec4 far_point = u_inv_view_proj * vec4(ndc, 1.0, 1.0);
-        vec4 near_point = u_inv_view_proj * vec4(ndc, -1.0, 1.0);
-        out_color = vec4(env_background(far_point.xyz / far_point.w - near_point.xyz / near_point.w), 1.0);
+        out_color = vec4(env_background_at_pixel(gl_FragCoord.xy, u_viewport, u_inv_view_proj), 1.0);
         out_env = vec4(0.0, 0.0, 0.0, 1.0);
         out_direct = vec4(0.0, 0.0, 0.0, 1.0);
         return;

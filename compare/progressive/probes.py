@@ -182,11 +182,6 @@ def project_sh9(radiance: np.ndarray) -> np.ndarray:
     return np.einsum("pic,ik->pkc", radiance.reshape(p, 6 * s * s, c), sh9_weights(s))
 
 
-def irradiance_sh9(radiance_coeffs: np.ndarray, n) -> np.ndarray:
-    """Irradiance (..., C) at unit normals (..., 3) from radiance coefficients (9, C) (CPU reference)."""
-    return sh9_basis(n) @ (SH_BAND_FACTORS[:, None] * np.asarray(radiance_coeffs, dtype=np.float64))
-
-
 def distance_moments(distance: np.ndarray, size: int = DEFAULT_DISTANCE_SIZE,
                      sharpness: float = DISTANCE_SHARPNESS) -> np.ndarray:
     """Padded octahedral maps (P, size+2, size+2, 2) of mean distance and mean squared distance.

@@ -277,14 +277,9 @@ class ProgressiveRenderer:
                                                      extent=float(np.linalg.norm(hi - lo)), filter=shadow_filter,
                                                      lights=scene.lights,
                                                      samples_per_light=self.plan.samples_per_light))
-                spec_lut = None
-                if materials != "diffuse":
-                    from ..ibl import split_sum
-
-                    spec_lut = split_sum(cache_dir=cache_dir, folder="brdf")[0]
                 self.direct = self._keep(DirectPass(ctx, area_model=area_model, materials=materials,
-                                                    shadows=self.plan.light_frames > 0, spec_lut=spec_lut,
-                                                    shadow_filter=shadow_filter))
+                                                    shadows=self.plan.light_frames > 0,
+                                                    shadow_filter=shadow_filter, cache_dir=cache_dir))
                 self.direct_acc = self._keep(PingPong(ctx, size))
                 if self.scheduler is not None or any(fp.shadow_passes > 1 for fp in self.plan):
                     self.partial = self._keep(Target(ctx, size))
@@ -307,15 +302,13 @@ class ProgressiveRenderer:
         self.gpu_frame_seconds: list[float] = []
         self.shadow_passes: list[int] = []
         """Shadow atlases rendered in each frame."""
-        self.env_passes: list[int] = []
-        """Environment occlusion samples evaluated in each frame."""
         self._preview_valid = False
         self._lights_sampled: set[int] = set()
         for fp in self.plan:
-            self._matrices(fp)
+            self._matrices(fp.jitter)
         if self.scheduler is not None:
             for jitter in self.scheduler.jitter:
-                self._matrices(FramePlan(0, (float(jitter[0]), float(jitter[1]))))
+                self._matrices((float(jitter[0]), float(jitter[1])))
         if warm_up or self.scheduler is not None:
             try:
                 self._warm_up()
@@ -365,22 +358,22 @@ class ProgressiveRenderer:
         """Cumulative wall seconds of the frames rendered so far."""
         return float(sum(self.frame_seconds))
 
-    def _matrices(self, fp) -> tuple[np.ndarray, bytes]:
-        """Frame ``fp``'s jittered view-projection and its inverse, computed once per plan.
+    def _matrices(self, jitter: tuple[float, float]) -> tuple[np.ndarray, bytes]:
+        """The view-projection of a sub-pixel ``jitter`` and its inverse, computed once per jitter.
 
         The inverse is computed outside the timed frames: numpy's linear algebra
         can wake a BLAS thread pool, whose start-up is no part of a frame's cost.
         """
         cache = self.__dict__.setdefault("_matrix_cache", {})
-        if fp.jitter not in cache:
-            view_proj = self.camera.view_proj(fp.jitter)
-            cache[fp.jitter] = (view_proj, mat_bytes(np.linalg.inv(view_proj)))
-        return cache[fp.jitter]
+        if jitter not in cache:
+            view_proj = self.camera.view_proj(jitter)
+            cache[jitter] = (view_proj, mat_bytes(np.linalg.inv(view_proj)))
+        return cache[jitter]
 
     def _draw(self, fp) -> None:
         """Issue the GL work of one frame plan ``fp``."""
         cam_pos = self.camera.position
-        view_proj, inv_view_proj = self._matrices(fp)
+        view_proj, inv_view_proj = self._matrices(fp.jitter)
         if fp.frame == 0 and self.first is not None:
             self.first.render(view_proj, inv_view_proj, cam_pos)
             self._preview_valid = bool(self.scene.lights)
@@ -470,7 +463,6 @@ class ProgressiveRenderer:
         # Some drivers answer the first query with an all-ones error value: record it as unknown.
         self.gpu_frame_seconds.append(elapsed * 1e-9 if 0 <= elapsed < 0xFFFFFFFF else float("nan"))
         self.shadow_passes.append(len(fp.light_samples))
-        self.env_passes.append(len(fp.env_samples))
         self.frame += 1
         if self.scheduler is not None:
             self.scheduler.observe(fp, seconds)
@@ -521,7 +513,7 @@ class ProgressiveRenderer:
         self._preview_valid = False
         self._lights_sampled: set[int] = set()
         self.frame = 0
-        self.frame_seconds, self.gpu_frame_seconds, self.shadow_passes, self.env_passes = [], [], [], []
+        self.frame_seconds, self.gpu_frame_seconds, self.shadow_passes = [], [], []
         if self.scheduler is not None:
             self.scheduler.reset()
 

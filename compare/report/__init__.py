@@ -275,7 +275,7 @@ def _ablations(scene: SceneResult) -> list[dict]:
             "seconds": fmt_seconds(run.seconds),
             "time_ratio": fmt_num(run.seconds / base.seconds if base.seconds else None, 3),
             "setup": fmt_seconds(run.setup_seconds),
-            "steps": run.steps if not run.points else run.points[-1].step,
+            "steps": run.steps,
             "at_base_time": fmt_num(run.error_at(base.seconds, "flip", hold=True), 4),
             "base_at_time": fmt_num(base.error_at(run.seconds, "flip", hold=True), 4),
         })
