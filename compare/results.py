@@ -213,6 +213,10 @@ class RunSettings:
         Reference material mode (``"shared"`` BRDF plugin or ``"cycles"``).
     cycles_spp, eevee_samples : int
         Samples of the Blender renderers ``cycles`` and ``eevee`` (the paper: 1024 and 64).
+    likeness : bool
+        With ``materials="cycles"``, measure whether the ground truth is Cycles-like
+        (one more Cycles render and two Mitsuba passes at ``cycles_spp``, so it roughly
+        triples the Cycles unit's cost; turn it off for large Table 1 runs).
     """
 
     frames: int = 128
@@ -225,6 +229,7 @@ class RunSettings:
     materials: str = "shared"
     cycles_spp: int = 1024
     eevee_samples: int = 64
+    likeness: bool = True
 
     def to_json(self) -> dict:
         """JSON-ready dict."""

@@ -558,8 +558,11 @@ class _Runner:
         """Cycles (the paper's reference, CPU) or EEVEE (its rasterizer comparator) against the ground truth."""
         s = self.settings
         samples = s.cycles_spp if spec == "cycles" else s.eevee_samples
+        # A Cycles unit run without the likeness measurement gets a key of its own (and keys of
+        # units with it stay as they were), so a later run that asks for it does not reuse it.
+        skip = ("no-likeness",) if spec == "cycles" and s.materials == "cycles" and not s.likeness else ()
         key = _key("blender", spec, scene.hash, samples, s.seed, ref.key, s.exposure, s.tonemap, self.machine,
-                   __version__)
+                   __version__, *skip)
         unit = self._unit(sid, spec)
         stored = self._stored(unit, key)
         if stored is not None:
@@ -567,7 +570,7 @@ class _Runner:
         bar.set_postfix_str(f"{scene.name[:30]} {spec} {samples} spp")
         cps, startup, meta, result = _blender_checkpoints(scene, engine=spec, samples=samples, seed=s.seed,
                                                           ladder=blender_ladder(samples))
-        if spec == "cycles" and s.materials == "cycles":
+        if spec == "cycles" and s.materials == "cycles" and s.likeness:
             # The ground truth is meant to be Cycles-like: say how much (the report shows it).
             bar.set_postfix_str(f"{scene.name[:30]} Cycles-likeness {samples} spp")
             meta.update(_cycles_likeness(scene, samples=samples, seed=s.seed, first=result,
@@ -801,6 +804,9 @@ def add_run_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--materials", choices=["shared", "cycles"], default="shared",
                    help="reference material mode: shared (the rasterizer's BRDF) or cycles (Blender's Principled "
                         "BSDF v2, for comparisons with cycles and eevee)")
+    p.add_argument("--no-likeness", dest="likeness", action="store_false",
+                   help="with --materials cycles, skip the Cycles-likeness measurement (it renders Cycles once more "
+                        "and Mitsuba twice at --cycles-spp: about three times the Cycles unit's cost)")
     p.add_argument("--fresh", action="store_true", help="redo finished units instead of reusing them")
     p.add_argument("--no-report", action="store_true", help="write results.json only")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
@@ -817,7 +823,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     """``compare run``; returns the exit status."""
     settings = RunSettings(frames=args.frames, spp=args.spp, seed=args.seed, renderers=list(args.renderers),
                            sizes=[list(s) for s in (args.size or [])], exposure=args.exposure, tonemap="aces",
-                           materials=args.materials, cycles_spp=args.cycles_spp, eevee_samples=args.eevee_samples)
+                           materials=args.materials, cycles_spp=args.cycles_spp, eevee_samples=args.eevee_samples,
+                           likeness=args.likeness)
     scenes = args.scenes if isinstance(args.scenes, list) else [args.scenes]  # the default is one Path
     out = args.output or Path("reports") / scenes[0].stem
     try:

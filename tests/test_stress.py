@@ -367,7 +367,8 @@ def _drift(gl_ctx, frames: int) -> float:
     emission = np.asarray(s.materials["glow"].emission, dtype=np.float64)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        r = ProgressiveRenderer(s, frames=frames, ctx=gl_ctx, warm_up=False)
+        # Frame 0 at full size is the mean's first value (a reduced one is a preview outside it).
+        r = ProgressiveRenderer(s, frames=frames, ctx=gl_ctx, warm_up=False, first_frame_scale=1.0)
     try:
         assert r.shadow is None and r.environment is None  # nothing but jitter and accumulation
         prev = np.zeros((s.camera.height, s.camera.width, 3))

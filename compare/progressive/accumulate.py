@@ -141,7 +141,8 @@ class ComposePass:
         self.vao = ctx.vertex_array(self.program, [])
         self.out = Target(ctx, size)
 
-    def run(self, base: PingPong, direct_texture=None, env_visible=None, indirect_texture=None):
+    def run(self, base: PingPong, direct_texture=None, env_visible=None, indirect_texture=None, *,
+            upsample: bool = False):
         """Compose the display image.
 
         ``base`` is the every-frame ping-pong (a second attachment holds the
@@ -151,6 +152,8 @@ class ComposePass:
         The environment term is the unoccluded mean until both kinds have
         samples, then the two means of visible light. ``indirect_texture`` is
         the irradiance volume's indirect light (:mod:`.indirect`), or None.
+        ``upsample``: the sources are smaller than the output (a reduced first
+        frame) and are sampled bilinearly.
         """
         ctx = self.ctx
         self.out.fbo.use()
@@ -169,6 +172,8 @@ class ComposePass:
         set_uniform(self.program, "u_indirect_scale", 1.0 if indirect_texture is not None else 0.0)
         set_uniform(self.program, "u_direct_scale", 1.0 if direct_texture is not None else 0.0)
         set_uniform(self.program, "u_env_mode", env_mode)
+        w, h = self.out.texture.size
+        set_uniform(self.program, "u_upsample", (1.0 / w, 1.0 / h) if upsample else (0.0, 0.0))
         self.vao.render(vertices=3)
         return self.out.fbo
 

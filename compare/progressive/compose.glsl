@@ -4,6 +4,8 @@
 // every-frame pass's second target) until both kinds of occlusion samples have run,
 // then the two running means of the visible diffuse and specular light (env_occlusion.glsl),
 // plus the irradiance volume's indirect light where the renderer has one (indirect.glsl).
+// After a reduced first frame (first_frame.py) every source is smaller than the output
+// and is upsampled bilinearly.
 
 #if defined VERTEX_SHADER
 
@@ -23,22 +25,28 @@ uniform sampler2D u_indirect;      // indirect diffuse light of the irradiance v
 uniform float u_direct_scale;  // 1 to add u_direct, 0 when there is no direct light to show
 uniform float u_indirect_scale;  // 1 to add u_indirect
 uniform int u_env_mode;        // 0 no environment, 1 unoccluded, 2 occluded (both kinds have samples)
+uniform vec2 u_upsample;       // (0, 0): sources at the output's size; else 1 / the output's size
 
 out vec4 out_color;
 
+vec3 source(sampler2D s) {
+    // Same-size sources are read texel for texel, so the display is exactly the means.
+    return u_upsample.x > 0.0 ? texture(s, gl_FragCoord.xy * u_upsample).rgb
+                              : texelFetch(s, ivec2(gl_FragCoord.xy), 0).rgb;
+}
+
 void main() {
-    ivec2 p = ivec2(gl_FragCoord.xy);
-    vec3 c = texelFetch(u_base, p, 0).rgb;
+    vec3 c = source(u_base);
     if (u_direct_scale > 0.0) {
-        c += u_direct_scale * texelFetch(u_direct, p, 0).rgb;
+        c += u_direct_scale * source(u_direct);
     }
     if (u_env_mode == 1) {
-        c += texelFetch(u_env, p, 0).rgb;
+        c += source(u_env);
     } else if (u_env_mode == 2) {
-        c += texelFetch(u_env_diffuse, p, 0).rgb + texelFetch(u_env_specular, p, 0).rgb;
+        c += source(u_env_diffuse) + source(u_env_specular);
     }
     if (u_indirect_scale > 0.0) {
-        c += texelFetch(u_indirect, p, 0).rgb;
+        c += source(u_indirect);
     }
     out_color = vec4(c, 1.0);
 }

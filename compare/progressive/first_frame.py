@@ -13,6 +13,15 @@ preview (a cheaper form than the direct pass's, ``light_preview`` in
 ``area_light.glsl``) into its own target, shown until the first light frame.
 The displayed image is composed from them as after any other frame.
 
+With ``scale`` < 1 (the renderer's default, ``first_frame_scale=0.5``) frame 0 is
+drawn at that fraction of each axis into targets of its own and is a preview
+only: it adds nothing to the running means (their first value comes from frame 1,
+so the final image averages one jitter position fewer), the display upsamples it
+bilinearly, and frame 1 draws the full-resolution unshadowed preview from its
+G-buffer, which then stays until every light has a sample. Per-pixel work is what
+a CPU rasterizer pays for (see below); a quarter of the pixels is what brings the
+first frame under a quarter of an average frame there.
+
 Measured on Mesa llvmpipe (Cornell box, 128 frames): frame 1 costs 0.39 of the
 mean frame at 320×240 and 0.38 at 1280×720, against 1.19 and 1.39 drawn
 through the G-buffer; on a CPU rasterizer the rest is per-pixel shading
@@ -23,11 +32,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from .accumulate import PingPong
 from .gpu_scene import mat_bytes
 from .shaders import load_program, set_uniform
 
 #: How frame 0 is drawn (ProgressiveRenderer's ``first_frame``).
 FIRST_FRAME_MODES = ("forward", "gbuffer")
+#: Fraction of each axis of the forward frame 0 (ProgressiveRenderer's ``first_frame_scale``).
+DEFAULT_FIRST_FRAME_SCALE = 0.5
 #: Texture unit of the split-sum table; the environment's textures follow from ENV_UNIT on.
 LUT_UNIT = 0
 ENV_UNIT = 1
@@ -38,15 +50,25 @@ class FirstFramePass:
 
     ``lut_texture`` is the direct pass's split-sum table (None with Lambert-only
     materials); ``environment`` an :class:`~compare.progressive.environment.EnvironmentLighting` or None.
+    ``scale`` in (0, 1]: 1 draws frame 0 at full size into the every-frame mean's
+    next target; below 1 at that fraction of each axis into :attr:`targets`, a
+    preview only (:attr:`reduced`).
     """
 
     def __init__(self, ctx, gpu_scene, base, lights, *, environment=None, area_model: str = "radiometric",
-                 materials: str = "shared", lut_texture=None):
+                 materials: str = "shared", lut_texture=None, scale: float = 1.0):
+        if not (isinstance(scale, (int, float)) and not isinstance(scale, bool) and 0 < scale <= 1):
+            raise ValueError(f"first_frame_scale: expected a fraction of each axis in (0, 1], got {scale!r}")
         self.ctx = ctx
         self.scene = gpu_scene
-        size = base.textures[0][0].size
+        full = base.textures[0][0].size
+        self.scale = float(scale)
+        self.reduced = self.scale < 1.0
+        size = (max(1, round(full[0] * self.scale)), max(1, round(full[1] * self.scale))) if self.reduced else full
         self.size = size
         self.base = base
+        self.targets = None
+        """With :attr:`reduced`: frame 0's own every-frame terms (a PingPong shaped like ``base``)."""
         self.lights = tuple(lights)
         self.environment = environment
         self.lut_texture = lut_texture
@@ -58,11 +80,20 @@ class FirstFramePass:
         try:
             self.program = self._keep(load_program(ctx, "first_frame.glsl", defines))
             self.background_vao = self._keep(ctx.vertex_array(self.program, []))
+            # A reduced frame is upsampled bilinearly for display (compose.glsl).
+            filt = (ctx.LINEAR, ctx.LINEAR) if self.reduced else (ctx.NEAREST, ctx.NEAREST)
             self.direct = self._keep(ctx.texture(size, 4, dtype="f4"))
-            self.direct.filter = (ctx.NEAREST, ctx.NEAREST)
+            self.direct.filter = filt
             self.depth = self._keep(ctx.depth_renderbuffer(size))
-            # Frame 0 is the every-frame mean's first value: after reset() its next target is set 1.
-            self.fbo = self._keep(ctx.framebuffer(list(base.textures[1]) + [self.direct], self.depth))
+            if self.reduced:
+                self.targets = self._keep(PingPong(ctx, size, attachments=len(base.textures[0])))
+                for tex in self.targets.textures[1]:
+                    tex.filter = filt
+                colour = list(self.targets.textures[1])
+            else:
+                # Frame 0 is the every-frame mean's first value: after reset() its next target is set 1.
+                colour = list(base.textures[1])
+            self.fbo = self._keep(ctx.framebuffer(colour + [self.direct], self.depth))
             # Depth pre-pass: with the nearest depth known, each pixel is shaded once, however
             # much the scene overdraws (the kitchen's frame 0 cost 3x an average frame without it).
             self.depth_fbo = self._keep(ctx.framebuffer(depth_attachment=self.depth))
@@ -93,8 +124,11 @@ class FirstFramePass:
         set_uniform(p, "u_lights_area", arr([lt.area for lt in self.lights]))
 
     def render(self, view_proj, inv_view_proj: bytes, camera_position) -> None:
-        """Draw frame 0: the every-frame mean's first value (then swapped in) and :attr:`direct`, the preview."""
-        if self.base.count != 0 or self.base.index != 0:
+        """Draw frame 0: the every-frame mean's first value (then swapped in; with :attr:`reduced`
+        into :attr:`targets` instead) and :attr:`direct`, the preview."""
+        if self.reduced:
+            self.targets.reset()
+        elif self.base.count != 0 or self.base.index != 0:
             raise RuntimeError("the first frame must be drawn right after reset()")
         ctx = self.ctx
         p = self.program
@@ -121,7 +155,7 @@ class FirstFramePass:
             set_uniform(p, "u_inv_view_proj", inv_view_proj)
             set_uniform(p, "u_viewport", tuple(float(x) for x in self.size))
             self.background_vao.render(vertices=3)
-        self.base.swap()
+        (self.targets if self.reduced else self.base).swap()
 
     def release(self) -> None:
         for name in ("program", "depth_program"):

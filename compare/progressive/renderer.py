@@ -25,7 +25,9 @@ Frame 0 carries no samples and is drawn differently (``first_frame="forward"``,
 :mod:`compare.progressive.first_frame`): a depth pre-pass and one forward-shaded
 pass write its every-frame terms straight into the running mean and the
 unshadowed preview into its own target, without the G-buffer and its
-full-screen passes: the cheap first frame of the paper.
+full-screen passes: the cheap first frame of the paper. By default it is drawn at
+half size (``first_frame_scale``) as a preview outside the running means; frame 1
+then draws the full-size unshadowed preview from its G-buffer.
 
 The displayed image (``compose.glsl``) is the every-frame mean plus the
 direct-light mean (or the preview before the first light frame) plus the
@@ -65,7 +67,7 @@ from .environment import (ENV_DIFFUSE, MAX_SAMPLES_PER_FRAME, EnvironmentLightin
 from ..ibl import DEFAULT_LEVELS, DEFAULT_SAMPLES, DEFAULT_SIZE
 from .budget import BudgetScheduler, FrameCosts
 from .distributor import DEFAULT_DIRECT_FRACTION, DEFAULT_FRAMES, FramePlan, Plan, plan
-from .first_frame import FIRST_FRAME_MODES, FirstFramePass
+from .first_frame import DEFAULT_FIRST_FRAME_SCALE, FIRST_FRAME_MODES, FirstFramePass
 from .gbuffer import GBuffer
 from .indirect import IndirectPass
 from .gpu_scene import CameraSetup, GpuScene, mat_bytes, scene_extent
@@ -169,6 +171,11 @@ class ProgressiveRenderer:
         G-buffer and full-screen passes of every other frame. The forward pass
         is used when frame 0 carries no samples (its preview then has no
         indirect light of probes: that needs the G-buffer).
+    first_frame_scale : float, keyword-only
+        Fraction of each axis at which the forward frame 0 is drawn (default
+        0.5: a quarter of the pixels). Below 1 frame 0 is a preview only, upsampled
+        for display, and frame 1 draws the full-size unshadowed preview; 1 draws it
+        at full size as the first value of the every-frame mean.
     frame_budget_ms : float or None, keyword-only
         A per-frame time budget: each frame evaluates as many of the plan's
         samples as a measured cost model says fit (:mod:`compare.progressive.budget`),
@@ -188,6 +195,7 @@ class ProgressiveRenderer:
                  ibl_levels: int = DEFAULT_LEVELS, ibl_samples: int = DEFAULT_SAMPLES, cache_dir=None,
                  warm_up: bool = True, indirect: str | None = None, probe_grid: Sequence[int] | None = None,
                  probe_bounces: int | None = None, first_frame: str = "forward",
+                 first_frame_scale: float = DEFAULT_FIRST_FRAME_SCALE,
                  frame_budget_ms: float | None = None, ctx=None):
         if area_model not in AREA_MODELS:
             raise ValueError(f"area_model: expected one of {', '.join(map(repr, AREA_MODELS))}, got {area_model!r}")
@@ -288,8 +296,11 @@ class ProgressiveRenderer:
             if first_frame == "forward" and not fp0.light_samples and not fp0.env_samples:
                 self.first = self._keep(FirstFramePass(
                     ctx, self.gpu_scene, self.base, scene.lights, environment=self.environment, area_model=area_model,
-                    materials=materials, lut_texture=self.direct.lut_texture if self.direct is not None else None))
-            if has_lights and self.first is None and any(fp.preview for fp in self.plan):
+                    materials=materials, lut_texture=self.direct.lut_texture if self.direct is not None else None,
+                    scale=first_frame_scale))
+            # A reduced frame 0 is a preview only: frame 1 draws the full-size one from its G-buffer.
+            self._reduced_first = self.first is not None and self.first.reduced
+            if has_lights and (self.first is None or self._reduced_first) and any(fp.preview for fp in self.plan):
                 self.preview = self._keep(Target(ctx, size))
             self.query = ctx.query(time=True)  # moderngl queries have no release(); freed with the context
         except BaseException:
@@ -370,11 +381,12 @@ class ProgressiveRenderer:
             cache[jitter] = (view_proj, mat_bytes(np.linalg.inv(view_proj)))
         return cache[jitter]
 
-    def _draw(self, fp) -> None:
-        """Issue the GL work of one frame plan ``fp``."""
+    def _draw(self, fp, index: int) -> None:
+        """Issue the GL work of one frame plan ``fp``, the ``index``-th frame drawn since reset()
+        (-1: a frame outside the sequence, as the budget's calibration draws)."""
         cam_pos = self.camera.position
         view_proj, inv_view_proj = self._matrices(fp.jitter)
-        if fp.frame == 0 and self.first is not None:
+        if index == 0 and self.first is not None:
             self.first.render(view_proj, inv_view_proj, cam_pos)
             self._preview_valid = bool(self.scene.lights)
             return
@@ -387,7 +399,7 @@ class ProgressiveRenderer:
             self.env_occlusion.run(self.env_acc, self.gbuffer, mat_bytes(view_proj), cam_pos,
                                    self.camera.camera.basis()[2], fp.env_samples, self.d_occ,
                                    self.occlusion_bias * self.d_occ)
-        if fp.preview and self.preview is not None:
+        if self.preview is not None and (fp.preview or (index == 1 and self._reduced_first)):
             self.direct.preview(self.preview, self.gbuffer, self.scene.lights, cam_pos)
             self._preview_valid = True
         last = len(fp.light_samples) - 1
@@ -415,13 +427,15 @@ class ProgressiveRenderer:
         otherwise land in frame 1's time and the first checkpoints of an
         error-against-time curve.
         """
-        self._draw(self.plan[0])
+        self._draw(self.plan[0], 0)
+        if self._reduced_first and len(self.plan) > 1:
+            self._draw(self.plan[1], 1)  # the full-size preview's program
         light_frames = [fp for fp in self.plan if fp.light_samples]
         if light_frames and light_frames[0].frame != 0:
-            self._draw(light_frames[0])
+            self._draw(light_frames[0], -1)
         env_frames = [fp for fp in self.plan if fp.env_samples]
         if env_frames and env_frames[0].frame != 0 and not env_frames[0].light_samples:
-            self._draw(env_frames[0])
+            self._draw(env_frames[0], -1)
         self.ctx.finish()
         self.reset()
 
@@ -433,7 +447,7 @@ class ProgressiveRenderer:
             for _ in range(repeats):
                 self.ctx.finish()
                 t0 = time.perf_counter()
-                self._draw(fp)
+                self._draw(fp, -1)
                 self.ctx.finish()
                 xs.append(time.perf_counter() - t0)
             return float(np.median(xs))
@@ -455,7 +469,7 @@ class ProgressiveRenderer:
         fp = self.scheduler.next() if self.scheduler is not None else self.plan[self.frame]
         t0 = time.perf_counter()
         with self.query:
-            self._draw(fp)
+            self._draw(fp, self.frame)
         self.ctx.finish()
         seconds = time.perf_counter() - t0
         self.frame_seconds.append(seconds)
@@ -489,6 +503,10 @@ class ProgressiveRenderer:
         if self.frame == 0:
             raise RuntimeError("no frame rendered yet; iterate frames() or call render_frame() first")
         what = f"progressive render of {self.scene.path} (frame {self.frame})"
+        if self.frame == 1 and self._reduced_first:
+            first = self.first
+            fbo = self.compose.run(first.targets, first.direct if self._preview_valid else None, upsample=True)
+            return read_rgb(self.ctx, fbo, what=what)
         direct = None
         # The preview (every light, unshadowed) stays until every light has a sample: before that
         # the direct mean would show a few lights scaled up to stand for all of them.
@@ -496,7 +514,7 @@ class ProgressiveRenderer:
                 and (len(self._lights_sampled) == len(self.scene.lights) or not self._preview_valid)):
             direct = self.direct_acc.current
         elif self._preview_valid:
-            direct = self.first.direct if self.first is not None else self.preview.texture
+            direct = self.preview.texture if self.preview is not None else self.first.direct
         fbo = self.compose.run(self.base, direct, self.env_acc,
                                self.indirect_pass.texture if self.indirect_pass is not None else None)
         return read_rgb(self.ctx, fbo, what=what)
@@ -534,6 +552,7 @@ class ProgressiveRenderer:
             "materials": self.materials,
             "jitter": "R2",
             "first_frame": "forward" if self.first is not None else "gbuffer",
+            "first_frame_scale": self.first.scale if self.first is not None else 1.0,
             "distributor": "fixed plan" if self.scheduler is None else "frame budget",
             "direct_fraction": p.direct_fraction,
             "direct_start_frame": p.direct_start,
