@@ -577,3 +577,18 @@ def test_first_frame_mode_is_validated():
     s = load_scene(CORNELL).with_resolution(8, 6)
     with pytest.raises(ValueError, match="first_frame"):
         ProgressiveRenderer(s, frames=2, first_frame="deferred")
+
+
+def test_first_frame_is_reduced_only_where_the_preview_keeps_its_structure():
+    from compare.progressive.first_frame import auto_scale
+
+    assert auto_scale((320, 240)) == auto_scale((1920, 1080)) == 0.5
+    assert auto_scale((319, 240)) == auto_scale((320, 239)) == auto_scale((64, 48)) == 1.0
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("scale", [0.0, -0.5, 1.5, float("nan"), True])
+def test_first_frame_scale_is_validated(gl_ctx, scale):
+    s = load_scene(CORNELL).with_resolution(8, 6)
+    with pytest.raises(ValueError, match="first_frame_scale"):
+        ProgressiveRenderer(s, frames=2, ctx=gl_ctx, first_frame_scale=scale)

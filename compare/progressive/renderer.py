@@ -25,9 +25,9 @@ Frame 0 carries no samples and is drawn differently (``first_frame="forward"``,
 :mod:`compare.progressive.first_frame`): a depth pre-pass and one forward-shaded
 pass write its every-frame terms straight into the running mean and the
 unshadowed preview into its own target, without the G-buffer and its
-full-screen passes: the cheap first frame of the paper. By default it is drawn at
-half size (``first_frame_scale``) as a preview outside the running means; frame 1
-then draws the full-size unshadowed preview from its G-buffer.
+full-screen passes: the cheap first frame of the paper. From 320×240 up it is drawn
+at half size by default (``first_frame_scale``) as a preview outside the running means;
+frame 1 then draws the full-size unshadowed preview from its G-buffer.
 
 The displayed image (``compose.glsl``) is the every-frame mean plus the
 direct-light mean (or the preview before the first light frame) plus the
@@ -67,7 +67,7 @@ from .environment import (ENV_DIFFUSE, MAX_SAMPLES_PER_FRAME, EnvironmentLightin
 from ..ibl import DEFAULT_LEVELS, DEFAULT_SAMPLES, DEFAULT_SIZE
 from .budget import BudgetScheduler, FrameCosts
 from .distributor import DEFAULT_DIRECT_FRACTION, DEFAULT_FRAMES, FramePlan, Plan, plan
-from .first_frame import DEFAULT_FIRST_FRAME_SCALE, FIRST_FRAME_MODES, FirstFramePass
+from .first_frame import FIRST_FRAME_MODES, FirstFramePass, auto_scale
 from .gbuffer import GBuffer
 from .indirect import IndirectPass
 from .gpu_scene import CameraSetup, GpuScene, mat_bytes, scene_extent
@@ -171,11 +171,12 @@ class ProgressiveRenderer:
         G-buffer and full-screen passes of every other frame. The forward pass
         is used when frame 0 carries no samples (its preview then has no
         indirect light of probes: that needs the G-buffer).
-    first_frame_scale : float, keyword-only
-        Fraction of each axis at which the forward frame 0 is drawn (default
-        0.5: a quarter of the pixels). Below 1 frame 0 is a preview only, upsampled
-        for display, and frame 1 draws the full-size unshadowed preview; 1 draws it
-        at full size as the first value of the every-frame mean.
+    first_frame_scale : float or None, keyword-only
+        Fraction of each axis at which the forward frame 0 is drawn; None (default)
+        picks it (:func:`compare.progressive.first_frame.auto_scale`: 0.5, a quarter
+        of the pixels, from 320×240 up, else 1). Below 1 frame 0 is a preview only,
+        upsampled for display, and frame 1 draws the full-size unshadowed preview;
+        1 draws it at full size as the first value of the every-frame mean.
     frame_budget_ms : float or None, keyword-only
         A per-frame time budget: each frame evaluates as many of the plan's
         samples as a measured cost model says fit (:mod:`compare.progressive.budget`),
@@ -195,7 +196,7 @@ class ProgressiveRenderer:
                  ibl_levels: int = DEFAULT_LEVELS, ibl_samples: int = DEFAULT_SAMPLES, cache_dir=None,
                  warm_up: bool = True, indirect: str | None = None, probe_grid: Sequence[int] | None = None,
                  probe_bounces: int | None = None, first_frame: str = "forward",
-                 first_frame_scale: float = DEFAULT_FIRST_FRAME_SCALE,
+                 first_frame_scale: float | None = None,
                  frame_budget_ms: float | None = None, ctx=None):
         if area_model not in AREA_MODELS:
             raise ValueError(f"area_model: expected one of {', '.join(map(repr, AREA_MODELS))}, got {area_model!r}")
@@ -297,7 +298,7 @@ class ProgressiveRenderer:
                 self.first = self._keep(FirstFramePass(
                     ctx, self.gpu_scene, self.base, scene.lights, environment=self.environment, area_model=area_model,
                     materials=materials, lut_texture=self.direct.lut_texture if self.direct is not None else None,
-                    scale=first_frame_scale))
+                    scale=auto_scale(size) if first_frame_scale is None else first_frame_scale))
             # A reduced frame 0 is a preview only: frame 1 draws the full-size one from its G-buffer.
             self._reduced_first = self.first is not None and self.first.reduced
             if has_lights and (self.first is None or self._reduced_first) and any(fp.preview for fp in self.plan):
