@@ -53,6 +53,7 @@ from __future__ import annotations
 
 import argparse
 import datetime
+import functools
 import json
 import os
 import platform
@@ -95,6 +96,8 @@ __all__ = [
 
 #: Renderer specs accepted by ``--renderers`` (``progressive:<option>`` too, see compare.variants).
 RENDERER_NAMES = ("mitsuba", "progressive", "cycles", "eevee")
+#: What the rasterizer's images depend on (its units are redone when any of it changes).
+RASTERIZER_SOURCES = ("progressive", "brdf", "ibl", "variants.py", "scene.py")
 #: Blender's engines (the ``blender`` extra): the paper's reference and its rasterizer comparator.
 BLENDER_RENDERERS = ("cycles", "eevee")
 #: What ``--renderers all`` means: the paper's Table 1 (and both area models).
@@ -204,6 +207,24 @@ def collect_environment(*, gl_renderer: str | None = None, mitsuba_variant: str 
 
 def _key(*parts: Any) -> str:
     return sha256_bytes(json.dumps(parts, sort_keys=True, default=str))
+
+
+def _source_files(*names: str) -> list[Path]:
+    """The package's sources (``.py``, ``.glsl``) under ``names`` (folders or files of ``compare/``)."""
+    root = Path(__file__).resolve().parent
+    files: list[Path] = []
+    for name in names:
+        path = root / name
+        files += sorted(f for f in path.rglob("*") if f.suffix in (".py", ".glsl")) if path.is_dir() else [path]
+    return files
+
+
+@functools.lru_cache(maxsize=None)
+def _source_fingerprint(*names: str) -> str:
+    """Hash of :func:`_source_files` of ``names``: in a unit's key, so that a finished unit is
+    redone once its renderer's code changes (the version number moves only at releases)."""
+    root = Path(__file__).resolve().parent
+    return _key([(f.relative_to(root).as_posix(), sha256_bytes(f.read_bytes())) for f in _source_files(*names)])
 
 
 def _flat_metadata(meta: dict) -> dict:
@@ -506,7 +527,7 @@ class _Runner:
 
         options = renderer_options(spec)
         key = _key("progressive", spec, scene.hash, s.frames, s.seed, ref.key, s.exposure, s.tonemap,
-                   self.machine, __version__)
+                   self.machine, __version__, _source_fingerprint(*RASTERIZER_SOURCES))
         unit = self._unit(sid, spec)
         stored = self._stored(unit, key)
         if stored is not None:

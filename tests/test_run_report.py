@@ -284,7 +284,7 @@ def test_run_writes_results_images_and_report(tmp_path):
     assert row["flip_delta"].startswith(sign)
 
 
-def test_rerun_reuses_finished_units_and_redoes_changed_ones(tmp_path):
+def test_rerun_reuses_finished_units_and_redoes_changed_ones(tmp_path, monkeypatch):
     out = tmp_path / "out"
     first = synthetic_report(out, [CORNELL], report=False)
     FakeReference.renders.clear()
@@ -307,6 +307,17 @@ def test_rerun_reuses_finished_units_and_redoes_changed_ones(tmp_path):
         # Another spp changes the ground truth: everything measured against it is redone.
         run_mod.run([CORNELL], out, RunSettings(frames=16, spp=32, sizes=[[48, 36]]), progress=False, report=False)
         assert {seed for _, seed in FakeReference.renders} == {0, 1} and calls == [16, 16]
+        # A change to the rasterizer's code: its unit is redone, the reference reused.
+        FakeReference.renders.clear()
+        monkeypatch.setattr(run_mod, "_source_fingerprint", lambda *names: "edited")
+        run_mod.run([CORNELL], out, RunSettings(frames=16, spp=32, sizes=[[48, 36]]), progress=False, report=False)
+        assert FakeReference.renders == [] and calls == [16, 16, 16]
+
+
+def test_rasterizer_sources_include_its_shaders():
+    files = {f.name for f in run_mod._source_files(*run_mod.RASTERIZER_SOURCES)}
+    assert {"renderer.py", "first_frame.glsl", "area_light.glsl", "brdf.glsl", "variants.py"} <= files
+    assert run_mod._source_fingerprint("progressive") != run_mod._source_fingerprint("brdf")
 
 
 def test_interrupted_run_resumes_without_redoing_finished_work(tmp_path):
