@@ -152,7 +152,7 @@ def parse_renderers(text: str | Iterable[str]) -> list[str]:
         base, _, option = item.partition(":")
         if base not in RENDERER_NAMES or (base != "progressive" and option) or (":" in item and not option):
             raise ValueError(f"unknown renderer {item!r}; expected mitsuba, progressive, "
-                             f"progressive:<option> (compare.variants: paper, probes, vsm, budget<ms>), cycles, "
+                             f"progressive:<option> (compare.variants: paper, probes, vsm, budget<ms>, fullfirst), cycles, "
                              f"eevee or all")
         if base == "progressive":
             renderer_options(item)  # names an unknown option before hours of reference rendering
@@ -814,7 +814,7 @@ def add_run_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--renderers", type=_renderers_arg, default="mitsuba,progressive",
                    metavar="LIST", help="comma-separated: mitsuba (reference convergence + noise floor), "
                                         "progressive, progressive:<option>[+<option>] with options paper, probes, vsm, "
-                                        "budget<ms> (e.g. progressive:paper,progressive:probes,progressive:budget16), "
+                                        "budget<ms>, fullfirst (e.g. progressive:paper,progressive:probes,progressive:budget16), "
                                         "cycles and eevee (Blender, the blender extra), or all (the paper's "
                                         "Table 1: " + ",".join(ALL_RENDERERS) + ")")
     p.add_argument("--cycles-spp", type=_positive, default=1024, help="Cycles samples per pixel (the paper: 1024)")

@@ -15,6 +15,10 @@ gains against the same ground truth (an ablation):
 ``budget<ms>``
     ``frame_budget_ms``: as many samples per frame as fit in ``<ms>``
     milliseconds (:mod:`compare.progressive.budget`), e.g. ``budget16``.
+``fullfirst``
+    ``first_frame_scale=1``: frame 0 drawn at full size, as the paper's first
+    frame, instead of the default half-size preview from 320×240 up
+    (:mod:`compare.progressive.first_frame`).
 
 Options combine with ``+``: ``progressive:probes+vsm``.
 """
@@ -32,6 +36,7 @@ OPTIONS = {
     "probes": "indirect diffuse light from an irradiance volume",
     "vsm": "variance shadow maps",
     "budget<ms>": "a per-frame time budget in milliseconds, e.g. budget16",
+    "fullfirst": "frame 0 at full size (the paper's first frame)",
 }
 _BUDGET = re.compile(r"budget(\d+(?:\.\d+)?)")
 
@@ -64,6 +69,8 @@ def _option(spec: str, opt: str) -> tuple[str, object]:
         return "indirect", "probes"
     if opt == "vsm":
         return "shadow_filter", "vsm"
+    if opt == "fullfirst":
+        return "first_frame_scale", 1.0
     m = _BUDGET.fullmatch(opt)
     if m:
         ms = float(m.group(1))
@@ -86,4 +93,6 @@ def describe(spec: str) -> str:
             words.append("VSM")
         elif key == "frame_budget_ms":
             words.append(f"{value:g} ms frame budget")
+        elif key == "first_frame_scale":
+            words.append("full-size first frame")
     return ", ".join(words)

@@ -12,6 +12,8 @@ def test_options_map_to_renderer_keywords():
     assert renderer_options("progressive") == {}
     assert renderer_options("progressive:paper") == {"area_model": "paper"}
     assert renderer_options("progressive:probes+vsm") == {"indirect": "probes", "shadow_filter": "vsm"}
+    assert renderer_options("progressive:fullfirst") == {"first_frame_scale": 1.0}
+    assert describe("progressive:fullfirst+paper") == "full-size first frame, paper"
     assert renderer_options("progressive:budget16") == {"frame_budget_ms": 16.0}
     assert renderer_options("progressive:paper+budget8.5") == {"area_model": "paper", "frame_budget_ms": 8.5}
     assert describe("progressive:probes+budget16") == "irradiance probes, 16 ms frame budget"
