@@ -97,8 +97,10 @@ def bench_first_frame(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
 
     scales = (auto_scale((scene.camera.width, scene.camera.height)), 1.0)  # the default, then full size
     first, mean, total = ([], []), ([], []), []
-    renderers = [ProgressiveRenderer(scene, frames=frames, ctx=ctx, first_frame_scale=k) for k in scales]
+    renderers = []
     try:
+        for k in scales:
+            renderers.append(ProgressiveRenderer(scene, frames=frames, ctx=ctx, first_frame_scale=k))
         for _ in range(repeats):
             for i, r in enumerate(renderers):
                 r.reset()

@@ -97,7 +97,8 @@ __all__ = [
 #: Renderer specs accepted by ``--renderers`` (``progressive:<option>`` too, see compare.variants).
 RENDERER_NAMES = ("mitsuba", "progressive", "cycles", "eevee")
 #: What the rasterizer's images depend on (its units are redone when any of it changes).
-RASTERIZER_SOURCES = ("progressive", "brdf", "ibl", "variants.py", "scene.py")
+RASTERIZER_SOURCES = ("progressive", "brdf", "ibl", "variants.py", "scene.py", "geometry.py", "gltf.py",
+                      "procedural_meshes.py", "environments.py", "encodings.py")
 #: Blender's engines (the ``blender`` extra): the paper's reference and its rasterizer comparator.
 BLENDER_RENDERERS = ("cycles", "eevee")
 #: What ``--renderers all`` means: the paper's Table 1 (and both area models).
@@ -586,6 +587,9 @@ class _Runner:
                    __version__, *skip)
         unit = self._unit(sid, spec)
         stored = self._stored(unit, key)
+        if stored is None and skip:  # a finished unit with the likeness has all that is asked for
+            stored = self._stored(unit, _key("blender", spec, scene.hash, samples, s.seed, ref.key, s.exposure,
+                                             s.tonemap, self.machine, __version__))
         if stored is not None:
             return RendererRun.from_json(stored)
         bar.set_postfix_str(f"{scene.name[:30]} {spec} {samples} spp")

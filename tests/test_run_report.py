@@ -500,6 +500,31 @@ def test_all_renderers_give_the_papers_table_1(tmp_path):
         assert (out / rel).is_file(), rel
 
 
+def test_no_likeness_skips_the_measurement_and_reuses_what_has_it(tmp_path):
+    calls = []
+
+    def counting_blender(*a, **k):
+        calls.append(k["engine"])
+        return fake_blender(*a, **k)
+
+    def run(out, likeness):
+        settings = RunSettings(frames=8, spp=16, sizes=[[48, 36]], renderers=["cycles"], cycles_spp=16,
+                               materials="cycles", likeness=likeness)
+        with synthetic_renderers():
+            with pytest.MonkeyPatch.context() as mp:
+                mp.setattr(run_mod, "_blender_checkpoints", counting_blender)
+                return run_mod.run([CORNELL], out, settings, progress=False, report=False)
+
+    # Without it: no likeness in the unit; asked for later, the unit is redone.
+    res = run(tmp_path / "a", likeness=False)
+    assert "likeness_ratio" not in res.scenes[0].run("cycles").metadata and calls == ["cycles"]
+    res = run(tmp_path / "a", likeness=True)
+    assert "likeness_ratio" in res.scenes[0].run("cycles").metadata and calls == ["cycles"] * 2
+    # A finished unit with the likeness has all that a run without it asks for: reused.
+    res = run(tmp_path / "a", likeness=False)
+    assert calls == ["cycles"] * 2 and "likeness_ratio" in res.scenes[0].run("cycles").metadata
+
+
 def test_blender_renderers_need_bpy_before_any_work(tmp_path, monkeypatch):
     from compare.errors import MissingComponentError
 

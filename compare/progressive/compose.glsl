@@ -4,8 +4,8 @@
 // every-frame pass's second target) until both kinds of occlusion samples have run,
 // then the two running means of the visible diffuse and specular light (env_occlusion.glsl),
 // plus the irradiance volume's indirect light where the renderer has one (indirect.glsl).
-// After a reduced first frame (first_frame.py) every source is smaller than the output
-// and is upsampled bilinearly.
+// The display after a reduced frame 0 (first_frame.py) composes that frame's own, smaller
+// targets, upsampled bilinearly.
 
 #if defined VERTEX_SHADER
 

@@ -10,7 +10,7 @@ scene is rasterized once for depth and once with a forward shader
 mean (its first value: emission and background, and the unoccluded environment
 light) straight into that mean's next target, and the unshadowed direct-light
 preview (a cheaper form than the direct pass's, ``light_preview`` in
-``area_light.glsl``) into its own target, shown until the first light frame.
+``area_light.glsl``) into its own target, shown until every light has a sample.
 The displayed image is composed from them as after any other frame.
 
 With ``scale`` < 1 (the renderer's default from 320×240 up, :func:`auto_scale`:
@@ -29,6 +29,8 @@ through the G-buffer; on a CPU rasterizer the rest is per-pixel shading
 """
 
 from __future__ import annotations
+
+import numbers
 
 import numpy as np
 
@@ -69,7 +71,7 @@ class FirstFramePass:
 
     def __init__(self, ctx, gpu_scene, base, lights, *, environment=None, area_model: str = "radiometric",
                  materials: str = "shared", lut_texture=None, scale: float = 1.0):
-        if not (isinstance(scale, (int, float)) and not isinstance(scale, bool) and 0 < scale <= 1):
+        if not (isinstance(scale, numbers.Real) and not isinstance(scale, bool) and 0 < scale <= 1):
             raise ValueError(f"first_frame_scale: expected a fraction of each axis in (0, 1], got {scale!r}")
         self.ctx = ctx
         self.scene = gpu_scene
@@ -92,19 +94,20 @@ class FirstFramePass:
         try:
             self.program = self._keep(load_program(ctx, "first_frame.glsl", defines))
             self.background_vao = self._keep(ctx.vertex_array(self.program, []))
-            # A reduced frame is upsampled bilinearly for display (compose.glsl).
-            filt = (ctx.LINEAR, ctx.LINEAR) if self.reduced else (ctx.NEAREST, ctx.NEAREST)
             self.direct = self._keep(ctx.texture(size, 4, dtype="f4"))
-            self.direct.filter = filt
             self.depth = self._keep(ctx.depth_renderbuffer(size))
             if self.reduced:
                 self.targets = self._keep(PingPong(ctx, size, attachments=len(base.textures[0])))
-                for tex in self.targets.textures[1]:
-                    tex.filter = filt
                 colour = list(self.targets.textures[1])
+                # Upsampled bilinearly for display (compose.glsl), clamped at the borders: the
+                # default wrap would blend in the opposite edge.
+                for tex in colour + [self.direct]:
+                    tex.filter = (ctx.LINEAR, ctx.LINEAR)
+                    tex.repeat_x = tex.repeat_y = False
             else:
                 # Frame 0 is the every-frame mean's first value: after reset() its next target is set 1.
                 colour = list(base.textures[1])
+                self.direct.filter = (ctx.NEAREST, ctx.NEAREST)
             self.fbo = self._keep(ctx.framebuffer(colour + [self.direct], self.depth))
             # Depth pre-pass: with the nearest depth known, each pixel is shaded once, however
             # much the scene overdraws (the kitchen's frame 0 cost 3x an average frame without it).

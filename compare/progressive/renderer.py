@@ -11,8 +11,9 @@ One frame f of the :class:`~compare.progressive.distributor.Plan`:
    indirect diffuse light of an irradiance volume baked at setup
    (:mod:`compare.progressive.probes`, ``probe_bake_seconds``;
    :mod:`compare.progressive.indirect` says why only the first frames);
-3. frame 0 only, while no light frame has run: the unshadowed preview of the
-   direct light from each light's centre (``direct.glsl`` without shadows);
+3. frame 0 only (frame 1 after a reduced frame 0, see below): the unshadowed
+   preview of the direct light from each light's centre (``direct.glsl``
+   without shadows), shown until every light has a sample;
 4. for each light sample of the frame: its shadow atlas (``shadow.glsl``, five
    faces) and its direct-light pass (``direct.glsl``); the last one folds the
    frame's sum into the direct-light running mean over light frames;
@@ -30,7 +31,7 @@ at half size by default (``first_frame_scale``) as a preview outside the running
 frame 1 then draws the full-size unshadowed preview from its G-buffer.
 
 The displayed image (``compose.glsl``) is the every-frame mean plus the
-direct-light mean (or the preview before the first light frame) plus the
+direct-light mean (or the preview until every light has a sample) plus the
 environment light: the unoccluded mean until both kinds of occlusion samples
 have run, then the two means of visible light. After the last frame it is the full estimate; see
 ``distributor.py`` for why the weights make intermediate images nearly
@@ -42,8 +43,9 @@ environment textures or programs, no environment samples.
 
 Timing: each frame's wall time runs from its first GL call to ``ctx.finish()``
 (as a real-time renderer presents each frame), and a GL timer query measures its
-GPU time. Scene upload, shader compilation and one warm-up of frame 0 and of a
-light frame (drivers compile shaders at their first draw) are counted separately
+GPU time. Scene upload, shader compilation and one warm-up of frame 0 (and of frame
+1 after a reduced frame 0) and of a light frame (drivers compile shaders at their
+first draw) are counted separately
 (``setup_seconds``), and so is readback: it happens only when an image is asked
 for (:meth:`ProgressiveRenderer.image`).
 """
@@ -51,6 +53,7 @@ for (:meth:`ProgressiveRenderer.image`).
 from __future__ import annotations
 
 import math
+import numbers
 import time
 import warnings
 from dataclasses import dataclass, field
@@ -204,6 +207,11 @@ class ProgressiveRenderer:
             raise ValueError(f"materials: expected one of {', '.join(map(repr, MATERIAL_MODES))}, got {materials!r}")
         if len(tuple(shadow_bias)) != 3 or not all(np.isfinite(b) and b >= 0 for b in shadow_bias):
             raise ValueError(f"shadow_bias: expected three non-negative numbers, got {shadow_bias!r}")
+        if first_frame_scale is not None and not (isinstance(first_frame_scale, numbers.Real)
+                                                  and not isinstance(first_frame_scale, bool)
+                                                  and 0 < first_frame_scale <= 1):
+            raise ValueError(f"first_frame_scale: expected a fraction of each axis in (0, 1], "
+                             f"got {first_frame_scale!r}")
         if first_frame not in FIRST_FRAME_MODES:
             raise ValueError(f"first_frame: expected one of {', '.join(map(repr, FIRST_FRAME_MODES))}, "
                              f"got {first_frame!r}")
@@ -295,10 +303,16 @@ class ProgressiveRenderer:
             fp0 = self.plan[0]
             self.first = None
             if first_frame == "forward" and not fp0.light_samples and not fp0.env_samples:
+                scale = first_frame_scale
+                if scale is None:
+                    # A reduced frame 0 is only a preview: without a later frame it would be the result.
+                    later = (len(self.plan) > 1 if self.scheduler is None
+                             else bool(self.scheduler.lights or self.scheduler.envs))
+                    scale = auto_scale(size) if later else 1.0
                 self.first = self._keep(FirstFramePass(
                     ctx, self.gpu_scene, self.base, scene.lights, environment=self.environment, area_model=area_model,
                     materials=materials, lut_texture=self.direct.lut_texture if self.direct is not None else None,
-                    scale=auto_scale(size) if first_frame_scale is None else first_frame_scale))
+                    scale=float(scale)))
             # A reduced frame 0 is a preview only: frame 1 draws the full-size one from its G-buffer.
             self._reduced_first = self.first is not None and self.first.reduced
             if has_lights and (self.first is None or self._reduced_first) and any(fp.preview for fp in self.plan):
@@ -429,13 +443,15 @@ class ProgressiveRenderer:
         error-against-time curve.
         """
         self._draw(self.plan[0], 0)
+        done = {0}
         if self._reduced_first and len(self.plan) > 1:
-            self._draw(self.plan[1], 1)  # the full-size preview's program
+            self._draw(self.plan[1], 1)  # with the full-size preview's program
+            done.add(1)
         light_frames = [fp for fp in self.plan if fp.light_samples]
-        if light_frames and light_frames[0].frame != 0:
+        if light_frames and light_frames[0].frame not in done:
             self._draw(light_frames[0], -1)
         env_frames = [fp for fp in self.plan if fp.env_samples]
-        if env_frames and env_frames[0].frame != 0 and not env_frames[0].light_samples:
+        if env_frames and env_frames[0].frame not in done and not env_frames[0].light_samples:
             self._draw(env_frames[0], -1)
         self.ctx.finish()
         self.reset()
@@ -479,7 +495,9 @@ class ProgressiveRenderer:
         self.gpu_frame_seconds.append(elapsed * 1e-9 if 0 <= elapsed < 0xFFFFFFFF else float("nan"))
         self.shadow_passes.append(len(fp.light_samples))
         self.frame += 1
-        if self.scheduler is not None:
+        # Frame 1 after a reduced frame 0 also draws the full-size preview, which the cost model
+        # does not know: it would read as the model's error.
+        if self.scheduler is not None and not (self.frame == 2 and self._reduced_first):
             self.scheduler.observe(fp, seconds)
         return seconds
 
