@@ -51,6 +51,7 @@ from __future__ import annotations
 
 import importlib.util
 import math
+import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -458,17 +459,24 @@ def blender_studio_lights() -> dict[str, Path]:
     """Blender's bundled world HDRIs, name → file (``{}`` when the ``bpy`` wheel is not installed).
 
     Found from the installed package's location without importing bpy (which
-    is slow and starts Blender).
+    is slow and starts Blender): in this interpreter, else in the environment of
+    ``$COMPARE_BLENDER_PYTHON`` (bpy's own environment, as the test command sets up).
     """
+    roots: list[str] = []
     try:
         spec = importlib.util.find_spec("bpy")
     except (ImportError, ValueError):
+        spec = None
+    if spec is not None:
+        roots = list(spec.submodule_search_locations or [])
+        if not roots and spec.origin:
+            roots = [str(Path(spec.origin).parent)]
+    other = os.environ.get("COMPARE_BLENDER_PYTHON")
+    if not roots and other:
+        # <env>/bin/python → <env>/lib/python3.X/site-packages/bpy (not resolved: a venv's python is a link)
+        roots = [str(p) for p in sorted(Path(other).parent.parent.glob("lib/python3*/site-packages/bpy"))]
+    if not roots:
         return {}
-    if spec is None:
-        return {}
-    roots = list(spec.submodule_search_locations or [])
-    if not roots and spec.origin:
-        roots = [str(Path(spec.origin).parent)]
     found: dict[str, Path] = {}
     for root in roots:
         for f in sorted(Path(root).glob("*/datafiles/studiolights/world/*.exr")):

@@ -249,6 +249,24 @@ def test_scene_blender_studio_light(tmp_path, monkeypatch):
         load_scene(path)
 
 
+def test_blender_studio_lights_are_found_in_bpys_own_environment(tmp_path, monkeypatch):
+    """bpy pins numpy < 2, so it lives in an environment of its own ($COMPARE_BLENDER_PYTHON):
+    its HDRIs are found there without importing it."""
+    import importlib.util
+
+    env = tmp_path / "venv-blender"
+    (env / "bin").mkdir(parents=True)
+    (env / "bin" / "python").write_text("")
+    world = env / "lib" / "python3.11" / "site-packages" / "bpy" / "5.0" / "datafiles" / "studiolights" / "world"
+    world.mkdir(parents=True)
+    (world / "forest.exr").write_bytes(b"")
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None)
+    monkeypatch.delenv("COMPARE_BLENDER_PYTHON", raising=False)
+    assert blender_studio_lights() == {}
+    monkeypatch.setenv("COMPARE_BLENDER_PYTHON", str(env / "bin" / "python"))
+    assert blender_studio_lights() == {"forest": world / "forest.exr"}
+
+
 def test_environment_file_is_envmap_in_mitsuba(tmp_path):
     from compare.mitsuba_dict import environment_dict
 
