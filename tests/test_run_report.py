@@ -85,7 +85,8 @@ def fake_progressive(scene, *, frames, seed, options, checkpoints, ctx):
     rng = np.random.default_rng(seed + 7)
     cps = [(f, 0.002 * f, (truth + rng.normal(0, 0.05, truth.shape) / f).clip(0).astype(np.float32))
            for f in checkpoints]
-    return cps, 0.05, {"gl_renderer": "fake GL", "area_model": area_model or "radiometric", "frames": frames}
+    return cps, 0.05, {"gl_renderer": "fake GL", "area_model": area_model or "radiometric", "frames": frames,
+                       "first_frame_scale": options.get("first_frame_scale", 0.5)}
 
 
 def fake_blender(scene, *, engine, samples, seed, ladder):
@@ -494,6 +495,8 @@ def test_all_renderers_give_the_papers_table_1(tmp_path):
     assert cycles.final.metrics["mse"] < eevee.final.metrics["mse"]  # EEVEE's fake is biased
     html = (out / "index.html").read_text(encoding="utf-8")
     assert "Blender Cycles (CPU)" in html and "Blender EEVEE" in html
+    # the progressive renderer's first image says it is a reduced preview; Blender's do not
+    assert html.count("drawn at 0.5× size") == 2  # radiometric and paper
     # with --materials cycles the run says how Cycles-like the ground truth is
     assert cycles.metadata["likeness_regions"] == "15/15" and "Cycles-like" in html and "1.11" in html
     for rel in run_mod._paths_in(Results.load(out / "results.json").to_json()):

@@ -306,8 +306,11 @@ def _table1(results: Results) -> dict:
             cells.append({"seconds": fmt_seconds(r.seconds),
                           "detail": f"{r.steps} {r.unit}{'s' if r.unit == 'frame' else ''}",
                           "flip": fmt_num(m.get("flip"), 3), "ssim": fmt_num(m.get("ssim"), 4)})
+            scale = r.metadata.get("first_frame_scale")
             firsts.append({"first": fmt_seconds(r.first_frame_seconds), "setup": fmt_seconds(r.setup_seconds),
-                           "flip": fmt_num(r.points[0].metrics.get("flip"), 3)})
+                           "flip": fmt_num(r.points[0].metrics.get("flip"), 3),
+                           "scale": (f"drawn at {float(scale):g}× size" if isinstance(scale, (int, float))
+                                     and 0 < scale < 1 else "")})
         rows.append({"label": label, "cells": cells})
         first_rows.append({"label": label, "cells": firsts})
     return {"cols": cols, "rows": rows, "first_rows": first_rows}
