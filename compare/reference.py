@@ -30,7 +30,7 @@ from .backend import load_mitsuba
 from .exr import read_exr, write_exr
 from .errors import ImageError
 from .fsutil import sha256_bytes
-from .mitsuba_dict import MATERIAL_MODELS, MATERIAL_MODES, scene_dict
+from .mitsuba_dict import MATERIAL_MODELS, MATERIAL_MODES, scene_dict, world_scale
 from .scene import Scene
 
 #: Largest number of samples per pixel rendered in one Mitsuba call.
@@ -155,6 +155,9 @@ class ReferenceRenderer:
         }
         if self.materials in MATERIAL_MODELS:  # a changed model must not reuse the old model's passes
             settings["material_model"] = MATERIAL_MODELS[self.materials]
+        scale = world_scale(self.scene)
+        if scale != 1.0:  # tiny scenes are rendered scaled up (keys of all others stay as they were)
+            settings["world_scale"] = scale
         return settings
 
     # -- one chunk: the unit of work and of caching ---------------------------------------
