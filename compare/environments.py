@@ -53,6 +53,7 @@ import importlib.util
 import math
 import os
 import re
+import shutil
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
@@ -473,8 +474,10 @@ def blender_studio_lights() -> dict[str, Path]:
             roots = [str(Path(spec.origin).parent)]
     other = os.environ.get("COMPARE_BLENDER_PYTHON")
     if not roots and other:
-        # <env>/bin/python → <env>/lib/python3.X/site-packages/bpy (not resolved: a venv's python is a link)
-        roots = [str(p) for p in sorted(Path(other).parent.parent.glob("lib/python3*/site-packages/bpy"))]
+        # <env>/bin/python → <env>/lib/python3.X/{site,dist}-packages/bpy (not resolved: a venv's python
+        # is a link to the base interpreter, whose own packages are elsewhere)
+        exe = Path(shutil.which(other) or other)
+        roots = [str(p) for p in sorted(exe.parent.parent.glob("lib/python3*/*-packages/bpy"))]
     if not roots:
         return {}
     found: dict[str, Path] = {}

@@ -228,6 +228,21 @@ def test_region_masks_of_the_cornell_box():
     assert 12 < (rows * masks["back wall"]).sum() / masks["back wall"].sum() < 36
 
 
+@pytest.mark.parametrize("name", ["cornell.toml", "stress/scale_1e-3.toml"])
+def test_region_masks_are_the_same_in_mitsuba_and_numpy(name):
+    """The Mitsuba caster traces the reference's scene, which a tiny scene has scaled up
+    (compare.mitsuba_dict.world_scale); its rays and distances are in the scene's own units."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        scene = load_scene(ROOT / "scenes" / name).with_resolution(32, 24)
+    mitsuba, numpy_ = region_masks(scene, min_pixels=1), region_masks(scene, min_pixels=1, caster="numpy")
+    assert sorted(mitsuba) == sorted(numpy_) and len(mitsuba) >= 9
+    for region, mask in mitsuba.items():
+        assert mask.any() and np.array_equal(mask, numpy_[region]), region
+
+
 def test_region_stats_agree_on_identical_expectations():
     rng = np.random.default_rng(1)
     truth = np.full((16, 16, 3), 0.5)

@@ -118,14 +118,19 @@ class _NumpyCaster:
 
 
 class _MitsubaCaster:
-    """Rays against the reference's own Mitsuba scene (its BVH; vectorised variants only)."""
+    """Rays against the reference's own Mitsuba scene (its BVH; vectorised variants only).
+
+    That scene is in the reference's world units (:func:`compare.mitsuba_dict.world_scale`):
+    rays go in and distances come out in the scene's own.
+    """
 
     def __init__(self, scene: Scene, mi):
         import drjit as dr
 
-        from ..mitsuba_dict import scene_dict
+        from ..mitsuba_dict import scene_dict, world_scale
 
         self.mi, self.dr = mi, dr
+        self.scale = world_scale(scene)
         self.scene = mi.load_dict(scene_dict(scene, spp=1, materials="diffuse"))
         # Shape pointers reinterpreted as integers identify the shape hit; names say which mesh.
         self.ids = {}
@@ -136,17 +141,19 @@ class _MitsubaCaster:
 
     def _ray(self, o, d, t_max=None):
         mi = self.mi
+        o = np.asarray(o, dtype=np.float64) * self.scale
         ray = mi.Ray3f(mi.Point3f(*(np.ascontiguousarray(o[:, k], dtype=np.float32) for k in range(3))),
                        mi.Vector3f(*(np.ascontiguousarray(d[:, k], dtype=np.float32) for k in range(3))))
         if t_max is not None:
-            ray.maxt = mi.Float(np.ascontiguousarray(t_max, dtype=np.float32))
+            ray.maxt = mi.Float(np.ascontiguousarray(np.asarray(t_max, dtype=np.float64) * self.scale,
+                                                     dtype=np.float32))
         return ray
 
     def closest(self, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         si = self.scene.ray_intersect(self._ray(o, d))
         ptr = np.asarray(self.dr.reinterpret_array(self.mi.UInt32, si.shape))
         label = np.array([self.ids.get(int(p), _MISS) for p in ptr])
-        t = np.asarray(si.t, dtype=np.float64)
+        t = np.asarray(si.t, dtype=np.float64) / self.scale
         ng = np.stack([np.asarray(si.n[k], dtype=np.float64) for k in range(3)], axis=1)
         return np.where(label == _MISS, np.inf, t), label, ng
 

@@ -22,12 +22,12 @@ unshadowed preview from its G-buffer, which then stays until every light has a
 sample.
 
 Measured on Mesa llvmpipe (Cornell box, 128 frames, medians of alternating runs):
-frame 1 ÷ mean frame is 0.16–0.21 at 320×240 and 0.16 at 1280×720 at half size,
-against 0.34–0.36 and 0.50 at full size (and 1.19 and 1.39 drawn through the
-G-buffer). On a CPU rasterizer frame 1 is per-pixel work (clearing the targets,
-the preview's light evaluation) plus per-frame overhead, so a quarter of the
-pixels is what brings it under a quarter of an average frame. The full-size
-preview moves to frame 2 (7.5 instead of 3.5 ms at 320×240).
+the first frame (frame 0) ÷ the mean frame is 0.16–0.21 at 320×240 and 0.16 at
+1280×720 at half size, against 0.34–0.36 and 0.50 at full size (and 1.19 and 1.39
+drawn through the G-buffer). On a CPU rasterizer it is per-pixel work (clearing
+the targets, the preview's light evaluation) plus per-frame overhead, so a quarter
+of the pixels is what brings it under a quarter of an average frame. The full-size
+preview moves to the second frame (frame 1: 7.5 instead of 3.5 ms at 320×240).
 """
 
 from __future__ import annotations
