@@ -218,16 +218,16 @@ def mesh_object(name: str, scene: Scene, mesh_index: int, mode: str, scale: floa
 
 
 def scene_dict(scene: Scene, *, spp: int, materials: str = "shared", sampler: str = "independent",
-               max_depth: int | None = None) -> dict:
+               max_depth: int | None = None, scale: float | None = None) -> dict:
     """The whole Mitsuba scene dictionary for ``scene``.
 
     ``max_depth`` overrides the scene's path depth (2 = direct light only). Its world is
-    scaled by :func:`world_scale` (1 unless the scene is tiny).
+    scaled by ``scale``, by default :func:`world_scale` (1 unless the scene is tiny).
     """
     if materials not in MATERIAL_MODES:
         raise ValueError(f"materials: expected one of {', '.join(MATERIAL_MODES)}, got {materials!r}")
     depth = scene.max_depth if max_depth is None else max_depth
-    scale = world_scale(scene)
+    scale = world_scale(scene) if scale is None else float(scale)
     d: dict = {
         "type": "scene",
         "integrator": {"type": "path", "max_depth": int(depth), "hide_emitters": False},

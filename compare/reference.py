@@ -112,6 +112,7 @@ class ReferenceRenderer:
         self.mi = load_mitsuba(variant)
         self.variant = self.mi.variant()
         self.cache_dir = None if cache_dir is False else Path(cache_dir or default_cache_dir())
+        self.world_scale = world_scale(scene)  # in every cache key: computed once, not per pass
         self._mi_scene = None
         self.load_seconds = 0.0
         self.warmup_seconds: float | None = None
@@ -124,7 +125,7 @@ class ReferenceRenderer:
         if self._mi_scene is None:
             t0 = time.perf_counter()
             d = scene_dict(self.scene, spp=1, materials=self.materials, sampler=self.sampler,
-                           max_depth=self.max_depth)
+                           max_depth=self.max_depth, scale=self.world_scale)
             self._mi_scene = self.mi.load_dict(d)
             self.load_seconds = time.perf_counter() - t0
         return self._mi_scene
@@ -155,9 +156,8 @@ class ReferenceRenderer:
         }
         if self.materials in MATERIAL_MODELS:  # a changed model must not reuse the old model's passes
             settings["material_model"] = MATERIAL_MODELS[self.materials]
-        scale = world_scale(self.scene)
-        if scale != 1.0:  # tiny scenes are rendered scaled up (keys of all others stay as they were)
-            settings["world_scale"] = scale
+        if self.world_scale != 1.0:  # tiny scenes are rendered scaled up (keys of all others stay as they were)
+            settings["world_scale"] = self.world_scale
         return settings
 
     # -- one chunk: the unit of work and of caching ---------------------------------------

@@ -582,14 +582,14 @@ class _Runner:
         samples = s.cycles_spp if spec == "cycles" else s.eevee_samples
         # A Cycles unit run without the likeness measurement gets a key of its own (and keys of
         # units with it stay as they were), so a later run that asks for it does not reuse it.
+        parts = ("blender", spec, scene.hash, samples, s.seed, ref.key, s.exposure, s.tonemap, self.machine,
+                 __version__)
         skip = ("no-likeness",) if spec == "cycles" and s.materials == "cycles" and not s.likeness else ()
-        key = _key("blender", spec, scene.hash, samples, s.seed, ref.key, s.exposure, s.tonemap, self.machine,
-                   __version__, *skip)
+        key = _key(*parts, *skip)
         unit = self._unit(sid, spec)
         stored = self._stored(unit, key)
         if stored is None and skip:  # a finished unit with the likeness has all that is asked for
-            stored = self._stored(unit, _key("blender", spec, scene.hash, samples, s.seed, ref.key, s.exposure,
-                                             s.tonemap, self.machine, __version__))
+            stored = self._stored(unit, _key(*parts))
         if stored is not None:
             return RendererRun.from_json(stored)
         bar.set_postfix_str(f"{scene.name[:30]} {spec} {samples} spp")

@@ -314,7 +314,6 @@ class ProgressiveRenderer:
                     materials=materials, lut_texture=self.direct.lut_texture if self.direct is not None else None,
                     scale=float(scale)))
             # A reduced frame 0 is a preview only: frame 1 draws the full-size one from its G-buffer.
-            self._reduced_first = self.first is not None and self.first.reduced
             if has_lights and (self.first is None or self._reduced_first) and any(fp.preview for fp in self.plan):
                 self.preview = self._keep(Target(ctx, size))
             self.query = ctx.query(time=True)  # moderngl queries have no release(); freed with the context
@@ -351,6 +350,11 @@ class ProgressiveRenderer:
     def _keep(self, obj):
         self._objects.append(obj)
         return obj
+
+    @property
+    def _reduced_first(self) -> bool:
+        """Frame 0 is drawn at reduced size, as a preview outside the running means."""
+        return self.first is not None and self.first.reduced
 
     def _check_features(self) -> None:
         feats = self.scene.features()
