@@ -91,11 +91,8 @@ def world_scale(scene: Scene) -> float:
     so a scene smaller than :data:`MIN_EXTENT` is rendered scaled by the power of
     ten that brings its extent to [1, 10).
     """
-    pts = [np.asarray(scene.camera.position, dtype=np.float64), np.asarray(scene.camera.target, dtype=np.float64)]
-    pts += [c for light in scene.lights for c in light.corners()]
-    if scene.meshes:
-        pts += list(scene.bounds())
-    pts = np.asarray(pts)
+    pts = np.array([*scene.extent(), scene.camera.position, scene.camera.target], dtype=np.float64)
+    pts = pts[np.isfinite(pts).all(axis=1)]  # a scene without meshes has infinite mesh bounds
     extent = float(np.linalg.norm(pts.max(0) - pts.min(0)))
     if not (np.isfinite(extent) and 0 < extent < MIN_EXTENT):
         return 1.0
@@ -209,7 +206,7 @@ def mesh_object(name: str, scene: Scene, mesh_index: int, mode: str, scale: floa
     m = mi.Mesh(name, len(tri.positions), tri.triangle_count, props, has_vertex_normals=True,
                 has_vertex_texcoords=True)
     params = mi.traverse(m)
-    params["vertex_positions"] = (tri.positions * scale).ravel() if scale != 1.0 else tri.positions.ravel()
+    params["vertex_positions"] = (tri.positions * scale).ravel()
     params["vertex_normals"] = tri.normals.ravel()
     params["vertex_texcoords"] = tri.uvs.ravel()
     params["faces"] = tri.indices.ravel()

@@ -310,6 +310,14 @@ class Scene:
             lo, hi = np.minimum(lo, p.min(0)), np.maximum(hi, p.max(0))
         return lo, hi
 
+    def extent(self) -> tuple[np.ndarray, np.ndarray]:
+        """World-space axis-aligned bounds (min, max) of every mesh and light rectangle."""
+        lo, hi = self.bounds()
+        for light in self.lights:
+            c = light.corners()
+            lo, hi = np.minimum(lo, c.min(0)), np.maximum(hi, c.max(0))
+        return lo, hi
+
 
 # ----------------------------------------------------------------------------- loading
 

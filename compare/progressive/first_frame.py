@@ -56,6 +56,15 @@ def auto_scale(size: tuple[int, int]) -> float:
     w, h = size
     k = DEFAULT_FIRST_FRAME_SCALE
     return k if w * k >= MIN_REDUCED_SIZE[0] and h * k >= MIN_REDUCED_SIZE[1] else 1.0
+
+
+def check_scale(scale) -> float:
+    """``scale`` as a float when it is a fraction of each axis in (0, 1]; else ValueError."""
+    if not (isinstance(scale, numbers.Real) and not isinstance(scale, bool) and 0 < scale <= 1):
+        raise ValueError(f"first_frame_scale: expected a fraction of each axis in (0, 1], got {scale!r}")
+    return float(scale)
+
+
 #: Texture unit of the split-sum table; the environment's textures follow from ENV_UNIT on.
 LUT_UNIT = 0
 ENV_UNIT = 1
@@ -73,12 +82,10 @@ class FirstFramePass:
 
     def __init__(self, ctx, gpu_scene, base, lights, *, environment=None, area_model: str = "radiometric",
                  materials: str = "shared", lut_texture=None, scale: float = 1.0):
-        if not (isinstance(scale, numbers.Real) and not isinstance(scale, bool) and 0 < scale <= 1):
-            raise ValueError(f"first_frame_scale: expected a fraction of each axis in (0, 1], got {scale!r}")
+        self.scale = check_scale(scale)
         self.ctx = ctx
         self.scene = gpu_scene
         full = base.textures[0][0].size
-        self.scale = float(scale)
         self.reduced = self.scale < 1.0
         size = (max(1, round(full[0] * self.scale)), max(1, round(full[1] * self.scale))) if self.reduced else full
         self.size = size

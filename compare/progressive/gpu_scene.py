@@ -47,15 +47,6 @@ def frustum(left: float, right: float, bottom: float, top: float, near: float, f
     return m
 
 
-def scene_extent(scene) -> tuple[np.ndarray, np.ndarray]:
-    """Bounds (lo, hi) of every mesh and light rectangle."""
-    lo, hi = scene.bounds()
-    for light in scene.lights:
-        c = light.corners()
-        lo, hi = np.minimum(lo, c.min(0)), np.maximum(hi, c.max(0))
-    return lo, hi
-
-
 class CameraSetup:
     """The scene camera's view and jittered projection, with near/far fitted to the scene.
 
@@ -69,7 +60,7 @@ class CameraSetup:
         cam = scene.camera
         self.camera = cam
         self.position = np.asarray(cam.position, dtype=np.float64)
-        lo, hi = scene_extent(scene)
+        lo, hi = scene.extent()
         corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
         self.far = float(np.linalg.norm(corners - self.position, axis=1).max() * 1.01 + 1e-3)
         outside = np.maximum(np.maximum(lo - self.position, self.position - hi), 0.0)

@@ -6,7 +6,7 @@ walls and blocks too dark). An irradiance volume restores its diffuse part.
 
 Grid
     ``nx × ny × nz`` probes over the scene's bounds (meshes and light rectangles,
-    :func:`~compare.progressive.gpu_scene.scene_extent`), each at the centre of
+    :meth:`~compare.scene.Scene.extent`), each at the centre of
     its cell (inset by half a cell), so no probe sits on the bounding walls.
 
 Bake (setup time, :class:`ProbeVolume`)
@@ -95,7 +95,6 @@ from ..ibl.cubemap import FACE_AXES, padded_directions, texel_solid_angles
 from ..ibl.irradiance import SH_BAND_FACTORS, sh9_basis
 from ..encodings import octahedral_directions, octahedral_pad
 from ..scene import DEFAULT_PROBE_BOUNCES, DEFAULT_PROBE_GRID, INDIRECT_MODES, MAX_PROBES_PER_AXIS
-from .gpu_scene import scene_extent
 from .sampling import light_sample_points
 from .shaders import load_program, set_uniform
 from .shadow import DEFAULT_BIAS, ShadowAtlas
@@ -282,7 +281,7 @@ class ProbeVolume:
         self.light_samples = int(light_samples)
         self.materials = materials
         self.leak_limit = bool(leak_limit)
-        lo, hi = scene_extent(scene)
+        lo, hi = scene.extent()
         self.origin, self.spacing, self.positions = probe_grid(lo, hi, counts)
         self.max_distance = float(np.linalg.norm(hi - lo))
         self.bias = BIAS_FRACTION * float(self.spacing.min())

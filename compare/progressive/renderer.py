@@ -53,7 +53,6 @@ for (:meth:`ProgressiveRenderer.image`).
 from __future__ import annotations
 
 import math
-import numbers
 import time
 import warnings
 from dataclasses import dataclass, field
@@ -70,10 +69,10 @@ from .environment import (ENV_DIFFUSE, MAX_SAMPLES_PER_FRAME, EnvironmentLightin
 from ..ibl import DEFAULT_LEVELS, DEFAULT_SAMPLES, DEFAULT_SIZE
 from .budget import BudgetScheduler, FrameCosts
 from .distributor import DEFAULT_DIRECT_FRACTION, DEFAULT_FRAMES, FramePlan, Plan, plan
-from .first_frame import FIRST_FRAME_MODES, FirstFramePass, auto_scale
+from .first_frame import FIRST_FRAME_MODES, FirstFramePass, auto_scale, check_scale
 from .gbuffer import GBuffer
 from .indirect import IndirectPass
-from .gpu_scene import CameraSetup, GpuScene, mat_bytes, scene_extent
+from .gpu_scene import CameraSetup, GpuScene, mat_bytes
 from .probes import ProbeVolume, indirect_options
 from .readback import read_rgb
 from .shadow import DEFAULT_BIAS, DEFAULT_SHADOW_SIZE, SHADOW_FILTERS, ShadowAtlas
@@ -207,11 +206,8 @@ class ProgressiveRenderer:
             raise ValueError(f"materials: expected one of {', '.join(map(repr, MATERIAL_MODES))}, got {materials!r}")
         if len(tuple(shadow_bias)) != 3 or not all(np.isfinite(b) and b >= 0 for b in shadow_bias):
             raise ValueError(f"shadow_bias: expected three non-negative numbers, got {shadow_bias!r}")
-        if first_frame_scale is not None and not (isinstance(first_frame_scale, numbers.Real)
-                                                  and not isinstance(first_frame_scale, bool)
-                                                  and 0 < first_frame_scale <= 1):
-            raise ValueError(f"first_frame_scale: expected a fraction of each axis in (0, 1], "
-                             f"got {first_frame_scale!r}")
+        if first_frame_scale is not None:
+            check_scale(first_frame_scale)
         if first_frame not in FIRST_FRAME_MODES:
             raise ValueError(f"first_frame: expected one of {', '.join(map(repr, FIRST_FRAME_MODES))}, "
                              f"got {first_frame!r}")
@@ -234,7 +230,7 @@ class ProgressiveRenderer:
         self.shadow_filter = shadow_filter
         has_env = scene.features().environment
         if d_occ is None:
-            lo, hi = scene_extent(scene)
+            lo, hi = scene.extent()
             d_occ = DEFAULT_D_OCC_FRACTION * float(np.linalg.norm(hi - lo))
         self.d_occ = float(d_occ) if has_env else 0.0
         self.occlusion_bias = float(occlusion_bias)
@@ -289,7 +285,7 @@ class ProgressiveRenderer:
             # Leave out what the scene does not need: no shadow or direct-light work without area lights.
             self.shadow = self.direct = self.direct_acc = self.partial = self.preview = None
             if has_lights:
-                lo, hi = scene_extent(scene)
+                lo, hi = scene.extent()
                 self.shadow = self._keep(ShadowAtlas(ctx, self.gpu_scene, size=shadow_size,
                                                      extent=float(np.linalg.norm(hi - lo)), filter=shadow_filter,
                                                      lights=scene.lights,
