@@ -131,7 +131,7 @@ class _MitsubaCaster:
 
         self.mi, self.dr = mi, dr
         self.scale = world_scale(scene)
-        self.scene = mi.load_dict(scene_dict(scene, spp=1, materials="diffuse"))
+        self.scene = mi.load_dict(scene_dict(scene, spp=1, materials="diffuse", scale=self.scale))
         # Shape pointers reinterpreted as integers identify the shape hit; names say which mesh.
         self.ids = {}
         for shape in self.scene.shapes():
