@@ -24,7 +24,13 @@ absolute times are printed for context only. How to read each figure:
     (interpolated on the log–log spp ladder, measured against an independent
     high-spp ground truth) ÷ the progressive renderer's seconds for all its
     frames: > 1 means the rasterizer reaches that error faster. Given against
-    the full reference and against the direct-light-only reference.
+    the full reference and against the direct-light-only reference; ``equal-error-direct-ltc``
+    is the same for the ``ltc`` area model (:mod:`compare.progressive.ltc`) against the
+    direct-light-only reference.
+``area-model-ltc``, ``area-model-paper``
+    median of the mean frame time with the ``ltc`` (exact unshadowed light, shadow ratio) or
+    the paper's point-light area model ÷ the same with the radiometric default, runs
+    alternating. > 1 means the model costs more per frame.
 ``frame-budget``
     seconds to reach a target FLIP (1.1 × the fixed plan's final FLIP against
     the direct-light-only reference, which more samples converge to) with a per-frame time budget
@@ -55,7 +61,8 @@ import numpy as np
 
 from .fsutil import write_text_atomic
 
-ITEMS = ("first-frame", "depth-floor", "wrapper-overhead", "equal-error", "frame-budget", "peak-rss", "eevee")
+ITEMS = ("first-frame", "depth-floor", "area-models", "wrapper-overhead", "equal-error", "frame-budget", "peak-rss",
+         "eevee")
 #: Per-frame budgets (ms) of the frame-budget item.
 BUDGETS_MS = (16.0, 100.0)
 
@@ -195,28 +202,63 @@ def time_to_error(seconds: list[float], errors: list[float], target: float) -> f
 
 
 def bench_equal_error(scene, *, frames: int, spp: int, ctx) -> list[Figure]:
-    """Mitsuba's time to reach the rasterizer's final FLIP, ÷ the rasterizer's time."""
+    """Mitsuba's time to reach the rasterizer's final FLIP, ÷ the rasterizer's time; against the
+    direct-light reference also for the ``ltc`` area model (one Mitsuba ladder for both)."""
     from .metrics import flip
     from .progressive import render_progressive
     from .reference import ReferenceRenderer, derive_seed
 
-    prog = render_progressive(scene, frames=frames, ctx=ctx)
+    progs = {"": render_progressive(scene, frames=frames, ctx=ctx)}
+    if scene.lights:
+        progs["-ltc"] = render_progressive(scene, frames=frames, ctx=ctx, area_model="ltc")
     out = []
     for label, depth in (("full", None), ("direct", 2)):
         r = ReferenceRenderer(scene, max_depth=depth, progress=False)
         truth = r.render(4 * spp, seed=derive_seed("bench-ground-truth")).image
-        target = flip(truth, prog.image)[0]
         ladder = r.ladder(spp, seed=0)
         errors = [flip(truth, c.image)[0] for c in ladder]
-        t = time_to_error([c.seconds for c in ladder], errors, target)
-        note = (f"vs {label} reference; progressive FLIP {target:.4f}; Mitsuba FLIP at 1 spp {errors[0]:.4f}, "
-                f"at {spp} spp {errors[-1]:.4f}")
-        if math.isinf(t):
-            note += f"; Mitsuba did not reach it within {spp} spp (ratio is a lower bound)"
-            t = ladder[-1].seconds
-        out.append(Figure(f"equal-error-{label}", "Mitsuba to same FLIP", f"progressive {frames} frames", t,
-                          prog.seconds, "s", 1, note))
+        for suffix, prog in progs.items():
+            if suffix and label == "full":
+                continue  # the full reference's error is the missing indirect light, the same for both
+            target = flip(truth, prog.image)[0]
+            t = time_to_error([c.seconds for c in ladder], errors, target)
+            what = prog.metadata["area_model"]
+            note = (f"vs {label} reference; progressive ({what}) FLIP {target:.4f}; Mitsuba FLIP at 1 spp "
+                    f"{errors[0]:.4f}, at {spp} spp {errors[-1]:.4f}")
+            if math.isinf(t):
+                note += f"; Mitsuba did not reach it within {spp} spp (ratio is a lower bound)"
+                t = ladder[-1].seconds
+            out.append(Figure(f"equal-error-{label}{suffix}", "Mitsuba to same FLIP",
+                              f"progressive ({what}) {frames} frames", t, prog.seconds, "s", 1, note))
     return out
+
+
+def bench_area_models(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
+    """Mean frame time of the ``ltc`` and the ``paper`` area models ÷ the radiometric default,
+    run for run alternating."""
+    from .progressive import ProgressiveRenderer
+
+    if not scene.lights:
+        raise RuntimeError("the scene has no area lights: the area models do not differ")
+    models = ("radiometric", "ltc", "paper")
+    mean: dict[str, list[float]] = {m: [] for m in models}
+    renderers = []
+    try:
+        for m in models:
+            renderers.append(ProgressiveRenderer(scene, frames=frames, ctx=ctx, area_model=m))
+        for _ in range(repeats):
+            for m, r in zip(models, renderers):
+                r.reset()
+                for _ in r.frames():
+                    pass
+                mean[m].append(float(np.mean(r.frame_seconds)))
+    finally:
+        for r in renderers:
+            r.release()
+    base = mean["radiometric"]
+    return [Figure(f"area-model-{m}", f"{m} mean frame", "radiometric mean frame", _median(mean[m]),
+                   _median(base), "s", repeats, f"{len(scene.lights)} light(s), {frames} frames", mean[m], base)
+            for m in models[1:]]
 
 
 def bench_frame_budget(scene, *, frames: int, spp: int, repeats: int, ctx) -> list[Figure]:
@@ -341,6 +383,8 @@ def run_bench(scene_path: str | Path, *, size: tuple[int, int], frames: int, spp
                     figures += bench_first_frame(scene, frames=frames, repeats=repeats, ctx=ctx)
                 elif item == "depth-floor":
                     figures += bench_depth_floor(scene, frames=frames, repeats=repeats, ctx=ctx)
+                elif item == "area-models":
+                    figures += bench_area_models(scene, frames=frames, repeats=repeats, ctx=ctx)
                 elif item == "wrapper-overhead":
                     figures += bench_wrapper_overhead(scene, spp=min(spp, 64), repeats=repeats)
                 elif item == "equal-error":

@@ -83,6 +83,7 @@ from .results import (
     check_json_finite,
 )
 from .scene import Scene, load_scene
+from .variants import OPTIONS as VARIANT_OPTIONS
 
 __all__ = [
     "add_run_parser",
@@ -153,7 +154,7 @@ def parse_renderers(text: str | Iterable[str]) -> list[str]:
         base, _, option = item.partition(":")
         if base not in RENDERER_NAMES or (base != "progressive" and option) or (":" in item and not option):
             raise ValueError(f"unknown renderer {item!r}; expected mitsuba, progressive, "
-                             f"progressive:<option> (compare.variants: paper, probes, vsm, budget<ms>, fullfirst), cycles, "
+                             f"progressive:<option> (compare.variants: {', '.join(VARIANT_OPTIONS)}), cycles, "
                              f"eevee or all")
         if base == "progressive":
             renderer_options(item)  # names an unknown option before hours of reference rendering
@@ -817,8 +818,8 @@ def add_run_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--spp", type=_positive, default=1024, help="reference samples per pixel (ground truth)")
     p.add_argument("--renderers", type=_renderers_arg, default="mitsuba,progressive",
                    metavar="LIST", help="comma-separated: mitsuba (reference convergence + noise floor), "
-                                        "progressive, progressive:<option>[+<option>] with options paper, probes, vsm, "
-                                        "budget<ms>, fullfirst (e.g. progressive:paper,progressive:probes,progressive:budget16), "
+                                        "progressive, progressive:<option>[+<option>] with options " + ", ".join(VARIANT_OPTIONS)
+                                        + " (e.g. progressive:paper,progressive:ltc,progressive:budget16), "
                                         "cycles and eevee (Blender, the blender extra), or all (the paper's "
                                         "Table 1: " + ",".join(ALL_RENDERERS) + ")")
     p.add_argument("--cycles-spp", type=_positive, default=1024, help="Cycles samples per pixel (the paper: 1024)")

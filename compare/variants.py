@@ -4,9 +4,11 @@ Each option sets :class:`~compare.progressive.ProgressiveRenderer` keywords, so
 the report can show what each departure from the paper's technique costs and
 gains against the same ground truth (an ablation):
 
-``paper`` / ``radiometric``
-    ``area_model``: the paper's isotropic point-light form, or the
-    radiometric point-on-area form (the default).
+``paper`` / ``radiometric`` / ``ltc``
+    ``area_model``: the paper's isotropic point-light form, the
+    radiometric point-on-area form (the default), or the exact unshadowed
+    light of linearly transformed cosines times a stochastic shadow ratio
+    (:mod:`compare.progressive.ltc`).
 ``probes``
     ``indirect="probes"``: indirect diffuse light from an irradiance volume
     (:mod:`compare.progressive.probes`), with the scene's grid and bounces.
@@ -33,6 +35,7 @@ __all__ = ["OPTIONS", "describe", "renderer_options"]
 OPTIONS = {
     "paper": "the paper's point-light area model",
     "radiometric": "the radiometric point-on-area model (default)",
+    "ltc": "exact unshadowed area light (linearly transformed cosines) times a shadow ratio",
     "probes": "indirect diffuse light from an irradiance volume",
     "vsm": "variance shadow maps",
     "budget<ms>": "a per-frame time budget in milliseconds, e.g. budget16",
@@ -63,7 +66,7 @@ def renderer_options(spec: str) -> dict:
 
 
 def _option(spec: str, opt: str) -> tuple[str, object]:
-    if opt in ("paper", "radiometric"):
+    if opt in ("paper", "radiometric", "ltc"):
         return "area_model", opt
     if opt == "probes":
         return "indirect", "probes"

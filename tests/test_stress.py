@@ -11,6 +11,7 @@ in every run and turn into failures once fixed (then drop the marker).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import importlib.util
 import sys
 import warnings
@@ -91,15 +92,22 @@ def _sphere_ids(scene):
     return ids
 
 
+@functools.lru_cache(maxsize=None)
+def _direct_reference(name: str, size: tuple[int, int], spp: int) -> np.ndarray:
+    """The direct-light reference of a stress scene, rendered once for all the area models tested on it."""
+    return reference(load(name, size), spp, max_depth=2)
+
+
 @pytest.mark.gl
-def test_roughness_sweep_agrees_and_highlights_fall_with_roughness(gl_ctx):
+@pytest.mark.parametrize("area_model", ["radiometric", "ltc"])
+def test_roughness_sweep_agrees_and_highlights_fall_with_roughness(gl_ctx, area_model):
     """Roughness 0…1 × metallic 0/1 under one light: no sphere brighter than the light; per-sphere
     means of the rasterizer within 6 % (dielectric) and 25 % (metal) of the direct-light reference;
     the metal highlight's peak falls as roughness grows, in both renderers."""
     s = load("roughness_sweep.toml", (96, 72))
     ids = _sphere_ids(s)
-    ref = reference(s, 128, max_depth=2)
-    ras = progressive(s, gl_ctx, frames=96, shadow_size=512).image
+    ref = _direct_reference("roughness_sweep.toml", (96, 72), 128)
+    ras = progressive(s, gl_ctx, frames=96, shadow_size=512, area_model=area_model).image
     light = max(s.lights[0].radiance)
     assert ref.max() <= light and ras.max() <= light  # even the roughness-0 mirror reflects at most L
     peaks = {"ref": [], "ras": []}
@@ -126,23 +134,29 @@ def test_grazing_views_reference_stays_bounded():
     assert image.max() <= max(s.lights[0].radiance) * 1.0001  # radiance of what the plane reflects ≤ L
 
 
+_RADIOMETRIC_GRAZING = pytest.mark.xfail(strict=True, reason=(
+    "finding: the representative-point specular still overestimates the glossy plane's tail at N.V ~ 0.1: "
+    "measured 2.0x the reference (6.4x with Karis' isotropic normalisation; the foreshortened, albedo-bounded "
+    "form in area_light.glsl brought it down); a lobe-coverage factor that reaches 0.95 here breaks the "
+    "roughness sweep's metal spheres (0.57x); the exact polygon integral of area_model='ltc' is the fix"))
+
+
 @pytest.mark.gl
-@pytest.mark.parametrize("what", ["energy bound", pytest.param("plane radiance", marks=pytest.mark.xfail(
-    strict=True, reason=(
-        "finding: the representative-point specular still overestimates the glossy plane's tail at N.V ~ 0.1: "
-        "measured 2.0x the reference (6.4x with Karis' isotropic normalisation; the foreshortened, albedo-bounded "
-        "form in area_light.glsl brought it down); a lobe-coverage factor that reaches 0.95 here breaks the "
-        "roughness sweep's metal spheres (0.57x), so the remaining gap needs an exact polygon integral (LTC)")))])
-def test_grazing_views_rasterizer_energy(gl_ctx, what):
+@pytest.mark.parametrize("area_model, what", [
+    ("radiometric", "energy bound"), pytest.param("radiometric", "plane radiance", marks=_RADIOMETRIC_GRAZING),
+    ("ltc", "energy bound"), ("ltc", "plane radiance")])
+def test_grazing_views_rasterizer_energy(gl_ctx, area_model, what):
     s = load("grazing.toml", (64, 48))
-    image = progressive(s, gl_ctx, frames=64).image
+    image = progressive(s, gl_ctx, frames=64, area_model=area_model).image
     assert np.isfinite(image).all() and image.min() >= 0
     if what == "energy bound":
         assert image.max() <= max(s.lights[0].radiance) * 1.0001
     else:
-        ref = reference(s, 64, max_depth=2)
+        ref = _direct_reference("grazing.toml", (64, 48), 64)
         low = slice(s.camera.height * 3 // 4, None)  # the plane's near part: N.V about 0.1
-        assert 0.67 * ref[low].mean() < image[low].mean() < 1.5 * ref[low].mean()
+        ratio = image[low].mean() / ref[low].mean()
+        print(f"grazing plane, {area_model}: rasterizer / reference = {ratio:.3f}")
+        assert 0.67 < ratio < 1.5
 
 
 # ----------------------------------------------------------------------------- sun and tiny light

@@ -4,8 +4,8 @@
 //
 // The includer declares the light as u_light_center, u_light_t, u_light_b, u_light_n,
 // u_light_half, u_light_radiance, u_light_area (uniforms, or globals it sets per
-// light), includes brdf.glsl first, and may define AREA_MODEL_PAPER and
-// MATERIALS_DIFFUSE (see direct.glsl).
+// light), includes brdf.glsl first, and may define AREA_MODEL_PAPER, AREA_MODEL_LTC
+// (then it includes ltc.glsl after this file) and MATERIALS_DIFFUSE (see direct.glsl).
 
 #ifndef COMPARE_AREA_LIGHT_GLSL
 #define COMPARE_AREA_LIGHT_GLSL
@@ -148,12 +148,24 @@ vec3 light_estimate(vec3 x, vec3 n, vec3 v, vec3 y, vec3 base, float metallic, f
     return diffuse + specular;
 }
 
+#if AREA_MODEL_LTC
+void ltc_light(vec3 x, vec3 n, vec3 v, vec3 base, float metallic, float roughness, out vec3 diffuse,
+               out vec3 specular);
+#endif
+
 // A cheaper unshadowed estimate for the first frame's preview: the whole light
 // placed at its centre (one BRDF evaluation, both lobes towards the centre, solid
 // angle A cos_l / d^2), with the specular normalisation and albedo bound of
 // specular_mrp. Far cheaper than light_estimate (no spherical triangles, no
 // representative point); glossy highlights sit where the centre reflects.
+// With AREA_MODEL_LTC the preview is the exact unshadowed light (ltc.glsl) instead.
 vec3 light_preview(vec3 x, vec3 n, vec3 v, vec3 base, float metallic, float roughness) {
+#if AREA_MODEL_LTC
+    vec3 ltc_diffuse;
+    vec3 ltc_specular;
+    ltc_light(x, n, v, base, metallic, roughness, ltc_diffuse, ltc_specular);
+    return ltc_diffuse + ltc_specular;
+#endif
     vec3 to_c = u_light_center - x;
     float d2 = max(dot(to_c, to_c), 1e-12);
     vec3 l = to_c * inversesqrt(d2);

@@ -16,8 +16,16 @@
 //
 // Defines: SHADOWS (0 for the unshadowed preview), SHADOW_VSM (variance shadow maps:
 // Chebyshev visibility from filtered moments, see shadow.py), AREA_MODEL_PAPER (the paper's
-// isotropic point light Phi / (4 pi d^2) instead of L A cos_l / d^2),
-// MATERIALS_DIFFUSE (Lambert f = c / pi only, for closed-form validation).
+// isotropic point light Phi / (4 pi d^2) instead of L A cos_l / d^2), AREA_MODEL_LTC
+// (the shadow ratio's sums instead of the estimate, below), MATERIALS_DIFFUSE (Lambert
+// f = c / pi only, for closed-form validation).
+//
+// With AREA_MODEL_LTC the light itself comes unshadowed and exact from linearly
+// transformed cosines (ltc.glsl, ltc_light.glsl) and this pass only estimates how much
+// of it is shadowed (Heitz, Hill & McGuire 2018): mode 0 adds, per sample y,
+//   (V g_d, g_d, V g_s, g_s),  g_d = A cos_s cos_l / |y - x|^2,  g_s = D V_smith g_d
+// to the light's ratio target, so that S/U = sum V g / sum g is the visibility weighted by
+// the diffuse (resp. specular) integrand over the same samples (ltc_compose.glsl).
 
 #if defined VERTEX_SHADER
 
@@ -58,6 +66,42 @@ uniform float u_use_partial;   // mode 1: add u_partial (the frame's earlier sam
 out vec4 out_color;
 
 #include "area_light.glsl"
+#include "ltc.glsl"
+
+#if AREA_MODEL_LTC
+// The unshadowed integrands of the shadow ratio through y (colour-free: the ratio is a
+// weighted mean of visibility, and its weights need only follow the integrand's shape).
+vec4 ratio_terms(vec3 x, vec3 n, vec3 v, vec3 y, float roughness) {
+    if (dot(x - u_light_center, u_light_n) <= 0.0 || dot(n, v) <= 0.0) {
+        return vec4(0.0);
+    }
+    vec3 to_y = y - x;
+    float d2 = max(dot(to_y, to_y), 1e-12);
+    vec3 l = to_y * inversesqrt(d2);
+    float cos_s = dot(n, l);
+    float cos_l = -dot(u_light_n, l);
+    if (cos_s <= 0.0 || cos_l <= 0.0) {
+        return vec4(0.0);
+    }
+    float g_d = u_light_area * cos_l * cos_s / d2;
+    float g_s = 0.0;
+#if !MATERIALS_DIFFUSE
+    vec3 spec_lobe;
+    vec3 diff_lobe;
+    // Base colour 1 and metallic 1 make F = 1: the specular lobe D V alone.
+    brdf_eval_lobes(n, v, l, vec3(1.0), 1.0, roughness, spec_lobe, diff_lobe);
+    g_s = spec_lobe.r * g_d;
+#endif
+    vec4 terms = vec4(g_d, g_d, g_s, g_s);
+#if SHADOWS
+    if (g_d > 0.0) {
+        float vis = visibility(x, n);
+        terms.xz *= vis;
+    }
+#endif
+    return terms;
+}
+#endif
 
 vec3 sample_estimate(vec3 x, vec3 n, vec3 base, float metallic, float roughness) {
     vec3 est = light_estimate(x, n, normalize(u_camera_position - x), u_sample, base, metallic, roughness);
@@ -72,8 +116,16 @@ vec3 sample_estimate(vec3 x, vec3 n, vec3 base, float metallic, float roughness)
 void main() {
     ivec2 p = ivec2(gl_FragCoord.xy);
     vec4 gp = texelFetch(u_position, p, 0);
+    bool shaded = gp.w > 0.5 && gp.w < 1.5;
+#if AREA_MODEL_LTC
+    out_color = vec4(0.0);
+    if (shaded) {
+        vec4 gn = texelFetch(u_normal, p, 0);
+        out_color = ratio_terms(gp.xyz, normalize(gn.xyz), normalize(u_camera_position - gp.xyz), u_sample, gn.w);
+    }
+#else
     vec3 c = vec3(0.0);
-    if (gp.w > 0.5 && gp.w < 1.5) {
+    if (shaded) {
         vec4 gn = texelFetch(u_normal, p, 0);
         vec4 gm = texelFetch(u_material, p, 0);
         c = u_weight * sample_estimate(gp.xyz, normalize(gn.xyz), gm.rgb, gm.a, gn.w);
@@ -87,6 +139,7 @@ void main() {
     }
     vec3 a = u_count > u_units ? texelFetch(u_previous, p, 0).rgb : vec3(0.0);
     out_color = vec4(a + (c - u_units * a) / u_count, 1.0);
+#endif
 }
 
 #endif

@@ -10,6 +10,10 @@ Area models
     to the exact polygon-light irradiance (tested against the closed form). The
     specular term through the representative point uses the light's exact solid
     angle Ω (two spherical triangles).
+``"ltc"``
+    The unshadowed light in closed form (linearly transformed cosines) times a
+    shadow ratio estimated from the samples: :mod:`compare.progressive.ltc`. This
+    pass then writes the ratio's sums instead of an estimate.
 ``"paper"``
     Otto et al.'s point-light form: each sample is an isotropic point light
     carrying the emitter's whole power Φ = π·A·L, ``E = Φ / (4π d²) · cos θ_surf``
@@ -55,7 +59,7 @@ from .accumulate import PingPong, Target
 from .shaders import load_program, set_uniform
 from .shadow import SHADOW_FILTERS
 
-AREA_MODELS = ("radiometric", "paper")
+AREA_MODELS = ("radiometric", "paper", "ltc")
 #: Material modes as in compare.mitsuba_dict: the shared BRDF, or Lambert only for closed forms.
 MATERIAL_MODES = ("shared", "diffuse")
 #: Texture unit of the split-sum table (units 0-5 hold the G-buffer, shadow atlas and running means).
@@ -85,7 +89,8 @@ class DirectPass:
             self.lut_texture = ctx.texture((lut.shape[1], lut.shape[0]), lut.shape[2], lut.tobytes(), dtype="f4")
             self.lut_texture.filter = (ctx.LINEAR, ctx.LINEAR)
             self.lut_texture.repeat_x = self.lut_texture.repeat_y = False
-        defines = {"AREA_MODEL_PAPER": int(area_model == "paper"), "MATERIALS_DIFFUSE": int(materials == "diffuse")}
+        defines = {"AREA_MODEL_PAPER": int(area_model == "paper"), "AREA_MODEL_LTC": int(area_model == "ltc"),
+                   "MATERIALS_DIFFUSE": int(materials == "diffuse")}
         self._defines = defines
         # The G-buffer preview is compiled at its first use: with the forward-shaded first
         # frame (first_frame.py) it is never drawn.
@@ -136,7 +141,10 @@ class DirectPass:
             self.preview_vao.render(vertices=3)
 
     def add(self, partial: Target, gbuffer, shadow, bias, light, point, weight, camera_position) -> None:
-        """Add ``weight``·estimate of one sample to this frame's ``partial`` sum (not the last sample)."""
+        """Add ``weight``·estimate of one sample to this frame's ``partial`` sum (not the last sample).
+
+        With the ``ltc`` model: add the sample's shadow-ratio terms to the light's ratio
+        target ``partial`` (:mod:`compare.progressive.ltc`; ``weight`` is not used)."""
         ctx = self.ctx
         partial.fbo.use()
         ctx.enable_only(ctx.BLEND)

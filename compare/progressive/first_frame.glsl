@@ -13,7 +13,7 @@
 // A depth pre-pass runs first, so each pixel is shaded once.
 //
 // Defines: LIGHTS (number of area lights, 0 for none), ENVIRONMENT, AREA_MODEL_PAPER,
-// MATERIALS_DIFFUSE.
+// AREA_MODEL_LTC (the preview is then the exact unshadowed light, ltc.glsl), MATERIALS_DIFFUSE.
 
 #if defined VERTEX_SHADER
 
@@ -86,6 +86,7 @@ vec2 u_light_half;
 vec3 u_light_radiance;
 float u_light_area;
 #include "area_light.glsl"
+#include "ltc.glsl"
 #endif
 
 void main() {

@@ -38,6 +38,7 @@ import numpy as np
 
 from .accumulate import PingPong
 from .gpu_scene import mat_bytes
+from .ltc import LTC_UNIT
 from .shaders import load_program, set_uniform
 
 #: How frame 0 is drawn (ProgressiveRenderer's ``first_frame``).
@@ -74,14 +75,15 @@ class FirstFramePass:
     """Program and targets of the forward-shaded frame 0.
 
     ``lut_texture`` is the direct pass's split-sum table (None with Lambert-only
-    materials); ``environment`` an :class:`~compare.progressive.environment.EnvironmentLighting` or None.
+    materials), ``ltc_table`` the LTC table of the ``ltc`` area model (its preview is the
+    exact unshadowed light, :mod:`compare.progressive.ltc`); ``environment`` an :class:`~compare.progressive.environment.EnvironmentLighting` or None.
     ``scale`` in (0, 1]: 1 draws frame 0 at full size into the every-frame mean's
     next target; below 1 at that fraction of each axis into :attr:`targets`, a
     preview only (:attr:`reduced`).
     """
 
     def __init__(self, ctx, gpu_scene, base, lights, *, environment=None, area_model: str = "radiometric",
-                 materials: str = "shared", lut_texture=None, scale: float = 1.0):
+                 materials: str = "shared", lut_texture=None, ltc_table=None, scale: float = 1.0):
         self.scale = check_scale(scale)
         self.ctx = ctx
         self.scene = gpu_scene
@@ -96,7 +98,11 @@ class FirstFramePass:
         self.environment = environment
         self.lut_texture = lut_texture
         defines = {"LIGHTS": len(self.lights), "ENVIRONMENT": int(environment is not None),
-                   "AREA_MODEL_PAPER": int(area_model == "paper"), "MATERIALS_DIFFUSE": int(materials == "diffuse")}
+                   "AREA_MODEL_PAPER": int(area_model == "paper"), "AREA_MODEL_LTC": int(area_model == "ltc"),
+                   "MATERIALS_DIFFUSE": int(materials == "diffuse")}
+        if area_model == "ltc" and ltc_table is None and self.lights:
+            raise ValueError("area_model 'ltc' needs the LTC table (ltc_table)")
+        self.ltc_table = ltc_table
         if environment is not None:
             defines.update(environment.defines(materials))
         self._objects: list = []
@@ -171,6 +177,9 @@ class FirstFramePass:
         set_uniform(p, "u_view_proj", mat_bytes(view_proj))
         set_uniform(p, "u_camera_position", tuple(float(x) for x in camera_position))
         set_uniform(p, "u_background_pass", 0.0)
+        if self.ltc_table is not None:
+            self.ltc_table.use(location=LTC_UNIT)
+            set_uniform(p, "u_ltc", LTC_UNIT)
         if self.environment is not None:
             self.environment.bind(p, first_unit=ENV_UNIT)
         self.scene.draw_shaded(p)

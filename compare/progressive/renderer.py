@@ -72,6 +72,7 @@ from .distributor import DEFAULT_DIRECT_FRACTION, DEFAULT_FRAMES, FramePlan, Pla
 from .first_frame import FIRST_FRAME_MODES, FirstFramePass, auto_scale, check_scale
 from .gbuffer import GBuffer
 from .indirect import IndirectPass
+from .ltc import LTC_DIRECT_FRACTION, LtcLights, ltc_texture
 from .gpu_scene import CameraSetup, GpuScene, mat_bytes
 from .probes import ProbeVolume, indirect_options
 from .readback import read_rgb
@@ -121,13 +122,16 @@ class ProgressiveRenderer:
         Frames m to accumulate (paper default 128).
     seed : int, keyword-only
         Selects the jitter and light-sample offsets; a fixed seed gives the same image.
-    area_model : {"radiometric", "paper"}, keyword-only
-        Light-sample contribution; see :mod:`compare.progressive.direct`.
+    area_model : {"radiometric", "paper", "ltc"}, keyword-only
+        Light-sample contribution; see :mod:`compare.progressive.direct`; ``"ltc"``:
+        the exact unshadowed light times a shadow ratio (:mod:`compare.progressive.ltc`).
     materials : {"shared", "diffuse"}, keyword-only
         The shared glTF BRDF, or Lambert only (for closed-form validation; same
         meaning as in :mod:`compare.mitsuba_dict`).
-    direct_fraction : float, keyword-only
-        f_d: light samples start at frame round(f_d·m).
+    direct_fraction : float or None, keyword-only
+        f_d: light samples start at frame round(f_d·m); None uses the paper's 0.3, or 0 with
+        ``area_model="ltc"`` (:data:`compare.progressive.ltc.LTC_DIRECT_FRACTION`: its light
+        is exact from the first frame, and only its shadows wait for samples).
     samples_per_light : int or sequence of int, keyword-only
         n_i; None uses the paper's round(m / lights / 4).
     shadow_size : int, keyword-only
@@ -189,7 +193,7 @@ class ProgressiveRenderer:
     """
 
     def __init__(self, scene, *, frames: int = DEFAULT_FRAMES, seed: int = 0, area_model: str = "radiometric",
-                 materials: str = "shared", direct_fraction: float = DEFAULT_DIRECT_FRACTION,
+                 materials: str = "shared", direct_fraction: float | None = None,
                  samples_per_light: int | Sequence[int] | None = None, shadow_size: int = DEFAULT_SHADOW_SIZE,
                  shadow_bias: tuple[float, float, float] = DEFAULT_BIAS, shadow_filter: str = "hard",
                  d_occ: float | None = None, env_samples: int | None = None,
@@ -234,6 +238,8 @@ class ProgressiveRenderer:
             d_occ = DEFAULT_D_OCC_FRACTION * float(np.linalg.norm(hi - lo))
         self.d_occ = float(d_occ) if has_env else 0.0
         self.occlusion_bias = float(occlusion_bias)
+        if direct_fraction is None:
+            direct_fraction = LTC_DIRECT_FRACTION if area_model == "ltc" else DEFAULT_DIRECT_FRACTION
         self.plan = plan(scene, frames, seed=seed, direct_fraction=direct_fraction,
                          samples_per_light=samples_per_light,
                          env_samples=env_samples if self.d_occ > 0 else 0)
@@ -284,6 +290,7 @@ class ProgressiveRenderer:
             has_lights = bool(scene.lights)
             # Leave out what the scene does not need: no shadow or direct-light work without area lights.
             self.shadow = self.direct = self.direct_acc = self.partial = self.preview = None
+            self.ltc = self.ltc_table = None
             if has_lights:
                 lo, hi = scene.extent()
                 self.shadow = self._keep(ShadowAtlas(ctx, self.gpu_scene, size=shadow_size,
@@ -293,9 +300,15 @@ class ProgressiveRenderer:
                 self.direct = self._keep(DirectPass(ctx, area_model=area_model, materials=materials,
                                                     shadows=self.plan.light_frames > 0,
                                                     shadow_filter=shadow_filter, cache_dir=cache_dir))
-                self.direct_acc = self._keep(PingPong(ctx, size))
-                if self.scheduler is not None or any(fp.shadow_passes > 1 for fp in self.plan):
-                    self.partial = self._keep(Target(ctx, size))
+                if area_model == "ltc":
+                    # Per-light sums instead of one running mean (ltc.py); no partial sums.
+                    self.ltc_table = self._keep(ltc_texture(ctx))
+                    self.ltc = self._keep(LtcLights(ctx, size, scene.lights, materials=materials,
+                                                    lut_texture=self.direct.lut_texture, table=self.ltc_table))
+                else:
+                    self.direct_acc = self._keep(PingPong(ctx, size))
+                    if self.scheduler is not None or any(fp.shadow_passes > 1 for fp in self.plan):
+                        self.partial = self._keep(Target(ctx, size))
             fp0 = self.plan[0]
             self.first = None
             if first_frame == "forward" and not fp0.light_samples and not fp0.env_samples:
@@ -308,9 +321,11 @@ class ProgressiveRenderer:
                 self.first = self._keep(FirstFramePass(
                     ctx, self.gpu_scene, self.base, scene.lights, environment=self.environment, area_model=area_model,
                     materials=materials, lut_texture=self.direct.lut_texture if self.direct is not None else None,
-                    scale=float(scale)))
-            # A reduced frame 0 is a preview only: frame 1 draws the full-size one from its G-buffer.
-            if has_lights and (self.first is None or self._reduced_first) and any(fp.preview for fp in self.plan):
+                    ltc_table=self.ltc_table, scale=float(scale)))
+            # A reduced frame 0 is a preview only: frame 1 draws the full-size one from its G-buffer
+            # (with ltc every G-buffer frame has the exact unshadowed light: no preview).
+            if (has_lights and self.ltc is None and (self.first is None or self._reduced_first)
+                    and any(fp.preview for fp in self.plan)):
                 self.preview = self._keep(Target(ctx, size))
             self.query = ctx.query(time=True)  # moderngl queries have no release(); freed with the context
         except BaseException:
@@ -410,6 +425,8 @@ class ProgressiveRenderer:
                             inv_view_proj=inv_view_proj, camera_position=cam_pos)
         if self.indirect_pass is not None:
             self.indirect_pass.run(self.gbuffer, cam_pos)
+        if self.ltc is not None:
+            self.ltc.run(self.gbuffer, cam_pos)
         if fp.env_samples and self.env_occlusion is not None:
             self.env_occlusion.run(self.env_acc, self.gbuffer, mat_bytes(view_proj), cam_pos,
                                    self.camera.camera.basis()[2], fp.env_samples, self.d_occ,
@@ -418,14 +435,17 @@ class ProgressiveRenderer:
             self.direct.preview(self.preview, self.gbuffer, self.scene.lights, cam_pos)
             self._preview_valid = True
         last = len(fp.light_samples) - 1
-        if last > 0:
+        if last > 0 and self.partial is not None:
             self.partial.fbo.use()
             self.partial.fbo.clear(0.0, 0.0, 0.0, 0.0)
         for j, s in enumerate(fp.light_samples):
             light = self.scene.lights[s.light]
             self._lights_sampled.add(s.light)
             self.shadow.render(light, s.light, s.point)
-            if j < last:
+            if self.ltc is not None:
+                self.direct.add(self.ltc.ratio[s.light], self.gbuffer, self.shadow, self.shadow_bias, light, s.point,
+                                1.0, cam_pos)
+            elif j < last:
                 self.direct.add(self.partial, self.gbuffer, self.shadow, self.shadow_bias, light, s.point,
                                 s.weight, cam_pos)
             else:
@@ -529,7 +549,9 @@ class ProgressiveRenderer:
         direct = None
         # The preview (every light, unshadowed) stays until every light has a sample: before that
         # the direct mean would show a few lights scaled up to stand for all of them.
-        if (self.direct_acc is not None and self.direct_acc.count > 0
+        if self.ltc is not None and self.ltc.frames > 0:
+            direct = self.ltc.compose()
+        elif (self.direct_acc is not None and self.direct_acc.count > 0
                 and (len(self._lights_sampled) == len(self.scene.lights) or not self._preview_valid)):
             direct = self.direct_acc.current
         elif self._preview_valid:
@@ -545,6 +567,8 @@ class ProgressiveRenderer:
             self.indirect_pass.reset()
         if self.direct_acc is not None:
             self.direct_acc.reset()
+        if self.ltc is not None:
+            self.ltc.reset()
         if self.env_acc is not None:
             self.env_acc.reset()
         self._preview_valid = False
@@ -589,6 +613,9 @@ class ProgressiveRenderer:
             meta.update({"shadow_projection": "half-cube (5 faces)", "shadow_size": int(self.shadow.size),
                          "shadow_bias": ",".join(f"{b:g}" for b in self.shadow_bias),
                          "shadow_filter": self.shadow_filter})
+        if self.ltc is not None:
+            meta.update({"ltc_table": f"{self.ltc_table.size[0]}x{self.ltc_table.size[1]} (compare/brdf/ltc_table.npz)",
+                         "shadow_ratio": "per light, diffuse and specular"})
         meta["indirect"] = self.indirect
         if self.probes is not None:
             meta.update(self.probes.describe())

@@ -1,0 +1,147 @@
+// Linearly transformed cosines (Heitz, Dupuy, Hill & Neubelt 2016): the unshadowed
+// diffuse and GGX specular light of one rectangular light in closed form.
+//
+// The includer declares the light as in area_light.glsl (u_light_center, u_light_t,
+// u_light_b, u_light_n, u_light_half, u_light_radiance), includes brdf.glsl first and
+// declares u_spec_lut (the split-sum table) unless MATERIALS_DIFFUSE. Everything here
+// is guarded by AREA_MODEL_LTC, so other area models include it for nothing.
+//
+// Diffuse: the clamped cosine over the rectangle is Lambert's form factor, exact.
+// Specular: the shared BRDF's lobe f_s cos (Fresnel 1) is approximated by a clamped
+// cosine transformed by M (compare/brdf/ltc.py fits M^-1 per (roughness, view angle));
+// the polygon integral of the transformed cosine is the form factor of the polygon
+// transformed by M^-1. Its magnitude and Fresnel are the lobe's directional albedo
+// F0 A + B from the split-sum table, the table the environment's split sum uses.
+
+#ifndef COMPARE_LTC_GLSL
+#define COMPARE_LTC_GLSL
+#if AREA_MODEL_LTC
+
+uniform sampler2D u_ltc;  // 64 x 64 RGBA32F: M^-1 as (a, b, c, d), x = roughness, y = sqrt(1 - n.v)
+
+#define LTC_SIZE 64.0
+
+// M^-1 of the specular lobe, bilinear in the table (texel centres at the grid points).
+mat3 ltc_minv(float n_dot_v, float roughness) {
+    vec2 uv = vec2(clamp(roughness, 0.0, 1.0), sqrt(clamp(1.0 - n_dot_v, 0.0, 1.0)));
+    uv = uv * ((LTC_SIZE - 1.0) / LTC_SIZE) + 0.5 / LTC_SIZE;
+    vec4 t = textureLod(u_ltc, uv, 0.0);
+    return mat3(vec3(t.x, 0.0, t.y), vec3(0.0, 1.0, 0.0), vec3(t.z, 0.0, t.w));
+}
+
+// The edge's share of the vector form factor: acos(v1.v2) * normalize(v1 x v2) / (2 pi),
+// for unit v1, v2. theta / (2 pi sin(theta)) is taken from a rational fit (Hill & Heitz
+// 2017, also in three.js) instead of acos: in float32 acos loses the angle of short
+// edges (a light far away).
+vec3 ltc_edge(vec3 v1, vec3 v2) {
+    float x = dot(v1, v2);
+    float y = abs(x);
+    float a = 0.8543985 + (0.4965155 + 0.0145206 * y) * y;
+    float b = 3.4175940 + (4.1616724 + y) * y;
+    float v = a / b;
+    float theta_sintheta = x > 0.0 ? v : 0.5 * inversesqrt(max(1.0 - x * x, 1e-7)) - v;
+    return cross(v1, v2) * theta_sintheta;
+}
+
+// Form factor of the quad q0..q3 (any winding, in a frame with z the normal) after
+// clipping it to the upper half-space z >= 0: the integral of the clamped cosine
+// cos / pi over its projection on the unit sphere. Clipping happens on the straight
+// edges before projecting (a plane through the origin cuts great circles where it
+// cuts the segments), which is exact. The clipped polygon is walked edge by edge
+// without building it: an edge that leaves the half-space ends at its crossing, one
+// that enters starts there, and the horizon edge from the exit to the entry closes it
+// (a convex quad crosses the horizon at most twice). No arrays with computed indices:
+// they are slow on software rasterizers. Returns the vector form factor; its z is the
+// form factor (sign by winding).
+vec3 ltc_quad_form_factor(vec3 q0, vec3 q1, vec3 q2, vec3 q3) {
+    vec3 q[4] = vec3[4](q0, q1, q2, q3);
+    vec3 f = vec3(0.0);
+    vec3 exit_point = vec3(0.0);
+    vec3 entry_point = vec3(0.0);
+    bool crossed = false;
+    bool any_above = false;
+    for (int i = 0; i < 4; ++i) {
+        vec3 a = q[i];
+        vec3 b = q[(i + 1) & 3];
+        bool in_a = a.z >= 0.0;
+        bool in_b = b.z >= 0.0;
+        any_above = any_above || in_a;
+        if (in_a && in_b) {
+            f += ltc_edge(normalize(a), normalize(b));
+        } else if (in_a != in_b) {
+            vec3 c = normalize(mix(a, b, a.z / (a.z - b.z)));
+            if (in_a) {
+                f += ltc_edge(normalize(a), c);
+                exit_point = c;
+            } else {
+                f += ltc_edge(c, normalize(b));
+                entry_point = c;
+            }
+            crossed = true;
+        }
+    }
+    if (crossed) {
+        f += ltc_edge(exit_point, entry_point);
+    }
+    return any_above ? f : vec3(0.0);
+}
+
+// The light's corners relative to x in the frame (t1, t2, n) of a shading point, with t1
+// the view direction's projection on the tangent plane (the frame the table is fitted in).
+void ltc_light_corners(vec3 x, vec3 n, vec3 v, out vec3 q[4]) {
+    vec3 t1 = v - n * dot(n, v);
+    float len2 = dot(t1, t1);
+    if (len2 < 1e-12) {  // v along n: the lobe is isotropic, any tangent will do
+        t1 = abs(n.x) < 0.9 ? cross(n, vec3(1.0, 0.0, 0.0)) : cross(n, vec3(0.0, 1.0, 0.0));
+        len2 = dot(t1, t1);
+    }
+    t1 *= inversesqrt(len2);
+    vec3 t2 = cross(n, t1);
+    vec3 c = u_light_center - x;
+    vec3 du = u_light_t * u_light_half.x;
+    vec3 dv = u_light_b * u_light_half.y;
+    vec3 w[4] = vec3[4](c - du - dv, c + du - dv, c + du + dv, c - du + dv);
+    for (int i = 0; i < 4; ++i) {
+        q[i] = vec3(dot(w[i], t1), dot(w[i], t2), dot(w[i], n));
+    }
+}
+
+// The unshadowed direct light of the rectangle at x: diffuse and specular parts, each
+// in radiance units (times the light's radiance). Zero behind the one-sided emitter and
+// for a surface seen from behind.
+void ltc_light(vec3 x, vec3 n, vec3 v, vec3 base, float metallic, float roughness, out vec3 diffuse,
+               out vec3 specular) {
+    diffuse = vec3(0.0);
+    specular = vec3(0.0);
+    float nv = dot(n, v);
+    if (dot(x - u_light_center, u_light_n) <= 0.0 || nv <= 0.0) {
+        return;
+    }
+    vec3 q[4];
+    ltc_light_corners(x, n, v, q);
+    vec3 fd = ltc_quad_form_factor(q[0], q[1], q[2], q[3]);
+    float form_factor = abs(fd.z);
+#if MATERIALS_DIFFUSE
+    diffuse = base * (form_factor * u_light_radiance);
+#else
+    // The diffuse lobe's (1 - F_d(v.h)) depends on the light's direction: taken at the
+    // direction of the vector form factor (the light's cosine-weighted mean direction),
+    // so it is exact for small lights and changes by at most 4 % over the hemisphere.
+    float m = clamp(metallic, 0.0, 1.0);
+    float len_fd = length(fd);
+    vec3 l_mean = len_fd > 0.0 ? sign(fd.z) * fd / len_fd : vec3(0.0, 0.0, 1.0);
+    vec3 v_local = vec3(sqrt(max(1.0 - nv * nv, 0.0)), 0.0, nv);
+    float vh = clamp(dot(v_local, normalize(v_local + l_mean)), 0.0, 1.0);
+    float f_d = brdf_fresnel_schlick(BRDF_DIELECTRIC_F0, vh);
+    diffuse = ((1.0 - m) * (1.0 - f_d) * form_factor) * base * u_light_radiance;
+
+    mat3 minv = ltc_minv(nv, roughness);
+    vec3 fs = ltc_quad_form_factor(minv * q[0], minv * q[1], minv * q[2], minv * q[3]);
+    vec2 ab = textureLod(u_spec_lut, vec2(nv, clamp(roughness, 0.0, 1.0)), 0.0).rg;
+    vec3 f0 = vec3(BRDF_DIELECTRIC_F0) + (base - vec3(BRDF_DIELECTRIC_F0)) * m;
+    specular = (f0 * ab.x + ab.y) * (abs(fs.z) * u_light_radiance);
+#endif
+}
+
+#endif // AREA_MODEL_LTC
+#endif // COMPARE_LTC_GLSL

@@ -1,0 +1,50 @@
+// The unshadowed light of one rectangular light in closed form (ltc.glsl), full screen
+// over the G-buffer, added to the light's sums of this frame's jittered view: diffuse
+// into the first target, specular into the second (ltc.py divides by the frames).
+//
+// Defines: MATERIALS_DIFFUSE, AREA_MODEL_LTC (always 1 here).
+
+#if defined VERTEX_SHADER
+
+#include "fullscreen.glsl"
+
+#elif defined FRAGMENT_SHADER
+
+#include "brdf.glsl"
+
+uniform sampler2D u_position;  // G-buffer: world position, w = kind
+uniform sampler2D u_normal;    // G-buffer: shading normal, w = roughness
+uniform sampler2D u_material;  // G-buffer: base colour, a = metallic
+#if !MATERIALS_DIFFUSE
+uniform sampler2D u_spec_lut;  // split-sum table (compare/ibl/lut.py): A, B over (n.v, roughness)
+#endif
+
+uniform vec3 u_camera_position;
+uniform vec3 u_light_center;
+uniform vec3 u_light_t;
+uniform vec3 u_light_b;
+uniform vec3 u_light_n;
+uniform vec2 u_light_half;
+uniform vec3 u_light_radiance;
+
+layout(location = 0) out vec4 out_diffuse;
+layout(location = 1) out vec4 out_specular;
+
+#include "ltc.glsl"
+
+void main() {
+    ivec2 p = ivec2(gl_FragCoord.xy);
+    vec4 gp = texelFetch(u_position, p, 0);
+    vec3 diffuse = vec3(0.0);
+    vec3 specular = vec3(0.0);
+    if (gp.w > 0.5 && gp.w < 1.5) {
+        vec4 gn = texelFetch(u_normal, p, 0);
+        vec4 gm = texelFetch(u_material, p, 0);
+        ltc_light(gp.xyz, normalize(gn.xyz), normalize(u_camera_position - gp.xyz), gm.rgb, gm.a, gn.w, diffuse,
+                  specular);
+    }
+    out_diffuse = vec4(diffuse, 0.0);
+    out_specular = vec4(specular, 0.0);
+}
+
+#endif
