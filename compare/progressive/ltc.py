@@ -19,10 +19,12 @@ estimate does, but without that model's discretisation error in the unshadowed
 part (−9 % … +8 % per pixel with 32 samples, up to 6× next to a light).
 
 Per light this keeps three RGBA32F sums over the whole image, added to with
-blending, never ping-ponged: the unshadowed diffuse and specular light of every
-G-buffer frame (so its jitter anti-aliases them as the other means), and the
-ratio's four sums, added to by each light sample (``direct.glsl``). The display
-(``ltc_compose.glsl``) is Σ_i (diffuse_i·R_d,i + specular_i·R_s,i) / frames.
+blending, never ping-ponged: the unshadowed diffuse and specular light of the
+G-buffer frames that evaluate it (the first and then about
+:data:`LTC_EVALUATIONS` spread over the render, whose jitter anti-aliases them as
+the other means), and the ratio's four sums, added to by each light sample
+(``direct.glsl``). The display (``ltc_compose.glsl``) is
+Σ_i (diffuse_i·R_d,i + specular_i·R_s,i) / frames_i.
 Before a light has its first sample its ratio is 1: the light shows unshadowed
 and exact from the first frame on, which replaces the other models' centre-point
 preview.
@@ -33,9 +35,9 @@ The paper holds light samples back to the last 70 % of the frames (f_d = 0.3)
 and shows a crude unshadowed preview until then. With this model the light is
 exact from the first frame and only its shadows wait for samples, so they start
 at frame 1 (:data:`LTC_DIRECT_FRACTION` = 0; the samples, their order and
-count are the paper's): on the Cornell box the direct-light FLIP of the first
-images falls by half (frame 4: 0.042 → 0.022, frame 16: 0.037 → 0.016), the
-final image is the same (0.0111 against 0.0112).
+count are the paper's): on the Cornell box (320×240, 128 frames) the
+direct-light FLIP of the early images falls by about half (frame 4: 0.045 →
+0.025, frame 16: 0.038 → 0.017), and the final image is as good (0.0120 both).
 """
 
 from __future__ import annotations
@@ -47,6 +49,8 @@ from .shaders import load_program, set_uniform
 
 #: f_d of the ``ltc`` model: shadow samples from frame 1 on (see the module notes).
 LTC_DIRECT_FRACTION = 0.0
+#: G-buffer frames in which each light's unshadowed light is evaluated (its jitter average).
+LTC_EVALUATIONS = 32
 #: Texture unit of the LTC table in the passes that evaluate it (units 0-3 hold the
 #: G-buffer and the split-sum table in ltc_light.glsl, the environment 1-4 in first_frame.glsl).
 LTC_UNIT = 8
@@ -67,10 +71,14 @@ class LtcLights:
     """Per-light sums of the ``ltc`` model and the pass that composes them (see the module notes).
 
     ``lut_texture`` is the split-sum table (None with Lambert-only materials),
-    ``table`` the LTC texture (:func:`ltc_texture`).
+    ``table`` the LTC texture (:func:`ltc_texture`), ``gbuffer_frames`` the number of
+    G-buffer frames the render plans: each light's unshadowed light is evaluated in the
+    first of them and then in every ``stride``-th, staggered over the lights, so that it
+    averages about :data:`LTC_EVALUATIONS` jitter positions (see :meth:`run`).
     """
 
-    def __init__(self, ctx, size: tuple[int, int], lights, *, materials: str, lut_texture, table):
+    def __init__(self, ctx, size: tuple[int, int], lights, *, materials: str, lut_texture, table,
+                 gbuffer_frames: int):
         self.ctx = ctx
         self.lights = tuple(lights)
         self.lut_texture = lut_texture
@@ -96,8 +104,12 @@ class LtcLights:
         except BaseException:
             self.release()
             raise
-        self.frames = 0
-        """G-buffer frames in the unshadowed sums."""
+        self.stride = max(1, round(gbuffer_frames / LTC_EVALUATIONS))
+        """Each light's unshadowed light is evaluated in every ``stride``-th G-buffer frame."""
+        self.gbuffer_frames = 0
+        """G-buffer frames run so far."""
+        self.frames = [0] * len(self.lights)
+        """Per light: the G-buffer frames in its unshadowed sums."""
 
     def _keep(self, obj):
         self._objects.append(obj)
@@ -109,10 +121,27 @@ class LtcLights:
             fbo.clear(0.0, 0.0, 0.0, 0.0)
         for target in self.ratio:
             target.fbo.clear(0.0, 0.0, 0.0, 0.0)
-        self.frames = 0
+        self.gbuffer_frames = 0
+        self.frames = [0] * len(self.lights)
+
+    def due(self, light: int) -> bool:
+        """Whether the next G-buffer frame evaluates ``light``: the first frame evaluates every
+        light (so that each shows from the start), later ones light i when (frame + i) % stride == 0."""
+        g = self.gbuffer_frames
+        return g == 0 or (g + light) % self.stride == 0
 
     def run(self, gbuffer, camera_position) -> None:
-        """Add this frame's unshadowed light of every light (from its G-buffer) to the sums."""
+        """Add this frame's unshadowed light of the lights that are :meth:`due` (from its G-buffer).
+
+        The unshadowed light is smooth but for the edges of what the G-buffer sees, which
+        its jitter anti-aliases: a subset of the frames' jitter positions does that as well
+        as all of them, and evaluating a light in every frame would cost as much as a
+        shadowed sample pass each (the kitchen's six lights: 2.5× the radiometric frame).
+        """
+        due = [i for i in range(len(self.lights)) if self.due(i)]
+        self.gbuffer_frames += 1
+        if not due:
+            return
         ctx = self.ctx
         p = self.program
         for loc, name in enumerate(("position", "normal", "material")):
@@ -127,15 +156,15 @@ class LtcLights:
         ctx.enable_only(ctx.BLEND)
         ctx.blend_func = ctx.ONE, ctx.ONE
         ctx.blend_equation = ctx.FUNC_ADD
-        for light, (_, fbo) in zip(self.lights, self.unshadowed):
-            fbo.use()
-            set_light(p, light)
+        for i in due:
+            self.unshadowed[i][1].use()
+            set_light(p, self.lights[i])
             self.vao.render(vertices=3)
-        self.frames += 1
+            self.frames[i] += 1
 
     def compose(self):
         """The shadowed direct light of all lights so far (a texture); needs one :meth:`run` first."""
-        if self.frames == 0:
+        if self.gbuffer_frames == 0:
             raise RuntimeError("no frame has added the lights' unshadowed light yet")
         ctx = self.ctx
         p = self.compose_program
@@ -144,8 +173,8 @@ class LtcLights:
         ctx.enable_only(ctx.BLEND)
         ctx.blend_func = ctx.ONE, ctx.ONE
         ctx.blend_equation = ctx.FUNC_ADD
-        set_uniform(p, "u_frames", float(self.frames))
-        for (texs, _), ratio in zip(self.unshadowed, self.ratio):
+        for (texs, _), ratio, frames in zip(self.unshadowed, self.ratio, self.frames):
+            set_uniform(p, "u_frames", float(frames))
             texs[0].use(location=0)
             texs[1].use(location=1)
             ratio.texture.use(location=2)

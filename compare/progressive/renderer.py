@@ -303,8 +303,11 @@ class ProgressiveRenderer:
                 if area_model == "ltc":
                     # Per-light sums instead of one running mean (ltc.py); no partial sums.
                     self.ltc_table = self._keep(ltc_texture(ctx))
+                    gbuffer_frames = len(self.plan) - int(first_frame == "forward" and not self.plan[0].light_samples
+                                                          and not self.plan[0].env_samples)
                     self.ltc = self._keep(LtcLights(ctx, size, scene.lights, materials=materials,
-                                                    lut_texture=self.direct.lut_texture, table=self.ltc_table))
+                                                    lut_texture=self.direct.lut_texture, table=self.ltc_table,
+                                                    gbuffer_frames=max(gbuffer_frames, 1)))
                 else:
                     self.direct_acc = self._keep(PingPong(ctx, size))
                     if self.scheduler is not None or any(fp.shadow_passes > 1 for fp in self.plan):
@@ -549,7 +552,7 @@ class ProgressiveRenderer:
         direct = None
         # The preview (every light, unshadowed) stays until every light has a sample: before that
         # the direct mean would show a few lights scaled up to stand for all of them.
-        if self.ltc is not None and self.ltc.frames > 0:
+        if self.ltc is not None and self.ltc.gbuffer_frames > 0:
             direct = self.ltc.compose()
         elif (self.direct_acc is not None and self.direct_acc.count > 0
                 and (len(self._lights_sampled) == len(self.scene.lights) or not self._preview_valid)):
@@ -615,7 +618,7 @@ class ProgressiveRenderer:
                          "shadow_filter": self.shadow_filter})
         if self.ltc is not None:
             meta.update({"ltc_table": f"{self.ltc_table.size[0]}x{self.ltc_table.size[1]} (compare/brdf/ltc_table.npz)",
-                         "shadow_ratio": "per light, diffuse and specular"})
+                         "ltc_stride": int(self.ltc.stride), "shadow_ratio": "per light, diffuse and specular"})
         meta["indirect"] = self.indirect
         if self.probes is not None:
             meta.update(self.probes.describe())
