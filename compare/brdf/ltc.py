@@ -462,27 +462,37 @@ def ltc_matrix(table: np.ndarray, roughness: float, cos_theta: float) -> np.ndar
     return np.array([[a, 0.0, c], [0.0, 1.0, 0.0], [b, 0.0, d]])
 
 
-def polygon_integral(minv: np.ndarray, polygon_local) -> float:
-    """Integral of the normalised LTC of ``minv`` over a polygon, as the GLSL evaluates it.
-
-    The vertices (K, 3), relative to the shading point in the local frame (x along
-    the view's projection, z the normal), are transformed by ``minv``, clipped
-    to the half-space z >= 0 (on the straight edges: the plane passes through
-    the origin, so this is exact), projected on the unit sphere, and the clamped
-    cosine ``max(z, 0) / pi`` is integrated over the spherical polygon by
-    Lambert's edge formula ``sum acos(v_k . v_k+1) normalize(v_k x v_k+1).z / (2 pi)``.
-    The result is taken in absolute value (any winding, as the GLSL's ``abs``):
-    0 for a polygon below the horizon, 1 for one covering the upper hemisphere
-    when ``minv`` keeps the horizon (identity, normal incidence).
-    """
-    q = np.asarray(polygon_local, dtype=np.float64) @ np.asarray(minv, dtype=np.float64).T
+def _clip_below(q: np.ndarray) -> np.ndarray:
+    """The part of the convex polygon q (K, 3) with z >= 0 (Sutherland-Hodgman, one plane)."""
     clipped = []
     for a, b in zip(q, np.roll(q, -1, axis=0)):
         if a[2] >= 0.0:
             clipped.append(a)
         if (a[2] >= 0.0) != (b[2] >= 0.0):
             clipped.append(a + (b - a) * (a[2] / (a[2] - b[2])))
-    p = np.array([c for c in clipped if np.any(c != 0.0)])  # the shading point has no direction
+    return np.array(clipped).reshape(-1, 3)
+
+
+def polygon_integral(minv: np.ndarray, polygon_local) -> float:
+    """Integral of the normalised LTC of ``minv`` over a polygon, as the GLSL evaluates it.
+
+    The vertices (K, 3), relative to the shading point in the local frame (x along
+    the view's projection, z the normal), are clipped to the surface's horizon
+    z >= 0 (the lobe is zero below it, while the LTC of a grazing view has mass
+    there), transformed by ``minv``, clipped again to z >= 0 (the clamped cosine's
+    horizon; on the straight edges: the planes pass through the origin, so this is
+    exact), projected on the unit sphere, and the clamped
+    cosine ``max(z, 0) / pi`` is integrated over the spherical polygon by
+    Lambert's edge formula ``sum acos(v_k . v_k+1) normalize(v_k x v_k+1).z / (2 pi)``.
+    The result is taken in absolute value (any winding, as the GLSL's ``abs``):
+    0 for a polygon below the horizon, 1 for one covering the upper hemisphere
+    when ``minv`` keeps the horizon (identity, normal incidence).
+    """
+    local = _clip_below(np.asarray(polygon_local, dtype=np.float64))
+    if len(local) < 3:
+        return 0.0
+    p = _clip_below(local @ np.asarray(minv, dtype=np.float64).T)
+    p = p[np.any(p != 0.0, axis=1)]  # the shading point has no direction
     if len(p) < 3:
         return 0.0
     p, _ = _unit(p)

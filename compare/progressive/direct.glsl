@@ -23,9 +23,10 @@
 // With AREA_MODEL_LTC the light itself comes unshadowed and exact from linearly
 // transformed cosines (ltc.glsl, ltc_light.glsl) and this pass only estimates how much
 // of it is shadowed (Heitz, Hill & McGuire 2018): mode 0 adds, per sample y,
-//   (V g_d, g_d, V g_s, g_s),  g_d = A cos_s cos_l / |y - x|^2,  g_s = D V_smith g_d
-// to the light's ratio target, so that S/U = sum V g / sum g is the visibility weighted by
-// the diffuse (resp. specular) integrand over the same samples (ltc_compose.glsl).
+//   (V g_d, g_d, V g_s, g_s),  g = mean(f_lobe) A cos_s cos_l / |y - x|^2
+// (each lobe's point-sample estimate through y, averaged over RGB) to the light's ratio
+// target, so that S/U = sum V g / sum g is the visibility weighted by the diffuse (resp.
+// specular) integrand over the same samples (ltc_compose.glsl).
 
 #if defined VERTEX_SHADER
 
@@ -69,9 +70,10 @@ out vec4 out_color;
 #include "ltc.glsl"
 
 #if AREA_MODEL_LTC
-// The unshadowed integrands of the shadow ratio through y (colour-free: the ratio is a
-// weighted mean of visibility, and its weights need only follow the integrand's shape).
-vec4 ratio_terms(vec3 x, vec3 n, vec3 v, vec3 y, float roughness) {
+// The unshadowed integrands of the shadow ratio through y. They carry the material (as
+// Heitz et al.'s estimates do): at a pixel whose jittered frames see two surfaces, each
+// sample then weighs as much as its surface's light, as in the unshadowed mean it scales.
+vec4 ratio_terms(vec3 x, vec3 n, vec3 v, vec3 y, vec3 base, float metallic, float roughness) {
     if (dot(x - u_light_center, u_light_n) <= 0.0 || dot(n, v) <= 0.0) {
         return vec4(0.0);
     }
@@ -88,9 +90,11 @@ vec4 ratio_terms(vec3 x, vec3 n, vec3 v, vec3 y, float roughness) {
 #if !MATERIALS_DIFFUSE
     vec3 spec_lobe;
     vec3 diff_lobe;
-    // Base colour 1 and metallic 1 make F = 1: the specular lobe D V alone.
-    brdf_eval_lobes(n, v, l, vec3(1.0), 1.0, roughness, spec_lobe, diff_lobe);
-    g_s = spec_lobe.r * g_d;
+    brdf_eval_lobes(n, v, l, base, metallic, roughness, spec_lobe, diff_lobe);
+    g_s = dot(spec_lobe, vec3(1.0 / 3.0)) * g_d;
+    // + 1e-6: a metal's diffuse lobe is zero, and its diffuse ratio (the specular one's
+    // fallback) stays the geometric visibility.
+    g_d *= dot(diff_lobe, vec3(1.0 / 3.0)) + 1e-6;
 #endif
     vec4 terms = vec4(g_d, g_d, g_s, g_s);
 #if SHADOWS
@@ -121,7 +125,9 @@ void main() {
     out_color = vec4(0.0);
     if (shaded) {
         vec4 gn = texelFetch(u_normal, p, 0);
-        out_color = ratio_terms(gp.xyz, normalize(gn.xyz), normalize(u_camera_position - gp.xyz), u_sample, gn.w);
+        vec4 gm = texelFetch(u_material, p, 0);
+        out_color = ratio_terms(gp.xyz, normalize(gn.xyz), normalize(u_camera_position - gp.xyz), u_sample, gm.rgb,
+                                gm.a, gn.w);
     }
 #else
     vec3 c = vec3(0.0);

@@ -43,26 +43,43 @@ vec3 ltc_edge(vec3 v1, vec3 v2) {
     return cross(v1, v2) * theta_sintheta;
 }
 
-// Form factor of the quad q0..q3 (any winding, in a frame with z the normal) after
-// clipping it to the upper half-space z >= 0: the integral of the clamped cosine
-// cos / pi over its projection on the unit sphere. Clipping happens on the straight
-// edges before projecting (a plane through the origin cuts great circles where it
-// cuts the segments), which is exact. The clipped polygon is walked edge by edge
-// without building it: an edge that leaves the half-space ends at its crossing, one
-// that enters starts there, and the horizon edge from the exit to the entry closes it
-// (a convex quad crosses the horizon at most twice). No arrays with computed indices:
-// they are slow on software rasterizers. Returns the vector form factor; its z is the
-// form factor (sign by winding).
-vec3 ltc_quad_form_factor(vec3 q0, vec3 q1, vec3 q2, vec3 q3) {
-    vec3 q[4] = vec3[4](q0, q1, q2, q3);
+// The part of the quad q with z >= 0 (a frame with z the surface's normal): the lobe
+// is zero below the horizon. Clipping the straight edges by a plane through the origin
+// is exact (it cuts their great circles where it cuts the segments); a convex quad
+// keeps at most five vertices. Returns the count (0, 3, 4 or 5).
+int ltc_clip_quad(vec3 q[4], out vec3 c[5]) {
+    int n = 0;
+    for (int i = 0; i < 4; ++i) {
+        vec3 a = q[i];
+        vec3 b = q[(i + 1) & 3];
+        if (a.z >= 0.0) {
+            c[n++] = a;
+        }
+        if ((a.z >= 0.0) != (b.z >= 0.0)) {
+            c[n++] = mix(a, b, a.z / (a.z - b.z));
+        }
+    }
+    return n;
+}
+
+// Vector form factor of the convex polygon p[0..n) (n <= 5, any winding) after
+// clipping it to z >= 0 as well: the integral of the clamped cosine cos / pi over its
+// projection on the unit sphere; its z is the form factor (sign by winding). The
+// clipped polygon is walked edge by edge without building it: an edge that leaves the
+// half-space ends at its crossing, one that enters starts there, and the horizon edge
+// from the exit to the entry closes it (a convex polygon crosses it at most twice).
+vec3 ltc_polygon_form_factor(vec3 p[5], int n) {
     vec3 f = vec3(0.0);
     vec3 exit_point = vec3(0.0);
     vec3 entry_point = vec3(0.0);
     bool crossed = false;
     bool any_above = false;
-    for (int i = 0; i < 4; ++i) {
-        vec3 a = q[i];
-        vec3 b = q[(i + 1) & 3];
+    for (int i = 0; i < 5; ++i) {
+        if (i >= n) {
+            break;
+        }
+        vec3 a = p[i];
+        vec3 b = p[i + 1 < n ? i + 1 : 0];
         bool in_a = a.z >= 0.0;
         bool in_b = b.z >= 0.0;
         any_above = any_above || in_a;
@@ -83,20 +100,27 @@ vec3 ltc_quad_form_factor(vec3 q0, vec3 q1, vec3 q2, vec3 q3) {
     if (crossed) {
         f += ltc_edge(exit_point, entry_point);
     }
-    return any_above ? f : vec3(0.0);
+    return any_above && n >= 3 ? f : vec3(0.0);
 }
 
-// The light's corners relative to x in the frame (t1, t2, n) of a shading point, with t1
-// the view direction's projection on the tangent plane (the frame the table is fitted in).
-void ltc_light_corners(vec3 x, vec3 n, vec3 v, out vec3 q[4]) {
-    vec3 t1 = v - n * dot(n, v);
+// The frame (t1, t2, n) of a shading point the table is fitted in: t1 is the view
+// direction's projection on the tangent plane.
+void ltc_frame(vec3 n, vec3 v, out vec3 t1, out vec3 t2) {
+    t1 = v - n * dot(n, v);
     float len2 = dot(t1, t1);
     if (len2 < 1e-12) {  // v along n: the lobe is isotropic, any tangent will do
         t1 = abs(n.x) < 0.9 ? cross(n, vec3(1.0, 0.0, 0.0)) : cross(n, vec3(0.0, 1.0, 0.0));
         len2 = dot(t1, t1);
     }
     t1 *= inversesqrt(len2);
-    vec3 t2 = cross(n, t1);
+    t2 = cross(n, t1);
+}
+
+// The light's corners relative to x in the frame of ltc_frame.
+void ltc_light_corners(vec3 x, vec3 n, vec3 v, out vec3 q[4]) {
+    vec3 t1;
+    vec3 t2;
+    ltc_frame(n, v, t1, t2);
     vec3 c = u_light_center - x;
     vec3 du = u_light_t * u_light_half.x;
     vec3 dv = u_light_b * u_light_half.y;
@@ -119,7 +143,16 @@ void ltc_light(vec3 x, vec3 n, vec3 v, vec3 base, float metallic, float roughnes
     }
     vec3 q[4];
     ltc_light_corners(x, n, v, q);
-    vec3 fd = ltc_quad_form_factor(q[0], q[1], q[2], q[3]);
+    // Clipped to the surface's horizon first: the transformed cosine of a grazing view has
+    // mass below it, where the BRDF has none (tests/test_ltc.py, roughness 0.6, n.v 0.2: the
+    // large rectangle on the lobe's peak, which crosses the horizon, is 0.18 of the lobe's
+    // magnitude off without this, 0.11 with it).
+    vec3 c[5];
+    int count = ltc_clip_quad(q, c);
+    if (count == 0) {
+        return;
+    }
+    vec3 fd = ltc_polygon_form_factor(c, count);
     float form_factor = abs(fd.z);
 #if MATERIALS_DIFFUSE
     diffuse = base * (form_factor * u_light_radiance);
@@ -136,7 +169,10 @@ void ltc_light(vec3 x, vec3 n, vec3 v, vec3 base, float metallic, float roughnes
     diffuse = ((1.0 - m) * (1.0 - f_d) * form_factor) * base * u_light_radiance;
 
     mat3 minv = ltc_minv(nv, roughness);
-    vec3 fs = ltc_quad_form_factor(minv * q[0], minv * q[1], minv * q[2], minv * q[3]);
+    for (int i = 0; i < 5; ++i) {
+        c[i] = minv * c[i];
+    }
+    vec3 fs = ltc_polygon_form_factor(c, count);
     vec2 ab = textureLod(u_spec_lut, vec2(nv, clamp(roughness, 0.0, 1.0)), 0.0).rg;
     vec3 f0 = vec3(BRDF_DIELECTRIC_F0) + (base - vec3(BRDF_DIELECTRIC_F0)) * m;
     specular = (f0 * ab.x + ab.y) * (abs(fs.z) * u_light_radiance);

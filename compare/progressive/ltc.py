@@ -11,8 +11,8 @@ the unshadowed point-sample estimate over the same samples,
 
     L_i ≈ LTC_i · Σ_k V_k g_k / Σ_k g_k,
 
-separately for the diffuse (g = A cos cos / d²) and the specular (g times D V)
-lobe. Where light i is entirely visible the ratio is exactly 1, whatever the
+separately for the diffuse and the specular lobe, g_k being that lobe's
+point-sample estimate through sample k (its BRDF times A cos cos / d²). Where light i is entirely visible the ratio is exactly 1, whatever the
 number of samples, so the image is the exact direct light; in penumbrae the
 ratio converges as samples grow, as the radiometric model's point-on-area
 estimate does, but without that model's discretisation error in the unshadowed
