@@ -102,8 +102,8 @@ RASTERIZER_SOURCES = ("progressive", "brdf", "ibl", "variants.py", "scene.py", "
                       "procedural_meshes.py", "environments.py", "encodings.py")
 #: Blender's engines (the ``blender`` extra): the paper's reference and its rasterizer comparator.
 BLENDER_RENDERERS = ("cycles", "eevee")
-#: What ``--renderers all`` means: the paper's Table 1 (and both area models).
-ALL_RENDERERS = ("mitsuba", "progressive", "progressive:paper", "cycles", "eevee")
+#: What ``--renderers all`` means: the paper's Table 1 (and the three area models).
+ALL_RENDERERS = ("mitsuba", "progressive", "progressive:paper", "progressive:ltc", "cycles", "eevee")
 _HALF_MAX = 65504.0
 
 

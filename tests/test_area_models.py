@@ -355,13 +355,15 @@ def test_ltc_glossy_plane_matches_the_reference(gl_ctx, tmp_path, case, roughnes
 
 
 @pytest.mark.gl
-def test_ltc_glsl_matches_the_numpy_polygon_integral(gl_ctx, tmp_path):
-    """The shader's LTC (table lookup, frame, double clipping, edge integrals) against the numpy
-    form of compare.brdf.ltc per pixel, on a glossy metal plane (specular only) under the tilted light."""
+@pytest.mark.parametrize("case", ["tilted", "straddling"])
+def test_ltc_glsl_matches_the_numpy_polygon_integral(gl_ctx, tmp_path, case):
+    """The shader's LTC (table lookup, frame, both clippings, edge integrals) against the numpy
+    form of compare.brdf.ltc per pixel, on a glossy metal plane (specular only) under the tilted
+    light and the one the plane's horizon cuts."""
     from compare.brdf.ltc import load_table, ltc_matrix, polygon_integral
     from compare.ibl import split_sum
 
-    text = plane_scene(tmp_path, "tilted").path.read_text().replace(
+    text = plane_scene(tmp_path, case).path.read_text().replace(
         "roughness = 1.0", "roughness = 0.35\nmetallic = 1.0")
     path = tmp_path / "metal.toml"
     path.write_text(text)

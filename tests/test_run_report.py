@@ -479,7 +479,7 @@ def test_real_renderers_tiny_cornell(tmp_path, gl_ctx):
 
 
 def test_all_renderers_give_the_papers_table_1(tmp_path):
-    """``--renderers all``: Mitsuba, both area models, Cycles and EEVEE, each a Table 1 row with its error."""
+    """``--renderers all``: Mitsuba, the three area models, Cycles and EEVEE, each a Table 1 row with its error."""
     out = tmp_path / "out"
     assert run_mod.parse_renderers("all") == list(run_mod.ALL_RENDERERS)
     assert run_mod.parse_renderers("all,progressive:probes")[-1] == "progressive:probes"
@@ -496,7 +496,7 @@ def test_all_renderers_give_the_papers_table_1(tmp_path):
     html = (out / "index.html").read_text(encoding="utf-8")
     assert "Blender Cycles (CPU)" in html and "Blender EEVEE" in html
     # the progressive renderer's first image says it is a reduced preview; Blender's do not
-    assert html.count("drawn at 0.5× size") == 2  # radiometric and paper
+    assert html.count("drawn at 0.5× size") == 3  # radiometric, paper and ltc
     # with --materials cycles the run says how Cycles-like the ground truth is
     assert cycles.metadata["likeness_regions"] == "15/15" and "Cycles-like" in html and "1.11" in html
     for rel in run_mod._paths_in(Results.load(out / "results.json").to_json()):

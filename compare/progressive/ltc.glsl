@@ -43,64 +43,83 @@ vec3 ltc_edge(vec3 v1, vec3 v2) {
     return cross(v1, v2) * theta_sintheta;
 }
 
-// The part of the quad q with z >= 0 (a frame with z the surface's normal): the lobe
-// is zero below the horizon. Clipping the straight edges by a plane through the origin
-// is exact (it cuts their great circles where it cuts the segments); a convex quad
-// keeps at most five vertices. Returns the count (0, 3, 4 or 5).
-int ltc_clip_quad(vec3 q[4], out vec3 c[5]) {
-    int n = 0;
-    for (int i = 0; i < 4; ++i) {
-        vec3 a = q[i];
-        vec3 b = q[(i + 1) & 3];
-        if (a.z >= 0.0) {
-            c[n++] = a;
-        }
-        if ((a.z >= 0.0) != (b.z >= 0.0)) {
-            c[n++] = mix(a, b, a.z / (a.z - b.z));
-        }
-    }
-    return n;
+// Clipping a polygon by a plane through the origin: its straight edges are cut where the
+// plane cuts their great circles, which is exact. A convex polygon crosses such a plane at
+// most twice; the part of the plane between the exit and the entry closes it. The edge
+// integrals are additive, so the clipped polygon need not be built, nor its edges taken
+// in order: each segment adds its clipped part, and the exit and entry points are kept for
+// the closing edge. It is written without branches (selects only): software rasterizers
+// run both sides of a branch for every pixel, and GPUs keep their lanes together.
+
+// State of one polygon's clipping to z >= 0, fed one directed segment at a time.
+struct LtcClip {
+    vec3 f;           // vector form factor of the clipped parts so far
+    vec3 exit_point;  // unit direction where the polygon left z >= 0
+    vec3 entry_point; // and where it came back
+    bool crossed;
+};
+
+LtcClip ltc_clip_start() {
+    return LtcClip(vec3(0.0), vec3(0.0, 1.0, 0.0), vec3(0.0, 1.0, 0.0), false);
 }
 
-// Vector form factor of the convex polygon p[0..n) (n <= 5, any winding) after
-// clipping it to z >= 0 as well: the integral of the clamped cosine cos / pi over its
-// projection on the unit sphere; its z is the form factor (sign by winding). The
-// clipped polygon is walked edge by edge without building it: an edge that leaves the
-// half-space ends at its crossing, one that enters starts there, and the horizon edge
-// from the exit to the entry closes it (a convex polygon crosses it at most twice).
-vec3 ltc_polygon_form_factor(vec3 p[5], int n) {
-    vec3 f = vec3(0.0);
+// The point of segment a -> b on the plane z = 0 (meaningful where the segment crosses it).
+vec3 ltc_crossing(vec3 a, vec3 b) {
+    float dz = a.z - b.z;
+    vec3 c = mix(a, b, a.z / (abs(dz) > 0.0 ? dz : 1.0));
+    return vec3(c.xy, 0.0);
+}
+
+// Add the segment a -> b (not necessarily unit) clipped to z >= 0; valid = false adds nothing.
+void ltc_clip_segment(inout LtcClip w, vec3 a, vec3 b, bool valid) {
+    bool in_a = a.z >= 0.0;
+    bool in_b = b.z >= 0.0;
+    vec3 c = normalize(ltc_crossing(a, b));
+    vec3 s = in_a ? normalize(a) : c;
+    vec3 e = in_b ? normalize(b) : c;
+    w.f += (valid && (in_a || in_b)) ? ltc_edge(s, e) : vec3(0.0);
+    bool exits = valid && in_a && !in_b;
+    bool enters = valid && !in_a && in_b;
+    w.exit_point = exits ? c : w.exit_point;
+    w.entry_point = enters ? c : w.entry_point;
+    w.crossed = w.crossed || exits || enters;
+}
+
+// The clipped polygon's vector form factor: its z is the form factor, the integral of the
+// clamped cosine cos / pi over the polygon's projection on the unit sphere (sign by winding).
+vec3 ltc_clip_end(LtcClip w) {
+    return w.f + (w.crossed ? ltc_edge(w.exit_point, w.entry_point) : vec3(0.0));
+}
+
+// Form factors of the quad q (a frame with z the surface's normal) clipped to the surface's
+// horizon: untransformed (diffuse, fd), and transformed by minv and clipped once more to
+// the transformed cosine's horizon (specular, fs). The segments of the surface-clipped
+// polygon (the quad's clipped edges and the closing one along the horizon) are fed to both.
+void ltc_quad_form_factors(vec3 q[4], mat3 minv, out vec3 fd, out vec3 fs) {
+    LtcClip wd = ltc_clip_start();
+    LtcClip ws = ltc_clip_start();
     vec3 exit_point = vec3(0.0);
     vec3 entry_point = vec3(0.0);
     bool crossed = false;
-    bool any_above = false;
-    for (int i = 0; i < 5; ++i) {
-        if (i >= n) {
-            break;
-        }
-        vec3 a = p[i];
-        vec3 b = p[i + 1 < n ? i + 1 : 0];
+    for (int i = 0; i < 4; ++i) {
+        vec3 a = q[i];
+        vec3 b = q[(i + 1) & 3];
         bool in_a = a.z >= 0.0;
         bool in_b = b.z >= 0.0;
-        any_above = any_above || in_a;
-        if (in_a && in_b) {
-            f += ltc_edge(normalize(a), normalize(b));
-        } else if (in_a != in_b) {
-            vec3 c = normalize(mix(a, b, a.z / (a.z - b.z)));
-            if (in_a) {
-                f += ltc_edge(normalize(a), c);
-                exit_point = c;
-            } else {
-                f += ltc_edge(c, normalize(b));
-                entry_point = c;
-            }
-            crossed = true;
-        }
+        vec3 c = ltc_crossing(a, b);
+        vec3 s = in_a ? a : c;
+        vec3 e = in_b ? b : c;
+        bool valid = in_a || in_b;
+        ltc_clip_segment(wd, s, e, valid);
+        ltc_clip_segment(ws, minv * s, minv * e, valid);
+        exit_point = in_a && !in_b ? c : exit_point;
+        entry_point = !in_a && in_b ? c : entry_point;
+        crossed = crossed || (in_a != in_b);
     }
-    if (crossed) {
-        f += ltc_edge(exit_point, entry_point);
-    }
-    return any_above && n >= 3 ? f : vec3(0.0);
+    ltc_clip_segment(wd, exit_point, entry_point, crossed);
+    ltc_clip_segment(ws, minv * exit_point, minv * entry_point, crossed);
+    fd = ltc_clip_end(wd);
+    fs = ltc_clip_end(ws);
 }
 
 // The frame (t1, t2, n) of a shading point the table is fitted in: t1 is the view
@@ -143,16 +162,18 @@ void ltc_light(vec3 x, vec3 n, vec3 v, vec3 base, float metallic, float roughnes
     }
     vec3 q[4];
     ltc_light_corners(x, n, v, q);
-    // Clipped to the surface's horizon first: the transformed cosine of a grazing view has
-    // mass below it, where the BRDF has none (tests/test_ltc.py, roughness 0.6, n.v 0.2: the
-    // large rectangle on the lobe's peak, which crosses the horizon, is 0.18 of the lobe's
-    // magnitude off without this, 0.11 with it).
-    vec3 c[5];
-    int count = ltc_clip_quad(q, c);
-    if (count == 0) {
-        return;
-    }
-    vec3 fd = ltc_polygon_form_factor(c, count);
+#if MATERIALS_DIFFUSE
+    mat3 minv = mat3(1.0);
+#else
+    mat3 minv = ltc_minv(nv, roughness);
+#endif
+    // The specular polygon is clipped to the surface's horizon before the transform too: the
+    // transformed cosine of a grazing view has mass below it, where the BRDF has none
+    // (tests/test_ltc.py, roughness 0.6, n.v 0.2: the large rectangle on the lobe's peak,
+    // which crosses the horizon, is 0.18 of the lobe's magnitude off without this, 0.11 with it).
+    vec3 fd;
+    vec3 fs;
+    ltc_quad_form_factors(q, minv, fd, fs);
     float form_factor = abs(fd.z);
 #if MATERIALS_DIFFUSE
     diffuse = base * (form_factor * u_light_radiance);
@@ -168,11 +189,6 @@ void ltc_light(vec3 x, vec3 n, vec3 v, vec3 base, float metallic, float roughnes
     float f_d = brdf_fresnel_schlick(BRDF_DIELECTRIC_F0, vh);
     diffuse = ((1.0 - m) * (1.0 - f_d) * form_factor) * base * u_light_radiance;
 
-    mat3 minv = ltc_minv(nv, roughness);
-    for (int i = 0; i < 5; ++i) {
-        c[i] = minv * c[i];
-    }
-    vec3 fs = ltc_polygon_form_factor(c, count);
     vec2 ab = textureLod(u_spec_lut, vec2(nv, clamp(roughness, 0.0, 1.0)), 0.0).rg;
     vec3 f0 = vec3(BRDF_DIELECTRIC_F0) + (base - vec3(BRDF_DIELECTRIC_F0)) * m;
     specular = (f0 * ab.x + ab.y) * (abs(fs.z) * u_light_radiance);
