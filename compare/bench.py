@@ -26,7 +26,8 @@ absolute times are printed for context only. How to read each figure:
     frames: > 1 means the rasterizer reaches that error faster. Given against
     the full reference and against the direct-light-only reference; ``equal-error-direct-ltc``
     is the same for the ``ltc`` area model (:mod:`compare.progressive.ltc`) against the
-    direct-light-only reference.
+    direct-light-only reference, ``equal-error-full-ltc-probes`` for ``ltc`` with the
+    irradiance probes against the full reference.
 ``area-model-ltc``, ``area-model-paper``
     median of the mean frame time with the ``ltc`` (exact unshadowed light, shadow ratio) or
     the paper's point-light area model ÷ the same with the radiometric default, runs
@@ -208,21 +209,26 @@ def bench_equal_error(scene, *, frames: int, spp: int, ctx) -> list[Figure]:
     from .progressive import render_progressive
     from .reference import ReferenceRenderer, derive_seed
 
-    progs = {"": render_progressive(scene, frames=frames, ctx=ctx)}
+    # (figure suffix, renderer options, references it is judged against): against the full
+    # reference the plain technique misses the indirect light whatever its area model, so the
+    # ltc figure there is given with the irradiance probes on.
+    runs = [("", {}, ("full", "direct"))]
     if scene.lights:
-        progs["-ltc"] = render_progressive(scene, frames=frames, ctx=ctx, area_model="ltc")
+        runs += [("-ltc", {"area_model": "ltc"}, ("direct",)),
+                 ("-ltc-probes", {"area_model": "ltc", "indirect": "probes"}, ("full",))]
+    progs = {suffix: (render_progressive(scene, frames=frames, ctx=ctx, **kw), refs) for suffix, kw, refs in runs}
     out = []
     for label, depth in (("full", None), ("direct", 2)):
         r = ReferenceRenderer(scene, max_depth=depth, progress=False)
         truth = r.render(4 * spp, seed=derive_seed("bench-ground-truth")).image
         ladder = r.ladder(spp, seed=0)
         errors = [flip(truth, c.image)[0] for c in ladder]
-        for suffix, prog in progs.items():
-            if suffix and label == "full":
-                continue  # the full reference's error is the missing indirect light, the same for both
+        for suffix, (prog, refs) in progs.items():
+            if label not in refs:
+                continue
             target = flip(truth, prog.image)[0]
             t = time_to_error([c.seconds for c in ladder], errors, target)
-            what = prog.metadata["area_model"]
+            what = prog.metadata["area_model"] + (", probes" if prog.metadata.get("indirect") == "probes" else "")
             note = (f"vs {label} reference; progressive ({what}) FLIP {target:.4f}; Mitsuba FLIP at 1 spp "
                     f"{errors[0]:.4f}, at {spp} spp {errors[-1]:.4f}")
             if math.isinf(t):

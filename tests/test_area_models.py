@@ -43,16 +43,20 @@ LIGHTS = {
     # Upright, a quarter of it below the plane: the surface's horizon clips it.
     "straddling": dict(center=[0.0, 0.2, -1.0], size=[1.0, 0.8], normal=[0, 0, 1], tangent=[1, 0, 0]),
 }
+#: Lights of the other tests: one centred over a wall below it (test_shadow_ratio_…).
+OTHER_LIGHTS = {"wall": dict(center=[0.0, 1.0, 0.0], size=[1.0, 0.6], normal=[0, -1, 0], tangent=[1, 0, 0])}
 CAMERAS = {
     "flat": dict(position=[0.0, 2.6, 3.2], target=[0.0, 0.0, -0.3], fov=50),
     "tilted": dict(position=[0.0, 2.6, 3.2], target=[0.0, 0.0, -0.3], fov=50),
     "near": dict(position=[0.3, 1.1, 1.6], target=[0.0, 0.0, 0.0], fov=55),
     "straddling": dict(position=[0.4, 1.4, 1.8], target=[0.0, 0.0, -0.2], fov=50),
+    "wall": dict(position=[1.6, 2.4, 2.4], target=[1.2, 0.0, 0.0], fov=45),
 }
 
 
-def plane_scene(tmp_path, case: str):
-    light, cam = LIGHTS[case], CAMERAS[case]
+def plane_scene(tmp_path, case: str, extra: str = "", name: str | None = None):
+    """The grey plane y = 0 under light ``case`` seen by camera ``case``, plus the TOML ``extra``."""
+    light, cam = {**LIGHTS, **OTHER_LIGHTS}[case], CAMERAS[case]
     text = f"""
     [camera]
     position = {cam['position']}
@@ -77,8 +81,8 @@ def plane_scene(tmp_path, case: str):
     tangent = {light['tangent']}
     radiance = [{RADIANCE}, {RADIANCE}, {RADIANCE}]
     """
-    path = tmp_path / f"{case}.toml"
-    path.write_text(textwrap.dedent(text))
+    path = tmp_path / f"{name or case}.toml"
+    path.write_text(textwrap.dedent(text) + textwrap.dedent(extra))
     return load_scene(path)
 
 
@@ -186,40 +190,14 @@ WALL_HALF = 0.001  # half its thickness
 
 
 def wall_scene(tmp_path):
-    text = f"""
-    [camera]
-    position = [1.6, 2.4, 2.4]
-    target = [1.2, 0.0, 0.0]
-    fov = 45
-    resolution = [64, 48]
-
-    [materials.grey]
-    base_color = [{ALBEDO}, {ALBEDO}, {ALBEDO}]
-    roughness = 1.0
-
-    [[meshes]]
-    name = "plane"
-    shape = "quad"
-    size = [40, 40]
-    material = "grey"
-
+    return plane_scene(tmp_path, "wall", name="wall", extra=f"""
     [[meshes]]
     name = "wall"
     shape = "box"
     size = [{2 * WALL_HALF}, {WALL_TOP}, 10.0]
     translate = [0.0, {WALL_TOP / 2}, 0.0]
     material = "grey"
-
-    [[lights]]
-    center = [0.0, 1.0, 0.0]
-    size = [1.0, 0.6]
-    normal = [0, -1, 0]
-    tangent = [1, 0, 0]
-    radiance = [{RADIANCE}, {RADIANCE}, {RADIANCE}]
-    """
-    path = tmp_path / "wall.toml"
-    path.write_text(textwrap.dedent(text))
-    return load_scene(path)
+    """)
 
 
 def visible_part(light, x):
@@ -360,7 +338,7 @@ def test_ltc_glsl_matches_the_numpy_polygon_integral(gl_ctx, tmp_path, case):
     """The shader's LTC (table lookup, frame, both clippings, edge integrals) against the numpy
     form of compare.brdf.ltc per pixel, on a glossy metal plane (specular only) under the tilted
     light and the one the plane's horizon cuts."""
-    from compare.brdf.ltc import load_table, ltc_matrix, polygon_integral
+    from compare.brdf.ltc import load_table, ltc_matrix, polygon_integral, polygon_vector_form_factor
     from compare.ibl import split_sum
 
     text = plane_scene(tmp_path, case).path.read_text().replace(
@@ -394,7 +372,18 @@ def test_ltc_glsl_matches_the_numpy_polygon_integral(gl_ctx, tmp_path, case):
         t2 = np.cross(n, t1)
         poly = np.array([[(c - x) @ t1, (c - x) @ t2, (c - x) @ n] for c in light.corners()])
         a, b = lut_at(n @ v, 0.35)[:2]
-        want = (0.5 * a + b) * polygon_integral(ltc_matrix(table, 0.35, n @ v), poly) * RADIANCE
+        minv = ltc_matrix(table, 0.35, n @ v)
+        f = polygon_vector_form_factor(minv, poly)
+        if not f.any():  # the horizon hides the whole light
+            assert r.image[row, col, 0] == 0.0
+            continue
+        lit = np.linalg.solve(minv, np.sign(f[2]) * f)  # the lit part's mean direction, mapped back by M
+        lit /= np.linalg.norm(lit)
+        v_local = np.array([np.sqrt(1 - (n @ v) ** 2), 0.0, n @ v])
+        h = (v_local + lit) / np.linalg.norm(v_local + lit)
+        fresnel = 0.5 + 0.5 * (1 - v_local @ h) ** 5  # Schlick, F0 = the metal's base colour 0.5
+        want = fresnel * (a + b) * abs(f[2]) * RADIANCE
+        assert polygon_integral(minv, poly) == pytest.approx(abs(f[2]))
         assert r.image[row, col, 0] == pytest.approx(want, rel=2e-3, abs=1e-6), (row, col)
         checked += 1
     assert checked > 50

@@ -24,9 +24,10 @@ def test_time_to_error_interpolates_log_log():
 @pytest.mark.gl
 def test_bench_reports_ratios(tmp_path, gl_ctx):
     result = run_bench(ROOT / "scenes" / "cornell.toml", size=(48, 36), frames=8, spp=4, repeats=2,
-                       items=("first-frame", "depth-floor", "wrapper-overhead"), progress=False)
+                       items=("first-frame", "depth-floor", "area-models", "wrapper-overhead"), progress=False)
     names = [f["name"] for f in result["figures"]]
-    assert names == ["first-frame", "first-frame-total", "first-frame-full-size", "depth-floor", "wrapper-overhead"]
+    assert names == ["first-frame", "first-frame-total", "first-frame-full-size", "depth-floor", "area-model-ltc",
+                     "area-model-paper", "wrapper-overhead"]
     for f in result["figures"]:
         assert f["a_median"] > 0 and f["b_median"] > 0 and f["ratio"] > 0
         assert len(f["a_samples"]) == 2

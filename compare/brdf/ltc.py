@@ -77,6 +77,7 @@ __all__ = [
     "load_table",
     "ltc_matrix",
     "polygon_integral",
+    "polygon_vector_form_factor",
     "write_table",
 ]
 
@@ -488,20 +489,27 @@ def polygon_integral(minv: np.ndarray, polygon_local) -> float:
     0 for a polygon below the horizon, 1 for one covering the upper hemisphere
     when ``minv`` keeps the horizon (identity, normal incidence).
     """
+    return float(abs(polygon_vector_form_factor(minv, polygon_local)[2]))
+
+
+def polygon_vector_form_factor(minv: np.ndarray, polygon_local) -> np.ndarray:
+    """The vector form factor (3,) of the polygon clipped and transformed as in :func:`polygon_integral`:
+    ``sum acos(v_k . v_k+1) normalize(v_k x v_k+1) / (2 pi)``, in the transformed space (sign by
+    winding). Its z is the LTC's integral, its direction the mean direction of the lit part."""
     local = _clip_below(np.asarray(polygon_local, dtype=np.float64))
     if len(local) < 3:
-        return 0.0
+        return np.zeros(3)
     p = _clip_below(local @ np.asarray(minv, dtype=np.float64).T)
     p = p[np.any(p != 0.0, axis=1)]  # the shading point has no direction
     if len(p) < 3:
-        return 0.0
+        return np.zeros(3)
     p, _ = _unit(p)
     nxt = np.roll(p, -1, axis=0)
     cross = np.cross(p, nxt)
     sin = np.linalg.norm(cross, axis=-1)
     ok = sin > 0.0  # repeated vertices (clipping at a vertex on the horizon) add nothing
     angle = np.arccos(np.clip(np.sum(p * nxt, axis=-1)[ok], -1.0, 1.0))
-    return float(abs(np.sum(angle * cross[ok, 2] / sin[ok])) / (2.0 * np.pi))
+    return np.sum((angle / sin[ok])[:, None] * cross[ok], axis=0) / (2.0 * np.pi)
 
 
 def _summary(fit_error: np.ndarray) -> str:

@@ -66,6 +66,17 @@ MATERIAL_MODES = ("shared", "diffuse")
 LUT_UNIT = 7
 
 
+def set_light(program, light) -> None:
+    """The ``u_light_*`` uniforms of one rectangular light (area_light.glsl, ltc.glsl)."""
+    set_uniform(program, "u_light_center", tuple(float(x) for x in light.center))
+    set_uniform(program, "u_light_t", tuple(float(x) for x in light.tangent))
+    set_uniform(program, "u_light_b", tuple(float(x) for x in light.bitangent))
+    set_uniform(program, "u_light_n", tuple(float(x) for x in light.normal))
+    set_uniform(program, "u_light_half", (light.size[0] / 2, light.size[1] / 2))
+    set_uniform(program, "u_light_radiance", tuple(float(x) for x in light.radiance))
+    set_uniform(program, "u_light_area", float(light.area))
+
+
 class DirectPass:
     """Programs of the direct-light pass: shadowed (light frames) and unshadowed (preview)."""
 
@@ -104,13 +115,7 @@ class DirectPass:
     @staticmethod
     def _set_light(program, light, point, weight, camera_position) -> None:
         set_uniform(program, "u_camera_position", tuple(float(x) for x in camera_position))
-        set_uniform(program, "u_light_center", tuple(float(x) for x in light.center))
-        set_uniform(program, "u_light_t", tuple(float(x) for x in light.tangent))
-        set_uniform(program, "u_light_b", tuple(float(x) for x in light.bitangent))
-        set_uniform(program, "u_light_n", tuple(float(x) for x in light.normal))
-        set_uniform(program, "u_light_half", (light.size[0] / 2, light.size[1] / 2))
-        set_uniform(program, "u_light_radiance", tuple(float(x) for x in light.radiance))
-        set_uniform(program, "u_light_area", float(light.area))
+        set_light(program, light)
         set_uniform(program, "u_sample", tuple(float(x) for x in point))
         set_uniform(program, "u_weight", float(weight))
 

@@ -22,6 +22,11 @@ One frame f of the :class:`~compare.progressive.distributor.Plan`:
    light, folded into one running mean per kind (diffuse, specular) over that
    kind's samples.
 
+With ``area_model="ltc"`` (:mod:`compare.progressive.ltc`) step 3 goes: the
+lights' unshadowed light in closed form is added to per-light sums in the first
+G-buffer frame and about 32 more, and each light sample of step 4 adds to its
+light's shadow-ratio sums instead of a running mean.
+
 Frame 0 carries no samples and is drawn differently (``first_frame="forward"``,
 :mod:`compare.progressive.first_frame`): a depth pre-pass and one forward-shaded
 pass write its every-frame terms straight into the running mean and the
