@@ -145,8 +145,9 @@ _LTC_GRAZING = pytest.mark.xfail(strict=True, reason=(
     "finding: at N.V <= 0.1 with the light at the horizon (2.5 deg up, near the mirror direction) the fitted "
     "LTC's specular integral is 2-6x the exact one (compare.brdf.ltc: the clamped cosine, sheared, does not vanish "
     "at the horizon as BRDF x cos does); measured 1.89x the reference. With the lobe-average Fresnel F0 A + B "
-    "(0.39-0.44 here against the exact 0.58-0.60) it measured 0.98x: the two errors cancelled. A fit that knows "
-    "the horizon clipping (its mass above the horizon renormalised) is the fix to try"))
+    "(0.39-0.44 here against the exact 0.58-0.60) it measured 0.98x: the two errors cancelled. Tried and no "
+    "better: a fit that ignores the LTC's mass below the horizon and renormalises the rest (7.4x at N.V 0.1), and "
+    "correcting the LTC's shape by the samples' BRDF / LTC ratio (fireflies)"))
 
 
 @pytest.mark.gl
