@@ -13,6 +13,7 @@ import sys
 from pathlib import Path
 
 from .errors import CompareError
+from .variants import OPTIONS as VARIANT_OPTIONS
 
 
 def parse_size(text: str) -> tuple[int, int]:
@@ -59,8 +60,8 @@ def _build_parser() -> argparse.ArgumentParser:
                        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     r.add_argument("--scene", required=True, type=Path, help="scene file (TOML)")
     r.add_argument("--renderer", default="mitsuba", type=_renderer_arg,
-                   help="mitsuba, progressive or progressive:<option>[+<option>] (options: paper, probes, vsm, "
-                        "budget<ms>; see compare/variants.py)")
+                   help="mitsuba, progressive or progressive:<option>[+<option>] (options: "
+                        + ", ".join(VARIANT_OPTIONS) + "; see compare/variants.py)")
     r.add_argument("--spp", type=positive_int, default=256, help="samples per pixel (mitsuba)")
     r.add_argument("--frames", type=positive_int, default=128, help="frames to accumulate (progressive)")
     r.add_argument("--size", type=parse_size, default=None, help="WIDTHxHEIGHT; default: the scene's resolution")

@@ -212,12 +212,14 @@ def _key(*parts: Any) -> str:
 
 
 def _source_files(*names: str) -> list[Path]:
-    """The package's sources (``.py``, ``.glsl``) under ``names`` (folders or files of ``compare/``)."""
+    """The package's sources (``.py``, ``.glsl``, and ``.npz`` for committed tables such as the LTC
+    fit) under ``names`` (folders or files of ``compare/``)."""
     root = Path(__file__).resolve().parent
     files: list[Path] = []
     for name in names:
         path = root / name
-        files += sorted(f for f in path.rglob("*") if f.suffix in (".py", ".glsl")) if path.is_dir() else [path]
+        files += (sorted(f for f in path.rglob("*") if f.suffix in (".py", ".glsl", ".npz")) if path.is_dir()
+                  else [path])
     return files
 
 

@@ -11,6 +11,8 @@ from compare.variants import describe, renderer_options
 def test_options_map_to_renderer_keywords():
     assert renderer_options("progressive") == {}
     assert renderer_options("progressive:paper") == {"area_model": "paper"}
+    assert renderer_options("progressive:ltc+probes") == {"area_model": "ltc", "indirect": "probes"}
+    assert describe("progressive:ltc+probes") == "ltc, irradiance probes"
     assert renderer_options("progressive:probes+vsm") == {"indirect": "probes", "shadow_filter": "vsm"}
     assert renderer_options("progressive:fullfirst") == {"first_frame_scale": 1.0}
     assert describe("progressive:fullfirst+paper") == "full-size first frame, paper"
@@ -23,6 +25,7 @@ def test_options_map_to_renderer_keywords():
 @pytest.mark.parametrize("spec, match", [
     ("progressive:ssao", "unknown option 'ssao'.*probes"),
     ("progressive:paper+radiometric", "area_model twice"),
+    ("progressive:ltc+paper", "area_model twice"),
     ("progressive:budget0", "positive"),
     ("progressive:budget", "unknown option 'budget'"),
     ("progressive:vsm++probes", "empty option"),
