@@ -103,10 +103,14 @@ def _build_parser() -> argparse.ArgumentParser:
 def cmd_render(args: argparse.Namespace) -> int:
     """``compare render``: one scene, one renderer, one EXR with metadata, one PNG preview."""
     from .exr import write_exr
+    from .fsutil import check_outputs
     from .scene import load_scene
     from .tonemap import write_png
 
     scene = load_scene(args.scene)
+    png = args.png or args.output.with_suffix(".png")
+    check_outputs({"-o": args.output, "--png": png}, inputs=(args.scene, *scene.referenced_files),
+                  suffixes={"-o": ".exr", "--png": ".png"})
     if args.size:
         scene = scene.with_resolution(*args.size)
     if args.renderer == "mitsuba":
@@ -126,7 +130,6 @@ def cmd_render(args: argparse.Namespace) -> int:
         image, meta = result.image, result.metadata
         summary = f"{len(result.frame_seconds)} frames in {result.seconds:.2f} s"
     write_exr(args.output, image, metadata={**meta, "scene": str(args.scene)})
-    png = args.png or args.output.with_suffix(".png")
     write_png(png, image, exposure=args.exposure, operator=args.tonemap)
     print(f"{args.output}: {scene.camera.width}x{scene.camera.height}, {summary}; preview {png}")
     return 0

@@ -20,3 +20,8 @@ class ImageError(CompareError, ValueError):
 
 class MissingComponentError(CompareError, RuntimeError):
     """A system component (LLVM, OpenGL/EGL, bpy) is missing; says how to install it."""
+
+
+class OutputError(CompareError, ValueError):
+    """An output path is refused before any work: it would overwrite an input or another
+    output, has the wrong kind, or cannot be written; the message names it."""

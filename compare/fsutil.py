@@ -39,6 +39,48 @@ def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[
         raise
 
 
+def check_outputs(outputs: dict[str, str | os.PathLike], inputs=(), suffixes: dict[str, str] | None = None) -> None:
+    """Refuse outputs, before any work, that would destroy something or cannot be written.
+
+    ``outputs`` maps each output's option name (for the message, e.g. ``"-o"``) to its path,
+    ``inputs`` are the files the command reads, and ``suffixes`` the required file kind per
+    option (e.g. ``{"-o": ".exr"}``, compared case-insensitively). Raises
+    :class:`~compare.errors.OutputError` naming the option and the path when an output is
+    an input, two outputs are the same file, a suffix is wrong, or the output's folder
+    cannot be written (its nearest existing ancestor is checked, as parents are created).
+    """
+    from .errors import OutputError
+
+    def same(a: Path, b: Path) -> bool:
+        a, b = Path(a), Path(b)
+        if a.exists() and b.exists():
+            return os.path.samefile(a, b)
+        return a.resolve() == b.resolve()
+
+    seen: dict[Path, str] = {}
+    for option, raw in outputs.items():
+        path = Path(raw)
+        want = (suffixes or {}).get(option)
+        if want and path.suffix.lower() != want:
+            raise OutputError(f"{option} {path}: the output must be a {want} file (ending in {want})")
+        if path.is_dir():
+            raise OutputError(f"{option} {path}: is a folder, not a file")
+        for src in inputs:
+            if same(path, src):
+                raise OutputError(f"{option} {path}: is an input of this command ({src}); choose another path")
+        for other, opt in seen.items():
+            if same(path, other):
+                raise OutputError(f"{option} {path}: is also the output of {opt}; choose two paths")
+        seen[path] = option
+        folder = path.parent if str(path.parent) else Path(".")
+        while not folder.exists() and folder != folder.parent:
+            folder = folder.parent
+        if not folder.is_dir():
+            raise OutputError(f"{option} {path}: cannot be created, {folder} is a file, not a folder")
+        if not os.access(folder, os.W_OK | os.X_OK):
+            raise OutputError(f"{option} {path}: cannot write in {folder} (permission denied)")
+
+
 def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> None:
     """Write ``data`` to ``path`` atomically."""
     with atomic_path(path) as tmp:

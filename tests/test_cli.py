@@ -95,3 +95,65 @@ def test_bad_size_is_a_usage_error(capsys):
         main(["render", "--scene", CORNELL, "--size", "big", "-o", "x.exr"])
     assert info.value.code == 2
     assert "expected WIDTHxHEIGHT" in capsys.readouterr().err
+
+
+def _scene_copy(tmp_path) -> Path:
+    """The Cornell box in tmp_path (it references no other file)."""
+    scene = tmp_path / "s.toml"
+    scene.write_text(Path(CORNELL).read_text())
+    return scene
+
+
+@pytest.mark.parametrize("args, message", [
+    (["-o", "{scene}"], "-o {scene}: the output must be a .exr file (ending in .exr)"),
+    (["-o", "{tmp}/a.png"], "-o {tmp}/a.png: the output must be a .exr file (ending in .exr)"),
+    (["-o", "{tmp}/a.exr", "--png", "{scene}"], "--png {scene}: the output must be a .png file (ending in .png)"),
+    (["-o", "{tmp}/a.exr", "--png", "{tmp}/a.exr"], "--png {tmp}/a.exr: the output must be a .png file (ending in .png)"),
+    (["-o", "{tmp}/s.EXR", "--png", "{tmp}/keep.png"], None),  # the kind is case-blind: this one renders
+    (["-o", "{tmp}/twin.exr", "--png", "{tmp}/link.png"], "--png {tmp}/link.png: is an input of this command ({scene}); "
+                                                           "choose another path"),
+    (["-o", "{tmp}/ro/a.exr"], "-o {tmp}/ro/a.exr: cannot write in {tmp}/ro (permission denied)"),
+    (["-o", "{tmp}/keep.png/a.exr"], "-o {tmp}/keep.png/a.exr: cannot be created, {tmp}/keep.png is a file, "
+                                     "not a folder"),
+    (["-o", "{tmp}/dir.exr"], "-o {tmp}/dir.exr: is a folder, not a file"),
+])
+def test_render_refuses_outputs_that_would_overwrite_before_rendering(tmp_path, capsys, monkeypatch, args, message):
+    """Every refused output is named with its option, nothing is written or overwritten, no render runs."""
+    import os
+
+    monkeypatch.setenv("COMPARE_CACHE", str(tmp_path / "cache"))
+    scene = _scene_copy(tmp_path)
+    (tmp_path / "link.png").symlink_to(scene)  # a second name of the scene file
+    (tmp_path / "dir.exr").mkdir()
+    (tmp_path / "ro").mkdir()
+    os.chmod(tmp_path / "ro", 0o500)
+    keep = tmp_path / "keep.png"
+    keep.write_bytes(b"not to be lost")
+    before = {p: p.read_bytes() for p in tmp_path.iterdir() if p.is_file()}
+    fill = {"scene": str(scene), "tmp": str(tmp_path)}
+    argv = ["render", "--scene", str(scene), "--spp", "2", "--size", "16x12"] + [a.format(**fill) for a in args]
+    if message is None:
+        assert main(argv) == 0
+        assert (tmp_path / "s.EXR").is_file() and keep.read_bytes() != b"not to be lost"
+        return
+    if os.geteuid() == 0 and "permission" in message:  # root may write anywhere: deny it here as for a user
+        real_access = os.access
+        monkeypatch.setattr(os, "access", lambda p, mode: Path(p) != tmp_path / "ro" and real_access(p, mode))
+    assert main(argv) == 2
+    assert capsys.readouterr().err.strip() == f"compare: error: {message.format(**fill)}"
+    after = {p: p.read_bytes() for p in tmp_path.iterdir() if p.is_file()}
+    assert after == before  # nothing overwritten, nothing new
+    assert not (tmp_path / "cache").exists()  # refused before any rendering
+
+
+def test_render_refuses_to_overwrite_a_file_the_scene_reads(tmp_path, capsys):
+    """An environment map the scene lights with is an input too: ``-o`` onto it is refused."""
+    env = tmp_path / "sky.exr"
+    write_exr(env, np.full((4, 8, 3), 0.5, np.float32))
+    scene = tmp_path / "s.toml"
+    scene.write_text(Path(CORNELL).read_text() + '\n[environment]\nfile = "sky.exr"\n')
+    before = env.read_bytes()
+    assert main(["render", "--scene", str(scene), "--spp", "2", "--size", "16x12", "-o", str(env)]) == 2
+    assert capsys.readouterr().err.strip() == (f"compare: error: -o {env}: is an input of this command ({env}); "
+                                               "choose another path")
+    assert env.read_bytes() == before
