@@ -218,8 +218,7 @@ def check(results: Results | str | os.PathLike, thresholds: str | os.PathLike | 
                         checked += 1
                         v = _value(name, run, point)
                         if v is None:
-                            violations.append(Violation(rule, f"{where}: {name} is not available "
-                                                              f"(missing or null in results.json)"))
+                            violations.append(Violation(rule, f"{where}: {name} {_why_missing(name, point)}"))
                         elif op == "max" and v > limit:
                             violations.append(Violation(rule, f"{where}: {name} = {v:.6g} > max {limit:g}"))
                         elif op == "min" and v < limit:
@@ -228,6 +227,17 @@ def check(results: Results | str | os.PathLike, thresholds: str | os.PathLike | 
             violations.append(Violation(rule, "matched no result: check the scene name, size and renderer "
                                               f"(results hold {_inventory(res)})"))
     return violations, checked
+
+
+def _why_missing(name: str, point: Point) -> str:
+    """Why a metric has no value: a degenerate ground truth (compare.metrics), or absent."""
+    from .metrics import LDR_DEGENERATE_RANGE
+
+    spread = point.metrics.get("ldr_range")
+    if name in ("psnr", "ssim", "one_minus_ssim", "flip") and spread is not None and spread < LDR_DEGENERATE_RANGE:
+        return (f"is undefined: the ground truth tone-maps to a constant (LDR range {spread:.3g} < 1/255: black, "
+                "saturated or flat) at this exposure, so there is nothing to compare")
+    return "is not available (missing or null in results.json)"
 
 
 def _inventory(res: Results) -> str:

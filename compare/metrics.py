@@ -424,6 +424,11 @@ def flip(
 # --------------------------------------------------------------------------- all at once
 
 
+#: A tone-mapped reference whose values spread less than one 8-bit step shows nothing to
+#: compare against (black, saturated or flat): its LDR metrics are undefined (None).
+LDR_DEGENERATE_RANGE = 1.0 / 255.0
+
+
 def compare_images(
     ref,
     test,
@@ -449,11 +454,16 @@ def compare_images(
     -------
     dict
         ``mse``, ``relmse`` (linear HDR), ``psnr``, ``ssim``, ``flip``
-        (tone-mapped LDR), ``flip_hdr`` (when requested). All values are Python
-        floats, except two documented ``None`` cases so the dict stays valid
+        (tone-mapped LDR), ``flip_hdr`` (when requested), and ``ldr_range``, the
+        spread (max − min) of the tone-mapped reference. All values are Python
+        floats, except three documented ``None`` cases so the dict stays valid
         JSON: ``psnr`` is ``None`` when the LDR images are identical (PSNR is
-        +inf), and ``flip_hdr`` is ``None`` when the reference is black (HDR-FLIP
-        has no exposure range).
+        +inf); ``flip_hdr`` is ``None`` when the reference is black (HDR-FLIP
+        has no exposure range); and ``psnr``, ``ssim`` and ``flip`` are all
+        ``None`` when the reference tone-maps to a constant (``ldr_range`` below
+        one 8-bit step, :data:`LDR_DEGENERATE_RANGE`: black, saturated, or
+        flat): there is nothing to compare, and a constant test image would
+        otherwise score as perfect (SSIM 1, FLIP 0) against it.
 
     Raises
     ------
@@ -462,14 +472,16 @@ def compare_images(
     """
     r, t = _checked_pair(ref, test)
     rl, tl = _ldr_pair(r, t, exposure, operator)
-    p = _psnr_ldr(rl, tl)
+    ldr_range = float(rl.max() - rl.min())
     out: dict[str, float | None] = {
         "mse": float(np.mean(np.square(t.astype(np.float64) - r.astype(np.float64)))),
         "relmse": float(np.mean(_relmse_terms(r, t, RELMSE_EPS))),
-        "psnr": None if math.isinf(p) else p,
-        "ssim": _ssim_ldr(rl, tl)[0],
-        "flip": _flip_eval(rl, tl, "LDR", {})[0],
+        "psnr": None, "ssim": None, "flip": None,
+        "ldr_range": ldr_range,
     }
+    if ldr_range >= LDR_DEGENERATE_RANGE:
+        p = _psnr_ldr(rl, tl)
+        out.update(psnr=None if math.isinf(p) else p, ssim=_ssim_ldr(rl, tl)[0], flip=_flip_eval(rl, tl, "LDR", {})[0])
     if flip_hdr:
         try:
             out["flip_hdr"] = _flip_eval(np.maximum(r, 0), np.maximum(t, 0), "HDR", {})[0]

@@ -638,8 +638,12 @@ def parse_scene(data: dict[str, Any], path: Path) -> Scene:
     if not (isinstance(max_depth, int) and not isinstance(max_depth, bool) and (max_depth == -1 or max_depth >= 1)):
         raise ctx.err("render.max_depth", f"expected -1 (unbounded) or an integer >= 1, got {_fmt(max_depth)}")
     emissive = any(materials[m.material].is_emissive for m in meshes)
-    if not lights and env is None and not emissive:
-        raise ctx.err("lights", "the scene has no light: add [[lights]], an [environment] or an emissive material")
+    # A map file or a procedural map counts as emitting; a zero constant or intensity does not.
+    env_emits = env is not None and env.intensity > 0 and (env.constant is None or max(env.constant) > 0)
+    if not (any(max(lt.radiance) > 0 for lt in lights) or env_emits or emissive):
+        # Every renderer would draw black, and a black image cannot be told from a black ground truth.
+        raise ctx.err("lights", "the scene has no light: add [[lights]] with radiance > 0, an [environment] above "
+                                "zero or an emissive material")
     files = tuple(sorted(set(ctx.files)))
     indirect, probe_grid, probe_bounces = _indirect(ctx, render)
     return Scene(ctx.path, name, camera, materials, meshes, lights, env, max_depth, files,

@@ -6,6 +6,7 @@ import argparse
 import tomllib
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from compare.check import (
@@ -145,3 +146,21 @@ def test_cornell_box_meets_repository_thresholds(tmp_path, gl_ctx):
     res = run([ROOT / "scenes" / "cornell.toml"], tmp_path / "out", RunSettings(**CORNELL_TEST_SETTINGS),
               progress=False, cache_dir=tmp_path / "cache", gl_ctx=gl_ctx, report=False)
     assert_thresholds(res, ROOT / "thresholds.toml")
+
+
+def test_a_degenerate_ground_truth_fails_the_gate_with_the_reason():
+    """A ground truth that tone-maps to a constant has no LDR metrics (compare.metrics): a bound on
+    them fails, saying why, instead of passing on SSIM 1 and FLIP 0; HDR metrics are still gated."""
+    from compare.metrics import compare_images
+
+    black = compare_images(np.zeros((16, 16, 3)), np.zeros((16, 16, 3)), flip_hdr=True)
+    res = results()
+    res.scenes[0].runs[1].points[-1] = Point(8, 0.40, black)
+    violations, checked = check(res, rules({"renderer": "progressive", "max": {"flip": 0.25, "relmse": 0.5},
+                                            "min": {"ssim": 0.75}}))
+    assert checked == 3
+    assert [str(v).split("  [")[0] for v in violations] == [
+        "Cornell box 64x48 progressive (frame 8): flip is undefined: the ground truth tone-maps to a constant "
+        "(LDR range 0 < 1/255: black, saturated or flat) at this exposure, so there is nothing to compare",
+        "Cornell box 64x48 progressive (frame 8): ssim is undefined: the ground truth tone-maps to a constant "
+        "(LDR range 0 < 1/255: black, saturated or flat) at this exposure, so there is nothing to compare"]

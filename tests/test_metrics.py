@@ -52,9 +52,32 @@ def test_identical_images(reference):
     assert M.flip(reference, reference, mode="HDR")[0] == 0.0
 
     res = M.compare_images(reference, reference)
+    ldr_range = res.pop("ldr_range")
     assert res == {"mse": 0.0, "relmse": 0.0, "psnr": None, "ssim": pytest.approx(1.0),
                    "flip": 0.0, "flip_hdr": 0.0}
+    assert ldr_range > 0.5  # the checkerboard spans most of the LDR range
     json.dumps(res, allow_nan=False)  # strict JSON, psnr inf reported as null
+
+
+@pytest.mark.parametrize("case", ["black", "exposure 1e39", "exposure 1e-30", "flat grey"])
+def test_a_reference_that_tone_maps_to_a_constant_has_no_ldr_metrics(reference, case):
+    """Nothing to compare: PSNR, SSIM and FLIP are None (never a perfect 1 or 0), HDR metrics stay."""
+    ref, test, exposure = reference, reference * 1.5, 1.0
+    if case == "black":
+        ref, test = np.zeros_like(reference), np.zeros_like(reference)
+    elif case == "flat grey":
+        ref, test = np.full_like(reference, 0.18), np.full_like(reference, 0.18)
+    else:
+        exposure = float(case.split()[1])
+    res = M.compare_images(ref, test, exposure=exposure)
+    assert res["psnr"] is None and res["ssim"] is None and res["flip"] is None
+    assert res["ldr_range"] < M.LDR_DEGENERATE_RANGE
+    assert math.isfinite(res["mse"]) and math.isfinite(res["relmse"])
+    json.dumps(res, allow_nan=False)
+    # The same images at a sensible exposure are measured as usual.
+    if case.startswith("exposure"):
+        normal = M.compare_images(ref, test)
+        assert normal["ssim"] < 1 and normal["flip"] > 0
 
 
 def test_psnr_finite_for_different_images(reference):

@@ -106,6 +106,22 @@ def test_no_light_at_all(tmp_path):
         load_scene(write(tmp_path, text))
 
 
+@pytest.mark.parametrize("extra", [
+    "[environment]\nconstant = [0, 0, 0]\n",                    # a black environment
+    "[environment]\nconstant = [1, 1, 1]\nintensity = 0\n",     # switched off
+])
+def test_an_environment_that_emits_nothing_is_no_light(tmp_path, extra):
+    """A scene lit only by a zero environment would render black everywhere, and a black image
+    against a black ground truth scores as perfect: it is refused at load, with the field (a light
+    of zero radiance is refused on its own field)."""
+    path = write(tmp_path, GOOD[: GOOD.index("[[lights]]")] + extra)
+    with pytest.raises(SceneError) as exc:
+        load_scene(path)
+    assert str(exc.value) == (f"{path}: lights: the scene has no light: add [[lights]] with radiance > 0, an "
+                              "[environment] above zero or an emissive material")
+    load_scene(write(tmp_path, GOOD + extra, "lit.toml"))  # with a light beside it the scene is fine
+
+
 def test_mesh_file_missing(tmp_path):
     text = GOOD.replace('shape = "quad"\nsize = [2, 2]', 'shape = "file"\nfile = "bunny.ply"')
     with pytest.raises(SceneError, match=r"meshes\[0\]\.file: file 'bunny.ply' not found"):
