@@ -182,6 +182,7 @@ def equal_figure(scene: SceneResult, path: str | Path, metric: str = "flip") -> 
     )
     for ax, rows, ylabel, prefix, fmt, missing_text in panels:
         width = 0.8 / n
+        drawn = False
         for k, run in enumerate(scene.runs):
             xs, hs, hatch, missing = [], [], [], []
             for i, row in enumerate(rows):
@@ -194,6 +195,7 @@ def equal_figure(scene: SceneResult, path: str | Path, metric: str = "flip") -> 
                     hs.append(v)
                     hatch.append("//" if run.renderer in row.finished else "")
             bars = ax.bar(xs, hs, width=width * 0.95, color=f"C{k}", alpha=0.9)
+            drawn = drawn or bool(hs)
             for bar, h in zip(bars, hatch):
                 bar.set_hatch(h)
             if not crowded:
@@ -205,7 +207,8 @@ def equal_figure(scene: SceneResult, path: str | Path, metric: str = "flip") -> 
         gap = "\n" if crowded else " "
         ax.set_xticks(range(len(rows)), [_text(f"{prefix}{gap}{r.source}\n({fmt(r.target)})") for r in rows],
                       fontsize=7)
-        ax.set_yscale("log")
+        if drawn:  # a log axis needs a positive value (none: the metric is undefined, e.g. a black ground truth)
+            ax.set_yscale("log")
         ax.set_ylabel(ylabel)
         ax.margins(y=0.15)
         ax.grid(True, axis="y", which="both", alpha=0.25)

@@ -537,3 +537,15 @@ def test_blender_renderers_need_bpy_before_any_work(tmp_path, monkeypatch):
     with pytest.raises(MissingComponentError, match="eevee need Blender's bpy: bpy is not installed"):
         run_mod.run([CORNELL], tmp_path / "out", settings, progress=False)
     assert not (tmp_path / "out").exists()
+
+
+def test_a_ground_truth_that_tone_maps_to_black_gives_no_ldr_scores(tmp_path):
+    """At an exposure that maps everything to black the LDR metrics are null (never SSIM 1, FLIP 0),
+    the report and its plots are still made, and the HDR metrics are still measured."""
+    res = synthetic_report(tmp_path / "out", [CORNELL], exposure=1e-30)
+    for run in res.scenes[0].runs:
+        for point in run.points:
+            assert point.metrics["flip"] is None and point.metrics["ssim"] is None
+            assert point.metrics["ldr_range"] == 0.0 and point.metrics["relmse"] >= 0
+    html = (tmp_path / "out" / "index.html").read_text(encoding="utf-8")
+    assert "FLIP 0 " not in html and "SSIM 1 " not in html
