@@ -247,22 +247,68 @@ def write_hdr(path: str | Path, image: np.ndarray) -> Path:
     return path
 
 
-def load_equirect(path: str | Path) -> np.ndarray:
-    """An equirectangular map file (.exr or .hdr) as float32 (H, W, 3), negative values set to 0."""
-    path = Path(path)
-    if path.suffix.lower() == ".hdr":
-        img = read_hdr(path)
-    else:
-        from .exr import read_exr
+#: Negative values of an environment map down to this fraction of its mean are compression noise
+#: and set to zero (Blender's HDRIs: -0.002 against a mean of ~0.5); larger ones are refused.
+NEGATIVE_TOLERANCE = 0.01
 
-        img, _ = read_exr(path)
+
+def load_equirect(path: str | Path) -> np.ndarray:
+    """An equirectangular map file (.exr or .hdr) as float32 (H, W, 3), compression noise below zero set to 0.
+
+    Raises ImageError naming the file for a map that is too small, holds NaN or Inf, or holds
+    negative radiance beyond :data:`NEGATIVE_TOLERANCE` of its mean (no renderer can emit that,
+    and each would treat it differently)."""
+    path = Path(path)
+    return _checked_equirect(path, _read_equirect(path))
+
+
+def _read_equirect(path: Path) -> np.ndarray:
+    """The map file's pixels as stored."""
+    if path.suffix.lower() == ".hdr":
+        return read_hdr(path)
+    from .exr import read_exr
+
+    return read_exr(path)[0]
+
+
+def _checked_equirect(path: Path, img: np.ndarray) -> np.ndarray:
+    """:func:`load_equirect`'s checks and clamping of the pixels ``img`` of ``path``."""
     if img.shape[0] < 3 or img.shape[1] < 2:
         raise ImageError(f"{path}: an environment map needs at least 2×3 pixels, got {img.shape[1]}×{img.shape[0]}")
     if not np.all(np.isfinite(img)):
         raise ImageError(f"{path}: an environment map must hold finite radiance (found NaN or Inf)")
-    # Lossy EXR compression leaves tiny negative values (Blender's HDRIs: down to -0.002 against a mean
-    # of ~0.5); they are set to zero here. Mitsuba reads the file unchanged, a negligible difference.
+    low = float(img.min())
+    if low < 0.0:
+        mean = float(np.mean(np.maximum(img, 0.0), dtype=np.float64))
+        limit = NEGATIVE_TOLERANCE * mean
+        if low < -limit:
+            count = int(np.count_nonzero(img < -limit))
+            raise ImageError(f"{path}: an environment map must hold non-negative radiance: {count} values below "
+                             f"-{limit:.3g}, down to {low:.3g} (its mean is {mean:.3g}; only lossy-compression noise "
+                             f"within {NEGATIVE_TOLERANCE:.0%} of the mean is set to zero)")
     return np.ascontiguousarray(np.maximum(img, 0.0), dtype=np.float32)
+
+
+def environment_file(env, cache_dir: str | Path | None = None) -> Path | None:
+    """The map file a path tracer should read for ``env``: :func:`environment_path`, or where that file
+    holds compression noise below zero, a copy with it set to zero (as :func:`load_equirect` gives the
+    rasterizer), written once to ``<cache>/environments/clamped-<content hash>.exr``. The map is
+    checked as :func:`load_equirect` checks it."""
+    path = environment_path(env, cache_dir)
+    if path is None:
+        return None
+    raw = _read_equirect(path)
+    image = _checked_equirect(path, raw)
+    if float(np.min(raw)) >= 0.0:
+        return path
+    from .fsutil import sha256_bytes
+
+    clamped = _cache_root(cache_dir) / "environments" / f"clamped-{sha256_bytes(path.read_bytes())[:24]}.exr"
+    if not clamped.is_file():
+        from .exr import write_exr
+
+        write_exr(clamped, image, metadata={"renderer": "clamped-environment", "source": str(path)})
+    return clamped
 
 
 # ----------------------------------------------------------------------------- procedural maps

@@ -172,7 +172,9 @@ def environment_dict(scene: Scene) -> dict | None:
     :func:`compare.environments.environment_path`) is an ``envmap`` with
     ``scale = intensity`` and ``to_world`` = rotation about +Y. The
     orientation convention of :mod:`compare.environments` *is* the envmap's,
-    so the file is passed unchanged.
+    so the file is passed unchanged, but for the compression noise below zero that
+    the rasterizer sets to zero (:func:`compare.environments.environment_file`): both
+    renderers see the same radiance, and a map with real negative radiance is refused.
     """
     env = scene.environment
     if env is None:
@@ -181,11 +183,11 @@ def environment_dict(scene: Scene) -> dict | None:
         return {"type": "constant", "radiance": {"type": "rgb", "value": [c * env.intensity for c in env.constant]}}
     import mitsuba as mi
 
-    from .environments import environment_path
+    from .environments import environment_file
 
     return {
         "type": "envmap",
-        "filename": str(environment_path(env)),
+        "filename": str(environment_file(env)),
         "scale": env.intensity,
         "to_world": mi.ScalarTransform4f().rotate(axis=[0, 1, 0], angle=env.rotation),
     }

@@ -280,6 +280,46 @@ def test_environment_file_is_envmap_in_mitsuba(tmp_path):
     assert environment_dict(scene)["filename"] == str(environment_path(scene.environment))
 
 
+def test_negative_environment_radiance_is_refused_and_noise_is_clamped_alike(tmp_path, monkeypatch):
+    """Real negative radiance is refused with the file named, by the loader both renderers use; the tiny
+    negatives of lossy compression are set to zero for the rasterizer and, through a cached copy, for
+    Mitsuba too (which would read the file raw)."""
+    from compare.environments import NEGATIVE_TOLERANCE, environment_file, load_equirect
+    from compare.mitsuba_dict import environment_dict
+
+    monkeypatch.setenv("COMPARE_CACHE", str(tmp_path / "cache"))
+    image = np.full((8, 16, 3), 0.5, np.float32)
+    bad = image.copy()
+    bad[2:4, 3:6] = -0.2
+    write_exr(tmp_path / "bad.exr", bad)
+    path = tmp_path / "s.toml"
+    path.write_text(scene_text('file = "bad.exr"'))
+    scene = load_scene(path)
+    limit = NEGATIVE_TOLERANCE * float(np.maximum(bad, 0).mean())
+    message = (f"{tmp_path / 'bad.exr'}: an environment map must hold non-negative radiance: 18 values below "
+               f"-{limit:.3g}, down to -0.2 (its mean is {np.maximum(bad, 0).mean():.3g}; only lossy-compression "
+               "noise within 1% of the mean is set to zero)")
+    for load in (lambda: load_equirect(tmp_path / "bad.exr"), lambda: environment_dict(scene)):
+        with pytest.raises(ImageError) as exc:
+            load()
+        assert str(exc.value) == message
+    noisy = image.copy()
+    noisy[0, 0] = -0.002  # within the tolerance: compression noise
+    write_exr(tmp_path / "noisy.exr", noisy)
+    path.write_text(scene_text('file = "noisy.exr"'))
+    scene = load_scene(path)
+    given = Path(environment_dict(scene)["filename"])
+    assert given != tmp_path / "noisy.exr" and given.parent == tmp_path / "cache" / "environments"
+    from compare.exr import read_exr
+
+    np.testing.assert_array_equal(read_exr(given)[0], load_equirect(tmp_path / "noisy.exr"))
+    assert read_exr(given)[0].min() == 0.0
+    assert environment_file(scene.environment) == given  # written once, reused
+    write_exr(tmp_path / "clean.exr", image)
+    path.write_text(scene_text('file = "clean.exr"'))
+    assert environment_dict(load_scene(path))["filename"] == str(tmp_path / "clean.exr")  # no copy when clean
+
+
 # ----------------------------------------------------------------------------- both renderers
 
 
