@@ -32,6 +32,10 @@ class TriangleMesh:
         """Apply a 4×4 affine transform (normals by the inverse transpose, renormalised)."""
         m = np.asarray(matrix, dtype=np.float64)
         p = self.positions.astype(np.float64) @ m[:3, :3].T + m[:3, 3]
+        reach = float(np.max(np.abs(p))) if p.size else 0.0
+        if not reach <= WORLD_LIMIT:  # also NaN
+            raise MeshRangeError(f"its vertices reach {reach:.3g}, beyond ±{WORLD_LIMIT:g}: the renderers compute "
+                                 "in float32, where squared distances of such coordinates overflow")
         nm = np.linalg.inv(m[:3, :3]).T
         n = self.normals.astype(np.float64) @ nm.T
         n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
@@ -162,6 +166,15 @@ def vertex_normals(positions: np.ndarray, indices: np.ndarray) -> np.ndarray:
 
 class MeshFileError(ValueError):
     """A mesh file is unreadable; the scene loader prefixes the scene file and field."""
+
+
+#: Largest world coordinate a mesh may reach: the renderers compute in float32, where squared
+#: distances (and products of them) of larger coordinates overflow (float32's maximum is 3.4e38).
+WORLD_LIMIT = 1e15
+
+
+class MeshRangeError(ValueError):
+    """A mesh's vertices leave the range the renderers can compute in (:data:`WORLD_LIMIT`)."""
 
 
 def load_obj(path: Path) -> TriangleMesh:

@@ -346,10 +346,28 @@ def _fmt(value: Any) -> str:
     return str(value)
 
 
+#: Smallest normal and largest float32 numbers: every renderer computes in float32, where a scene
+#: number outside this range (other than 0) turns into 0 or infinity.
+_FLOAT32_TINY = 1.1754944e-38
+_FLOAT32_MAX = 3.4028235e38
+
+
+def _float32_problem(v: float) -> str | None:
+    """Why ``v`` cannot be carried by float32 (None if it can)."""
+    if v != 0 and abs(v) < _FLOAT32_TINY:
+        return f"{v:g} is below float32's smallest normal number (1.2e-38): every renderer would compute 0"
+    if abs(v) > _FLOAT32_MAX:
+        return f"{v:g} is beyond float32's range (3.4e38): every renderer would compute infinity"
+    return None
+
+
 def _number(ctx: _Ctx, where: str, v: Any, *, lo: float | None = None, hi: float | None = None,
             positive: bool = False) -> float:
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
         raise ctx.err(where, f"expected a finite number, got {_fmt(v)}")
+    problem = _float32_problem(float(v))
+    if problem:
+        raise ctx.err(where, problem)
     if positive and v <= 0:
         raise ctx.err(where, f"expected a positive number, got {_fmt(v)}")
     if (lo is not None and v < lo) or (hi is not None and v > hi):
@@ -375,6 +393,10 @@ def _vector(ctx: _Ctx, where: str, v: Any, n: int, *, positive: bool = False, no
         rng = (f" in [{lo:g}, {hi:g}]" if lo is not None and hi is not None
                else f" at most {hi:g}" if hi is not None else f" at least {lo:g}" if lo is not None else "")
         raise ctx.err(where, f"expected {words} {kind}numbers{rng}, got {_fmt(v)}")
+    for x in v:
+        problem = _float32_problem(float(x))
+        if problem:
+            raise ctx.err(where, problem)
     return tuple(float(x) for x in v)
 
 
@@ -429,6 +451,11 @@ def _camera(ctx: _Ctx, raw: Any) -> Camera:
     t = _table(ctx, "camera", raw, {"position", "target", "up", "fov", "resolution"})
     pos = _vector(ctx, "camera.position", _require(ctx, "camera", t, "position"), 3)
     target = _vector(ctx, "camera.target", _require(ctx, "camera", t, "target"), 3)
+    for field, v in (("position", pos), ("target", target)):
+        reach = max(abs(x) for x in v)
+        if reach > geometry.WORLD_LIMIT:
+            raise ctx.err(f"camera.{field}", f"{reach:g} is beyond ±{geometry.WORLD_LIMIT:g}: the renderers compute "
+                                             "in float32, where squared distances of such coordinates overflow")
     if np.linalg.norm(np.subtract(target, pos)) < 1e-12:
         raise ctx.err("camera.target", "must differ from camera.position")
     up = tuple(_unit(ctx, "camera.up", t.get("up", [0, 1, 0])))
@@ -521,11 +548,12 @@ def _mesh(ctx: _Ctx, k: int, raw: Any, materials: dict[str, Material]) -> Mesh:
         sv,
     )
     mesh = Mesh(name=name, shape=shape, material=mat, params=params, transform=m, file=file)
-    if file is not None:
-        try:
-            mesh.triangles()
-        except geometry.MeshFileError as exc:
-            raise ctx.err(f"{w}.file", str(exc)) from exc
+    try:
+        mesh.triangles()  # reads a mesh file, and checks every mesh's world coordinates
+    except geometry.MeshFileError as exc:
+        raise ctx.err(f"{w}.file", str(exc)) from exc
+    except geometry.MeshRangeError as exc:
+        raise ctx.err(w, str(exc)) from exc
     return mesh
 
 
@@ -557,6 +585,15 @@ def _light(ctx: _Ctx, k: int, raw: Any) -> AreaLight:
         radiance = tuple(p / (math.pi * size[0] * size[1]) for p in power)
     if max(radiance) <= 0:
         raise ctx.err(f"{w}.radiance" if "radiance" in t else f"{w}.power", "a light must emit something (all zero)")
+    for r in radiance:
+        problem = _float32_problem(r)
+        if problem:
+            raise ctx.err(f"{w}.power", f"gives a radiance of which {problem}")
+    reach = float(np.max(np.abs(center)) + max(size))
+    if reach > geometry.WORLD_LIMIT:
+        raise ctx.err(f"{w}.center", f"the light reaches {reach:.3g}, beyond ±{geometry.WORLD_LIMIT:g}: the "
+                                     "renderers compute in float32, where squared distances of such coordinates "
+                                     "overflow")
     name = t.get("name", f"light{k}")
     if not isinstance(name, str):
         raise ctx.err(f"{w}.name", f"expected a string, got {_fmt(name)}")

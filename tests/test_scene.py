@@ -245,3 +245,32 @@ def test_primitives_are_closed_and_sized():
     # outward normals: the normal at each vertex points away from the centre
     for mesh in (sph, box):
         assert np.all(np.sum(mesh.normals * mesh.positions, axis=1) > 0)
+
+
+@pytest.mark.parametrize("old, new, message", [
+    ("radiance = [10, 10, 10]", "radiance = [1e-200, 1, 1]",
+     "lights[0].radiance: 1e-200 is below float32's smallest normal number (1.2e-38): every renderer would compute 0"),
+    ("size = [0.5, 0.5]\nnormal = [0, -1, 0]\nradiance = [10, 10, 10]",
+     "size = [100, 100]\nnormal = [0, -1, 0]\npower = [1e-37, 1e-37, 1e-37]",
+     "lights[0].power: gives a radiance of which 3.1831e-42 is below float32's smallest normal number (1.2e-38): "
+     "every renderer would compute 0"),
+    ('size = [2, 2]', 'size = [2, 2]\nscale = 1e39',
+     "meshes[0].scale: 1e+39 is beyond float32's range (3.4e38): every renderer would compute infinity"),
+    ('size = [2, 2]', 'size = [1e10, 1e10]\nscale = 1e10',
+     "meshes[0]: its vertices reach 5e+19, beyond ±1e+15: the renderers compute in float32, where squared "
+     "distances of such coordinates overflow"),
+    ("center = [0, 1, 0]", "center = [0, 1e16, 0]",
+     "lights[0].center: the light reaches 1e+16, beyond ±1e+15: the renderers compute in float32, where squared "
+     "distances of such coordinates overflow"),
+    ("position = [0, 1, 3]", "position = [0, 1, 3e20]",
+     "camera.position: 3e+20 is beyond ±1e+15: the renderers compute in float32, where squared distances of such "
+     "coordinates overflow"),
+])
+def test_numbers_float32_cannot_carry_are_refused(tmp_path, old, new, message):
+    """Finite in float64 but zero or infinite in float32 (which every renderer computes in): before, such
+    scenes rendered black without a word."""
+    assert old in GOOD
+    path = write(tmp_path, GOOD.replace(old, new))
+    with pytest.raises(SceneError) as exc:
+        load_scene(path)
+    assert str(exc.value) == f"{path}: {message}"
