@@ -200,6 +200,12 @@ def read_hdr(path: str | Path) -> np.ndarray:
         raise ImageError(f"{path}: unsupported resolution line {data[pos:end][:40]!r} (only '-Y H +X W')")
     h, w = int(m.group(1)), int(m.group(2))
     pos = end + 1
+    # Each row is at least 4 bytes (an RLE header) and each channel's run covers at most 127 pixels in
+    # 2 bytes, so a header claiming more pixels than that is corrupt: refuse it before allocating.
+    room = len(data) - pos
+    if h < 1 or w < 1 or 4 * h + h * 4 * 2 * math.ceil(w / 127) > room:
+        raise ImageError(f"{path}: the header claims {w}×{h} pixels, more than the file's {room} bytes of pixel "
+                         "data can hold (corrupt or truncated)")
     buf = np.frombuffer(data, dtype=np.uint8)
     out = np.empty((h, w, 4), dtype=np.uint8)
     try:

@@ -137,6 +137,12 @@ def test_hdr_errors_name_the_file(tmp_path):
     flipped.write_bytes(b"#?RADIANCE\n\n+Y 2 +X 2\n" + bytes(16))
     with pytest.raises(ImageError, match="flipped.hdr: unsupported resolution line"):
         read_hdr(flipped)
+    huge = tmp_path / "huge.hdr"  # a header claiming terabytes: refused before anything is allocated
+    huge.write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 2000000000 +X 2000000000\n" + bytes(64))
+    with pytest.raises(ImageError) as exc:
+        read_hdr(huge)
+    assert str(exc.value) == (f"{huge}: the header claims 2000000000×2000000000 pixels, more than the file's 64 "
+                              "bytes of pixel data can hold (corrupt or truncated)")
 
 
 # ----------------------------------------------------------------------------- procedural maps

@@ -602,3 +602,22 @@ def test_first_frame_scale_is_validated(gl_ctx, scale):
     s = load_scene(CORNELL).with_resolution(8, 6)
     with pytest.raises(ValueError, match="first_frame_scale"):
         ProgressiveRenderer(s, frames=2, ctx=gl_ctx, first_frame_scale=scale)
+
+
+@pytest.mark.gl
+def test_image_sizes_beyond_the_context_are_refused_up_front(gl_ctx, monkeypatch):
+    """Before any GL object is made: a side beyond GL_MAX_TEXTURE_SIZE, or targets beyond the machine's
+    memory, is one error naming the scene file and the limit (before: a moderngl traceback)."""
+    from compare.errors import SceneError
+    from compare.progressive import context
+
+    limit = int(gl_ctx.info["GL_MAX_TEXTURE_SIZE"])
+    scene = load_scene(CORNELL).with_resolution(limit + 1, 8)
+    with pytest.raises(SceneError) as exc:
+        ProgressiveRenderer(scene, frames=2, ctx=gl_ctx)
+    assert str(exc.value).startswith(f"{CORNELL}: camera.resolution: {limit + 1}x8 is larger than this OpenGL "
+                                     f"context's largest texture, {limit} pixels a side (GL_MAX_TEXTURE_SIZE of ")
+    monkeypatch.setattr(context, "BYTES_PER_PIXEL", 2**50)  # as if the targets were vast
+    with pytest.raises(SceneError, match=r"camera.resolution: 16x12 needs about \d+ GiB of render targets, more "
+                                         r"than this machine's \d+ GiB of memory"):
+        ProgressiveRenderer(load_scene(CORNELL).with_resolution(16, 12), frames=2, ctx=gl_ctx)

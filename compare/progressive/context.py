@@ -64,3 +64,31 @@ def gl_renderer_name(ctx) -> str:
     """Human-readable driver name, e.g. ``llvmpipe (LLVM 15.0.6, 256 bits)``."""
     info = ctx.info
     return f"{info.get('GL_RENDERER', 'unknown')} ({info.get('GL_VERSION', '?')})"
+
+
+#: About how many bytes of GPU memory the rasterizer's full-size targets take per pixel: the
+#: G-buffer, the running means, the partial sums, the composite and the readback, each RGBA32F.
+BYTES_PER_PIXEL = 16 * 16
+
+
+def check_image_size(ctx, size: tuple[int, int], what: str) -> None:
+    """Raise SceneError naming ``what`` (the scene file) and the limit when an image of ``size``
+    (width, height) cannot be rendered in ``ctx``: a side beyond GL_MAX_TEXTURE_SIZE, or targets
+    beyond the machine's memory (a software rasterizer's GPU memory is the system's)."""
+    import os
+
+    from ..errors import SceneError
+
+    w, h = size
+    limit = int(ctx.info.get("GL_MAX_TEXTURE_SIZE", 0) or 0)
+    if limit and max(w, h) > limit:
+        raise SceneError(f"{what}: camera.resolution: {w}x{h} is larger than this OpenGL context's largest "
+                         f"texture, {limit} pixels a side (GL_MAX_TEXTURE_SIZE of {gl_renderer_name(ctx)})")
+    need = w * h * BYTES_PER_PIXEL
+    try:
+        total = os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):  # not on every system
+        total = 0
+    if total and need > total:
+        raise SceneError(f"{what}: camera.resolution: {w}x{h} needs about {need / 2**30:.0f} GiB of render "
+                         f"targets, more than this machine's {total / 2**30:.0f} GiB of memory")

@@ -67,7 +67,7 @@ import numpy as np
 
 from .. import __version__
 from .accumulate import AccumulatePass, ComposePass, PingPong, Target
-from .context import create_context, gl_renderer_name
+from .context import check_image_size, create_context, gl_renderer_name
 from .direct import AREA_MODELS, MATERIAL_MODES, DirectPass
 from .environment import (ENV_DIFFUSE, MAX_SAMPLES_PER_FRAME, EnvironmentLighting, EnvOcclusionPass,
                           EnvOcclusionTargets)
@@ -267,6 +267,7 @@ class ProgressiveRenderer:
         self.size = size
         self._objects: list = []
         try:
+            check_image_size(ctx, size, str(scene.path))
             self.camera = CameraSetup(scene)
             self.gpu_scene = self._keep(GpuScene(ctx, scene))
             self.gbuffer = self._keep(GBuffer(ctx, self.gpu_scene, size))
