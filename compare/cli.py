@@ -140,6 +140,10 @@ def cmd_diff(args: argparse.Namespace) -> int:
     from .exr import read_exr
     from .metrics import compare_images, error_maps, save_error_maps
 
+    if args.maps:
+        from .fsutil import check_output_folder
+
+        check_output_folder("--maps", args.maps)
     ref, _ = read_exr(args.reference)
     test, _ = read_exr(args.test)
     metrics = compare_images(ref, test, exposure=args.exposure, operator=args.tonemap)

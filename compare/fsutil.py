@@ -72,13 +72,30 @@ def check_outputs(outputs: dict[str, str | os.PathLike], inputs=(), suffixes: di
             if same(path, other):
                 raise OutputError(f"{option} {path}: is also the output of {opt}; choose two paths")
         seen[path] = option
-        folder = path.parent if str(path.parent) else Path(".")
-        while not folder.exists() and folder != folder.parent:
-            folder = folder.parent
-        if not folder.is_dir():
-            raise OutputError(f"{option} {path}: cannot be created, {folder} is a file, not a folder")
-        if not os.access(folder, os.W_OK | os.X_OK):
-            raise OutputError(f"{option} {path}: cannot write in {folder} (permission denied)")
+        _check_writable_below(option, path, path.parent if str(path.parent) else Path("."))
+
+
+def check_output_folder(option: str, path: str | os.PathLike) -> None:
+    """Refuse an output folder, before any work, that is a file or cannot be created or written
+    (:class:`~compare.errors.OutputError` naming the option and the path)."""
+    from .errors import OutputError
+
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise OutputError(f"{option} {path}: is a file, not a folder")
+    _check_writable_below(option, path, path)
+
+
+def _check_writable_below(option: str, path: Path, folder: Path) -> None:
+    """``folder`` (or its nearest existing ancestor, as parents are created) is a writable folder."""
+    from .errors import OutputError
+
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    if not folder.is_dir():
+        raise OutputError(f"{option} {path}: cannot be created, {folder} is a file, not a folder")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise OutputError(f"{option} {path}: cannot write in {folder} (permission denied)")
 
 
 def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> None:

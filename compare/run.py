@@ -70,7 +70,7 @@ from tqdm.auto import tqdm
 from . import __version__
 from .errors import CompareError, ImageError
 from .exr import read_exr, write_exr
-from .fsutil import sha256_bytes, write_text_atomic
+from .fsutil import check_output_folder, sha256_bytes, write_text_atomic
 from .results import (
     Environment,
     NoiseFloor,
@@ -709,6 +709,7 @@ def run(scene_paths: Iterable[str | os.PathLike], out: str | os.PathLike, settin
         if not ok:
             raise MissingComponentError(f"renderers {', '.join(blender)} need Blender's bpy: {why}")
     out = Path(out)
+    check_output_folder("-o", out)
     paths = [Path(p) for p in scene_paths]
     if not paths:
         raise ValueError("no scene given")

@@ -157,3 +157,26 @@ def test_render_refuses_to_overwrite_a_file_the_scene_reads(tmp_path, capsys):
     assert capsys.readouterr().err.strip() == (f"compare: error: -o {env}: is an input of this command ({env}); "
                                                "choose another path")
     assert env.read_bytes() == before
+
+
+@pytest.mark.parametrize("command", ["run", "report", "diff"])
+@pytest.mark.parametrize("where", ["a file", "below a file"])
+def test_output_folders_that_are_files_are_refused_before_any_work(tmp_path, capsys, monkeypatch, command, where):
+    """``compare run -o``, ``compare report -o`` and ``compare diff --maps`` onto a file (or below one):
+    one error line naming the option and the path, the file untouched (before: a Python traceback)."""
+    monkeypatch.setenv("COMPARE_CACHE", str(tmp_path / "cache"))
+    blocker = tmp_path / "afile"
+    blocker.write_bytes(b"keep")
+    out = blocker if where == "a file" else blocker / "sub"
+    exr = tmp_path / "a.exr"
+    write_exr(exr, np.ones((12, 12, 3), np.float32))
+    results = tmp_path / "results.json"
+    results.write_text("{}")
+    option = "--maps" if command == "diff" else "-o"
+    argv = {"run": ["run", "--scenes", CORNELL, "--size", "16x12", "--frames", "2", "--spp", "2", "-o", str(out)],
+            "report": ["report", str(results), "-o", str(out)],
+            "diff": ["diff", str(exr), str(exr), "--maps", str(out)]}[command]
+    assert main(argv) == 2
+    why = "is a file, not a folder" if where == "a file" else f"cannot be created, {blocker} is a file, not a folder"
+    assert capsys.readouterr().err.strip() == f"compare: error: {option} {out}: {why}"
+    assert blocker.read_bytes() == b"keep" and not (tmp_path / "cache").exists()

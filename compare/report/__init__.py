@@ -447,9 +447,12 @@ def add_report_parser(subparsers) -> argparse.ArgumentParser:
 
 def cmd_report(args: argparse.Namespace) -> int:
     """``compare report``; returns the exit status."""
-    results = Results.load(args.results)
+    from ..fsutil import check_output_folder
+
     src = args.results.parent
     out = args.output or src
+    check_output_folder("-o", out)
+    results = Results.load(args.results)
     index = build_report(results, out, source_dir=src, plot_format=args.plot_format)
     print(f"{index}")
     return 0
