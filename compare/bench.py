@@ -29,7 +29,7 @@ absolute times are printed for context only. How to read each figure:
     direct-light-only reference, ``equal-error-full-ltc-probes`` for ``ltc`` with the
     irradiance probes against the full reference.
 ``area-model-ltc``, ``area-model-paper``
-    median of the mean frame time with the ``ltc`` (exact unshadowed light, shadow ratio) or
+    median of the mean frame time with the ``ltc`` (closed-form unshadowed light, shadow ratio) or
     the paper's point-light area model ÷ the same with the radiometric default, runs
     alternating. > 1 means the model costs more per frame.
 ``frame-budget``

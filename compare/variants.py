@@ -6,7 +6,7 @@ gains against the same ground truth (an ablation):
 
 ``paper`` / ``radiometric`` / ``ltc``
     ``area_model``: the paper's isotropic point-light form, the
-    radiometric point-on-area form (the default), or the exact unshadowed
+    radiometric point-on-area form (the default), or the closed-form unshadowed
     light of linearly transformed cosines times a stochastic shadow ratio
     (:mod:`compare.progressive.ltc`).
 ``probes``
@@ -35,7 +35,7 @@ __all__ = ["OPTIONS", "describe", "renderer_options"]
 OPTIONS = {
     "paper": "the paper's point-light area model",
     "radiometric": "the radiometric point-on-area model (default)",
-    "ltc": "exact unshadowed area light (linearly transformed cosines) times a shadow ratio",
+    "ltc": "closed-form unshadowed area light (linearly transformed cosines) times a shadow ratio",
     "probes": "indirect diffuse light from an irradiance volume",
     "vsm": "variance shadow maps",
     "budget<ms>": "a per-frame time budget in milliseconds, e.g. budget16",

@@ -158,7 +158,7 @@ void ltc_light(vec3 x, vec3 n, vec3 v, vec3 base, float metallic, float roughnes
 // angle A cos_l / d^2), with the specular normalisation and albedo bound of
 // specular_mrp. Far cheaper than light_estimate (no spherical triangles, no
 // representative point); glossy highlights sit where the centre reflects.
-// With AREA_MODEL_LTC the preview is the exact unshadowed light (ltc.glsl) instead.
+// With AREA_MODEL_LTC the preview is the closed-form unshadowed light (ltc.glsl) instead.
 vec3 light_preview(vec3 x, vec3 n, vec3 v, vec3 base, float metallic, float roughness) {
 #if AREA_MODEL_LTC
     vec3 ltc_diffuse;

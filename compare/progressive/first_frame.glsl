@@ -13,7 +13,7 @@
 // A depth pre-pass runs first, so each pixel is shaded once.
 //
 // Defines: LIGHTS (number of area lights, 0 for none), ENVIRONMENT, AREA_MODEL_PAPER,
-// AREA_MODEL_LTC (the preview is then the exact unshadowed light, ltc.glsl), MATERIALS_DIFFUSE.
+// AREA_MODEL_LTC (the preview is then the closed-form unshadowed light, ltc.glsl), MATERIALS_DIFFUSE.
 
 #if defined VERTEX_SHADER
 

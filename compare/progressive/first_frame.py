@@ -76,7 +76,7 @@ class FirstFramePass:
 
     ``lut_texture`` is the direct pass's split-sum table (None with Lambert-only
     materials), ``ltc_table`` the LTC table of the ``ltc`` area model (its preview is the
-    exact unshadowed light, :mod:`compare.progressive.ltc`); ``environment`` an
+    closed-form unshadowed light, :mod:`compare.progressive.ltc`); ``environment`` an
     :class:`~compare.progressive.environment.EnvironmentLighting` or None.
     ``scale`` in (0, 1]: 1 draws frame 0 at full size into the every-frame mean's
     next target; below 1 at that fraction of each axis into :attr:`targets`, a

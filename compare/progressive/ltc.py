@@ -1,4 +1,4 @@
-"""The ``ltc`` area model: exact unshadowed area light times a stochastic shadow ratio.
+"""The ``ltc`` area model: closed-form unshadowed area light times a stochastic shadow ratio.
 
 Heitz, Dupuy, Hill & Neubelt (2016) give the unshadowed light of a polygon in
 closed form: Lambert's form factor for the diffuse lobe, and for the GGX lobe

@@ -129,7 +129,7 @@ class ProgressiveRenderer:
         Selects the jitter and light-sample offsets; a fixed seed gives the same image.
     area_model : {"radiometric", "paper", "ltc"}, keyword-only
         Light-sample contribution; see :mod:`compare.progressive.direct`; ``"ltc"``:
-        the exact unshadowed light times a shadow ratio (:mod:`compare.progressive.ltc`).
+        the closed-form unshadowed light times a shadow ratio (:mod:`compare.progressive.ltc`).
     materials : {"shared", "diffuse"}, keyword-only
         The shared glTF BRDF, or Lambert only (for closed-form validation; same
         meaning as in :mod:`compare.mitsuba_dict`).
@@ -332,7 +332,7 @@ class ProgressiveRenderer:
                     materials=materials, lut_texture=self.direct.lut_texture if self.direct is not None else None,
                     ltc_table=self.ltc_table, scale=float(scale)))
             # A reduced frame 0 is a preview only: frame 1 draws the full-size one from its G-buffer
-            # (with ltc every G-buffer frame has the exact unshadowed light: no preview).
+            # (with ltc every G-buffer frame has the closed-form unshadowed light: no preview).
             if (has_lights and self.ltc is None and (self.first is None or self._reduced_first)
                     and any(fp.preview for fp in self.plan)):
                 self.preview = self._keep(Target(ctx, size))
