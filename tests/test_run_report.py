@@ -549,3 +549,24 @@ def test_a_ground_truth_that_tone_maps_to_black_gives_no_ldr_scores(tmp_path):
             assert point.metrics["ldr_range"] == 0.0 and point.metrics["relmse"] >= 0
     html = (tmp_path / "out" / "index.html").read_text(encoding="utf-8")
     assert "FLIP 0 " not in html and "SSIM 1 " not in html
+
+
+def test_report_copy_refuses_to_replace_another_runs_results(tmp_path, capsys):
+    """``compare report A -o B`` where B holds another run's results: one error line, B untouched, unless
+    ``--fresh``; copying the same results again is fine (before: B's results were replaced silently)."""
+    from compare.cli import main
+
+    synthetic_report(tmp_path / "a", [CORNELL], frames=4)
+    synthetic_report(tmp_path / "b", [CORNELL], frames=8)
+    copy = tmp_path / "copy"
+    assert main(["report", str(tmp_path / "a" / "results.json"), "-o", str(copy)]) == 0
+    assert main(["report", str(tmp_path / "a" / "results.json"), "-o", str(copy)]) == 0  # the same results
+    held = (copy / "results.json").read_bytes()
+    capsys.readouterr()
+    assert main(["report", str(tmp_path / "b" / "results.json"), "-o", str(copy)]) == 2
+    assert capsys.readouterr().err.strip() == (f"compare: error: -o {copy}: holds the results of another run "
+                                               f"({copy / 'results.json'}); choose another folder, or --fresh to "
+                                               "replace them")
+    assert (copy / "results.json").read_bytes() == held
+    assert main(["report", str(tmp_path / "b" / "results.json"), "-o", str(copy), "--fresh"]) == 0
+    assert Results.load(copy / "results.json").settings.frames == 8

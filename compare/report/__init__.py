@@ -56,7 +56,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import CompareError
+from ..errors import CompareError, OutputError
 from ..fsutil import write_text_atomic
 from ..results import Results, SceneResult, metric_value
 
@@ -441,8 +441,18 @@ def add_report_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", type=Path, default=None,
                    help="report folder; default: the folder of results.json (images are copied when different)")
     p.add_argument("--plot-format", choices=["png", "svg"], default="png", help="figure format")
+    p.add_argument("--fresh", action="store_true",
+                   help="replace the results of another run that the -o folder holds (refused otherwise)")
     p.set_defaults(func=cmd_report)
     return p
+
+
+def _same_results(path: Path, results: Results) -> bool:
+    """Whether ``path`` holds ``results`` (as a report copy writes them); unreadable counts as other."""
+    try:
+        return Results.load(path).to_json() == results.to_json()
+    except (CompareError, ValueError, OSError):
+        return False
 
 
 def cmd_report(args: argparse.Namespace) -> int:
@@ -453,6 +463,10 @@ def cmd_report(args: argparse.Namespace) -> int:
     out = args.output or src
     check_output_folder("-o", out)
     results = Results.load(args.results)
+    held = Path(out) / "results.json"
+    if not args.fresh and held.is_file() and Path(out).resolve() != src.resolve() and not _same_results(held, results):
+        raise OutputError(f"-o {out}: holds the results of another run ({held}); choose another folder, or "
+                          "--fresh to replace them")
     index = build_report(results, out, source_dir=src, plot_format=args.plot_format)
     print(f"{index}")
     return 0
