@@ -27,6 +27,17 @@ def parse_size(text: str) -> tuple[int, int]:
     return w, h
 
 
+def positive_float(text: str) -> float:
+    """argparse type: a positive finite number (refused before any work, not after it)."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}") from None
+    if not (v > 0 and v < float("inf")):
+        raise argparse.ArgumentTypeError(f"expected a positive finite number, got {text!r}")
+    return v
+
+
 def positive_int(text: str) -> int:
     """argparse type: a positive integer."""
     try:
@@ -73,7 +84,7 @@ def _build_parser() -> argparse.ArgumentParser:
     r.add_argument("--variant", default=None, help="Mitsuba variant (default: best available)")
     r.add_argument("--no-cache", action="store_true", help="do not read or write the reference cache")
     r.add_argument("--png", type=Path, default=None, help="PNG preview path (default: beside the EXR)")
-    r.add_argument("--exposure", type=float, default=1.0, help="exposure multiplier for the PNG preview")
+    r.add_argument("--exposure", type=positive_float, default=1.0, help="exposure multiplier for the PNG preview")
     r.add_argument("--tonemap", default="aces", help="tone-mapping operator for the PNG preview")
     r.add_argument("-o", "--output", required=True, type=Path, help="output EXR path")
     r.set_defaults(func=cmd_render)
@@ -83,7 +94,8 @@ def _build_parser() -> argparse.ArgumentParser:
     d.add_argument("reference", type=Path, help="reference EXR")
     d.add_argument("test", type=Path, help="test EXR")
     d.add_argument("--maps", type=Path, default=None, help="write error maps (PNG) into this folder")
-    d.add_argument("--exposure", type=float, default=1.0, help="exposure before tone mapping (SSIM, LDR-FLIP)")
+    d.add_argument("--exposure", type=positive_float, default=1.0,
+                   help="exposure before tone mapping (SSIM, LDR-FLIP)")
     d.add_argument("--tonemap", default="aces", help="tone-mapping operator for LDR metrics")
     d.add_argument("--json", action="store_true", help="print JSON instead of a table")
     d.set_defaults(func=cmd_diff)

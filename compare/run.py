@@ -794,13 +794,9 @@ def _positive(text: str) -> int:
 
 
 def _positive_float(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}") from None
-    if not (v > 0 and v < float("inf")):
-        raise argparse.ArgumentTypeError(f"expected a positive finite number, got {text!r}")
-    return v
+    from .cli import positive_float
+
+    return positive_float(text)
 
 
 def add_run_parser(subparsers) -> argparse.ArgumentParser:

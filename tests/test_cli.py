@@ -180,3 +180,20 @@ def test_output_folders_that_are_files_are_refused_before_any_work(tmp_path, cap
     why = "is a file, not a folder" if where == "a file" else f"cannot be created, {blocker} is a file, not a folder"
     assert capsys.readouterr().err.strip() == f"compare: error: {option} {out}: {why}"
     assert blocker.read_bytes() == b"keep" and not (tmp_path / "cache").exists()
+
+
+@pytest.mark.parametrize("command", ["render", "diff"])
+@pytest.mark.parametrize("value", ["0", "-1", "nan", "inf"])
+def test_a_bad_exposure_is_refused_before_any_work(tmp_path, capsys, command, value):
+    """Before: ``compare render --exposure 0`` rendered, wrote the EXR, then ended in a traceback."""
+    out = tmp_path / "x.exr"
+    exr = tmp_path / "a.exr"
+    write_exr(exr, np.ones((12, 12, 3), np.float32))
+    argv = (["render", "--scene", CORNELL, "--size", "16x12", "--spp", "2", "-o", str(out)] if command == "render"
+            else ["diff", str(exr), str(exr)])
+    with pytest.raises(SystemExit) as exc:
+        main(argv + ["--exposure", value])
+    assert exc.value.code == 2
+    assert capsys.readouterr().err.strip().endswith(
+        f"compare {command}: error: argument --exposure: expected a positive finite number, got '{value}'")
+    assert not out.exists()
