@@ -32,6 +32,9 @@ def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[
     tmp_path = Path(tmp)
     try:
         yield tmp_path
+        # mkstemp makes the file private (0600); a finished output gets the permissions any new file
+        # gets here (0666 less the umask), so that reports and images can be shared.
+        os.chmod(tmp_path, 0o666 & ~_umask())
         os.replace(tmp_path, path)
     except BaseException:
         with contextlib.suppress(FileNotFoundError):
@@ -96,6 +99,13 @@ def _check_writable_below(option: str, path: Path, folder: Path) -> None:
         raise OutputError(f"{option} {path}: cannot be created, {folder} is a file, not a folder")
     if not os.access(folder, os.W_OK | os.X_OK):
         raise OutputError(f"{option} {path}: cannot write in {folder} (permission denied)")
+
+
+def _umask() -> int:
+    """The process's umask (read by setting it, the only way POSIX offers, and restoring it)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
 
 
 def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> None:

@@ -219,3 +219,25 @@ def test_integer_channels_refused(tmp_path):
     OpenEXR.File({}, {"R": u, "G": u, "B": u}).write(str(p))
     with pytest.raises(ImageError, match="integer pixel type"):
         read_exr(p)
+
+
+def test_written_files_get_the_usual_permissions(tmp_path, image):
+    """Atomic writes go through a private temporary file; the finished file is not left 0600 but gets
+    what any new file gets (0666 less the umask), so outputs and reports can be shared."""
+    import os
+
+    from compare.fsutil import write_text_atomic
+    from compare.tonemap import write_png
+
+    old = os.umask(0o022)
+    try:
+        write_exr(tmp_path / "a.exr", image)
+        write_png(tmp_path / "a.png", image)
+        write_text_atomic(tmp_path / "a.json", "{}")
+        os.umask(0o077)
+        write_text_atomic(tmp_path / "private.json", "{}")
+    finally:
+        os.umask(old)
+    for name in ("a.exr", "a.png", "a.json"):
+        assert (tmp_path / name).stat().st_mode & 0o777 == 0o644, name
+    assert (tmp_path / "private.json").stat().st_mode & 0o777 == 0o600  # a stricter umask is kept

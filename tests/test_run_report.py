@@ -570,3 +570,31 @@ def test_report_copy_refuses_to_replace_another_runs_results(tmp_path, capsys):
     assert (copy / "results.json").read_bytes() == held
     assert main(["report", str(tmp_path / "b" / "results.json"), "-o", str(copy), "--fresh"]) == 0
     assert Results.load(copy / "results.json").settings.frames == 8
+
+
+def test_report_copy_follows_no_symlink(tmp_path, capsys):
+    """An image of the results folder that links outside it is refused, not copied; a link in the
+    target folder is replaced, never written through."""
+    from compare.cli import main
+
+    synthetic_report(tmp_path / "a", [CORNELL], frames=4)
+    res = Results.load(tmp_path / "a" / "results.json")
+    rel = res.scenes[0].runs[-1].final.image
+    secret = tmp_path / "secret.exr"
+    secret.write_bytes((tmp_path / "a" / rel).read_bytes())
+    victim = tmp_path / "victim.txt"
+    victim.write_text("keep")
+    # a link in the target folder where the copy's image will go: replaced, the victim untouched
+    copy = tmp_path / "copy"
+    (copy / rel).parent.mkdir(parents=True)
+    (copy / rel).symlink_to(victim)
+    assert main(["report", str(tmp_path / "a" / "results.json"), "-o", str(copy)]) == 0
+    assert victim.read_text() == "keep" and not (copy / rel).is_symlink()
+    # an image of the source that links outside it
+    (tmp_path / "a" / rel).unlink()
+    (tmp_path / "a" / rel).symlink_to(secret)
+    capsys.readouterr()
+    assert main(["report", str(tmp_path / "a" / "results.json"), "-o", str(tmp_path / "other")]) == 2
+    assert capsys.readouterr().err.strip() == (
+        f"compare: error: {tmp_path / 'a' / rel}: links to {secret}, outside the results folder {tmp_path / 'a'}: "
+        "a report copies only what its run wrote")

@@ -386,12 +386,18 @@ def build_report(results: Results, out_dir: str | os.PathLike, *, source_dir: st
     out = Path(out_dir)
     src = Path(source_dir) if source_dir is not None else out
     out.mkdir(parents=True, exist_ok=True)
+    root = src.resolve()
     for rel in _referenced(results):
         a, b = src / _safe_rel(rel), out / _safe_rel(rel)
         if not a.is_file():
             raise ReportError(f"{a}: named in results.json but missing; rerun `compare run` to recreate it")
+        if not a.resolve().is_relative_to(root):
+            raise ReportError(f"{a}: links to {a.resolve()}, outside the results folder {src}: a report copies "
+                              "only what its run wrote")
         if a.resolve() != b.resolve():
             b.parent.mkdir(parents=True, exist_ok=True)
+            if b.is_symlink():  # replace a link in the report folder, never write through it
+                b.unlink()
             shutil.copy2(a, b)
 
     static = out / "static"
