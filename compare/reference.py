@@ -18,6 +18,7 @@ from __future__ import annotations
 import json
 import os
 import time
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterator
@@ -175,11 +176,9 @@ class ReferenceRenderer:
         """
         path = self._chunk_path(spp, seed)
         if path is not None and path.is_file():
-            try:
-                image, meta = read_exr(path)
-                return image, float(meta["seconds"])
-            except (ImageError, KeyError, ValueError):
-                path.unlink(missing_ok=True)  # unreadable cache entry: render it again
+            cached = self._verified_entry(path, spp, seed)
+            if cached is not None:
+                return cached
         scene = self.mi_scene
         self._warm_up()
         t0 = time.perf_counter()
@@ -188,8 +187,31 @@ class ReferenceRenderer:
         _check_render(image, spp, seed)
         if path is not None:
             write_exr(path, image, metadata={"renderer": "mitsuba", **_flat(self.settings()), "spp": int(spp),
-                                             "seed": int(seed), "seconds": seconds, "package": __version__})
+                                             "seed": int(seed), "seconds": seconds, "package": __version__,
+                                             "pixels_sha256": _pixels_hash(image)})
         return image, seconds
+
+    def _verified_entry(self, path: Path, spp: int, seed: int) -> tuple[np.ndarray, float] | None:
+        """A cache entry's (image, seconds) when it is what its key says; else None, the entry removed
+        and a warning given (it is rendered again: never used, never left to fail every rerun)."""
+        cam = self.scene.camera
+        try:
+            image, meta = read_exr(path)
+            want = {**_flat(self.settings()), "spp": int(spp), "seed": int(seed)}
+            wrong = sorted(k for k, v in want.items() if meta.get(k) != v)
+            if wrong:
+                why = f"made with other {', '.join(wrong)}"
+            elif image.shape != (cam.height, cam.width, 3):
+                why = f"{image.shape[1]}x{image.shape[0]} pixels instead of {cam.width}x{cam.height}"
+            elif meta.get("pixels_sha256") != _pixels_hash(image):
+                why = "its pixels do not match the checksum it was written with"
+            else:
+                return image, float(meta["seconds"])
+        except (ImageError, KeyError, ValueError) as exc:
+            why = f"unreadable ({exc})"
+        warnings.warn(f"reference cache: discarded {path} ({why}); rendering that pass again", stacklevel=3)
+        path.unlink(missing_ok=True)
+        return None
 
     def _pass_chunks(self, seed: int, index: int, spp: int) -> Iterator[tuple[int, int]]:
         """(chunk spp, chunk seed) for pass ``index`` of ``spp`` samples."""
@@ -265,6 +287,11 @@ class ReferenceRenderer:
         metrics["mse_full_estimate"] = metrics["mse"] / 4.0
         metrics["spp_each"] = half
         return metrics
+
+
+def _pixels_hash(image: np.ndarray) -> str:
+    """Checksum of a pass's float32 pixels, written into its cache entry and checked on read."""
+    return sha256_bytes(np.ascontiguousarray(image, dtype=np.float32).tobytes())
 
 
 def _flat(d: dict) -> dict:

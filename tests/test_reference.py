@@ -169,3 +169,46 @@ def test_cornell_renders_finite_and_plausible():
     left, right = img[8:16, 6:8].mean((0, 1)), img[8:16, 24:26].mean((0, 1))
     assert left[0] > 5 * left[1], "red wall on the left"
     assert right[1] > 1.5 * right[0], "green wall on the right"
+
+
+@pytest.mark.parametrize("tamper", ["another seed", "zeros", "wrong size", "nan", "garbage", "no checksum"])
+def test_a_bad_cache_entry_is_discarded_reported_and_rendered_again(tmp_path, tamper):
+    """A cache entry that is not what its key says (another seed's pass, zeroed pixels with the right
+    header, another size, NaN, not an EXR, an entry without its checksum) is never used: it is removed,
+    a warning names it, the pass is rendered again, and the next run reads the good entry silently."""
+    import warnings
+
+    from compare.exr import read_exr, write_exr
+    from compare.scene import load_scene
+
+    scene = load_scene(Path(__file__).resolve().parent.parent / "scenes" / "cornell.toml").with_resolution(16, 12)
+    r = ReferenceRenderer(scene, cache_dir=tmp_path, progress=False)
+    good, _ = r.render_chunk(4, 0)
+    path = r._chunk_path(4, 0)
+    image, meta = read_exr(path)
+    if tamper == "another seed":
+        other, _ = r.render_chunk(4, 1)
+        write_exr(path, other, metadata=read_exr(r._chunk_path(4, 1))[1])
+    elif tamper == "zeros":
+        write_exr(path, np.zeros_like(image), metadata=meta)
+    elif tamper == "wrong size":
+        write_exr(path, image[:6], metadata=meta)
+    elif tamper == "nan":
+        bad = image.copy()  # write_exr refuses NaN: write the file with OpenEXR itself
+        bad[0, 0, 0] = np.nan
+        import OpenEXR
+
+        OpenEXR.File({k: v for k, v in meta.items() if isinstance(v, (int, float, str))},
+                     {"RGB": bad.astype(np.float32)}).write(str(path))
+    elif tamper == "garbage":
+        path.write_bytes(b"not an exr")
+    else:
+        write_exr(path, image, metadata={k: v for k, v in meta.items() if k != "pixels_sha256"})
+    fresh = ReferenceRenderer(scene, cache_dir=tmp_path, progress=False)
+    with pytest.warns(UserWarning, match=r"reference cache: discarded .*rendering that pass again"):
+        again, _ = fresh.render_chunk(4, 0)
+    np.testing.assert_array_equal(again, good)  # the right pass, rendered again (Mitsuba is deterministic)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        np.testing.assert_array_equal(ReferenceRenderer(scene, cache_dir=tmp_path, progress=False)
+                                      .render_chunk(4, 0)[0], good)
