@@ -231,10 +231,11 @@ def check(results: Results | str | os.PathLike, thresholds: str | os.PathLike | 
 
 def _why_missing(name: str, point: Point) -> str:
     """Why a metric has no value: a degenerate ground truth (compare.metrics), or absent."""
-    from .metrics import LDR_DEGENERATE_RANGE
+    from .metrics import LDR_DEGENERATE_RANGE, LDR_METRICS
 
     spread = point.metrics.get("ldr_range")
-    if name in ("psnr", "ssim", "one_minus_ssim", "flip") and spread is not None and spread < LDR_DEGENERATE_RANGE:
+    ldr = name in LDR_METRICS or name == "one_minus_ssim"
+    if ldr and spread is not None and spread < LDR_DEGENERATE_RANGE:
         return (f"is undefined: the ground truth tone-maps to a constant (LDR range {spread:.3g} < 1/255: black, "
                 "saturated or flat) at this exposure, so there is nothing to compare")
     return "is not available (missing or null in results.json)"

@@ -309,7 +309,7 @@ def environment_file(env, cache_dir: str | Path | None = None) -> Path | None:
         return path
     from .fsutil import sha256_bytes
 
-    clamped = _cache_root(cache_dir) / "environments" / f"clamped-{sha256_bytes(path.read_bytes())[:24]}.exr"
+    clamped = _cache_root(cache_dir) / "environments" / f"clamped-{sha256_bytes(raw.tobytes())[:24]}.exr"
     if not clamped.is_file():
         from .exr import write_exr
 

@@ -33,9 +33,9 @@ class TriangleMesh:
         m = np.asarray(matrix, dtype=np.float64)
         p = self.positions.astype(np.float64) @ m[:3, :3].T + m[:3, 3]
         reach = float(np.max(np.abs(p))) if p.size else 0.0
-        if not reach <= WORLD_LIMIT:  # also NaN
-            raise MeshRangeError(f"its vertices reach {reach:.3g}, beyond ±{WORLD_LIMIT:g}: the renderers compute "
-                                 "in float32, where squared distances of such coordinates overflow")
+        problem = world_range_problem(reach)
+        if problem:
+            raise MeshRangeError(f"its vertices reach {problem}")
         nm = np.linalg.inv(m[:3, :3]).T
         n = self.normals.astype(np.float64) @ nm.T
         n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
@@ -171,6 +171,14 @@ class MeshFileError(ValueError):
 #: Largest world coordinate a mesh may reach: the renderers compute in float32, where squared
 #: distances (and products of them) of larger coordinates overflow (float32's maximum is 3.4e38).
 WORLD_LIMIT = 1e15
+
+
+def world_range_problem(reach: float) -> str | None:
+    """Why a coordinate of magnitude ``reach`` is out of :data:`WORLD_LIMIT` (None if it is not, NaN is)."""
+    if reach <= WORLD_LIMIT:
+        return None
+    return (f"{reach:.3g}, beyond ±{WORLD_LIMIT:g}: the renderers compute in float32, where squared distances "
+            "of such coordinates overflow")
 
 
 class MeshRangeError(ValueError):

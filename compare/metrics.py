@@ -427,6 +427,8 @@ def flip(
 #: A tone-mapped reference whose values spread less than one 8-bit step shows nothing to
 #: compare against (black, saturated or flat): its LDR metrics are undefined (None).
 LDR_DEGENERATE_RANGE = 1.0 / 255.0
+#: The metrics of the tone-mapped images (None for such a reference), as results.json names them.
+LDR_METRICS = ("psnr", "ssim", "flip")
 
 
 def compare_images(
@@ -476,7 +478,7 @@ def compare_images(
     out: dict[str, float | None] = {
         "mse": float(np.mean(np.square(t.astype(np.float64) - r.astype(np.float64)))),
         "relmse": float(np.mean(_relmse_terms(r, t, RELMSE_EPS))),
-        "psnr": None, "ssim": None, "flip": None,
+        **dict.fromkeys(LDR_METRICS),
         "ldr_range": ldr_range,
     }
     if ldr_range >= LDR_DEGENERATE_RANGE:

@@ -452,10 +452,9 @@ def _camera(ctx: _Ctx, raw: Any) -> Camera:
     pos = _vector(ctx, "camera.position", _require(ctx, "camera", t, "position"), 3)
     target = _vector(ctx, "camera.target", _require(ctx, "camera", t, "target"), 3)
     for field, v in (("position", pos), ("target", target)):
-        reach = max(abs(x) for x in v)
-        if reach > geometry.WORLD_LIMIT:
-            raise ctx.err(f"camera.{field}", f"{reach:g} is beyond ±{geometry.WORLD_LIMIT:g}: the renderers compute "
-                                             "in float32, where squared distances of such coordinates overflow")
+        problem = geometry.world_range_problem(max(abs(x) for x in v))
+        if problem:
+            raise ctx.err(f"camera.{field}", f"reaches {problem}")
     if np.linalg.norm(np.subtract(target, pos)) < 1e-12:
         raise ctx.err("camera.target", "must differ from camera.position")
     up = tuple(_unit(ctx, "camera.up", t.get("up", [0, 1, 0])))
@@ -589,11 +588,9 @@ def _light(ctx: _Ctx, k: int, raw: Any) -> AreaLight:
         problem = _float32_problem(r)
         if problem:
             raise ctx.err(f"{w}.power", f"gives a radiance of which {problem}")
-    reach = float(np.max(np.abs(center)) + max(size))
-    if reach > geometry.WORLD_LIMIT:
-        raise ctx.err(f"{w}.center", f"the light reaches {reach:.3g}, beyond ±{geometry.WORLD_LIMIT:g}: the "
-                                     "renderers compute in float32, where squared distances of such coordinates "
-                                     "overflow")
+    problem = geometry.world_range_problem(float(np.max(np.abs(center)) + max(size)))
+    if problem:
+        raise ctx.err(f"{w}.center", f"the light reaches {problem}")
     name = t.get("name", f"light{k}")
     if not isinstance(name, str):
         raise ctx.err(f"{w}.name", f"expected a string, got {_fmt(name)}")

@@ -263,8 +263,8 @@ def test_primitives_are_closed_and_sized():
      "lights[0].center: the light reaches 1e+16, beyond ±1e+15: the renderers compute in float32, where squared "
      "distances of such coordinates overflow"),
     ("position = [0, 1, 3]", "position = [0, 1, 3e20]",
-     "camera.position: 3e+20 is beyond ±1e+15: the renderers compute in float32, where squared distances of such "
-     "coordinates overflow"),
+     "camera.position: reaches 3e+20, beyond ±1e+15: the renderers compute in float32, where squared distances of "
+     "such coordinates overflow"),
 ])
 def test_numbers_float32_cannot_carry_are_refused(tmp_path, old, new, message):
     """Finite in float64 but zero or infinite in float32 (which every renderer computes in): before, such

@@ -114,21 +114,34 @@ float point_solid_angle(float d2, float cos_l) {
 #endif
 }
 
+// Whether the light can reach the viewer through x at all: x in front of the one-sided
+// emitter, and the one-sided BRDF seen from its front (n.v > 0).
+bool light_reaches(vec3 x, vec3 n, vec3 v) {
+    return dot(x - u_light_center, u_light_n) > 0.0 && dot(n, v) > 0.0;
+}
+
+// Direction l from x to the light point y, squared distance d2, and the cosines at the
+// surface (n.l) and at the emitter (-n_l.l).
+void sample_direction(vec3 x, vec3 n, vec3 y, out vec3 l, out float d2, out float cos_s, out float cos_l) {
+    vec3 to_y = y - x;
+    d2 = max(dot(to_y, to_y), 1e-12);
+    l = to_y * inversesqrt(d2);
+    cos_s = dot(n, l);
+    cos_l = -dot(u_light_n, l);
+}
+
 // The unshadowed single-sample estimate of the light's direct light at x (normal n,
 // towards the viewer v) through the sample point y: diffuse through y, specular
 // through the representative point (see the notes at the top of direct.glsl).
 vec3 light_estimate(vec3 x, vec3 n, vec3 v, vec3 y, vec3 base, float metallic, float roughness) {
-    if (dot(x - u_light_center, u_light_n) <= 0.0) {
-        return vec3(0.0);  // behind the one-sided emitter
+    if (!light_reaches(x, n, v)) {
+        return vec3(0.0);
     }
-    if (dot(n, v) <= 0.0) {
-        return vec3(0.0);  // one-sided BRDF seen from behind
-    }
-    vec3 to_y = y - x;
-    float d2 = max(dot(to_y, to_y), 1e-12);
-    vec3 l = to_y * inversesqrt(d2);
-    float cos_s = dot(n, l);
-    float cos_l = -dot(u_light_n, l);
+    vec3 l;
+    float d2;
+    float cos_s;
+    float cos_l;
+    sample_direction(x, n, y, l, d2, cos_s, cos_l);
 
     vec3 diffuse = vec3(0.0);
     if (cos_s > 0.0 && cos_l > 0.0) {

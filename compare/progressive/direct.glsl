@@ -74,18 +74,18 @@ out vec4 out_color;
 // Heitz et al.'s estimates do): at a pixel whose jittered frames see two surfaces, each
 // sample then weighs as much as its surface's light, as in the unshadowed mean it scales.
 vec4 ratio_terms(vec3 x, vec3 n, vec3 v, vec3 y, vec3 base, float metallic, float roughness) {
-    if (dot(x - u_light_center, u_light_n) <= 0.0 || dot(n, v) <= 0.0) {
+    if (!light_reaches(x, n, v)) {
         return vec4(0.0);
     }
-    vec3 to_y = y - x;
-    float d2 = max(dot(to_y, to_y), 1e-12);
-    vec3 l = to_y * inversesqrt(d2);
-    float cos_s = dot(n, l);
-    float cos_l = -dot(u_light_n, l);
+    vec3 l;
+    float d2;
+    float cos_s;
+    float cos_l;
+    sample_direction(x, n, y, l, d2, cos_s, cos_l);
     if (cos_s <= 0.0 || cos_l <= 0.0) {
         return vec4(0.0);
     }
-    float g_d = u_light_area * cos_l * cos_s / d2;
+    float g_d = point_solid_angle(d2, cos_l) * cos_s;
     float g_s = 0.0;
 #if !MATERIALS_DIFFUSE
     vec3 spec_lobe;

@@ -1,10 +1,9 @@
 // Linearly transformed cosines (Heitz, Dupuy, Hill & Neubelt 2016): the unshadowed
 // diffuse and GGX specular light of one rectangular light in closed form.
 //
-// The includer declares the light as in area_light.glsl (u_light_center, u_light_t,
-// u_light_b, u_light_n, u_light_half, u_light_radiance), includes brdf.glsl first and
-// declares u_spec_lut (the split-sum table) unless MATERIALS_DIFFUSE. Everything here
-// is guarded by AREA_MODEL_LTC, so other area models include it for nothing.
+// The includer declares the light as area_light.glsl wants it and includes brdf.glsl and
+// area_light.glsl (its one-sidedness test, and u_spec_lut, the split-sum table) first.
+// Everything here is guarded by AREA_MODEL_LTC, so other area models include it for nothing.
 //
 // Diffuse: the clamped cosine over the rectangle is Lambert's form factor, exact.
 // Specular: the shared BRDF's lobe f_s cos (Fresnel 1) is approximated by a clamped
@@ -157,10 +156,10 @@ void ltc_light(vec3 x, vec3 n, vec3 v, vec3 base, float metallic, float roughnes
                out vec3 specular) {
     diffuse = vec3(0.0);
     specular = vec3(0.0);
-    float nv = dot(n, v);
-    if (dot(x - u_light_center, u_light_n) <= 0.0 || nv <= 0.0) {
+    if (!light_reaches(x, n, v)) {
         return;
     }
+    float nv = dot(n, v);
     vec3 q[4];
     ltc_light_corners(x, n, v, q);
 #if MATERIALS_DIFFUSE

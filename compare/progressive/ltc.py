@@ -89,7 +89,7 @@ class LtcLights:
         self.table = table
         self._objects: list = []
         try:
-            defines = {"AREA_MODEL_LTC": 1, "MATERIALS_DIFFUSE": int(materials == "diffuse")}
+            defines = {"AREA_MODEL_LTC": 1, "AREA_MODEL_PAPER": 0, "MATERIALS_DIFFUSE": int(materials == "diffuse")}
             self.program = self._keep(load_program(ctx, "ltc_light.glsl", defines))
             self.vao = self._keep(ctx.vertex_array(self.program, []))
             self.compose_program = self._keep(load_program(ctx, "ltc_compose.glsl"))

@@ -2,7 +2,7 @@
 // over the G-buffer, added to the light's sums of this frame's jittered view: diffuse
 // into the first target, specular into the second (ltc.py divides by the frames).
 //
-// Defines: MATERIALS_DIFFUSE, AREA_MODEL_LTC (always 1 here).
+// Defines: MATERIALS_DIFFUSE, AREA_MODEL_LTC (always 1 here), AREA_MODEL_PAPER (always 0).
 
 #if defined VERTEX_SHADER
 
@@ -15,9 +15,6 @@
 uniform sampler2D u_position;  // G-buffer: world position, w = kind
 uniform sampler2D u_normal;    // G-buffer: shading normal, w = roughness
 uniform sampler2D u_material;  // G-buffer: base colour, a = metallic
-#if !MATERIALS_DIFFUSE
-uniform sampler2D u_spec_lut;  // split-sum table (compare/ibl/lut.py): A, B over (n.v, roughness)
-#endif
 
 uniform vec3 u_camera_position;
 uniform vec3 u_light_center;
@@ -26,10 +23,12 @@ uniform vec3 u_light_b;
 uniform vec3 u_light_n;
 uniform vec2 u_light_half;
 uniform vec3 u_light_radiance;
+uniform float u_light_area;
 
 layout(location = 0) out vec4 out_diffuse;
 layout(location = 1) out vec4 out_specular;
 
+#include "area_light.glsl"
 #include "ltc.glsl"
 
 void main() {

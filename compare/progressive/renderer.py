@@ -294,6 +294,9 @@ class ProgressiveRenderer:
             self.base = self._keep(PingPong(ctx, size, attachments=self.accumulate.attachments))
             self.compose = self._keep(ComposePass(ctx, size))
             has_lights = bool(scene.lights)
+            # Frame 0 is forward-shaded when it carries no samples (first_frame.py).
+            fp0 = self.plan[0]
+            forward_first = first_frame == "forward" and not fp0.light_samples and not fp0.env_samples
             # Leave out what the scene does not need: no shadow or direct-light work without area lights.
             self.shadow = self.direct = self.direct_acc = self.partial = self.preview = None
             self.ltc = self.ltc_table = None
@@ -309,8 +312,7 @@ class ProgressiveRenderer:
                 if area_model == "ltc":
                     # Per-light sums instead of one running mean (ltc.py); no partial sums.
                     self.ltc_table = self._keep(ltc_texture(ctx))
-                    gbuffer_frames = len(self.plan) - int(first_frame == "forward" and not self.plan[0].light_samples
-                                                          and not self.plan[0].env_samples)
+                    gbuffer_frames = len(self.plan) - int(forward_first)
                     self.ltc = self._keep(LtcLights(ctx, size, scene.lights, materials=materials,
                                                     lut_texture=self.direct.lut_texture, table=self.ltc_table,
                                                     gbuffer_frames=max(gbuffer_frames, 1)))
@@ -318,9 +320,8 @@ class ProgressiveRenderer:
                     self.direct_acc = self._keep(PingPong(ctx, size))
                     if self.scheduler is not None or any(fp.shadow_passes > 1 for fp in self.plan):
                         self.partial = self._keep(Target(ctx, size))
-            fp0 = self.plan[0]
             self.first = None
-            if first_frame == "forward" and not fp0.light_samples and not fp0.env_samples:
+            if forward_first:
                 scale = first_frame_scale
                 if scale is None:
                     # A reduced frame 0 is only a preview: without a later frame it would be the result.
