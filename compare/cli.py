@@ -1,4 +1,4 @@
-"""Command-line interface: ``compare render | diff | run | report | check | bench``.
+"""Command-line interface: ``compare render | diff | run | measure | renderers | report | check | bench``.
 
 Every user error (bad scene, bad image, missing system component) ends in one
 line on stderr, ``compare: error: …``, and exit status 2, with nothing
@@ -12,54 +12,28 @@ import json
 import sys
 from pathlib import Path
 
+from .argtypes import parse_size, positive_float, positive_int
 from .errors import CompareError
 from .variants import OPTIONS as VARIANT_OPTIONS
 
-
-def parse_size(text: str) -> tuple[int, int]:
-    """Parse ``WIDTHxHEIGHT`` (e.g. ``320x240``)."""
-    try:
-        w, h = (int(x) for x in text.lower().split("x"))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected WIDTHxHEIGHT such as 320x240, got {text!r}") from None
-    if w < 1 or h < 1 or w * h > 8192 * 8192:
-        raise argparse.ArgumentTypeError(f"expected a positive size up to 8192x8192, got {text!r}")
-    return w, h
-
-
-def positive_float(text: str) -> float:
-    """argparse type: a positive finite number (refused before any work, not after it)."""
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}") from None
-    if not (v > 0 and v < float("inf")):
-        raise argparse.ArgumentTypeError(f"expected a positive finite number, got {text!r}")
-    return v
-
-
-def positive_int(text: str) -> int:
-    """argparse type: a positive integer."""
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
-    return v
+__all__ = ["main", "parse_size", "positive_float", "positive_int"]
 
 
 def _renderer_arg(text: str) -> str:
-    """``--renderer``: mitsuba, or progressive with variant options (checked here, before any work)."""
-    if text == "mitsuba":
-        return text
-    from .variants import renderer_options
+    """``--renderer``: progressive variants' options are checked here, before any work; other names
+    against the registry (which may need ``--renderer-config``) in the command."""
+    if text.partition(":")[0] == "progressive":
+        from .variants import renderer_options
 
-    try:
-        renderer_options(text)
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
+        try:
+            renderer_options(text)
+        except ValueError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
     return text
+
+
+class UsageError(CompareError, ValueError):
+    """A bad combination of command-line options."""
 
 
 def _build_parser() -> argparse.ArgumentParser:
@@ -71,10 +45,16 @@ def _build_parser() -> argparse.ArgumentParser:
                        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     r.add_argument("--scene", required=True, type=Path, help="scene file (TOML)")
     r.add_argument("--renderer", default="mitsuba", type=_renderer_arg,
-                   help="mitsuba, progressive or progressive:<option>[+<option>] (options: "
-                        + ", ".join(VARIANT_OPTIONS) + "; see compare/variants.py)")
-    r.add_argument("--spp", type=positive_int, default=256, help="samples per pixel (mitsuba)")
+                   help="any renderer of `compare renderers`: mitsuba, progressive or "
+                        "progressive:<option>[+<option>] (options: " + ", ".join(VARIANT_OPTIONS)
+                        + "), cycles, eevee, plug-ins, or one of --renderer-config")
+    r.add_argument("--renderer-config", type=Path, default=None, metavar="TOML",
+                   help="a renderer file with [renderer.<name>] tables (docs/renderers.md)")
+    r.add_argument("--steps", type=positive_int, default=None,
+                   help="the budget in the renderer's unit; default: --spp, --frames or --samples by its kind")
+    r.add_argument("--spp", type=positive_int, default=256, help="samples per pixel (mitsuba, cycles)")
     r.add_argument("--frames", type=positive_int, default=128, help="frames to accumulate (progressive)")
+    r.add_argument("--samples", type=positive_int, default=64, help="EEVEE samples")
     r.add_argument("--size", type=parse_size, default=None, help="WIDTHxHEIGHT; default: the scene's resolution")
     r.add_argument("--seed", type=int, default=0, help="random seed")
     r.add_argument("--materials", choices=["shared", "cycles"], default="shared",
@@ -100,12 +80,20 @@ def _build_parser() -> argparse.ArgumentParser:
     d.add_argument("--json", action="store_true", help="print JSON instead of a table")
     d.set_defaults(func=cmd_diff)
 
+    n = sub.add_parser("renderers", help="list the renderers: built-ins, plug-ins, a renderer file; which are "
+                                         "available here and why the rest are not")
+    n.add_argument("--renderer-config", type=Path, default=None, metavar="TOML", help="a renderer file")
+    n.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    n.set_defaults(func=cmd_renderers)
+
     from .bench import add_bench_parser
     from .check import add_check_parser
+    from .measure import add_measure_parser
     from .report import add_report_parser
     from .run import add_run_parser
 
     add_run_parser(sub)
+    add_measure_parser(sub)
     add_report_parser(sub)
     add_check_parser(sub)
     add_bench_parser(sub)
@@ -114,36 +102,68 @@ def _build_parser() -> argparse.ArgumentParser:
 
 def cmd_render(args: argparse.Namespace) -> int:
     """``compare render``: one scene, one renderer, one EXR with metadata, one PNG preview."""
+    from . import __version__
+    from .errors import MissingComponentError
     from .exr import write_exr
     from .fsutil import check_outputs
+    from .renderers import RenderContext, Registry, check_rendering
+    from .results import RunSettings
     from .scene import load_scene
     from .tonemap import write_png
 
+    registry = Registry(args.renderer_config)
+    try:
+        renderer = registry.get(args.renderer)
+    except ValueError as exc:
+        if isinstance(exc, CompareError):
+            raise
+        raise UsageError(f"--renderer: {exc}") from None
+    ok, why = renderer.available()
+    if not ok:
+        raise MissingComponentError(f"renderer {renderer.name!r} is not available here: {why}")
     scene = load_scene(args.scene)
     png = args.png or args.output.with_suffix(".png")
     check_outputs({"-o": args.output, "--png": png}, inputs=(args.scene, *scene.referenced_files),
                   suffixes={"-o": ".exr", "--png": ".png"})
     if args.size:
         scene = scene.with_resolution(*args.size)
-    if args.renderer == "mitsuba":
-        from .reference import ReferenceRenderer
+    if args.max_depth is not None:
+        scene = scene.with_max_depth(args.max_depth)
+    settings = RunSettings(frames=args.frames, spp=args.spp, seed=args.seed, materials=args.materials,
+                           cycles_spp=args.spp, eevee_samples=args.samples, likeness=False)
+    steps = args.steps or renderer.steps(settings)
+    options = {"variant": args.variant} if args.variant else {}
+    with RenderContext(settings, cache_dir=False if args.no_cache else None, progress=True,
+                       options=options) as context:
+        rendering = check_rendering(renderer, renderer.render(scene, steps=steps, checkpoints=[steps], seed=args.seed,
+                                                              context=context), scene=scene, checkpoints=[steps])
+    last = rendering.checkpoints[-1]
+    unit = {"frame": "frames", "spp": "spp", "sample": "samples"}.get(renderer.unit, renderer.unit)
+    from .scene_job import flat_metadata
 
-        renderer = ReferenceRenderer(scene, materials=args.materials, variant=args.variant,
-                                     max_depth=args.max_depth, cache_dir=False if args.no_cache else None)
-        result = renderer.render(args.spp, seed=args.seed)
-        image, meta = result.image, result.metadata
-        summary = f"{result.spp} spp in {result.seconds:.2f} s ({renderer.variant}, scene load {renderer.load_seconds:.2f} s)"
-    else:
-        from .progressive import render_progressive
+    meta = {**flat_metadata(rendering.metadata), "renderer": renderer.name, unit: last.step, "seed": args.seed,
+            "seconds": last.seconds, "setup_seconds": rendering.setup_seconds, "scene": str(args.scene),
+            "scene_hash": scene.hash, "package": __version__}
+    write_exr(args.output, last.image, metadata={k: (int(v) if isinstance(v, bool) else v)
+                                                 for k, v in meta.items() if v is not None})
+    write_png(png, last.image, exposure=args.exposure, operator=args.tonemap)
+    print(f"{args.output}: {scene.camera.width}x{scene.camera.height}, {renderer.label}, {last.step} {unit} in "
+          f"{last.seconds:.2f} s (set-up {rendering.setup_seconds:.2f} s); preview {png}")
+    return 0
 
-        from .variants import renderer_options
 
-        result = render_progressive(scene, frames=args.frames, seed=args.seed, **renderer_options(args.renderer))
-        image, meta = result.image, result.metadata
-        summary = f"{len(result.frame_seconds)} frames in {result.seconds:.2f} s"
-    write_exr(args.output, image, metadata={**meta, "scene": str(args.scene)})
-    write_png(png, image, exposure=args.exposure, operator=args.tonemap)
-    print(f"{args.output}: {scene.camera.width}x{scene.camera.height}, {summary}; preview {png}")
+def cmd_renderers(args: argparse.Namespace) -> int:
+    """``compare renderers``: every renderer known here, available or not, and why."""
+    from .renderers import Registry
+
+    rows = Registry(args.renderer_config).listing()
+    if args.json:
+        print(json.dumps(rows, indent=2))
+        return 0
+    width = max(len(r["name"]) for r in rows)
+    for r in rows:
+        state = "available" if r["available"] else f"not available: {r['why']}"
+        print(f"{r['name']:<{width}}  {r['unit'] or '-':<6}  {r['label'] or '-'}  [{r['source']}]  {state}")
     return 0
 
 

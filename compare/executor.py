@@ -1,8 +1,9 @@
 """Where the jobs of ``compare run`` execute: a local process pool or a dask cluster.
 
-A **job** is one scene at one size with every renderer (its ground truth,
-the reference's convergence ladder, each progressive variant). Jobs are
-independent, so a sweep over scenes × sizes spreads over processes or machines.
+A **job** is one scene at one size with every renderer (its ground truth and
+every run, :mod:`compare.scene_job`). Workers only *render* (checkpoint EXRs and
+their ``render.json``); the client measures them. Jobs are independent, so a
+sweep over scenes × sizes spreads over processes or machines.
 
 ``--executor local`` (default)
     a pool of worker processes on this machine. Its size follows the machine:
@@ -84,26 +85,24 @@ class Job:
 
 @dataclass
 class JobResult:
-    """What a worker sends back."""
+    """What a worker sends back: facts about its machine (GL renderer, Mitsuba variant) and, from a
+    remote worker, the files it rendered."""
 
-    scene: dict
-    gl_renderer: str | None
-    variant: str | None
+    facts: dict[str, str]
     host: str
     files: dict[str, bytes] = field(default_factory=dict)
 
 
 def run_job(job: Job) -> JobResult:
-    """Run one job in this process (called in a worker).
+    """Render one job in this process (called in a worker).
 
     With ``job.files`` set (a remote worker), the job runs in a private
     staging folder seeded with those files, and every output is sent back.
     """
-    from tqdm.auto import tqdm
-
+    from .renderers import RenderContext, Registry
     from .results import RunSettings
-    from .run import _Runner  # noqa: PLC2701 - the runner is this module's partner
     from .scene import load_scene
+    from .scene_job import SceneJob
 
     if job.threads:
         import drjit as dr
@@ -121,18 +120,16 @@ def run_job(job: Job) -> JobResult:
         for rel, data in job.files.items():
             write_bytes_atomic(out / rel, data)
     try:
-        runner = _Runner(RunSettings.from_json(job.settings), out, progress=False, cache_dir=job.cache_dir,
-                         fresh=job.fresh)
-        try:
-            with tqdm(total=0, disable=True) as bar:
-                result = runner.scene(scene, bar)
-        finally:
-            runner.close()
+        settings = RunSettings.from_json(job.settings)
+        with RenderContext(settings, cache_dir=job.cache_dir) as context:
+            scene_job = SceneJob(settings, out, registry=Registry(settings.renderer_config), context=context,
+                                 fresh=job.fresh)
+            scene_job.render(scene)
         files: dict[str, bytes] = {}
         if staging is not None:
             root = staging / "runs" / job.scene_id
             files = {p.relative_to(staging).as_posix(): p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()}
-        return JobResult(result.to_json(), runner.gl_renderer, runner.variant, platform.node(), files)
+        return JobResult(scene_job.facts, platform.node(), files)
     finally:
         if staging is not None:
             shutil.rmtree(staging, ignore_errors=True)

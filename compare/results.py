@@ -217,6 +217,13 @@ class RunSettings:
         With ``materials="cycles"``, measure whether the ground truth is Cycles-like
         (one more Cycles render and two Mitsuba passes at ``cycles_spp``, so it roughly
         triples the Cycles unit's cost; turn it off for large Table 1 runs).
+    ground_truth : str
+        The renderer whose full-budget render (seed ``seed``) every run is measured
+        against; its own run, if listed, uses seed ``seed + 1`` and gives the noise floor.
+    baseline : str
+        The run the report's ablation table compares the variants of its family with.
+    renderer_config : str or None
+        A renderer TOML file (``--renderer-config``) that names more renderers.
     """
 
     frames: int = 128
@@ -230,6 +237,9 @@ class RunSettings:
     cycles_spp: int = 1024
     eevee_samples: int = 64
     likeness: bool = True
+    ground_truth: str = "mitsuba"
+    baseline: str = "progressive"
+    renderer_config: str | None = None
 
     def to_json(self) -> dict:
         """JSON-ready dict."""
@@ -347,6 +357,10 @@ class RendererRun:
         ``one_minus_ssim``, ``relmse``).
     points : list of Point
         Every checkpoint in ascending ``step``.
+    variant_of : str or None
+        The renderer this one is a variant of (e.g. ``progressive`` for ``progressive:paper``).
+    variant_note : str
+        What the variant changes, for the ablation table.
     """
 
     renderer: str
@@ -362,6 +376,13 @@ class RendererRun:
     preview: str | None = None
     maps: dict[str, str] = field(default_factory=dict)
     points: list[Point] = field(default_factory=list)
+    variant_of: str | None = None
+    variant_note: str = ""
+
+    @property
+    def family(self) -> str:
+        """The renderer this run is a variant of, or its own name."""
+        return self.variant_of or self.renderer
 
     @property
     def final(self) -> Point:
@@ -469,12 +490,17 @@ class RendererRun:
             preview=d.get("preview"),
             maps=dict(d.get("maps") or {}),
             points=[Point.from_json(p, f"{where}.points[{i}]") for i, p in enumerate(points)],
+            variant_of=d.get("variant_of"),
+            variant_note=str(d.get("variant_note") or ""),
         )
 
 
 @dataclass
 class Reference:
-    """The ground truth of one scene/size: the reference renderer at its full budget."""
+    """The ground truth of one scene/size: the ground-truth renderer at its full budget.
+
+    ``spp`` is that budget in the renderer's ``unit``; ``variant`` is the renderer's
+    own variant (Mitsuba's), or empty."""
 
     spp: int
     seed: int
@@ -486,6 +512,8 @@ class Reference:
     image: str | None = None
     preview: str | None = None
     metadata: dict[str, Any] = field(default_factory=dict)
+    label: str = ""
+    unit: str = "spp"
 
     def to_json(self) -> dict:
         """JSON-ready dict."""
@@ -505,6 +533,8 @@ class Reference:
             image=d.get("image"),
             preview=d.get("preview"),
             metadata=dict(d.get("metadata") or {}),
+            label=str(d.get("label") or ""),
+            unit=str(d.get("unit") or "spp"),
         )
 
 

@@ -20,6 +20,8 @@ import numpy as np
 import pytest
 
 from compare import run as run_mod
+from compare import scene_job
+from compare.renderers import progressive as progressive_adapter
 from compare.exr import read_exr
 from compare.reference import Checkpoint
 from compare.results import (
@@ -62,6 +64,16 @@ class FakeReference:
 
     def settings(self) -> dict:
         return {"scene_hash": self.scene.hash, "variant": self.variant, "resolution": list(self.scene.camera.resolution)}
+
+    def _pass_chunks(self, seed, index, spp):
+        yield spp, seed * 1000 + index  # the ladder's seed stays readable in the chunk's
+
+    def render_chunk(self, spp, seed):
+        """spp samples of standard deviation 0.5 each, averaged."""
+        w, h = self.scene.camera.resolution
+        rng = np.random.default_rng(seed)
+        FakeReference.renders.append((spp, seed // 1000))
+        return (_truth(w, h) + rng.normal(0, 0.5 / np.sqrt(spp), (h, w, 3))).astype(np.float32), 0.01 * spp
 
     def iter_ladder(self, spp, seed=0):
         w, h = self.scene.camera.resolution
@@ -116,10 +128,10 @@ def synthetic_renderers(progressive=fake_progressive):
     mp = pytest.MonkeyPatch()
     try:
         mp.setattr("compare.reference.ReferenceRenderer", FakeReference)
-        mp.setattr(run_mod, "_progressive_checkpoints", progressive)
-        mp.setattr(run_mod, "_create_gl_context", lambda: None)
-        mp.setattr(run_mod, "_blender_checkpoints", fake_blender)
-        mp.setattr(run_mod, "_cycles_likeness", fake_likeness)
+        mp.setattr("compare.renderers.progressive._progressive_checkpoints", progressive)
+        mp.setattr("compare.renderers.progressive._create_gl_context", lambda: None)
+        mp.setattr("compare.renderers.blender._blender_checkpoints", fake_blender)
+        mp.setattr("compare.renderers.blender._cycles_likeness", fake_likeness)
         mp.setattr("compare.blender.blender_available", lambda: (True, "fake"))
         yield
     finally:
@@ -265,7 +277,7 @@ def test_run_writes_results_images_and_report(tmp_path):
     # progressive errors against the ground truth fall with frames (synthetic noise 1/f)
     assert prog.points[-1].metrics["mse"] < prog.points[0].metrics["mse"]
     # every file named exists; EXRs carry their metadata
-    for rel in run_mod._paths_in(back.to_json()):
+    for rel in scene_job._paths_in(back.to_json()):
         assert (out / rel).is_file(), rel
     img, meta = read_exr(out / prog.final.image)
     assert img.shape == (36, 48, 3) and meta["frames"] == 8 and meta["renderer"] == "progressive"
@@ -305,21 +317,24 @@ def test_rerun_reuses_finished_units_and_redoes_changed_ones(tmp_path, monkeypat
                            report=False)
         assert FakeReference.renders == [] and calls == [16]
         assert [p.step for p in more.scenes[0].run("progressive").points] == [1, 2, 4, 8, 16]
-        # Another spp changes the ground truth: everything measured against it is redone.
-        run_mod.run([CORNELL], out, RunSettings(frames=16, spp=32, sizes=[[48, 36]]), progress=False, report=False)
-        assert {seed for _, seed in FakeReference.renders} == {0, 1} and calls == [16, 16]
+        # Another spp changes the ground truth: everything is measured again against it; the
+        # rasterizer's finished render (its pixels do not depend on the ground truth) is reused.
+        again = run_mod.run([CORNELL], out, RunSettings(frames=16, spp=32, sizes=[[48, 36]]), progress=False,
+                            report=False)
+        assert {seed for _, seed in FakeReference.renders} == {0, 1} and calls == [16]
+        assert again.scenes[0].run("progressive").key != more.scenes[0].run("progressive").key
         # A change to the rasterizer's code: its unit is redone, the reference reused.
         FakeReference.renders.clear()
-        monkeypatch.setattr(run_mod, "_source_fingerprint", lambda *names: "edited")
+        monkeypatch.setattr(progressive_adapter, "source_fingerprint", lambda *names: "edited")
         run_mod.run([CORNELL], out, RunSettings(frames=16, spp=32, sizes=[[48, 36]]), progress=False, report=False)
-        assert FakeReference.renders == [] and calls == [16, 16, 16]
+        assert FakeReference.renders == [] and calls == [16, 16]
 
 
 def test_rasterizer_sources_include_its_shaders():
-    files = {f.name for f in run_mod._source_files(*run_mod.RASTERIZER_SOURCES)}
+    files = {f.name for f in progressive_adapter.source_files(*progressive_adapter.RASTERIZER_SOURCES)}
     assert {"renderer.py", "first_frame.glsl", "area_light.glsl", "brdf.glsl", "variants.py", "ltc.glsl",
             "ltc_table.npz"} <= files  # a refitted LTC table redoes the units too
-    assert run_mod._source_fingerprint("progressive") != run_mod._source_fingerprint("brdf")
+    assert progressive_adapter.source_fingerprint("progressive") != progressive_adapter.source_fingerprint("brdf")
 
 
 def test_interrupted_run_resumes_without_redoing_finished_work(tmp_path):
@@ -334,8 +349,8 @@ def test_interrupted_run_resumes_without_redoing_finished_work(tmp_path):
             run_mod.run([CORNELL], out, RunSettings(frames=8, spp=16, sizes=[[48, 36]]), progress=False,
                         report=False)
     assert not (out / "results.json").exists()
-    partials = sorted(p.parent.name for p in out.rglob("partial.json"))
-    assert partials == ["mitsuba", "reference"]  # finished units were stored
+    rendered = sorted(p.parent.name for p in out.rglob("render.json"))
+    assert rendered == ["mitsuba", "reference"]  # finished renders were stored
     assert not [p for p in out.rglob(".*") if p.is_file()]  # no temporary files left behind
     done = len(FakeReference.renders)
     res = synthetic_report(out, [CORNELL], report=False)
@@ -354,7 +369,7 @@ def test_broken_partial_is_redone(tmp_path):
 
 
 def test_nan_from_a_renderer_is_an_error_not_a_number(tmp_path):
-    from compare.errors import ImageError
+    from compare.renderers import RendererError
 
     def nan_progressive(scene, **k):
         cps, setup, meta = fake_progressive(scene, **k)
@@ -362,7 +377,8 @@ def test_nan_from_a_renderer_is_an_error_not_a_number(tmp_path):
         return cps, setup, meta
 
     with synthetic_renderers(progressive=nan_progressive):
-        with pytest.raises(ImageError, match="NaN"):
+        with pytest.raises(RendererError, match=r"^renderer 'progressive' at step 4: 1 pixel\(s\) are NaN or "
+                                                r"infinite \(first at x=4, y=3\)$"):
             run_mod.run([CORNELL], tmp_path, RunSettings(frames=4, spp=4, sizes=[[48, 36]]), progress=False,
                         report=False)
     assert not (tmp_path / "results.json").exists()
@@ -398,7 +414,7 @@ def test_hdr_payload_round_trips_as_float16():
     assert back[0, 0].tolist() == [65504.0, 0.0, 0.5]  # clamped into half's range, negatives to 0
 
 
-def test_report_command_rebuilds_into_another_folder(tmp_path):
+def test_report_command_rebuilds_into_another_folder(tmp_path, capsys):
     from compare.check import add_check_parser
     from compare.report import add_report_parser
 
@@ -413,7 +429,7 @@ def test_report_command_rebuilds_into_another_folder(tmp_path):
     args = parser.parse_args(["report", str(out / "results.json"), "-o", str(copy), "--plot-format", "svg"])
     assert args.func(args) == 0
     res = Results.load(copy / "results.json")
-    for rel in run_mod._paths_in(res.to_json()):
+    for rel in scene_job._paths_in(res.to_json()):
         assert (copy / rel).is_file(), rel
     assert (copy / "index.html").is_file() and (copy / "data" / f"{res.scenes[0].id}.js").is_file()
     assert f'src="plots/{res.scenes[0].id}-error.svg"' in (copy / "index.html").read_text()
@@ -428,8 +444,12 @@ def test_report_command_rebuilds_into_another_folder(tmp_path):
     args = parser.parse_args(["run", "--size", "320x240,64x48", "--renderers", "progressive:paper"])
     assert args.size == [(320, 240), (64, 48)] and args.renderers == ["progressive:paper"]
     assert args.frames == 128 and args.spp == 1024 and callable(args.func)
-    with pytest.raises(SystemExit):
-        parser.parse_args(["run", "--renderers", "blender"])
+    # an unknown renderer: one line naming it and what is known, before any work (exit status 2)
+    from compare.cli import main
+
+    assert main(["run", "--renderers", "blender", "-o", str(tmp_path / "never")]) == 2
+    assert "unknown renderer 'blender'" in capsys.readouterr().err
+    assert not (tmp_path / "never").exists()
 
 
 def test_run_command_end_to_end(tmp_path, capsys):
@@ -500,7 +520,7 @@ def test_all_renderers_give_the_papers_table_1(tmp_path):
     assert html.count("drawn at 0.5× size") == 3  # radiometric, paper and ltc
     # with --materials cycles the run says how Cycles-like the ground truth is
     assert cycles.metadata["likeness_regions"] == "15/15" and "Cycles-like" in html and "1.11" in html
-    for rel in run_mod._paths_in(Results.load(out / "results.json").to_json()):
+    for rel in scene_job._paths_in(Results.load(out / "results.json").to_json()):
         assert (out / rel).is_file(), rel
 
 
@@ -516,7 +536,7 @@ def test_no_likeness_skips_the_measurement_and_reuses_what_has_it(tmp_path):
                                materials="cycles", likeness=likeness)
         with synthetic_renderers():
             with pytest.MonkeyPatch.context() as mp:
-                mp.setattr(run_mod, "_blender_checkpoints", counting_blender)
+                mp.setattr("compare.renderers.blender._blender_checkpoints", counting_blender)
                 return run_mod.run([CORNELL], out, settings, progress=False, report=False)
 
     # Without it: no likeness in the unit; asked for later, the unit is redone.
@@ -534,7 +554,7 @@ def test_blender_renderers_need_bpy_before_any_work(tmp_path, monkeypatch):
 
     monkeypatch.setattr("compare.blender.blender_available", lambda: (False, "bpy is not installed (test)"))
     settings = RunSettings(frames=2, spp=2, sizes=[[8, 6]], renderers=["mitsuba", "eevee"])
-    with pytest.raises(MissingComponentError, match="eevee need Blender's bpy: bpy is not installed"):
+    with pytest.raises(MissingComponentError, match=r"renderer not available here: eevee \(bpy is not installed"):
         run_mod.run([CORNELL], tmp_path / "out", settings, progress=False)
     assert not (tmp_path / "out").exists()
 

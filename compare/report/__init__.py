@@ -162,7 +162,14 @@ def _metrics_row(metrics: dict) -> list[str]:
     return [fmt_num(metric_value(metrics, k), d) for k, _, d in TABLE_METRICS]
 
 
-def _scene_view(scene: SceneResult, plots: dict[str, Path], out: Path, exposure: float) -> dict:
+def _gt_label(ref) -> str:
+    """``Mitsuba path tracer (llvm_ad_rgb), 1024 spp``: the ground truth's renderer and budget."""
+    unit = ref.unit + ("s" if ref.unit in ("frame", "sample") and ref.spp != 1 else "")
+    return f"{ref.label or ref.renderer}, {ref.spp} {unit}"
+
+
+def _scene_view(scene: SceneResult, plots: dict[str, Path], out: Path, exposure: float,
+                baseline: str = "progressive") -> dict:
     from ..plots import PLOT_METRICS, equal_error, equal_time
 
     def rel(p: Path) -> str:
@@ -203,11 +210,13 @@ def _scene_view(scene: SceneResult, plots: dict[str, Path], out: Path, exposure:
                             "vals": [fmt_seconds(c.values.get(r.renderer)) for r in scene.runs]} for c in ee],
         })
     nf = scene.noise_floor
-    viewer = [{"key": "reference", "label": f"Ground truth ({scene.reference.spp} spp)"}]
+    viewer = [{"key": "reference", "label": f"Ground truth ({_gt_label(scene.reference)})"}]
     viewer += [{"key": r.renderer, "label": f"{r.label} ({r.steps} {r.unit}{'s' if r.unit == 'frame' else ''})"}
                for r in scene.runs if r.image]
     # The swipe starts on ground truth vs the first real-time renderer (the comparison the report is for).
-    right = next((i for i, v in enumerate(viewer) if i and v["key"] != "mitsuba"), min(1, len(viewer) - 1))
+    # (not the ground-truth renderer's own independent run)
+    right = next((i for i, v in enumerate(viewer) if i and v["key"] != scene.reference.renderer),
+                 min(1, len(viewer) - 1))
     return {
         "id": scene.id, "name": scene.name, "size": scene.size, "width": scene.width, "height": scene.height,
         "path": scene.path, "hash": scene.hash[:16],
@@ -215,11 +224,12 @@ def _scene_view(scene: SceneResult, plots: dict[str, Path], out: Path, exposure:
         "reference": {"spp": scene.reference.spp, "seed": scene.reference.seed,
                       "seconds": fmt_seconds(scene.reference.seconds),
                       "load": fmt_seconds(scene.reference.load_seconds),
-                      "variant": scene.reference.variant, "preview": scene.reference.preview},
+                      "variant": scene.reference.variant, "preview": scene.reference.preview,
+                      "what": _gt_label(scene.reference), "renderer": scene.reference.renderer},
         "noise_floor": None if nf is None else {"spp": nf.spp, "seeds": nf.seeds, "vals": _metrics_row(nf.metrics)},
         "runs": runs,
         "equal": equal,
-        "ablations": _ablations(scene),
+        "ablations": _ablations(scene, baseline),
         "likeness": _likeness(scene),
         "plots": {k: rel(v) for k, v in plots.items()},
         "viewer": viewer,
@@ -229,37 +239,33 @@ def _scene_view(scene: SceneResult, plots: dict[str, Path], out: Path, exposure:
 
 
 def _likeness(scene: SceneResult) -> dict | None:
-    """The Cycles-likeness a ``cycles`` run measured (with ``--materials cycles``), formatted, or None."""
-    run = scene.run("cycles")
-    m = run.metadata if run is not None else {}
-    if "likeness_ratio" not in m:
+    """The Cycles-likeness a run measured (``cycles`` with ``--materials cycles``), formatted, or None."""
+    run = next((r for r in scene.runs if "likeness_ratio" in r.metadata), None)
+    if run is None:
         return None
+    m = run.metadata
     return {"spp": m.get("likeness_spp"), "cross": fmt_num(m.get("likeness_flip_cross"), 4),
             "seed": fmt_num(m.get("likeness_flip_seed"), 4), "ratio": fmt_num(m.get("likeness_ratio"), 3),
             "matched": fmt_num(m.get("likeness_ratio_noise_matched"), 3),
             "mitsuba": fmt_num(m.get("likeness_flip_mitsuba_seed"), 4), "regions": m.get("likeness_regions")}
 
 
-def _ablations(scene: SceneResult) -> list[dict]:
-    """Each ``progressive:<option>`` variant against the plain ``progressive`` run (compare.variants).
+def _ablations(scene: SceneResult, baseline: str = "progressive") -> list[dict]:
+    """Each run of the baseline's family (e.g. ``progressive:<option>``, compare.variants) against the
+    baseline run (the plain ``progressive`` by default).
 
     Final FLIP and relMSE of both, the time ratio, and the equal-time view: the
     variant's FLIP when the paper's technique has spent its whole time, and the
     paper's FLIP at the variant's total time (log–log interpolated, final image held).
     """
-    from ..variants import describe
-
-    base = scene.run("progressive")
+    base = scene.run(baseline)
     if base is None or not base.points:
         return []
     rows = []
     for run in scene.runs:
-        if not run.renderer.startswith("progressive:") or not run.points:
+        if run is base or run.family != base.family or not run.points:
             continue
-        try:
-            what = describe(run.renderer)
-        except ValueError:
-            what = run.renderer
+        what = run.variant_note or run.renderer
         f, b = run.final.metrics, base.final.metrics
 
         def delta(key: str) -> str:
@@ -290,8 +296,10 @@ def _table1(results: Results) -> dict:
         for r in s.runs:
             if r.renderer not in [k for k, _ in specs]:
                 specs.append((r.renderer, r.label))
-    rows = [{"label": "Ground truth (Mitsuba)", "cells": [
-        {"seconds": fmt_seconds(s.reference.seconds), "detail": f"{s.reference.spp} spp", "flip": None, "ssim": None}
+    first = results.scenes[0].reference if results.scenes else None
+    rows = [{"label": f"Ground truth ({first.label or first.renderer if first else '—'})", "cells": [
+        {"seconds": fmt_seconds(s.reference.seconds), "detail": f"{s.reference.spp} {s.reference.unit}",
+         "flip": None, "ssim": None}
         for s in results.scenes]}]
     first_rows = []
     for spec, label in specs:
@@ -423,7 +431,8 @@ def build_report(results: Results, out_dir: str | os.PathLike, *, source_dir: st
         settings=results.settings,
         env=results.environment,
         table1=_table1(results),
-        scenes=[_scene_view(s, plots[s.id], out, results.settings.exposure) for s in results.scenes],
+        scenes=[_scene_view(s, plots[s.id], out, results.settings.exposure, results.settings.baseline)
+                for s in results.scenes],
         metric_headings=[h for _, h, _ in TABLE_METRICS],
         version=__version__,
     )

@@ -1,0 +1,23 @@
+"""Renderers: one protocol (:mod:`.base`), a registry (:mod:`.registry`) and the built-ins.
+
+Every renderer the suite measures, its own and any a user plugs in, is reached
+through :class:`~compare.renderers.registry.Registry` and the protocol of
+:class:`~compare.renderers.base.Renderer`; ``docs/renderers.md`` describes both
+for renderer authors.
+"""
+
+from .base import Checkpoint, RenderContext, Renderer, RendererError, Rendering, check_rendering, doubling_steps
+from .registry import ENTRY_POINT_GROUP, TABLE_1, Registry
+
+__all__ = [
+    "ENTRY_POINT_GROUP",
+    "TABLE_1",
+    "Checkpoint",
+    "RenderContext",
+    "Renderer",
+    "RendererError",
+    "Registry",
+    "Rendering",
+    "check_rendering",
+    "doubling_steps",
+]

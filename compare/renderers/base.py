@@ -1,0 +1,221 @@
+"""The renderer protocol: what every renderer declares and the one call that renders.
+
+A renderer of the suite, built in or plugged in, is an object with
+
+``name``
+    the spec it is selected by (``--renderers``, ``--renderer``, ``results.json``);
+``label``
+    a human-readable name for tables and legends;
+``unit``
+    what a step counts: ``"spp"``, ``"frame"`` or ``"sample"``;
+``variant_of`` and ``variant_note``
+    the renderer this one is a variant of and what it changes (the report's
+    ablation table compares variants with their baseline), or None and "";
+:meth:`Renderer.available`
+    ``(True, "")``, or ``(False, why)`` saying what is missing and how to install it;
+:meth:`Renderer.steps` and :meth:`Renderer.checkpoints`
+    the budget of a run with given :class:`~compare.results.RunSettings`, and
+    the steps to keep an image at (1, 2, 4, …, budget unless it says otherwise);
+:meth:`Renderer.key`
+    every setting that changes the renderer's pixels (JSON data; with the scene's
+    hash, size, seed and checkpoints it keys a finished render, so a rerun with
+    the same key reuses it);
+:meth:`Renderer.render`
+    renders a scene (its camera's resolution) with a seed and returns a
+    :class:`Rendering`: :class:`Checkpoint` s (step, cumulative seconds, linear
+    float32 H×W×3 image), set-up seconds outside those and flat metadata.
+
+Checkpoints are checked here (:func:`check_rendering`), once for every renderer:
+the steps asked for, ascending times, the scene's size, finite pixels. A broken renderer gets one :class:`RendererError` naming it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import numpy as np
+
+from ..errors import CompareError
+
+__all__ = ["UNITS", "Checkpoint", "RenderContext", "Renderer", "RendererError", "Rendering", "check_rendering", "doubling_steps"]
+
+#: What a step may count.
+UNITS = ("spp", "frame", "sample")
+
+
+class RendererError(CompareError, RuntimeError):
+    """A renderer failed or produced something that is not a result (named in the message)."""
+
+
+@dataclass(frozen=True)
+class Checkpoint:
+    """One checkpoint: the image after ``step`` steps and the render seconds spent up to it."""
+
+    step: int
+    seconds: float
+    image: np.ndarray
+
+
+@dataclass
+class Rendering:
+    """What :meth:`Renderer.render` returns."""
+
+    checkpoints: list[Checkpoint]
+    setup_seconds: float = 0.0
+    metadata: dict[str, Any] = field(default_factory=dict)
+
+
+class RenderContext:
+    """What the units rendered in one process share: the run's settings and lazily made resources.
+
+    Parameters
+    ----------
+    settings : RunSettings
+        The run's settings (renderers read their own budgets and modes from it).
+    cache_dir : path, None or False
+        The reference cache (None: the default; False: none).
+    progress : bool
+        Whether renderers may show progress bars.
+    options : dict
+        Renderer keywords from the command line of ``compare render`` (e.g. a Mitsuba variant).
+    """
+
+    def __init__(self, settings, *, cache_dir=None, progress: bool = False, options: dict | None = None):
+        self.settings = settings
+        self.cache_dir = cache_dir
+        self.progress = progress
+        self.options = dict(options or {})
+        self._resources: dict[str, tuple[Any, Callable[[Any], None] | None]] = {}
+
+    def resource(self, name: str, make: Callable[[], Any], release: Callable[[Any], None] | None = None) -> Any:
+        """The shared resource ``name`` (e.g. an OpenGL context), made on first use, released by :meth:`close`."""
+        if name not in self._resources:
+            self._resources[name] = (make(), release)
+        return self._resources[name][0]
+
+    def provide(self, name: str, value: Any) -> None:
+        """Lend a resource made elsewhere (not released by :meth:`close`)."""
+        self._resources[name] = (value, None)
+
+    def close(self) -> None:
+        """Release every resource this context made."""
+        for value, release in reversed(list(self._resources.values())):
+            if release is not None and value is not None:
+                release(value)
+        self._resources.clear()
+
+    def __enter__(self) -> "RenderContext":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def doubling_steps(total: int) -> list[int]:
+    """1, 2, 4, …, up to ``total``, always ending with ``total`` (e.g. 100 → …, 64, 100)."""
+    if total < 1:
+        raise ValueError(f"expected a positive budget, got {total}")
+    steps, k = [], 1
+    while k < total:
+        steps.append(k)
+        k *= 2
+    steps.append(total)
+    return steps
+
+
+class Renderer:
+    """Base class of renderers (subclass it or provide the same attributes)."""
+
+    name: str = ""
+    label: str = ""
+    unit: str = "frame"
+    variant_of: str | None = None
+    variant_note: str = ""
+    #: Whether the renderer decides its step count itself (e.g. a frame budget); its last
+    #: checkpoint is then the steps it took, and checkpoints above it are not asked for.
+    open_ended: bool = False
+    #: Whether a worker process can rebuild this renderer from its name (an object made in a
+    #: test or by ``compare measure`` cannot: such runs stay in this process).
+    portable: bool = True
+
+    def available(self) -> tuple[bool, str]:
+        """``(True, "")`` or ``(False, what is missing and how to install it)``."""
+        return True, ""
+
+    def steps(self, settings) -> int:
+        """The budget of a run with ``settings`` (frames, spp or samples)."""
+        return int(settings.frames)
+
+    def checkpoints(self, steps: int) -> list[int]:
+        """The steps to keep an image at, ascending, ending with ``steps``: 1, 2, 4, …, steps by default."""
+        return doubling_steps(steps)
+
+    def key(self, scene, settings) -> Any:
+        """Every setting that changes this renderer's pixels (JSON data)."""
+        return []
+
+    def reusable_keys(self, scene, settings) -> list[Any]:
+        """Keys of other finished renders that serve a run with ``settings`` as well (default: none)."""
+        return []
+
+    def render(self, scene, *, steps: int, checkpoints: list[int], seed: int, context: RenderContext) -> Rendering:
+        """Render ``scene`` with ``seed``; a checkpoint at every step of ``checkpoints`` (the last is ``steps``)."""
+        raise NotImplementedError
+
+    def facts(self, metadata: dict) -> dict[str, str]:
+        """Facts about the machine this renderer's metadata reveals (``gl_renderer``, ``mitsuba_variant``)."""
+        return {}
+
+
+def check_rendering(renderer: Renderer, rendering: Any, *, scene, checkpoints: list[int]) -> Rendering:
+    """Check what a renderer returned against what was asked; return it with float32 images.
+
+    Raises
+    ------
+    RendererError
+        For a missing or extra checkpoint, times that are negative or go
+        backwards, the wrong image size, NaN or infinite pixels.
+    """
+    name = renderer.name
+    if not isinstance(rendering, Rendering):
+        raise RendererError(f"renderer {name!r}: render() returned {type(rendering).__name__}, not a Rendering")
+    w, h = scene.camera.resolution
+    got = [int(c.step) for c in rendering.checkpoints]
+    if getattr(renderer, "open_ended", False) and got:
+        # It decides its step count itself (a frame budget): what was asked for below its end, and the end.
+        checkpoints = [s for s in checkpoints if s < got[-1]] + [got[-1]]
+    missing = [s for s in checkpoints if s not in got]
+    if missing:
+        raise RendererError(f"renderer {name!r}: no checkpoint at step {missing[0]} "
+                            f"(asked for {checkpoints}, got {got})")
+    if got != sorted(set(got)):
+        raise RendererError(f"renderer {name!r}: checkpoints are not in ascending order: {got}")
+    if not (isinstance(rendering.setup_seconds, (int, float)) and math.isfinite(rendering.setup_seconds)
+            and rendering.setup_seconds >= 0):
+        raise RendererError(f"renderer {name!r}: setup seconds {rendering.setup_seconds!r} is not a finite "
+                            "non-negative number")
+    out, last = [], 0.0
+    for c in rendering.checkpoints:
+        where = f"renderer {name!r} at step {c.step}"
+        t = c.seconds
+        if not (isinstance(t, (int, float)) and math.isfinite(t) and t >= 0):
+            raise RendererError(f"{where}: seconds {t!r} is not a finite non-negative number")
+        if t < last:
+            raise RendererError(f"{where}: cumulative seconds go backwards ({t:g} after {last:g})")
+        last = float(t)
+        img = np.asarray(c.image)
+        if img.ndim != 3 or img.shape[2] < 3:
+            raise RendererError(f"{where}: expected an H×W×3 image, got shape {img.shape}")
+        if img.shape[:2] != (h, w):
+            raise RendererError(f"{where}: image is {img.shape[1]}x{img.shape[0]}, the scene is {w}x{h}")
+        img = np.ascontiguousarray(img[..., :3], dtype=np.float32)
+        bad = ~np.isfinite(img)
+        if bad.any():
+            y, x = np.argwhere(bad.any(axis=-1))[0]
+            raise RendererError(f"{where}: {int(bad.any(axis=-1).sum())} pixel(s) are NaN or infinite "
+                                f"(first at x={x}, y={y})")
+        if int(c.step) in checkpoints:
+            out.append(Checkpoint(int(c.step), float(t), img))
+    return Rendering(out, float(rendering.setup_seconds), dict(rendering.metadata or {}))

@@ -1,0 +1,104 @@
+"""Blender Cycles and EEVEE (:mod:`compare.blender`, the ``blender`` extra) as renderers of the
+registry: ``cycles`` (the paper's reference, CPU) and ``eevee`` (its rasterizer comparator)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .base import Checkpoint, RenderContext, Renderer, Rendering
+
+__all__ = ["BlenderRenderer", "blender_ladder"]
+
+
+def blender_ladder(samples: int) -> list[int]:
+    """Checkpoints of a Blender run: 1, 4, 16, …, samples (each is a render of its own,
+    so powers of 4 keep the ladder's cost to about a third of the full render's)."""
+    out, k = [], 1
+    while k < samples:
+        out.append(k)
+        k *= 4
+    return out + [int(samples)]
+
+
+def _blender_checkpoints(scene, *, engine: str, samples: int, seed: int,
+                         ladder: list[int]) -> tuple[list[tuple[int, float, np.ndarray]], float, dict, Any]:
+    """Render with Blender; returns (checkpoints, start-up seconds, metadata, result).
+
+    Each checkpoint is a render of its own with the same seed (Blender's
+    sample sequences are deterministic, so it is the first n samples).
+    """
+    from ..blender import render_blender
+
+    result = render_blender(scene, engine=engine, samples=samples, seed=seed, ladder=ladder)
+    cps = [(int(c.spp), float(c.seconds), np.asarray(c.image, dtype=np.float32)) for c in result.checkpoints]
+    if not cps or cps[-1][0] != samples:
+        cps.append((samples, float(result.seconds), np.asarray(result.image, dtype=np.float32)))
+    return cps, float(result.startup_seconds), dict(result.metadata), result
+
+
+def _cycles_likeness(scene, *, samples: int, seed: int, first, cache_dir) -> dict:
+    """Is the Mitsuba reference in ``cycles`` material mode Cycles-like (compare.blender.likeness)?
+    The run's Cycles render is seed A; one more Cycles render (seed B) and two independent
+    Mitsuba passes of equal spp are made here."""
+    from ..blender import render_blender
+    from ..blender.likeness import cycles_likeness
+
+    second = render_blender(scene, engine="cycles", samples=samples, seed=seed + 1)
+    res = cycles_likeness(scene, spp=samples, materials="cycles", seeds=(seed, seed + 1), cache_dir=cache_dir,
+                          cycles=(first, second))
+    agree = sum(1 for r in res.regions if r.agrees)
+    return {"likeness_flip_cross": res.flip_cross, "likeness_flip_seed": res.flip_seed,
+            "likeness_flip_mitsuba_seed": res.flip_mitsuba_seed, "likeness_ratio": res.ratio,
+            "likeness_ratio_noise_matched": res.ratio_noise_matched, "likeness_spp": samples,
+            "likeness_regions": f"{agree}/{len(res.regions)}"}
+
+
+class BlenderRenderer(Renderer):
+    """Cycles (CPU) or EEVEE through ``bpy`` in a separate process.
+
+    With ``--materials cycles`` and the likeness measurement on (the default),
+    a ``cycles`` run also says how Cycles-like the Mitsuba reference is
+    (metadata ``likeness_*``, shown in the report).
+    """
+
+    unit = "spp"
+
+    def __init__(self, engine: str):
+        if engine not in ("cycles", "eevee"):
+            raise ValueError(f"unknown Blender engine {engine!r}")
+        self.name = engine
+        self.label = "Blender Cycles (CPU)" if engine == "cycles" else "Blender EEVEE"
+
+    def available(self) -> tuple[bool, str]:
+        from ..blender import blender_available
+
+        return blender_available()
+
+    def steps(self, settings) -> int:
+        return int(settings.cycles_spp if self.name == "cycles" else settings.eevee_samples)
+
+    def checkpoints(self, steps: int) -> list[int]:
+        return blender_ladder(steps)
+
+    def _likeness(self, settings) -> bool:
+        return self.name == "cycles" and settings.materials == "cycles" and settings.likeness
+
+    def key(self, scene, settings) -> list:
+        # The likeness is metadata, not pixels, but a run that asks for it must not reuse one without.
+        return ["blender", self.name, *(["likeness"] if self._likeness(settings) else [])]
+
+    def reusable_keys(self, scene, settings) -> list:
+        # A finished Cycles render with the likeness has all that a run without it asks for.
+        if self.name == "cycles" and settings.materials == "cycles" and not settings.likeness:
+            return [["blender", self.name, "likeness"]]
+        return []
+
+    def render(self, scene, *, steps: int, checkpoints: list[int], seed: int, context: RenderContext) -> Rendering:
+        cps, startup, meta, result = _blender_checkpoints(scene, engine=self.name, samples=steps, seed=seed,
+                                                          ladder=[c for c in checkpoints if c < steps])
+        if self._likeness(context.settings):
+            meta.update(_cycles_likeness(scene, samples=steps, seed=seed, first=result,
+                                         cache_dir=context.cache_dir))
+        return Rendering([Checkpoint(s, t, img) for s, t, img in cps], startup, meta)

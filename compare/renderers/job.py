@@ -1,0 +1,203 @@
+"""The job file an external renderer receives, and the checkpoint folder it writes back.
+
+The protocol (documented for renderer authors in ``docs/renderers.md``):
+
+* the suite writes a folder with ``job.json`` (:data:`JOB_SCHEMA`), ``scene.gltf``
+  (the scene in glTF 2.0: world-space meshes, metallic-roughness materials with
+  their textures, the camera) and, for scenes with an environment, ``environment.exr``;
+* the renderer writes ``step-<N>.exr`` (linear RGB, the job's size) for every
+  checkpoint and ``timings.json`` into ``output_dir``;
+* :func:`read_checkpoints` reads them back, checks them and gives the
+  checkpoints of a :class:`~compare.renderers.base.Rendering` (``compare
+  measure`` reads folders made anywhere the same way).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import shutil
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..fsutil import write_text_atomic
+from .base import Checkpoint, RendererError, Rendering
+
+__all__ = ["JOB_SCHEMA", "export_gltf", "read_checkpoints", "write_job"]
+
+#: Version of ``job.json``; a change of meaning of any field moves it.
+JOB_SCHEMA = 1
+ORIENTATION = ("u = atan2(x, -z)/(2*pi) wrapped to [0,1), v = acos(y)/pi; row 0 = +Y; the map is turned by "
+               "rotation_deg about +Y: a world direction d looks up the map at R^-1 d, with "
+               "R = [[c,0,s],[0,1,0],[-s,0,c]], c = cos, s = sin of rotation_deg (Mitsuba's envmap convention)")
+_STEP = re.compile(r"step-0*(\d+)\.exr")
+
+
+def _vec(v) -> list[float]:
+    return [float(x) for x in np.asarray(v, dtype=np.float64).ravel()]
+
+
+def export_gltf(scene, path: Path) -> Path:
+    """Write ``scene`` as glTF 2.0 (``.gltf`` with an embedded buffer) beside copies of its textures.
+
+    Meshes are in world space (their nodes have no transform), one material per
+    scene material (base colour, metallic, roughness, emission, textures), one
+    perspective camera node looking down its −Z. Area lights are not meshes of
+    the file: the job lists them (glTF has no rectangular light).
+    """
+    from ..gltf import GltfWriter
+
+    path = Path(path)
+    w = GltfWriter(generator="compare job")
+    index: dict[str, int] = {}
+    textures: dict[Path, int] = {}
+
+    def texture(src: Path) -> int:
+        if src not in textures:
+            name = f"texture-{len(textures)}{src.suffix.lower()}"
+            shutil.copyfile(src, path.parent / name)
+            image = w._add("images", {"uri": name})  # noqa: SLF001 - the writer's own list
+            textures[src] = w._add("textures", {"source": image})  # noqa: SLF001
+        return textures[src]
+
+    for name, m in scene.materials.items():
+        index[name] = w.material(name, m.base_color, m.metallic, m.roughness, m.emission)
+        pbr = w.doc["materials"][index[name]]["pbrMetallicRoughness"]
+        if m.base_color_texture is not None:
+            pbr["baseColorTexture"] = {"index": texture(Path(m.base_color_texture))}
+        if m.metallic_roughness_texture is not None:
+            pbr["metallicRoughnessTexture"] = {"index": texture(Path(m.metallic_roughness_texture))}
+    for mesh in scene.meshes:
+        tri = mesh.triangles()
+        uvs = tri.uvs is not None and len(tri.uvs) == len(tri.positions)
+        w.node(mesh.name, mesh=w.mesh(mesh.name, [(tri, index[mesh.material])], uvs=uvs))
+    cam = scene.camera
+    m = np.linalg.inv(cam.view_matrix())  # camera → world: glTF cameras look down their −Z, +Y up
+    w.node("camera", camera=w.camera("camera", cam.fov, aspect=cam.aspect), matrix=m)
+    return w.write(path)
+
+
+def write_job(scene, folder: Path, *, renderer: str, unit: str, checkpoints: list[int], seed: int,
+              output_dir: Path, cache_dir=None) -> Path:
+    """Write ``job.json``, ``scene.gltf`` and the environment into ``folder``; returns the job's path."""
+    from ..environments import environment_image
+    from ..exr import write_exr
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    gltf = export_gltf(scene, folder / "scene.gltf")
+    env = None
+    if scene.environment is not None:
+        image = environment_image(scene.environment, cache_dir)
+        exr = folder / "environment.exr"
+        # intensity and rotation stay fields of the job: the map holds the source's pixels
+        write_exr(exr, np.asarray(image, dtype=np.float32))
+        env = {"file": str(exr.resolve()), "intensity": float(scene.environment.intensity),
+               "rotation_deg": float(scene.environment.rotation), "orientation": ORIENTATION}
+    cam = scene.camera
+    job = {
+        "schema": JOB_SCHEMA,
+        "renderer": renderer,
+        "scene": {
+            "name": scene.name,
+            "toml": str(Path(scene.path).resolve()),
+            "hash": scene.hash,
+            "gltf": str(gltf.resolve()),
+            "lights": [{"name": l.name, "center": _vec(l.center), "size": _vec(l.size), "normal": _vec(l.normal),
+                        "tangent": _vec(l.tangent), "bitangent": _vec(l.bitangent),
+                        "corners": [_vec(c) for c in l.corners()], "radiance": _vec(l.radiance),
+                        "two_sided": False} for l in scene.lights],
+            "environment": env,
+            "max_depth": int(scene.max_depth),
+        },
+        "camera": {"position": _vec(cam.position), "target": _vec(cam.target), "up": _vec(cam.up),
+                   "fov_deg": float(cam.fov), "width": int(cam.width), "height": int(cam.height)},
+        "checkpoints": [int(c) for c in checkpoints],
+        "unit": unit,
+        "seed": int(seed),
+        "output_dir": str(Path(output_dir).resolve()),
+    }
+    path = folder / "job.json"
+    write_text_atomic(path, json.dumps(job, indent=1))
+    return path
+
+
+def _number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v >= 0
+
+
+def read_checkpoints(folder: Path, *, who: str, size: tuple[int, int], checkpoints: list[int] | None) -> Rendering:
+    """The checkpoints in ``folder`` (``step-<N>.exr`` and ``timings.json``), checked.
+
+    Parameters
+    ----------
+    who
+        How messages name the source (``renderer 'mine'``, ``compare measure``).
+    size
+        (width, height) every image must have.
+    checkpoints
+        The steps that must be there; None takes every ``step-<N>.exr`` found.
+
+    Raises
+    ------
+    RendererError
+        A missing or malformed ``timings.json``, a missing checkpoint, an
+        unreadable image, one of the wrong size, NaN or infinite pixels.
+    """
+    from ..errors import ImageError
+    from ..exr import read_exr
+
+    folder = Path(folder)
+    tpath = folder / "timings.json"
+    try:
+        timings = json.loads(tpath.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise RendererError(f"{who}: {tpath} is missing (it must hold setup_seconds and seconds per checkpoint)") \
+            from None
+    except (OSError, ValueError) as exc:
+        raise RendererError(f"{who}: {tpath}: not valid JSON ({exc})") from None
+    if not isinstance(timings, dict):
+        raise RendererError(f"{who}: {tpath}: expected an object with setup_seconds and seconds")
+    setup = timings.get("setup_seconds", 0.0)
+    if not _number(setup):
+        raise RendererError(f"{who}: {tpath}: setup_seconds: expected a finite number >= 0, got {setup!r}")
+    seconds = timings.get("seconds")
+    if not isinstance(seconds, dict):
+        raise RendererError(f"{who}: {tpath}: seconds: expected an object of cumulative seconds by step, "
+                            f'e.g. {{"1": 0.01, "2": 0.02}}, got {seconds!r}')
+    meta = timings.get("metadata") or {}
+    if not isinstance(meta, dict):
+        raise RendererError(f"{who}: {tpath}: metadata: expected an object, got {type(meta).__name__}")
+    found = {}
+    for p in folder.glob("step-*.exr"):
+        m = _STEP.fullmatch(p.name)
+        if m and int(m.group(1)) > 0:
+            found[int(m.group(1))] = p
+    steps = sorted(found) if checkpoints is None else list(checkpoints)
+    if not steps:
+        raise RendererError(f"{who}: {folder} holds no step-<N>.exr checkpoint")
+    w, h = size
+    out = []
+    for step in steps:
+        path = found.get(step)
+        if path is None:
+            raise RendererError(f"{who}: {folder / f'step-{step}.exr'} is missing (every checkpoint of {steps} "
+                                "must be written)")
+        t = seconds.get(str(step))
+        if not _number(t):
+            raise RendererError(f"{who}: {tpath}: seconds[\"{step}\"]: expected cumulative seconds (a finite "
+                                f"number >= 0), got {t!r}")
+        try:
+            image, _ = read_exr(path)
+        except ImageError as exc:
+            raise RendererError(f"{who}: {exc}") from None
+        if image.shape[:2] != (h, w):
+            raise RendererError(f"{who}: {path.name} is {image.shape[1]}x{image.shape[0]}, the scene is {w}x{h}")
+        bad = ~np.isfinite(image).all(axis=-1)
+        if bad.any():
+            raise RendererError(f"{who}: {path.name}: {int(bad.sum())} pixel(s) are NaN or infinite")
+        out.append(Checkpoint(step, float(t), np.ascontiguousarray(image[..., :3], dtype=np.float32)))
+    return Rendering(out, float(setup), {str(k): v for k, v in meta.items()})

@@ -1,0 +1,96 @@
+"""The Mitsuba 3 path tracer (:mod:`compare.reference`) as a renderer of the registry: ``mitsuba``.
+
+Checkpoints may be any ascending spp ladder. Samples are rendered in passes
+whose running sums are the checkpoints and, between them, the doubling ladder
+1, 2, 4, …, so a ground truth rendered with one checkpoint reuses the passes of
+a convergence ladder (and the reference cache) and the two agree bit for bit.
+"""
+
+from __future__ import annotations
+
+from .base import Checkpoint, RenderContext, Renderer, Rendering
+
+__all__ = ["MitsubaRenderer", "pass_plan"]
+
+
+def pass_plan(checkpoints: list[int]) -> list[int]:
+    """Running spp sums to render: the checkpoints and the doubling ladder up to the last one."""
+    from ..reference import ladder_passes
+
+    last = int(checkpoints[-1])
+    sums, total = set(int(c) for c in checkpoints), 0
+    for n in ladder_passes(last):
+        total += n
+        sums.add(total)
+    return sorted(sums)
+
+
+class MitsubaRenderer(Renderer):
+    """Mitsuba 3 (the best available variant), the suite's reference path tracer."""
+
+    name = "mitsuba"
+    unit = "spp"
+
+    @property
+    def label(self) -> str:
+        from ..backend import load_mitsuba
+        from ..errors import MissingComponentError
+
+        try:
+            return f"Mitsuba path tracer ({load_mitsuba(None).variant()})"
+        except MissingComponentError:
+            return "Mitsuba path tracer"
+
+    def available(self) -> tuple[bool, str]:
+        from ..backend import load_mitsuba
+        from ..errors import MissingComponentError
+
+        try:
+            load_mitsuba(None)
+        except MissingComponentError as exc:
+            return False, str(exc)
+        return True, ""
+
+    def steps(self, settings) -> int:
+        return int(settings.spp)
+
+    def _reference(self, scene, context: RenderContext):
+        from ..reference import ReferenceRenderer
+
+        opts = context.options
+        return ReferenceRenderer(scene, materials=context.settings.materials, variant=opts.get("variant"),
+                                 max_depth=opts.get("max_depth"), cache_dir=context.cache_dir,
+                                 progress=context.progress)
+
+    def key(self, scene, settings) -> dict:
+        from ..reference import ReferenceRenderer
+
+        # ReferenceRenderer.settings() is the reference cache's key: every setting that changes pixels.
+        return ReferenceRenderer(scene, materials=settings.materials, cache_dir=False, progress=False).settings()
+
+    def render(self, scene, *, steps: int, checkpoints: list[int], seed: int, context: RenderContext) -> Rendering:
+        import numpy as np
+        from tqdm.auto import tqdm
+
+        rr = self._reference(scene, context)
+        wanted = set(checkpoints)
+        acc = np.zeros((scene.camera.height, scene.camera.width, 3), dtype=np.float64)
+        out: list[Checkpoint] = []
+        total, seconds = 0, 0.0
+        with tqdm(total=int(steps), unit="spp", desc=f"mitsuba {scene.name[:30]}", disable=not context.progress,
+                  leave=False) as bar:
+            for index, upto in enumerate(pass_plan(checkpoints)):
+                for n, chunk_seed in rr._pass_chunks(seed, index, upto - total):  # noqa: SLF001 - its pass seeds
+                    image, s = rr.render_chunk(n, chunk_seed)
+                    acc += image.astype(np.float64) * n
+                    seconds += s
+                    bar.update(n)
+                total = upto
+                if total in wanted:
+                    out.append(Checkpoint(total, seconds, (acc / total).astype(np.float32)))
+        meta = {"variant": rr.variant, "seed": seed, **rr.settings()}
+        return Rendering(out, float(rr.load_seconds), meta)
+
+    def facts(self, metadata: dict) -> dict[str, str]:
+        v = metadata.get("variant")
+        return {"mitsuba_variant": v} if isinstance(v, str) else {}

@@ -1,0 +1,116 @@
+"""The progressive rasterizer (:mod:`compare.progressive`) and its variants as renderers of the
+registry: ``progressive`` and ``progressive:<option>[+<option>]`` (:mod:`compare.variants`)."""
+
+from __future__ import annotations
+
+import functools
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..fsutil import sha256_bytes
+from .base import Checkpoint, RenderContext, Renderer, Rendering
+
+__all__ = ["ProgressiveRenderer", "RASTERIZER_SOURCES", "source_fingerprint", "source_files"]
+
+#: What the rasterizer's images depend on (its units are redone when any of it changes).
+RASTERIZER_SOURCES = ("progressive", "brdf", "ibl", "variants.py", "scene.py", "geometry.py", "gltf.py",
+                      "procedural_meshes.py", "environments.py", "encodings.py")
+_PACKAGE = Path(__file__).resolve().parent.parent
+
+
+def source_files(*names: str) -> list[Path]:
+    """The package's sources (``.py``, ``.glsl``, and ``.npz`` for committed tables such as the LTC
+    fit) under ``names`` (folders or files of ``compare/``)."""
+    files: list[Path] = []
+    for name in names:
+        path = _PACKAGE / name
+        files += (sorted(f for f in path.rglob("*") if f.suffix in (".py", ".glsl", ".npz")) if path.is_dir()
+                  else [path])
+    return files
+
+
+@functools.lru_cache(maxsize=None)
+def source_fingerprint(*names: str) -> str:
+    """Hash of :func:`source_files` of ``names``: in a render's key, so that a finished render is
+    redone once the renderer's code changes (the version number moves only at releases)."""
+    parts = [(f.relative_to(_PACKAGE).as_posix(), sha256_bytes(f.read_bytes())) for f in source_files(*names)]
+    return sha256_bytes(json.dumps(parts))
+
+
+def _create_gl_context():
+    from ..progressive.context import create_context
+
+    return create_context()
+
+
+def _progressive_checkpoints(scene, *, frames: int, seed: int, options: dict, checkpoints: list[int],
+                             ctx) -> tuple[list[tuple[int, float, np.ndarray]], float, dict]:
+    """Run the progressive renderer; returns (checkpoints, setup seconds, metadata).
+
+    ``setup`` is the renderer's own set-up time or else the wall time of the
+    call minus its timed frames (context-side set-up, shader compilation,
+    uploads, readbacks).
+    """
+    from ..progressive import render_progressive
+
+    t0 = time.perf_counter()
+    result = render_progressive(scene, frames=frames, seed=seed, checkpoints=tuple(checkpoints), ctx=ctx, **options)
+    wall = time.perf_counter() - t0
+    cps = [(int(f), float(s), np.asarray(img, dtype=np.float32)) for f, s, img in result.checkpoints]
+    done = len(result.frame_seconds) or frames  # a frame budget decides the count itself
+    if not cps or cps[-1][0] != done:
+        # The final image is the result even if the renderer did not list it as a checkpoint.
+        cps.append((done, float(result.seconds), np.asarray(result.image, dtype=np.float32)))
+    meta = dict(result.metadata or {})
+    setup = meta.get("setup_seconds")
+    if not isinstance(setup, (int, float)) or not np.isfinite(setup):
+        setup = max(0.0, wall - float(result.seconds))
+    return cps, float(setup), meta
+
+
+class ProgressiveRenderer(Renderer):
+    """Otto et al.'s progressive rasterizer (moderngl), with the options of :mod:`compare.variants`."""
+
+    unit = "frame"
+    #: A frame budget decides the frame count itself: its last checkpoint is the frames it rendered.
+    open_ended = False
+
+    def __init__(self, spec: str = "progressive"):
+        from ..variants import describe, renderer_options
+
+        self.options = renderer_options(spec)  # ValueError naming an unknown option
+        self.name = spec
+        self.variant_of = "progressive" if spec != "progressive" else None
+        self.variant_note = describe(spec)
+        words = self.variant_note or self.options.get("area_model", "radiometric")
+        self.label = f"Progressive rasterizer ({words})"
+        self.open_ended = "frame_budget_ms" in self.options
+
+    def available(self) -> tuple[bool, str]:
+        try:
+            import moderngl  # noqa: F401
+        except ImportError:
+            return False, "moderngl is not installed: pip install moderngl (and Mesa's EGL: apt-get install libegl1)"
+        return True, ""
+
+    def steps(self, settings) -> int:
+        return int(settings.frames)
+
+    def key(self, scene, settings) -> list:
+        return [self.name, source_fingerprint(*RASTERIZER_SOURCES)]
+
+    def render(self, scene, *, steps: int, checkpoints: list[int], seed: int, context: RenderContext) -> Rendering:
+        ctx = context.resource("gl", _create_gl_context, lambda c: c.release())
+        cps, setup, meta = _progressive_checkpoints(scene, frames=steps, seed=seed, options=self.options,
+                                                    checkpoints=list(checkpoints), ctx=ctx)
+        if self.open_ended:  # the budget decided the count: keep what was asked for below it and the end
+            done = cps[-1][0]
+            cps = [c for c in cps if c[0] in checkpoints and c[0] < done] + [cps[-1]]
+        return Rendering([Checkpoint(s, t, img) for s, t, img in cps], setup, meta)
+
+    def facts(self, metadata: dict) -> dict[str, str]:
+        g = metadata.get("gl_renderer")
+        return {"gl_renderer": g} if isinstance(g, str) else {}

@@ -1,0 +1,291 @@
+"""The renderer protocol, the registry and external renderers.
+
+Renderers come from three places beside the built-ins (an object of this
+process, an installed package's entry point, a renderer TOML file), and each
+is measured by ``compare run`` beside Mitsuba; a misbehaving external renderer
+gets one exact message and leaves no result behind.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from compare import run as run_mod
+from compare.cli import main
+from compare.exr import read_exr, write_exr
+from compare.renderers import Checkpoint, Registry, Renderer, RendererError, Rendering
+from compare.renderers.job import export_gltf, read_checkpoints
+from compare.results import Results, RunSettings
+from compare.scene import load_scene
+
+ROOT = Path(__file__).resolve().parent.parent
+CORNELL = ROOT / "scenes" / "cornell.toml"
+SIZE = (16, 12)
+
+
+class GreyRenderer(Renderer):
+    """An in-process renderer: a constant grey image that converges to 0.2 as 1/steps."""
+
+    name = "grey"
+    label = "Grey (test)"
+    unit = "sample"
+    portable = False
+
+    def steps(self, settings) -> int:
+        return 4
+
+    def key(self, scene, settings):
+        return ["grey", 1]
+
+    def render(self, scene, *, steps, checkpoints, seed, context):
+        w, h = scene.camera.resolution
+        return Rendering([Checkpoint(s, 0.01 * s, np.full((h, w, 3), 0.2 + 0.1 / s, np.float32))
+                          for s in checkpoints], 0.5, {"seed_seen": seed})
+
+
+def _settings(renderers, **more) -> RunSettings:
+    return RunSettings(frames=4, spp=4, sizes=[list(SIZE)], renderers=list(renderers), **more)
+
+
+# --------------------------------------------------------------------------- an external renderer, for tests
+
+SCRIPT = textwrap.dedent('''
+    """A test renderer: writes what MODE says (good output or one kind of bad behaviour)."""
+    import json, sys, time
+    import numpy as np
+    import OpenEXR
+
+    mode, job_path = sys.argv[1], sys.argv[2]
+    job = json.load(open(job_path))
+    w, h = job["camera"]["width"], job["camera"]["height"]
+    out = job["output_dir"]
+    if mode == "exit3":
+        print("the renderer broke: no GPU found", file=sys.stderr)
+        sys.exit(3)
+    if mode == "hang":
+        print("rendering forever", file=sys.stderr, flush=True)
+        time.sleep(60)
+    seconds = {}
+    for k, step in enumerate(job["checkpoints"]):
+        if mode == "missing" and k == len(job["checkpoints"]) - 1:
+            break
+        size = (2, 2) if mode == "tiny" else (h, w)
+        img = np.full(size + (3,), 0.25, np.float32)
+        if mode == "nan":
+            img[1, 1, 0] = np.nan
+        chans = {c: np.ascontiguousarray(img[..., i]) for i, c in enumerate("RGB")}
+        OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}, chans).write(
+            f"{out}/step-{step}.exr")
+        seconds[str(step)] = 0.001 * (k + 1)
+    json.dump({"setup_seconds": 0.01, "seconds": seconds, "metadata": {"mode": mode,
+               "lights": len(job["scene"]["lights"])}}, open(f"{out}/timings.json", "w"))
+''')
+
+
+def renderer_toml(tmp_path: Path, mode: str, *, timeout: float = 60, name: str = "mine") -> Path:
+    (tmp_path / "tools").mkdir(exist_ok=True)
+    (tmp_path / "tools" / "test_renderer.py").write_text(SCRIPT)
+    path = tmp_path / "renderers.toml"
+    path.write_text(textwrap.dedent(f'''
+        [renderer.{name}]
+        command = ["{sys.executable}", "tools/test_renderer.py", "{mode}", "{{job}}"]
+        label = "My renderer"
+        unit = "frames"
+        steps = 4
+        timeout = {timeout}
+    '''))
+    return path
+
+
+# --------------------------------------------------------------------------- three sources, measured beside Mitsuba
+
+
+def test_in_process_renderer_is_measured_beside_mitsuba(tmp_path):
+    res = run_mod.run([CORNELL], tmp_path / "out", _settings(["mitsuba", "grey"]), progress=False, report=False,
+                      renderers=[GreyRenderer()])
+    scene = res.scenes[0]
+    grey = scene.run("grey")
+    assert [p.step for p in grey.points] == [1, 2, 4] and grey.unit == "sample" and grey.label == "Grey (test)"
+    assert grey.setup_seconds == 0.5 and grey.metadata["seed_seen"] == 0
+    assert scene.noise_floor is not None and scene.noise_floor.metrics == scene.run("mitsuba").final.metrics
+    assert all(p.metrics["flip"] > 0 for p in grey.points)
+
+
+def test_toml_renderer_is_measured_beside_mitsuba(tmp_path):
+    config = renderer_toml(tmp_path, "good")
+    settings = _settings(["mitsuba", "mine"], renderer_config=str(config))
+    res = run_mod.run([CORNELL], tmp_path / "out", settings, progress=False)
+    mine = res.scenes[0].run("mine")
+    assert mine.label == "My renderer" and mine.unit == "frame" and [p.step for p in mine.points] == [1, 2, 4]
+    assert mine.metadata["mode"] == "good" and mine.metadata["lights"] == 1 and mine.setup_seconds == 0.01
+    assert [p.seconds for p in mine.points] == [0.001, 0.002, 0.003]
+    # the report names it; a rerun reuses it (the command and the script it names are the key)
+    assert "My renderer" in (tmp_path / "out" / "index.html").read_text()
+    again = run_mod.run([CORNELL], tmp_path / "out", settings, progress=False, report=False)
+    assert again.scenes[0].run("mine").key == mine.key
+    # nothing of the job is left in the temporary folder
+    assert not list(Path(tempfile_dir()).glob("compare-mine-*"))
+
+
+def tempfile_dir() -> str:
+    import tempfile
+
+    return tempfile.gettempdir()
+
+
+def test_entry_point_renderer_is_measured_beside_mitsuba(tmp_path, monkeypatch):
+    """A package "installed" on sys.path with a compare.renderers entry point (its dist-info)."""
+    site = tmp_path / "site"
+    pkg = site / "grey_plugin"
+    pkg.mkdir(parents=True)
+    (pkg / "__init__.py").write_text(textwrap.dedent('''
+        import numpy as np
+        from compare.renderers import Checkpoint, Renderer, Rendering
+
+        class Plugged(Renderer):
+            name = "plugged"
+            label = "Plugged-in renderer"
+            unit = "frame"
+
+            def key(self, scene, settings):
+                return ["plugged"]
+
+            def render(self, scene, *, steps, checkpoints, seed, context):
+                w, h = scene.camera.resolution
+                return Rendering([Checkpoint(s, 0.001 * s, np.full((h, w, 3), 0.3, np.float32))
+                                  for s in checkpoints])
+    '''))
+    info = site / "grey_plugin-0.1.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: grey-plugin\nVersion: 0.1\n")
+    (info / "entry_points.txt").write_text("[compare.renderers]\nplugged = grey_plugin:Plugged\n")
+    monkeypatch.syspath_prepend(str(site))
+    reg = Registry()
+    assert "plugged" in reg.names() and reg.get("plugged").label == "Plugged-in renderer"
+    res = run_mod.run([CORNELL], tmp_path / "out", _settings(["mitsuba", "plugged"]), progress=False,
+                      report=False)
+    assert [p.step for p in res.scenes[0].run("plugged").points] == [1, 2, 4]
+    listing = {r["name"]: r for r in reg.listing()}
+    assert listing["plugged"]["available"] and "grey_plugin:Plugged" in listing["plugged"]["source"]
+
+
+def test_another_renderer_can_be_the_ground_truth(tmp_path):
+    settings = _settings(["progressive", "grey"], ground_truth="progressive")
+    res = run_mod.run([CORNELL], tmp_path / "out", settings, progress=False, renderers=[GreyRenderer()])
+    scene = res.scenes[0]
+    assert scene.reference.renderer == "progressive" and scene.reference.unit == "frame"
+    assert scene.reference.spp == 4 and scene.reference.label.startswith("Progressive rasterizer")
+    # the ground-truth renderer's own run is the independent one (seed + 1): its end is the noise floor
+    assert scene.noise_floor.metrics == scene.run("progressive").final.metrics
+    assert scene.run("progressive").final.metrics["flip"] > 0
+    html = (tmp_path / "out" / "index.html").read_text()
+    assert "Ground truth (Progressive rasterizer (radiometric))" in html
+
+
+# --------------------------------------------------------------------------- bad renderer behaviour
+
+
+@pytest.mark.parametrize("mode, message", [
+    ("exit3", r"^renderer 'mine' exited with status 3; the last lines of its stderr:\n"
+              r"the renderer broke: no GPU found$"),
+    ("hang", r"^renderer 'mine' did not finish within 1 s \(timeout in .*renderers\.toml\) and was stopped; "
+             r"the last lines of its stderr:\nrendering forever$"),
+    ("missing", r"^renderer 'mine': .*/output/step-4\.exr is missing \(every checkpoint of \[1, 2, 4\] must be "
+                r"written\)$"),
+    ("tiny", r"^renderer 'mine': step-1\.exr is 2x2, the scene is 16x12$"),
+    ("nan", r"^renderer 'mine': step-1\.exr: 1 pixel\(s\) are NaN or infinite$"),
+])
+def test_bad_external_renderer_is_one_clear_error(tmp_path, mode, message):
+    config = renderer_toml(tmp_path, mode, timeout=1)
+    out = tmp_path / "out"
+    settings = _settings(["mine"], renderer_config=str(config), ground_truth="grey")
+    with pytest.raises(RendererError, match=message):
+        run_mod.run([CORNELL], out, settings, progress=False, renderers=[GreyRenderer()])
+    assert not (out / "results.json").exists()
+    assert not list(out.rglob("runs/*/mine/*"))  # nothing half-written kept as a result
+    assert not list(Path(tempfile_dir()).glob("compare-mine-*"))
+
+
+def test_bad_renderer_file_names_file_and_field(tmp_path, capsys):
+    bad = tmp_path / "r.toml"
+    bad.write_text('[renderer.mine]\ncommand = ["x", "{job}"]\nsteps = 0\n')
+    assert main(["run", "--renderer-config", str(bad), "--renderers", "mine", "-o", str(tmp_path / "o")]) == 2
+    assert capsys.readouterr().err.strip() == (f"compare: error: {bad}: renderer.mine.steps: expected a positive "
+                                               "integer, got 0")
+    bad.write_text('[renderer.mitsuba]\ncommand = ["x", "{job}"]\n')
+    assert main(["renderers", "--renderer-config", str(bad)]) == 2
+    assert "renderer.mitsuba: the name is taken by a built-in renderer" in capsys.readouterr().err
+    bad.write_text('[renderer.gone]\ncommand = ["no-such-renderer-here", "{job}"]\n')
+    assert main(["renderers", "--renderer-config", str(bad)]) == 0
+    line = next(l for l in capsys.readouterr().out.splitlines() if l.startswith("gone"))
+    assert "not available: command 'no-such-renderer-here' is not on PATH" in line
+    assert main(["run", "--renderer-config", str(bad), "--renderers", "gone", "-o", str(tmp_path / "o")]) == 2
+    assert "renderer not available here: gone (command 'no-such-renderer-here' is not on PATH" \
+        in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
+
+
+# --------------------------------------------------------------------------- compare render, compare measure
+
+
+def test_compare_render_takes_any_renderer(tmp_path, capsys):
+    config = renderer_toml(tmp_path, "good")
+    out = tmp_path / "mine.exr"
+    assert main(["render", "--scene", str(CORNELL), "--renderer", "mine", "--renderer-config", str(config),
+                 "--size", "16x12", "-o", str(out)]) == 0
+    image, meta = read_exr(out)
+    assert image.shape == (12, 16, 3) and meta["renderer"] == "mine" and meta["frames"] == 4
+    assert "My renderer, 4 frames" in capsys.readouterr().out
+    assert main(["render", "--scene", str(CORNELL), "--renderer", "nosuch", "-o", str(tmp_path / "x.exr")]) == 2
+    assert "unknown renderer 'nosuch'" in capsys.readouterr().err
+
+
+def test_compare_measure_reads_a_folder_made_anywhere(tmp_path, capsys):
+    folder = tmp_path / "my-engine"
+    folder.mkdir()
+    w, h = SIZE
+    for k, step in enumerate((1, 2, 4)):
+        write_exr(folder / f"step-{step}.exr", np.full((h, w, 3), 0.3, np.float32))
+    (folder / "timings.json").write_text(json.dumps({"setup_seconds": 0.2, "seconds": {"1": 0.1, "2": 0.2,
+                                                                                        "4": 0.4}}))
+    out = tmp_path / "measured"
+    assert main(["measure", str(folder), "--scene", str(CORNELL), "--spp", "4", "--quiet", "-o", str(out)]) == 0
+    res = Results.load(out / "results.json")
+    run = res.scenes[0].runs[0]
+    assert run.renderer == "my-engine" and [p.seconds for p in run.points] == [0.1, 0.2, 0.4]
+    assert (res.scenes[0].width, res.scenes[0].height) == SIZE and (out / "index.html").is_file()
+    (folder / "step-2.exr").unlink()
+    (folder / "timings.json").write_text(json.dumps({"seconds": {"1": 0.1, "4": float("nan")}}))
+    assert main(["measure", str(folder), "--scene", str(CORNELL), "--spp", "4", "--quiet", "-o", str(out)]) == 2
+    assert 'seconds["4"]: expected cumulative seconds' in capsys.readouterr().err
+
+
+def test_read_checkpoints_refuses_bad_timings(tmp_path):
+    write_exr(tmp_path / "step-1.exr", np.zeros((2, 2, 3), np.float32))
+    with pytest.raises(RendererError, match="timings.json is missing"):
+        read_checkpoints(tmp_path, who="x", size=(2, 2), checkpoints=None)
+    (tmp_path / "timings.json").write_text("{not json")
+    with pytest.raises(RendererError, match="not valid JSON"):
+        read_checkpoints(tmp_path, who="x", size=(2, 2), checkpoints=None)
+    (tmp_path / "timings.json").write_text('{"setup_seconds": -1, "seconds": {"1": 0}}')
+    with pytest.raises(RendererError, match="setup_seconds: expected a finite number >= 0, got -1"):
+        read_checkpoints(tmp_path, who="x", size=(2, 2), checkpoints=None)
+
+
+def test_job_gltf_holds_the_scene_in_world_space(tmp_path):
+    from compare.gltf import load_gltf
+
+    scene = load_scene(CORNELL)
+    doc = load_gltf(export_gltf(scene, tmp_path / "scene.gltf"))
+    total = sum(len(m.triangles().indices) for m in scene.meshes)
+    assert sum(len(p.mesh.indices) for p in doc.primitives) == total
+    lo = np.min([p.mesh.positions.min(0) for p in doc.primitives], axis=0)
+    assert np.allclose(lo, scene.bounds()[0], atol=1e-5)
+    (cam,) = doc.cameras
+    assert np.degrees(cam.yfov) == pytest.approx(scene.camera.fov)
