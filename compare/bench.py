@@ -435,7 +435,7 @@ def add_bench_parser(subparsers) -> None:
     """Register ``compare bench``."""
     import argparse
 
-    from .cli import parse_size
+    from .argtypes import parse_size
 
     p = subparsers.add_parser("bench", help="speed and memory ratios measured side by side (medians)",
                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)

@@ -557,7 +557,7 @@ def blender_studio_light(name: str) -> Path:
 def _cache_root(cache_dir: str | Path | None) -> Path:
     if cache_dir is not None:
         return Path(cache_dir)
-    from .reference import default_cache_dir
+    from .cache import default_cache_dir
 
     return default_cache_dir()
 

@@ -133,6 +133,16 @@ def test_toml_renderer_is_measured_beside_mitsuba(tmp_path):
     assert not list(Path(tempfile_dir()).glob("compare-mine-*"))
 
 
+@pytest.fixture(autouse=True)
+def own_tempdir(tmp_path, monkeypatch):
+    """Job folders go to a folder of this test's own (tests in parallel must not see each other's)."""
+    import tempfile
+
+    folder = tmp_path / "tmp"
+    folder.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(folder))
+
+
 def tempfile_dir() -> str:
     import tempfile
 

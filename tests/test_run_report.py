@@ -618,3 +618,39 @@ def test_report_copy_follows_no_symlink(tmp_path, capsys):
     assert capsys.readouterr().err.strip() == (
         f"compare: error: {tmp_path / 'a' / rel}: links to {secret}, outside the results folder {tmp_path / 'a'}: "
         "a report copies only what its run wrote")
+
+
+def test_same_figures_as_before_the_renderer_protocol(tmp_path, gl_ctx):
+    """The Cornell box at 48×36 (16 spp, 8 frames) gives the figures it gave before every renderer
+    moved onto the renderer protocol (tests/data/cornell-48x36-before.json, written by the code
+    before that change), timings aside: results.json's metrics, the check verdicts and the report's
+    figures are made from them."""
+    from compare.check import check
+
+    before = Results.load(ROOT / "tests" / "data" / "cornell-48x36-before.json")
+    settings = RunSettings(frames=8, spp=16, sizes=[[48, 36]],
+                           renderers=["mitsuba", "progressive", "progressive:paper", "progressive:ltc"])
+    now = run_mod.run([CORNELL], tmp_path / "now", settings, progress=False, cache_dir=tmp_path / "cache",
+                      gl_ctx=gl_ctx, report=False)
+    (a,), (b,) = before.scenes, now.scenes
+    assert (a.id, a.features, a.omitted) == (b.id, b.features, b.omitted)
+    assert (a.reference.spp, a.reference.seed, a.reference.variant) == (b.reference.spp, b.reference.seed,
+                                                                        b.reference.variant)
+    assert (a.noise_floor.spp, a.noise_floor.seeds) == (b.noise_floor.spp, b.noise_floor.seeds)
+    assert a.noise_floor.metrics == pytest.approx(b.noise_floor.metrics, rel=1e-4, abs=1e-7)
+    assert [(r.renderer, r.label, r.unit, r.steps) for r in a.runs] == [(r.renderer, r.label, r.unit, r.steps)
+                                                                         for r in b.runs]
+    for ra, rb in zip(a.runs, b.runs):
+        assert [p.step for p in ra.points] == [p.step for p in rb.points]
+        for pa, pb in zip(ra.points, rb.points):
+            assert pa.metrics.keys() == pb.metrics.keys()
+            for k, v in pa.metrics.items():
+                assert (v is None) == (pb.metrics[k] is None), (ra.renderer, pa.step, k)
+                if v is not None:
+                    assert pb.metrics[k] == pytest.approx(v, rel=1e-4, abs=1e-7), (ra.renderer, pa.step, k)
+    rules = {"schema": 1, "rule": [
+        {"renderer": "*", "max": {"flip": 0.3, "relmse": 0.1}, "min": {"ssim": 0.5}},
+        {"renderer": "progressive", "step": 1, "max": {"flip": 0.3}, "min": {"ssim": 0.5}}]}
+    verdicts = [check(r, rules) for r in (before, now)]
+    assert [str(v) for v in verdicts[0][0]] == [str(v) for v in verdicts[1][0]] and verdicts[0][1] == verdicts[1][1]
+    assert verdicts[0][0]  # the rules above cross some bounds: the messages compared carry the values

@@ -92,7 +92,7 @@ def _cache_root(cache_dir, folder: str = "ibl") -> Path | None:
     if cache_dir is False:
         return None
     if cache_dir is None:
-        from ..reference import default_cache_dir
+        from ..cache import default_cache_dir
 
         return default_cache_dir() / folder
     return Path(cache_dir) / folder
