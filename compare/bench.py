@@ -332,17 +332,25 @@ def bench_peak_rss(scene_path: str, *, frames: int, spp: int) -> list[Figure]:
 
 
 def bench_eevee(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
-    """Progressive (all frames) against EEVEE at 64 samples; needs the ``blender`` extra."""
-    try:
-        from .blender import render_blender
-    except ImportError as exc:
-        raise RuntimeError(f"the blender extra is not installed ({exc}); pip install '.[blender]'") from None
-    from .progressive import render_progressive
+    """Progressive (all frames) against EEVEE at 64 samples, both through the registry; needs the
+    ``blender`` extra."""
+    from .renderers import RenderContext, Registry
+    from .results import RunSettings
 
+    reg = Registry()
+    prog_r, eevee_r = reg.get("progressive"), reg.get("eevee")
+    ok, why = eevee_r.available()
+    if not ok:
+        raise RuntimeError(f"eevee is not available: {why}")
+    settings = RunSettings(frames=frames, eevee_samples=64)
     prog, eevee = [], []
-    for k in range(repeats):
-        prog.append(render_progressive(scene, frames=frames, seed=k, ctx=ctx).seconds)
-        eevee.append(render_blender(scene, engine="eevee", samples=64, seed=k).seconds)
+    with RenderContext(settings) as context:
+        context.provide("gl", ctx)
+        for k in range(repeats):
+            for r, times in ((prog_r, prog), (eevee_r, eevee)):
+                steps = r.steps(settings)
+                times.append(r.render(scene, steps=steps, checkpoints=[steps], seed=k,
+                                      context=context).checkpoints[-1].seconds)
     return [Figure("eevee", f"progressive {frames} frames", "EEVEE 64 samples", _median(prog), _median(eevee), "s",
                    repeats, "the paper's Table 1 ratio", prog, eevee)]
 

@@ -299,3 +299,20 @@ def test_job_gltf_holds_the_scene_in_world_space(tmp_path):
     assert np.allclose(lo, scene.bounds()[0], atol=1e-5)
     (cam,) = doc.cameras
     assert np.degrees(cam.yfov) == pytest.approx(scene.camera.fov)
+
+
+def test_example_external_renderer_beside_mitsuba_and_the_rasterizer(tmp_path, gl_ctx):
+    """examples/renderers.toml names examples/raycaster.py (no file of compare/ knows it): measured
+    beside Mitsuba, it converges, and its direct light agrees with the rasterizer's (an independent
+    implementation of the same light: both leave out indirect light)."""
+    from compare.metrics import compare_images
+
+    settings = RunSettings(frames=16, spp=16, sizes=[[32, 24]], renderers=["mitsuba", "progressive", "numpy-raycaster"],
+                           renderer_config=str(ROOT / "examples" / "renderers.toml"))
+    res = run_mod.run([CORNELL], tmp_path / "out", settings, progress=False, gl_ctx=gl_ctx)
+    ray, prog = res.scenes[0].run("numpy-raycaster"), res.scenes[0].run("progressive")
+    assert [p.step for p in ray.points] == [1, 2, 4, 8, 16] and ray.metadata["triangles"] > 0
+    assert ray.final.metrics["relmse"] < ray.points[0].metrics["relmse"]
+    a, b = (read_exr(tmp_path / "out" / r.image)[0] for r in (prog, ray))
+    between = compare_images(a, b)
+    assert between["flip"] < 0.2 and abs(b.mean() / a.mean() - 1) < 0.1, between

@@ -4,6 +4,7 @@
 
     [renderer.mine]
     command = ["python3", "tools/my_renderer.py", "{job}"]   # {job}: path of the job file
+    # ({python} stands for the interpreter running the suite, with numpy and OpenEXR)
     label = "My renderer"
     unit = "frames"        # or "spp", "samples"
     steps = 64             # the budget; checkpoints at 1, 2, 4, ..., steps
@@ -23,6 +24,7 @@ import os
 import shutil
 import signal
 import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -68,12 +70,12 @@ class ExternalRenderer(Renderer):
         self.source = source
 
     def _argv(self, job: Path) -> list[str]:
-        argv = [part.replace("{job}", str(job)) for part in self.command]
+        argv = [part.replace("{job}", str(job)).replace("{python}", sys.executable) for part in self.command]
         # A relative path that names a file beside the TOML file means that file.
         return [str(self.cwd / a) if not os.path.isabs(a) and (self.cwd / a).is_file() else a for a in argv]
 
     def available(self) -> tuple[bool, str]:
-        exe = self.command[0]
+        exe = self.command[0].replace("{python}", sys.executable)
         if os.path.isabs(exe) or (self.cwd / exe).is_file():
             path = Path(exe) if os.path.isabs(exe) else self.cwd / exe
             if not (path.is_file() and os.access(path, os.X_OK)):
