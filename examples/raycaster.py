@@ -62,8 +62,14 @@ def load_triangles(path: str):
     return np.concatenate(tris), np.concatenate(albedo), np.concatenate(emission)
 
 
-def intersect(origins, dirs, tris, t_max=None):
-    """Nearest hit (t, triangle index) of rays (N, 3) with triangles (T, 3, 3); Möller–Trumbore, both sides."""
+def intersect(origins, dirs, tris, t_max=None, chunk=4096):
+    """Nearest hit (t, triangle index) of rays (N, 3) with triangles (T, 3, 3); Möller–Trumbore, both sides.
+
+    Rays go in chunks: the rays × triangles arrays stay small whatever the image size."""
+    if len(origins) > chunk:
+        parts = [intersect(origins[i:i + chunk], dirs[i:i + chunk], tris,
+                           None if t_max is None else t_max[i:i + chunk], chunk) for i in range(0, len(origins), chunk)]
+        return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
     v0, e1, e2 = tris[:, 0], tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]
     p = np.cross(dirs[:, None, :], e2[None])
     det = np.einsum("ntk,tk->nt", p, e1)

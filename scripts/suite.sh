@@ -132,7 +132,8 @@ case "$job" in
         setup
         out="reports/cornell"
         "$VENV/bin/compare" run --scenes scenes/cornell.toml --size 320x240 --frames 128 --spp 1024 \
-            --renderers mitsuba,progressive,progressive:paper,progressive:ltc -o "$out" "$@"
+            --renderer-config examples/renderers.toml \
+            --renderers mitsuba,progressive,progressive:paper,progressive:ltc,numpy-raycaster -o "$out" "$@"
         log "report: $ROOT/$out/index.html"
         ;;
     test)
