@@ -394,3 +394,19 @@ def test_eevee_renders_the_cornell_box():
     assert r.image.max() > 10  # the light is drawn (by its stand-in quad)
     wall = region_masks(scene)["back wall lit"]
     np.testing.assert_allclose(r.image[wall].mean(0), c.image[wall].mean(0), rtol=0.05)
+
+
+@needs_bpy
+@pytest.mark.parametrize("engine, option", [("cycles", "--spp"), ("eevee", "--samples")])
+def test_compare_render_takes_the_blender_renderers(tmp_path, capsys, engine, option):
+    """``compare render --renderer cycles|eevee`` through the registry, like every other renderer."""
+    from compare.cli import main
+    from compare.exr import read_exr
+
+    out = tmp_path / f"{engine}.exr"
+    assert main(["render", "--scene", str(ROOT / "scenes" / "cornell.toml"), "--renderer", engine, option, "4",
+                 "--size", "24x18", "-o", str(out)]) == 0
+    image, meta = read_exr(out)
+    assert image.shape == (18, 24, 3) and np.isfinite(image).all() and image.mean() > 0
+    assert meta["renderer"] == engine and meta["spp"] == 4 and meta["engine"] == engine
+    assert "4 spp in" in capsys.readouterr().out
