@@ -2,7 +2,12 @@
 
 These machines are noisy, so every figure is a **ratio of medians** of runs that
 alternate between the two sides (A, B, A, B, …) so slow drift hits both alike;
-absolute times are printed for context only. How to read each figure:
+absolute times are printed for context only. Renderers are reached through the
+registry (:mod:`compare.renderers`): the items that compare renderers render through
+the protocol; ``first-frame``, ``depth-floor``, ``area-models`` (the rasterizer's) and
+``wrapper-overhead`` (Mitsuba's) time a renderer's internals and are items that
+renderer declares (:meth:`~compare.renderers.base.Renderer.benchmarks`). How to read
+each figure:
 
 ``first-frame``
     median wall time of frame 1 ÷ median of the mean frame time of a whole
@@ -40,7 +45,7 @@ absolute times are printed for context only. How to read each figure:
     sooner. Medians of ``--repeats`` alternating runs.
 ``peak-rss``
     peak resident memory (MiB) of a separate process doing a 1080p progressive
-    run and one doing a 1080p reference pass; their ratio is progressive ÷ reference.
+    run and one doing a 1080p Mitsuba render of up to 64 spp; their ratio is progressive ÷ Mitsuba.
 ``eevee``
     progressive (all frames) ÷ EEVEE (64 samples) render seconds, when the
     ``blender`` extra is installed (the paper's Table 1 comparison).
@@ -51,15 +56,11 @@ from __future__ import annotations
 import json
 import math
 import platform
-import statistics
 import subprocess
 import sys
-import time
-from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-import numpy as np
-
+from .figures import Figure, median as _median, time_to_error
 from .fsutil import write_text_atomic
 
 ITEMS = ("first-frame", "depth-floor", "area-models", "wrapper-overhead", "equal-error", "frame-budget", "peak-rss",
@@ -68,220 +69,83 @@ ITEMS = ("first-frame", "depth-floor", "area-models", "wrapper-overhead", "equal
 BUDGETS_MS = (16.0, 100.0)
 
 
-@dataclass
-class Figure:
-    """One benchmark figure: two medians and their ratio (A ÷ B)."""
+def _render(registry, spec: str, scene, *, steps: int, checkpoints=None, seed: int = 0, context):
+    """A render through the protocol (checked as ``compare run`` checks it)."""
+    from .renderers import check_rendering
 
-    name: str
-    a: str
-    b: str
-    a_median: float
-    b_median: float
-    unit: str
-    repeats: int
-    note: str = ""
-    a_samples: list[float] = field(default_factory=list)
-    b_samples: list[float] = field(default_factory=list)
-
-    @property
-    def ratio(self) -> float:
-        return self.a_median / self.b_median if self.b_median > 0 else math.inf
-
-    def to_json(self) -> dict:
-        d = asdict(self)
-        d["ratio"] = self.ratio if math.isfinite(self.ratio) else None
-        return d
+    r = registry.get(spec)
+    cps = list(checkpoints or [steps])
+    return check_rendering(r, r.render(scene, steps=steps, checkpoints=cps, seed=seed, context=context),
+                           scene=scene, checkpoints=cps)
 
 
-def _median(xs) -> float:
-    return float(statistics.median(xs))
+def _direct_context(context, max_depth: int | None):
+    """A context whose Mitsuba renders stop at ``max_depth`` (2: direct light only)."""
+    from .renderers import RenderContext
+
+    options = {**context.options, **({"max_depth": max_depth} if max_depth else {})}
+    return RenderContext(context.settings, cache_dir=context.cache_dir, options=options)
 
 
-def bench_first_frame(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
-    """Frame 1 against the mean frame and the total of a whole progressive run; the same with frame 0
-    drawn at full size, alternating with the default (half size) run for run."""
-    from .progressive import ProgressiveRenderer
-    from .progressive.first_frame import auto_scale
+def _truth(registry, scene, spp: int, context, max_depth: int | None):
+    from .reference import derive_seed
 
-    scales = (auto_scale((scene.camera.width, scene.camera.height)), 1.0)  # the default, then full size
-    first, mean, total = ([], []), ([], []), []
-    renderers = []
-    try:
-        for k in scales:
-            renderers.append(ProgressiveRenderer(scene, frames=frames, ctx=ctx, first_frame_scale=k))
-        for _ in range(repeats):
-            for i, r in enumerate(renderers):
-                r.reset()
-                for _ in r.frames():
-                    pass
-                first[i].append(r.frame_seconds[0])
-                mean[i].append(float(np.mean(r.frame_seconds)))
-                if i == 0:
-                    total.append(r.seconds)
-    finally:
-        for r in renderers:
-            r.release()
-    return [
-        Figure("first-frame", "frame 1", f"mean frame of {frames}", _median(first[0]), _median(mean[0]), "s",
-               repeats, f"frame 0 at {scales[0]:g} of each axis; paper: 0.98 ms / 6.4 ms ≈ 0.15", first[0], mean[0]),
-        Figure("first-frame-total", "frame 1", f"all {frames} frames", _median(first[0]), _median(total), "s",
-               repeats, "", first[0], total),
-        Figure("first-frame-full-size", "frame 1 (full size)", f"mean frame of {frames}", _median(first[1]),
-               _median(mean[1]), "s", repeats, "frame 0 at full size, alternating with the runs above",
-               first[1], mean[1]),
-    ]
+    with _direct_context(context, max_depth) as c:
+        return _render(registry, "mitsuba", scene, steps=4 * spp, seed=derive_seed("bench-ground-truth"),
+                       context=c).checkpoints[-1].image
 
 
-def bench_depth_floor(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
-    """Mean frame time against a depth-only pass of the same geometry and size."""
-    from .progressive import ProgressiveRenderer
-    from .progressive.depth_only import DepthOnlyPass
-
-    frame_t, floor_t = [], []
-    with ProgressiveRenderer(scene, frames=frames, ctx=ctx) as r:
-        depth = DepthOnlyPass(ctx, r.gpu_scene, r.size)
-        try:
-            vp = r.camera.view_proj((0.0, 0.0))
-            depth.render(vp)  # first draw compiles the program: keep it out of the timing
-            ctx.finish()
-            for _ in range(repeats):
-                r.reset()
-                for _ in r.frames():
-                    pass
-                frame_t.append(float(np.mean(r.frame_seconds)))
-                times = []
-                for _ in range(frames):
-                    t0 = time.perf_counter()
-                    depth.render(vp)
-                    ctx.finish()
-                    times.append(time.perf_counter() - t0)
-                floor_t.append(float(np.mean(times)))
-        finally:
-            depth.release()
-    return [Figure("depth-floor", "mean frame", "depth-only pass", _median(frame_t), _median(floor_t), "s", repeats,
-                   "", frame_t, floor_t)]
-
-
-def bench_wrapper_overhead(scene, *, spp: int, repeats: int) -> list[Figure]:
-    """ReferenceRenderer.render_chunk against a bare mi.render of the same dictionary."""
-    from .mitsuba_dict import scene_dict
-    from .reference import ReferenceRenderer
-
-    r = ReferenceRenderer(scene, cache_dir=False, progress=False)
-    mi = r.mi
-    bare_scene = mi.load_dict(scene_dict(scene, spp=1))
-    r.render_chunk(spp, 0)  # JIT both once
-    np.array(mi.render(bare_scene, spp=spp, seed=0))
-    wrapped, bare = [], []
-    for k in range(repeats):
-        t0 = time.perf_counter()
-        r.render_chunk(spp, 1000 + k)
-        wrapped.append(time.perf_counter() - t0)
-        t0 = time.perf_counter()
-        np.array(mi.render(bare_scene, spp=spp, seed=2000 + k))
-        bare.append(time.perf_counter() - t0)
-    return [Figure("wrapper-overhead", "ReferenceRenderer pass", "bare mi.render", _median(wrapped), _median(bare),
-                   "s", repeats, f"{spp} spp, cache off", wrapped, bare)]
-
-
-def time_to_error(seconds: list[float], errors: list[float], target: float) -> float:
-    """Seconds at which a log–log interpolated error curve first reaches ``target`` (inf if never).
-
-    Before the first checkpoint nothing is known: if the first checkpoint is
-    already below the target, its time is returned (an upper bound).
-    """
-    for k, (t, e) in enumerate(zip(seconds, errors)):
-        if e <= target:
-            if k == 0:
-                return float(t)
-            t0, e0 = seconds[k - 1], errors[k - 1]
-            if e0 <= 0 or e <= 0 or e0 == e:
-                return float(t)
-            f = (math.log(target) - math.log(e0)) / (math.log(e) - math.log(e0))
-            return float(math.exp(math.log(t0) + f * (math.log(t) - math.log(t0))))
-    return math.inf
-
-
-def bench_equal_error(scene, *, frames: int, spp: int, ctx) -> list[Figure]:
+def bench_equal_error(scene, *, frames: int, spp: int, registry, context) -> list[Figure]:
     """Mitsuba's time to reach the rasterizer's final FLIP, ÷ the rasterizer's time; against the
     direct-light reference also for the ``ltc`` area model (one Mitsuba ladder for both)."""
     from .metrics import flip
-    from .progressive import render_progressive
-    from .reference import ReferenceRenderer, derive_seed
+    from .renderers import doubling_steps
 
-    # (figure suffix, renderer options, references it is judged against): against the full
-    # reference the plain technique misses the indirect light whatever its area model, so the
-    # ltc figure there is given with the irradiance probes on.
-    runs = [("", {}, ("full", "direct"))]
+    # (figure suffix, renderer, references it is judged against): against the full reference the
+    # plain technique misses the indirect light whatever its area model, so the ltc figure there
+    # is given with the irradiance probes on.
+    runs = [("", "progressive", ("full", "direct"))]
     if scene.lights:
-        runs += [("-ltc", {"area_model": "ltc"}, ("direct",)),
-                 ("-ltc-probes", {"area_model": "ltc", "indirect": "probes"}, ("full",))]
-    progs = {suffix: (render_progressive(scene, frames=frames, ctx=ctx, **kw), refs) for suffix, kw, refs in runs}
+        runs += [("-ltc", "progressive:ltc", ("direct",)), ("-ltc-probes", "progressive:ltc+probes", ("full",))]
+    progs = {suffix: (_render(registry, spec, scene, steps=frames, context=context), refs, spec)
+             for suffix, spec, refs in runs}
     out = []
     for label, depth in (("full", None), ("direct", 2)):
-        r = ReferenceRenderer(scene, max_depth=depth, progress=False)
-        truth = r.render(4 * spp, seed=derive_seed("bench-ground-truth")).image
-        ladder = r.ladder(spp, seed=0)
-        errors = [flip(truth, c.image)[0] for c in ladder]
-        for suffix, (prog, refs) in progs.items():
+        truth = _truth(registry, scene, spp, context, depth)
+        with _direct_context(context, depth) as c:
+            ladder = _render(registry, "mitsuba", scene, steps=spp, checkpoints=doubling_steps(spp), context=c)
+        errors = [flip(truth, cp.image)[0] for cp in ladder.checkpoints]
+        seconds = [cp.seconds for cp in ladder.checkpoints]
+        for suffix, (prog, refs, spec) in progs.items():
             if label not in refs:
                 continue
-            target = flip(truth, prog.image)[0]
-            t = time_to_error([c.seconds for c in ladder], errors, target)
+            final = prog.checkpoints[-1]
+            target = flip(truth, final.image)[0]
+            t = time_to_error(seconds, errors, target)
             what = prog.metadata["area_model"] + (", probes" if prog.metadata.get("indirect") == "probes" else "")
-            note = (f"vs {label} reference; progressive ({what}) FLIP {target:.4f}; Mitsuba FLIP at 1 spp "
+            note = (f"vs {label} reference; {spec} FLIP {target:.4f}; Mitsuba FLIP at 1 spp "
                     f"{errors[0]:.4f}, at {spp} spp {errors[-1]:.4f}")
             if math.isinf(t):
                 note += f"; Mitsuba did not reach it within {spp} spp (ratio is a lower bound)"
-                t = ladder[-1].seconds
+                t = seconds[-1]
             out.append(Figure(f"equal-error-{label}{suffix}", "Mitsuba to same FLIP",
-                              f"progressive ({what}) {frames} frames", t, prog.seconds, "s", 1, note))
+                              f"progressive ({what}) {frames} frames", t, final.seconds, "s", 1, note))
     return out
 
 
-def bench_area_models(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
-    """Mean frame time of the ``ltc`` and the ``paper`` area models ÷ the radiometric default,
-    run for run alternating."""
-    from .progressive import ProgressiveRenderer
-
-    if not scene.lights:
-        raise RuntimeError("the scene has no area lights: the area models do not differ")
-    models = ("radiometric", "ltc", "paper")
-    mean: dict[str, list[float]] = {m: [] for m in models}
-    renderers = []
-    try:
-        for m in models:
-            renderers.append(ProgressiveRenderer(scene, frames=frames, ctx=ctx, area_model=m))
-        for _ in range(repeats):
-            for m, r in zip(models, renderers):
-                r.reset()
-                for _ in r.frames():
-                    pass
-                mean[m].append(float(np.mean(r.frame_seconds)))
-    finally:
-        for r in renderers:
-            r.release()
-    base = mean["radiometric"]
-    return [Figure(f"area-model-{m}", f"{m} mean frame", "radiometric mean frame", _median(mean[m]),
-                   _median(base), "s", repeats, f"{len(scene.lights)} light(s), {frames} frames", mean[m], base)
-            for m in models[1:]]
-
-
-def bench_frame_budget(scene, *, frames: int, spp: int, repeats: int, ctx) -> list[Figure]:
+def bench_frame_budget(scene, *, frames: int, spp: int, repeats: int, registry, context) -> list[Figure]:
     """Time to a target FLIP with a frame budget ÷ with the fixed plan (checkpoints at every frame)."""
     from .metrics import flip
-    from .progressive import render_progressive
-    from .reference import ReferenceRenderer, derive_seed
 
     # Against the direct-light-only reference: that is what more samples converge to (the full
     # reference's error is dominated by the missing indirect light at every frame count).
-    truth = ReferenceRenderer(scene, max_depth=2, progress=False).render(
-        4 * spp, seed=derive_seed("bench-ground-truth")).image
+    truth = _truth(registry, scene, spp, context, 2)
 
     def curve(budget):
-        res = render_progressive(scene, frames=frames, ctx=ctx, checkpoints="every", frame_budget_ms=budget)
-        return ([c.seconds for c in res.checkpoints], [flip(truth, c.image)[0] for c in res.checkpoints],
-                len(res.frame_seconds))
+        spec = "progressive" if budget is None else f"progressive:budget{budget:g}"
+        res = _render(registry, spec, scene, steps=frames, checkpoints=list(range(1, frames + 1)), context=context)
+        cps = res.checkpoints
+        return [c.seconds for c in cps], [flip(truth, c.image)[0] for c in cps], cps[-1].step
 
     runs: dict = {None: [], **{b: [] for b in BUDGETS_MS}}
     for _ in range(repeats):
@@ -302,14 +166,14 @@ def bench_frame_budget(scene, *, frames: int, spp: int, repeats: int, ctx) -> li
 
 _RSS_SCRIPT = """
 import resource, sys
+from compare.renderers import RenderContext, Registry
+from compare.results import RunSettings
 from compare.scene import load_scene
 scene = load_scene(sys.argv[2]).with_resolution(1920, 1080)
-if sys.argv[1] == "progressive":
-    from compare.progressive import render_progressive
-    render_progressive(scene, frames=int(sys.argv[3]))
-elif sys.argv[1] == "reference":
-    from compare.reference import ReferenceRenderer
-    ReferenceRenderer(scene, cache_dir=False, progress=False).render_chunk(int(sys.argv[3]), 0)
+steps = int(sys.argv[3])
+if sys.argv[1] != "imports":
+    with RenderContext(RunSettings(), cache_dir=False) as context:
+        Registry().get(sys.argv[1]).render(scene, steps=steps, checkpoints=[steps], seed=0, context=context)
 else:
     import compare.progressive, compare.reference, mitsuba, moderngl
 print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)
@@ -323,34 +187,26 @@ def _peak_rss_mib(kind: str, scene_path: str, count: int) -> float:
 
 
 def bench_peak_rss(scene_path: str, *, frames: int, spp: int) -> list[Figure]:
-    """Peak RSS of a 1080p progressive run and of a 1080p reference pass, each in its own process."""
+    """Peak RSS of a 1080p progressive run and of a 1080p Mitsuba render, each in its own process."""
     base = _peak_rss_mib("imports", scene_path, 0)
     prog = _peak_rss_mib("progressive", scene_path, frames)
-    ref = _peak_rss_mib("reference", scene_path, min(spp, 64))
-    return [Figure("peak-rss", "progressive 1080p", "reference 1080p pass", prog, ref, "MiB", 1,
-                   f"imports alone: {base:.0f} MiB; reference pass of {min(spp, 64)} spp (the largest pass)")]
+    n = min(spp, 64)
+    ref = _peak_rss_mib("mitsuba", scene_path, n)
+    return [Figure("peak-rss", "progressive 1080p", "mitsuba 1080p render", prog, ref, "MiB", 1,
+                   f"imports alone: {base:.0f} MiB; a Mitsuba render of {n} spp (passes of 1, 1, 2, ..., {n // 2} spp)")]
 
 
-def bench_eevee(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
+def bench_eevee(scene, *, frames: int, repeats: int, registry, context) -> list[Figure]:
     """Progressive (all frames) against EEVEE at 64 samples, both through the registry; needs the
     ``blender`` extra."""
-    from .renderers import RenderContext, Registry
-    from .results import RunSettings
-
-    reg = Registry()
-    prog_r, eevee_r = reg.get("progressive"), reg.get("eevee")
-    ok, why = eevee_r.available()
+    ok, why = registry.get("eevee").available()
     if not ok:
         raise RuntimeError(f"eevee is not available: {why}")
-    settings = RunSettings(frames=frames, eevee_samples=64)
     prog, eevee = [], []
-    with RenderContext(settings) as context:
-        context.provide("gl", ctx)
-        for k in range(repeats):
-            for r, times in ((prog_r, prog), (eevee_r, eevee)):
-                steps = r.steps(settings)
-                times.append(r.render(scene, steps=steps, checkpoints=[steps], seed=k,
-                                      context=context).checkpoints[-1].seconds)
+    for k in range(repeats):
+        prog.append(_render(registry, "progressive", scene, steps=frames, seed=k, context=context)
+                    .checkpoints[-1].seconds)
+        eevee.append(_render(registry, "eevee", scene, steps=64, seed=k, context=context).checkpoints[-1].seconds)
     return [Figure("eevee", f"progressive {frames} frames", "EEVEE 64 samples", _median(prog), _median(eevee), "s",
                    repeats, "the paper's Table 1 ratio", prog, eevee)]
 
@@ -378,44 +234,54 @@ def environment_info(ctx=None) -> dict:
     return info
 
 
+def _renderer_items(registry) -> dict:
+    """The benchmark items renderers declare (:meth:`Renderer.benchmarks`), by name."""
+    items = {}
+    for name in ("progressive", "mitsuba"):
+        for item, fn in registry.get(name).benchmarks().items():
+            items.setdefault(item, fn)
+    return items
+
+
 def run_bench(scene_path: str | Path, *, size: tuple[int, int], frames: int, spp: int, repeats: int,
               items: tuple[str, ...] = ITEMS, progress: bool = True) -> dict:
-    """Run the chosen benchmark items; returns a JSON-ready dict (figures, skipped items, environment)."""
+    """Run the chosen benchmark items; returns a JSON-ready dict (figures, skipped items, environment).
+
+    Every renderer is reached through the registry: the items that compare renderers render through
+    the protocol; the items about one renderer's internals are the ones that renderer declares.
+    """
     from tqdm.auto import tqdm
 
-    from .progressive.context import create_context
+    from .renderers import RenderContext, Registry
+    from .results import RunSettings
     from .scene import load_scene
 
     scene = load_scene(scene_path).with_resolution(*size)
-    ctx = create_context()
+    registry = Registry()
+    own = _renderer_items(registry)
     figures: list[Figure] = []
     skipped: dict[str, str] = {}
-    try:
+    with RenderContext(RunSettings(frames=frames, spp=spp), progress=False) as context:
         for item in tqdm(items, desc="bench", disable=not progress):
             try:
-                if item == "first-frame":
-                    figures += bench_first_frame(scene, frames=frames, repeats=repeats, ctx=ctx)
-                elif item == "depth-floor":
-                    figures += bench_depth_floor(scene, frames=frames, repeats=repeats, ctx=ctx)
-                elif item == "area-models":
-                    figures += bench_area_models(scene, frames=frames, repeats=repeats, ctx=ctx)
-                elif item == "wrapper-overhead":
-                    figures += bench_wrapper_overhead(scene, spp=min(spp, 64), repeats=repeats)
+                if item in own:
+                    figures += own[item](scene, frames=frames, spp=spp, repeats=repeats, context=context)
                 elif item == "equal-error":
-                    figures += bench_equal_error(scene, frames=frames, spp=spp, ctx=ctx)
+                    figures += bench_equal_error(scene, frames=frames, spp=spp, registry=registry, context=context)
                 elif item == "frame-budget":
-                    figures += bench_frame_budget(scene, frames=frames, spp=spp, repeats=repeats, ctx=ctx)
+                    figures += bench_frame_budget(scene, frames=frames, spp=spp, repeats=repeats, registry=registry,
+                                                  context=context)
                 elif item == "peak-rss":
                     figures += bench_peak_rss(str(scene_path), frames=frames, spp=spp)
                 elif item == "eevee":
-                    figures += bench_eevee(scene, frames=frames, repeats=repeats, ctx=ctx)
+                    figures += bench_eevee(scene, frames=frames, repeats=repeats, registry=registry, context=context)
                 else:
                     raise ValueError(f"unknown benchmark item {item!r} (known: {', '.join(ITEMS)})")
             except RuntimeError as exc:
                 skipped[item] = str(exc)
-        env = environment_info(ctx)
-    finally:
-        ctx.release()
+        from .renderers.progressive import _create_gl_context  # noqa: PLC2701 - the context the items used
+
+        env = environment_info(context.resource("gl", _create_gl_context, lambda c: c.release()))
     return {"schema": 1, "scene": str(scene_path), "size": list(size), "frames": frames, "spp": spp,
             "repeats": repeats, "figures": [f.to_json() for f in figures], "skipped": skipped, "environment": env}
 

@@ -164,6 +164,11 @@ class Renderer:
         """Render ``scene`` with ``seed``; a checkpoint at every step of ``checkpoints`` (the last is ``steps``)."""
         raise NotImplementedError
 
+    def benchmarks(self) -> dict[str, Any]:
+        """``compare bench`` items about this renderer's own internals: name → a function
+        ``(scene, *, frames, spp, repeats, context) -> list[compare.figures.Figure]``."""
+        return {}
+
     def facts(self, metadata: dict) -> dict[str, str]:
         """Facts about the machine this renderer's metadata reveals (``gl_renderer``, ``mitsuba_variant``)."""
         return {}

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from .base import Checkpoint, RenderContext, Renderer, Rendering
 
-__all__ = ["MitsubaRenderer", "pass_plan"]
+__all__ = ["MitsubaRenderer", "bench_wrapper_overhead", "pass_plan"]
 
 
 def pass_plan(checkpoints: list[int]) -> list[int]:
@@ -94,3 +94,37 @@ class MitsubaRenderer(Renderer):
     def facts(self, metadata: dict) -> dict[str, str]:
         v = metadata.get("variant")
         return {"mitsuba_variant": v} if isinstance(v, str) else {}
+
+    def benchmarks(self) -> dict:
+        return {"wrapper-overhead": _bench_wrapper_overhead}
+
+
+def _bench_wrapper_overhead(scene, *, frames: int, spp: int, repeats: int, context) -> list:
+    return bench_wrapper_overhead(scene, spp=min(spp, 64), repeats=repeats)
+
+
+def bench_wrapper_overhead(scene, *, spp: int, repeats: int) -> list:
+    """ReferenceRenderer.render_chunk against a bare mi.render of the same dictionary."""
+    import time
+
+    import numpy as np
+
+    from ..figures import Figure, median as _median
+    from ..mitsuba_dict import scene_dict
+    from ..reference import ReferenceRenderer
+
+    r = ReferenceRenderer(scene, cache_dir=False, progress=False)
+    mi = r.mi
+    bare_scene = mi.load_dict(scene_dict(scene, spp=1))
+    r.render_chunk(spp, 0)  # JIT both once
+    np.array(mi.render(bare_scene, spp=spp, seed=0))
+    wrapped, bare = [], []
+    for k in range(repeats):
+        t0 = time.perf_counter()
+        r.render_chunk(spp, 1000 + k)
+        wrapped.append(time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        np.array(mi.render(bare_scene, spp=spp, seed=2000 + k))
+        bare.append(time.perf_counter() - t0)
+    return [Figure("wrapper-overhead", "ReferenceRenderer pass", "bare mi.render", _median(wrapped), _median(bare),
+                   "s", repeats, f"{spp} spp, cache off", wrapped, bare)]

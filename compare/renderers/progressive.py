@@ -111,6 +111,22 @@ class ProgressiveRenderer(Renderer):
             cps = [c for c in cps if c[0] in checkpoints and c[0] < done] + [cps[-1]]
         return Rendering([Checkpoint(s, t, img) for s, t, img in cps], setup, meta)
 
+    def benchmarks(self) -> dict:
+        if self.name != "progressive":
+            return {}
+        return {name: functools.partial(_own_bench, name) for name in ("first-frame", "depth-floor", "area-models")}
+
     def facts(self, metadata: dict) -> dict[str, str]:
         g = metadata.get("gl_renderer")
         return {"gl_renderer": g} if isinstance(g, str) else {}
+
+
+def _own_bench(name: str, scene, *, frames: int, spp: int, repeats: int, context) -> list:
+    """One of the rasterizer's own benchmark items (:mod:`compare.progressive.bench`)."""
+    from ..progressive import bench
+
+    ctx = context.resource("gl", _create_gl_context, lambda c: c.release())
+    fn = {"first-frame": bench.bench_first_frame, "depth-floor": bench.bench_depth_floor,
+          "area-models": bench.bench_area_models}[name]
+    return fn(scene, frames=frames, repeats=repeats, ctx=ctx)
+

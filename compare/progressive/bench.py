@@ -1,0 +1,106 @@
+"""The progressive rasterizer's own benchmarks (``compare bench`` items it declares): its first
+frame against its mean frame, its frame against a depth-only pass, and each area model's frame
+against the radiometric one. They time parts of the renderer that :meth:`render` does not expose."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ..figures import Figure, median as _median
+
+__all__ = ["bench_area_models", "bench_depth_floor", "bench_first_frame"]
+
+
+def bench_first_frame(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
+    """Frame 1 against the mean frame and the total of a whole progressive run; the same with frame 0
+    drawn at full size, alternating with the default (half size) run for run."""
+    from . import ProgressiveRenderer
+    from .first_frame import auto_scale
+
+    scales = (auto_scale((scene.camera.width, scene.camera.height)), 1.0)  # the default, then full size
+    first, mean, total = ([], []), ([], []), []
+    renderers = []
+    try:
+        for k in scales:
+            renderers.append(ProgressiveRenderer(scene, frames=frames, ctx=ctx, first_frame_scale=k))
+        for _ in range(repeats):
+            for i, r in enumerate(renderers):
+                r.reset()
+                for _ in r.frames():
+                    pass
+                first[i].append(r.frame_seconds[0])
+                mean[i].append(float(np.mean(r.frame_seconds)))
+                if i == 0:
+                    total.append(r.seconds)
+    finally:
+        for r in renderers:
+            r.release()
+    return [
+        Figure("first-frame", "frame 1", f"mean frame of {frames}", _median(first[0]), _median(mean[0]), "s",
+               repeats, f"frame 0 at {scales[0]:g} of each axis; paper: 0.98 ms / 6.4 ms ≈ 0.15", first[0], mean[0]),
+        Figure("first-frame-total", "frame 1", f"all {frames} frames", _median(first[0]), _median(total), "s",
+               repeats, "", first[0], total),
+        Figure("first-frame-full-size", "frame 1 (full size)", f"mean frame of {frames}", _median(first[1]),
+               _median(mean[1]), "s", repeats, "frame 0 at full size, alternating with the runs above",
+               first[1], mean[1]),
+    ]
+
+
+def bench_depth_floor(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
+    """Mean frame time against a depth-only pass of the same geometry and size."""
+    from . import ProgressiveRenderer
+    from .depth_only import DepthOnlyPass
+
+    frame_t, floor_t = [], []
+    with ProgressiveRenderer(scene, frames=frames, ctx=ctx) as r:
+        depth = DepthOnlyPass(ctx, r.gpu_scene, r.size)
+        try:
+            vp = r.camera.view_proj((0.0, 0.0))
+            depth.render(vp)  # first draw compiles the program: keep it out of the timing
+            ctx.finish()
+            for _ in range(repeats):
+                r.reset()
+                for _ in r.frames():
+                    pass
+                frame_t.append(float(np.mean(r.frame_seconds)))
+                times = []
+                for _ in range(frames):
+                    t0 = time.perf_counter()
+                    depth.render(vp)
+                    ctx.finish()
+                    times.append(time.perf_counter() - t0)
+                floor_t.append(float(np.mean(times)))
+        finally:
+            depth.release()
+    return [Figure("depth-floor", "mean frame", "depth-only pass", _median(frame_t), _median(floor_t), "s", repeats,
+                   "", frame_t, floor_t)]
+
+
+def bench_area_models(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
+    """Mean frame time of the ``ltc`` and the ``paper`` area models ÷ the radiometric default,
+    run for run alternating."""
+    from . import ProgressiveRenderer
+
+    if not scene.lights:
+        raise RuntimeError("the scene has no area lights: the area models do not differ")
+    models = ("radiometric", "ltc", "paper")
+    mean: dict[str, list[float]] = {m: [] for m in models}
+    renderers = []
+    try:
+        for m in models:
+            renderers.append(ProgressiveRenderer(scene, frames=frames, ctx=ctx, area_model=m))
+        for _ in range(repeats):
+            for m, r in zip(models, renderers):
+                r.reset()
+                for _ in r.frames():
+                    pass
+                mean[m].append(float(np.mean(r.frame_seconds)))
+    finally:
+        for r in renderers:
+            r.release()
+    base = mean["radiometric"]
+    return [Figure(f"area-model-{m}", f"{m} mean frame", "radiometric mean frame", _median(mean[m]),
+                   _median(base), "s", repeats, f"{len(scene.lights)} light(s), {frames} frames", mean[m], base)
+            for m in models[1:]]
