@@ -20,15 +20,14 @@ __all__ = ["main", "parse_size", "positive_float", "positive_int"]
 
 
 def _renderer_arg(text: str) -> str:
-    """``--renderer``: progressive variants' options are checked here, before any work; other names
-    against the registry (which may need ``--renderer-config``) in the command."""
-    if text.partition(":")[0] == "progressive":
-        from .variants import renderer_options
+    """``--renderer``: a built-in's spec (e.g. a variant's options) is checked here, before any work;
+    other names against the registry (which may need ``--renderer-config``) in the command."""
+    from .renderers.registry import builtin
 
-        try:
-            renderer_options(text)
-        except ValueError as exc:
-            raise argparse.ArgumentTypeError(str(exc)) from None
+    try:
+        builtin(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
     return text
 
 

@@ -18,7 +18,11 @@ Schema 1
         "frames": 128, "spp": 1024, "seed": 0,
         "renderers": ["mitsuba", "progressive"],
         "sizes": [[320, 240]],                      # [] = each scene's own resolution
-        "exposure": 1.0, "tonemap": "aces", "materials": "shared"
+        "exposure": 1.0, "tonemap": "aces", "materials": "shared",
+        "cycles_spp": 1024, "eevee_samples": 64, "likeness": true,
+        "ground_truth": "mitsuba",                  # the renderer every run is measured against
+        "baseline": "progressive",                  # the ablation table's baseline
+        "renderer_config": null                     # a renderer TOML file, or null
       },
       "environment": {                              # where it ran (see Environment)
         "cpu": "AMD EPYC 7B13", "cores": 2, "platform": "Linux-6.1-x86_64",
@@ -36,12 +40,13 @@ Schema 1
           "features": ["area_lights"],
           "omitted": {"<work left out>": "<why>"},  # Features.omitted()
           "reference": {                            # the ground truth
-            "renderer": "mitsuba", "spp": 1024, "seed": 0,
+            "renderer": "mitsuba", "label": "Mitsuba path tracer (llvm_ad_rgb)",
+            "unit": "spp", "spp": 1024, "seed": 0,   # spp: its budget, in its unit
             "seconds": 41.2, "load_seconds": 0.01, "variant": "llvm_ad_rgb",
             "image": "runs/<id>/reference/final.exr",
             "preview": "runs/<id>/reference/final.png"
           },
-          "noise_floor": {                          # or null (no "mitsuba" run)
+          "noise_floor": {                          # or null (the ground-truth renderer not in the run)
             "method": "independent-full", "spp": 1024, "seeds": [0, 1],
             "metrics": {"flip": 0.02, "ssim": 0.99, ...},
             "mse_reference_estimate": 1.2e-05
