@@ -9,6 +9,7 @@ area-weighted vertex normals (faceted where a file gives none).
 from __future__ import annotations
 
 import math
+import struct
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -186,6 +187,17 @@ class MeshRangeError(ValueError):
 
 
 def load_obj(path: Path) -> TriangleMesh:
+    """Read a Wavefront OBJ file (:func:`_load_obj`); anything malformed is one :class:`MeshFileError` naming it."""
+    try:
+        return _load_obj(path)
+    except MeshFileError:
+        raise
+    except (ValueError, IndexError, KeyError, TypeError, OverflowError, struct.error) as exc:
+        # the parser names the line or element it knows to go wrong; any other malformation ends here
+        raise MeshFileError(f"{path}: malformed OBJ file ({type(exc).__name__}: {exc})") from None
+
+
+def _load_obj(path: Path) -> TriangleMesh:
     """Read a Wavefront OBJ (v, vt, vn, f with any of v, v/t, v//n, v/t/n; polygons fanned)."""
     pos, tex, nor = [], [], []
     out_p, out_t, out_n, idx = [], [], [], []
@@ -245,6 +257,17 @@ def _obj_index(token: str, count: int) -> int:
 
 
 def load_ply(path: Path) -> TriangleMesh:
+    """Read a PLY file (:func:`_load_ply`); anything malformed is one :class:`MeshFileError` naming it."""
+    try:
+        return _load_ply(path)
+    except MeshFileError:
+        raise
+    except (ValueError, IndexError, KeyError, TypeError, OverflowError, struct.error) as exc:
+        # the parser names the line or element it knows to go wrong; any other malformation ends here
+        raise MeshFileError(f"{path}: malformed PLY file ({type(exc).__name__}: {exc})") from None
+
+
+def _load_ply(path: Path) -> TriangleMesh:
     """Read a PLY file (ascii or binary little/big endian): x y z, optional nx ny nz, u v / s t, faces."""
     try:
         data = path.read_bytes()

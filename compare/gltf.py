@@ -494,7 +494,20 @@ def load_gltf(path: str | os.PathLike, *, root: str | os.PathLike | None = None)
         Naming the file and the JSON path, for anything malformed or unsupported.
     """
     path = Path(path)
-    r = _Reader(path, Path(root).resolve() if root is not None else path.parent.resolve())
+    try:
+        r = _Reader(path, Path(root).resolve() if root is not None else path.parent.resolve())
+        return _read_document(path, r)
+    except GltfError:
+        raise
+    except (AttributeError, TypeError, KeyError, IndexError, ValueError, OverflowError) as exc:
+        # The reader checks the fields it knows to go wrong by name; any other field of the wrong
+        # JSON type (an object where a list belongs, a string for an index) ends here, as one
+        # error naming the file, instead of a check per field of the glTF schema.
+        raise GltfError(f"{path}: malformed glTF ({type(exc).__name__}: {exc}); check it with the Khronos "
+                        "glTF validator") from None
+
+
+def _read_document(path: Path, r: "_Reader") -> GltfDocument:
     doc = r.doc
     nodes = doc.get("nodes", [])
     scenes = doc.get("scenes")

@@ -737,6 +737,9 @@ class Results:
             raise ResultsError(f"{path}: {e}") from e
         except ValueError as e:
             raise ResultsError(f"{path}: {e}") from e
+        except (TypeError, AttributeError, KeyError, IndexError, OverflowError) as e:
+            # a field of the wrong JSON type below the checked ones (e.g. a list for a number)
+            raise ResultsError(f"{path}: malformed results ({type(e).__name__}: {e}); rerun `compare run`") from e
 
 
 def _refuse_constant(name: str) -> float:

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from . import geometry
-from .errors import MissingComponentError, SceneError
+from .errors import CompareError, MissingComponentError, SceneError
 from .fsutil import sha256_bytes
 from .scene_fields import Ctx as _Ctx, color as _color, file_field as _file, fmt as _fmt, number as _number
 from .scene_fields import float32_problem as _float32_problem, require as _require, table as _table
@@ -334,4 +334,12 @@ def load_scene(path: str | Path) -> Scene:
         raise SceneError(f"{path}: not UTF-8 text: {exc}") from exc
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"{path}: invalid TOML: {exc}") from exc
-    return parse_scene(data, path)
+    try:
+        return parse_scene(data, path)
+    except CompareError:
+        raise
+    except (TypeError, ValueError, IndexError, KeyError, AttributeError, OverflowError) as exc:
+        # Fields are checked by name where they are read; a value of the wrong TOML type further
+        # down (a list where a name belongs) ends here, as one error naming the file.
+        raise SceneError(f"{path}: malformed scene ({type(exc).__name__}: {exc}); see scenes/README.md for "
+                         "the format") from None

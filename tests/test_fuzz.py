@@ -1,0 +1,369 @@
+"""Property-based fuzzing of every input the suite reads: one clear error or a correct result.
+
+Scene files, meshes (OBJ, PLY, glTF), images (EXR, HDR), thresholds, results
+files and command lines are mutated at random (hypothesis). Each must either
+load, or fail with a :class:`compare.errors.CompareError` whose message names
+the file it is about; no other exception, no traceback, no file half-written.
+
+The default run tries a few dozen cases per input (seconds); ``-m slow`` runs
+the same properties with many more.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings, strategies as st
+
+from compare.errors import CompareError
+
+ROOT = Path(__file__).resolve().parent.parent
+QUICK = settings(max_examples=30, deadline=None, suppress_health_check=list(HealthCheck), derandomize=True)
+LONG = settings(max_examples=400, deadline=None, suppress_health_check=list(HealthCheck))
+
+
+# --------------------------------------------------------------------------- a scene with one of everything
+
+
+OBJ = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1/1 2/2/1 3/3/1\n"
+PLY = ("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+       "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")
+
+
+def _gltf() -> dict:
+    from compare.geometry import box
+    from compare.gltf import GltfWriter
+
+    w = GltfWriter()
+    m = w.material("grey", (0.5, 0.5, 0.5), 0.0, 0.5)
+    w.node("box", mesh=w.mesh("box", [(box([0.2, 0.2, 0.2]), m)]), translation=[0.0, 0.1, 0.0])
+    return w.document(embed_buffer=True)
+
+
+SCENE = {
+    "name": "fuzz",
+    "camera": {"position": [0.0, 0.5, 2.0], "target": [0.0, 0.3, 0.0], "up": [0.0, 1.0, 0.0], "fov": 45.0,
+               "resolution": [8, 6]},
+    "render": {"max_depth": 4},
+    "materials": {"white": {"base_color": [0.8, 0.8, 0.8], "roughness": 0.5, "metallic": 0.0},
+                  "tex": {"base_color": [1.0, 1.0, 1.0], "base_color_texture": "tex.exr"},
+                  "lamp": {"base_color": [0.0, 0.0, 0.0], "emission": [1.0, 1.0, 1.0]}},
+    "meshes": [{"name": "floor", "shape": "quad", "material": "white", "size": [2.0, 2.0]},
+               {"name": "obj", "shape": "file", "file": "m.obj", "material": "tex"},
+               {"name": "ply", "shape": "file", "file": "m.ply", "material": "lamp", "translate": [0.3, 0.0, 0.0]}],
+    "lights": [{"name": "key", "center": [0.0, 1.0, 0.0], "size": [0.5, 0.5], "normal": [0.0, -1.0, 0.0],
+                "radiance": [5.0, 5.0, 5.0]}],
+    "environment": {"file": "env.exr", "intensity": 1.0},
+    "include": [{"file": "part.gltf", "translate": [0.0, 0.0, -0.5]}],
+}
+
+
+def _toml_value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        return "nan" if math.isnan(v) else ("inf" if v > 0 else "-inf") if math.isinf(v) else repr(v)
+    if isinstance(v, str):
+        return json.dumps(v)
+    if isinstance(v, list):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{" + ", ".join(f"{json.dumps(k)} = {_toml_value(x)}" for k, x in v.items()) + "}"
+    raise TypeError(type(v))
+
+
+def to_toml(d: dict) -> str:
+    """TOML text of ``d`` (inline tables for nested values: enough for mutated scenes)."""
+    return "\n".join(f"{json.dumps(k)} = {_toml_value(v)}" for k, v in d.items()) + "\n"
+
+
+@pytest.fixture(scope="module")
+def template(tmp_path_factory) -> Path:
+    from compare.exr import write_exr
+
+    folder = tmp_path_factory.mktemp("fuzz-template")
+    (folder / "m.obj").write_text(OBJ)
+    (folder / "m.ply").write_text(PLY)
+    (folder / "part.gltf").write_text(json.dumps(_gltf()))
+    write_exr(folder / "tex.exr", np.full((4, 4, 3), 0.5, np.float32))
+    write_exr(folder / "env.exr", np.full((8, 16, 3), 0.2, np.float32))
+    (folder / "scene.toml").write_text(to_toml(SCENE))
+    return folder
+
+
+def _copy(template: Path, tmp: Path) -> Path:
+    folder = tmp / f"case-{len(list(tmp.iterdir())) if tmp.exists() else 0}"
+    shutil.copytree(template, folder)
+    return folder
+
+
+def _loads_or_names(path: Path, what: Path | None = None) -> None:
+    """``load_scene(path)`` succeeds, or fails with a CompareError naming ``what`` (default: the scene)."""
+    from compare.scene import load_scene
+
+    try:
+        scene = load_scene(path)
+    except CompareError as exc:
+        names = {str(path), path.name} | ({str(what), what.name} if what else set())
+        assert any(n in str(exc) for n in names), f"message names no file: {exc}"
+        assert "\n" not in str(exc).strip() or "Traceback" not in str(exc)
+        return
+    # what loads is usable: finite camera, world-space triangles
+    assert all(np.isfinite(m.triangles().positions).all() for m in scene.meshes)
+
+
+# --------------------------------------------------------------------------- mutations
+
+scalars = st.one_of(st.integers(min_value=-(2**70), max_value=2**70),
+                    st.floats(allow_nan=True, allow_infinity=True), st.text(max_size=12), st.booleans(),
+                    st.sampled_from([0, -1, 1e-300, 1e300, 1e39, -0.0, "../../etc/passwd", "m.obj", "nope.exr"]))
+values = st.recursive(scalars, lambda inner: st.one_of(st.lists(inner, max_size=5),
+                                                       st.dictionaries(st.text(max_size=6), inner, max_size=3)),
+                      max_leaves=8)
+
+
+def _paths(d, prefix=()):
+    """Every (path, value) inside nested dicts and lists."""
+    yield prefix, d
+    if isinstance(d, dict):
+        for k, v in d.items():
+            yield from _paths(v, prefix + (k,))
+    elif isinstance(d, list):
+        for i, v in enumerate(d):
+            yield from _paths(v, prefix + (i,))
+
+
+@st.composite
+def mutated(draw, base: dict):
+    """``base`` with 1–3 random edits: a value replaced, a key deleted, or an unknown key added."""
+    d = json.loads(json.dumps(base))
+    for _ in range(draw(st.integers(1, 3))):
+        paths = [p for p, _ in _paths(d) if p]
+        path = draw(st.sampled_from(paths))
+        parent = d
+        for k in path[:-1]:
+            parent = parent[k]
+        op = draw(st.sampled_from(["replace", "replace", "delete", "add"]))
+        if op == "replace":
+            parent[path[-1]] = draw(values)
+        elif op == "delete" and isinstance(parent, (dict, list)):
+            del parent[path[-1]]
+        elif isinstance(parent, dict):
+            parent[draw(st.text(min_size=1, max_size=8))] = draw(values)
+    return d
+
+
+# --------------------------------------------------------------------------- the properties
+
+
+def check_scene_text(template: Path, tmp: Path, data: dict) -> None:
+    folder = _copy(template, tmp)
+    try:
+        text = to_toml(data)
+    except TypeError:
+        return
+    (folder / "scene.toml").write_text(text)
+    _loads_or_names(folder / "scene.toml")
+
+
+def check_mesh_bytes(template: Path, tmp: Path, name: str, data: bytes) -> None:
+    folder = _copy(template, tmp)
+    (folder / name).write_bytes(data)
+    _loads_or_names(folder / "scene.toml", folder / name)
+
+
+def check_gltf(template: Path, tmp: Path, doc: dict) -> None:
+    folder = _copy(template, tmp)
+    (folder / "part.gltf").write_text(json.dumps(doc))
+    _loads_or_names(folder / "scene.toml", folder / "part.gltf")
+
+
+def check_image_bytes(template: Path, tmp: Path, name: str, data: bytes) -> None:
+    from compare.environments import load_equirect
+    from compare.exr import read_exr
+
+    folder = _copy(template, tmp)
+    path = folder / name
+    path.write_bytes(data)
+    try:
+        if name.endswith(".exr"):
+            image, _ = read_exr(path)
+            assert image.ndim == 3 and image.shape[2] == 3
+        load_equirect(path)
+    except CompareError as exc:
+        assert str(path) in str(exc) or path.name in str(exc), exc
+
+
+def check_thresholds(tmp: Path, data: dict) -> None:
+    from compare.check import load_thresholds
+
+    path = tmp / "t.toml"
+    try:
+        path.write_text(to_toml(data))
+    except TypeError:
+        return
+    try:
+        load_thresholds(path)
+    except CompareError as exc:
+        assert str(path) in str(exc) or "rule" in str(exc), exc
+
+
+def check_results(tmp: Path, data) -> None:
+    from compare.results import Results
+
+    path = tmp / "results.json"
+    path.write_text(json.dumps(data, allow_nan=True) if not isinstance(data, bytes) else "")
+    try:
+        Results.load(path)
+    except CompareError as exc:
+        assert str(path) in str(exc), exc
+
+
+def check_cli(tmp: Path, argv: list[str], capsys) -> None:
+    from compare.cli import main
+
+    before = {p: p.stat().st_mtime_ns for p in tmp.rglob("*") if p.is_file()}
+    try:
+        code = main(argv)
+    except SystemExit as exc:  # argparse: usage errors exit 2 with one message
+        assert exc.code in (0, 2), argv
+        code = exc.code
+    out = capsys.readouterr()
+    assert "Traceback" not in out.err, (argv, out.err)
+    if code == 2 and out.err.startswith("compare: error:"):
+        assert out.err.count("\n") == 1, (argv, out.err)
+    for p, t in before.items():  # no input touched
+        assert not p.exists() or p.stat().st_mtime_ns == t or p.suffix in (".exr", ".png", ".json"), p
+    assert not [p for p in tmp.rglob(".*") if p.is_file() and ".part-" in p.name], "half-written file left"
+
+
+def _results_template() -> dict:
+    return json.loads((ROOT / "tests" / "data" / "cornell-48x36-before.json").read_text())
+
+
+def _cli_argv():
+    words = st.sampled_from(["diff", "check", "renderers", "report", "measure", "render", "--json", "--maps",
+                             "--exposure", "0", "-1", "nan", "1e39", "--thresholds", "--size", "0x0", "9x9x9",
+                             "--renderer", "progressive:nope", "--scene", "-o", "a.exr", "b.exr", "t.toml",
+                             "results.json", "nowhere/", "--quiet", "--fresh", "x.png", "--steps", "--spp"])
+    return st.lists(words, min_size=1, max_size=7)
+
+
+@pytest.fixture
+def case_dir(tmp_path) -> Path:
+    d = tmp_path / "cases"
+    d.mkdir()
+    return d
+
+
+@QUICK
+@given(data=mutated(SCENE))
+def test_fuzz_scene_files(template, case_dir, data):
+    check_scene_text(template, case_dir, data)
+
+
+@pytest.mark.slow
+@LONG
+@given(data=mutated(SCENE))
+def test_fuzz_scene_files_long(template, case_dir, data):
+    check_scene_text(template, case_dir, data)
+
+
+mesh_bytes = st.one_of(st.binary(max_size=300),
+                       st.builds(lambda s, i, b: (s[:i] + b + s[i:]).encode(), st.sampled_from([OBJ, PLY]),
+                                 st.integers(0, 200), st.text(max_size=20)),
+                       st.builds(lambda s, i: s[:i].encode(), st.sampled_from([OBJ, PLY]), st.integers(0, 200)))
+
+
+@QUICK
+@given(name=st.sampled_from(["m.obj", "m.ply"]), data=mesh_bytes)
+def test_fuzz_mesh_files(template, case_dir, name, data):
+    check_mesh_bytes(template, case_dir, name, data)
+
+
+@pytest.mark.slow
+@LONG
+@given(name=st.sampled_from(["m.obj", "m.ply"]), data=mesh_bytes)
+def test_fuzz_mesh_files_long(template, case_dir, name, data):
+    check_mesh_bytes(template, case_dir, name, data)
+
+
+@QUICK
+@given(doc=mutated(_gltf()))
+def test_fuzz_gltf_files(template, case_dir, doc):
+    check_gltf(template, case_dir, doc)
+
+
+@pytest.mark.slow
+@LONG
+@given(doc=mutated(_gltf()))
+def test_fuzz_gltf_files_long(template, case_dir, doc):
+    check_gltf(template, case_dir, doc)
+
+
+def _image_bytes():
+    from compare.exr import write_exr
+
+    tmp = Path(__import__("tempfile").mkdtemp())
+    write_exr(tmp / "a.exr", np.full((8, 16, 3), 0.2, np.float32))
+    exr = (tmp / "a.exr").read_bytes()
+    hdr = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 2 +X 2\n" + bytes([128, 128, 128, 129]) * 4
+    shutil.rmtree(tmp)
+    cut = st.builds(lambda s, i: s[:i], st.sampled_from([exr, hdr]), st.integers(0, 400))
+    flip = st.builds(lambda s, i, b: s[:i] + bytes([b]) + s[i + 1:], st.sampled_from([exr, hdr]),
+                     st.integers(0, 400), st.integers(0, 255))
+    return st.one_of(st.binary(max_size=200), cut, flip)
+
+
+IMAGES = _image_bytes()
+
+
+@QUICK
+@given(name=st.sampled_from(["env.exr", "env.hdr"]), data=IMAGES)
+def test_fuzz_image_files(template, case_dir, name, data):
+    check_image_bytes(template, case_dir, name, data)
+
+
+@pytest.mark.slow
+@LONG
+@given(name=st.sampled_from(["env.exr", "env.hdr"]), data=IMAGES)
+def test_fuzz_image_files_long(template, case_dir, name, data):
+    check_image_bytes(template, case_dir, name, data)
+
+
+THRESHOLDS = {"schema": 1, "rule": [{"scene": "Cornell box", "renderer": "progressive", "step": "final",
+                                      "max": {"flip": 0.3}, "min": {"ssim": 0.5}, "note": "x"}]}
+
+
+@QUICK
+@given(data=mutated(THRESHOLDS))
+def test_fuzz_thresholds(tmp_path, data):
+    check_thresholds(tmp_path, data)
+
+
+@QUICK
+@given(data=mutated(_results_template()))
+def test_fuzz_results_files(tmp_path, data):
+    check_results(tmp_path, data)
+
+
+@pytest.mark.slow
+@LONG
+@given(data=mutated(_results_template()))
+def test_fuzz_results_files_long(tmp_path, data):
+    check_results(tmp_path, data)
+
+
+@QUICK
+@given(argv=_cli_argv())
+def test_fuzz_command_lines(tmp_path, capsys, monkeypatch, argv):
+    monkeypatch.chdir(tmp_path)  # whatever the arguments write lands here
+    check_cli(tmp_path, argv, capsys)
