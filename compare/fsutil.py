@@ -17,6 +17,11 @@ from pathlib import Path
 from typing import Iterator
 
 
+#: In the names of files being written (``.<name>.part-XXXX<suffix>``): a process killed while
+#: writing (SIGKILL, power loss) leaves one; :func:`remove_stale_parts` removes them.
+PART_MARK = ".part-"
+
+
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; rename it onto ``path`` on success.
@@ -27,7 +32,7 @@ def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix or path.suffix, dir=path.parent)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}{PART_MARK}", suffix=suffix or path.suffix, dir=path.parent)
     os.close(fd)
     tmp_path = Path(tmp)
     try:
@@ -127,3 +132,54 @@ def sha256_bytes(*parts: bytes | str) -> str:
         h.update(len(b).to_bytes(8, "little"))
         h.update(b)
     return h.hexdigest()
+
+
+def remove_stale_parts(folder: str | os.PathLike, *, older_than: float = 0.0) -> list[Path]:
+    """Remove half-written files (:data:`PART_MARK`) below ``folder`` older than ``older_than``
+    seconds; returns what was removed. Call it where no other process writes (a locked output
+    folder), or with an age no write lasts (a shared cache)."""
+    import time
+
+    folder, now, gone = Path(folder), time.time(), []
+    if not folder.is_dir():
+        return gone
+    for p in folder.rglob(f".*{PART_MARK}*"):
+        try:
+            if p.is_file() and not p.is_symlink() and now - p.stat().st_mtime >= older_than:
+                p.unlink()
+                gone.append(p)
+        except OSError:
+            pass  # gone meanwhile, or not ours to remove
+    return gone
+
+
+@contextlib.contextmanager
+def folder_lock(folder: str | os.PathLike, what: str) -> Iterator[None]:
+    """Hold ``folder`` for this process while the block runs (an advisory ``flock`` on
+    ``folder/.compare.lock``): a second command into the same folder is refused with
+    :class:`~compare.errors.OutputError` instead of mixing its files with this one's.
+    The lock ends with the process, however it ends (no stale lock after a kill)."""
+    import fcntl
+
+    from .errors import OutputError
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / ".compare.lock"
+    f = open(path, "a+", encoding="utf-8")
+    try:
+        try:
+            fcntl.flock(f.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            f.seek(0)
+            holder = f.read().strip() or "another process"
+            raise OutputError(f"{folder}: in use by {holder}; wait for it to finish or choose another "
+                              "output folder") from None
+        f.seek(0)
+        f.truncate()
+        f.write(f"{what} (pid {os.getpid()})\n")
+        f.flush()
+        yield
+    finally:
+        f.close()  # closing releases the lock
+

@@ -31,6 +31,7 @@ timed regions.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import datetime
 import os
 import platform
@@ -43,7 +44,7 @@ from tqdm.auto import tqdm
 from . import __version__
 from .argtypes import parse_sizes, positive_float, positive_int
 from .errors import CompareError, MissingComponentError
-from .fsutil import check_output_folder
+from .fsutil import check_output_folder, folder_lock, remove_stale_parts
 from .renderers import TABLE_1, RenderContext, Registry, doubling_steps
 from .results import Environment, Results, RunSettings, SceneResult
 from .scene import Scene, load_scene
@@ -129,7 +130,8 @@ def _check_settings(settings: RunSettings, registry: Registry) -> None:
 
 def run(scene_paths: Iterable[str | os.PathLike], out: str | os.PathLike, settings: RunSettings | None = None, *,
         progress: bool = True, cache_dir: str | os.PathLike | None | bool = None, fresh: bool = False,
-        report: bool = True, gl_ctx=None, executor: str | object = "serial", renderers: Iterable = ()) -> Results:
+        report: bool = True, gl_ctx=None, executor: str | object = "serial", renderers: Iterable = (),
+        update: bool = False) -> Results:
     """Render, measure and report every scene at every size with every renderer.
 
     Parameters
@@ -147,7 +149,10 @@ def run(scene_paths: Iterable[str | os.PathLike], out: str | os.PathLike, settin
         The reference cache (None: ``$COMPARE_CACHE`` or ``~/.cache/compare``;
         False: no cache).
     fresh : bool, optional
-        Ignore finished units in ``out`` and redo them.
+        Ignore finished units in ``out`` and redo them (also into a folder holding other settings).
+    update : bool, optional
+        Into a folder holding results of other settings: keep what still matches, redo the rest
+        (without it, or ``fresh``, such a folder is refused).
     report : bool, optional
         Also write the HTML report and plots.
     gl_ctx : moderngl.Context, optional
@@ -189,6 +194,55 @@ def run(scene_paths: Iterable[str | os.PathLike], out: str | os.PathLike, settin
             job = sc.with_resolution(w, h)
             jobs.setdefault(scene_id(job), job)
 
+    with contextlib.ExitStack() as held:
+        held.enter_context(folder_lock(out, "compare run"))
+        _prepare_folder(out, settings, jobs, fresh=fresh, update=update, cache_dir=cache_dir)
+        return _run_held(jobs, out, settings, registry, progress=progress, cache_dir=cache_dir, fresh=fresh,
+                         report=report, gl_ctx=gl_ctx, executor=executor)
+
+
+def _settings_changes(old: Results, settings: RunSettings, ids: list[str]) -> list[str]:
+    """What differs between the results a folder holds and a run's settings and scenes."""
+    a, b = old.settings.to_json(), settings.to_json()
+    changes = [f"{k} {a.get(k)!r} → {b.get(k)!r}" for k in b if a.get(k) != b.get(k)]
+    old_ids = [s.id for s in old.scenes]
+    if sorted(old_ids) != sorted(ids):
+        changes.append(f"scenes {', '.join(old_ids) or 'none'} → {', '.join(ids)}")
+    return changes
+
+
+def _prepare_folder(out: Path, settings: RunSettings, jobs: dict, *, fresh: bool, update: bool, cache_dir) -> None:
+    """In a held folder: remove what a killed run left half-written; refuse one that holds the
+    results of other settings unless asked to replace (``fresh``) or update them."""
+    import warnings
+
+    from .errors import OutputError
+    from .results import ResultsError
+
+    gone = remove_stale_parts(out)
+    if cache_dir is not False:
+        from .cache import default_cache_dir
+
+        # a shared cache: only what no write in progress can be (an hour old)
+        gone += remove_stale_parts(Path(cache_dir) if cache_dir else default_cache_dir(), older_than=3600)
+    if gone:
+        warnings.warn(f"removed {len(gone)} half-written file(s) an interrupted run left behind "
+                      f"(e.g. {gone[0]})", stacklevel=3)
+    held = out / "results.json"
+    if fresh or update or not held.is_file():
+        return
+    try:
+        old = Results.load(held)
+    except ResultsError:
+        return  # unreadable: this run writes a good one
+    changes = _settings_changes(old, settings, list(jobs))
+    if changes:
+        raise OutputError(f"{out}: holds the results of other settings ({'; '.join(changes)}); use --fresh to "
+                          "redo it with these, --update to keep what still matches, or another folder")
+
+
+def _run_held(jobs: dict, out: Path, settings: RunSettings, registry: Registry, *, progress: bool, cache_dir,
+              fresh: bool, report: bool, gl_ctx, executor) -> Results:
     if isinstance(executor, str):
         from .executor import parse_executor
 
@@ -305,7 +359,11 @@ def add_run_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--no-likeness", dest="likeness", action="store_false",
                    help="with --materials cycles, skip the Cycles-likeness measurement (it renders Cycles once more "
                         "and Mitsuba twice at --cycles-spp: about three times the Cycles unit's cost)")
-    p.add_argument("--fresh", action="store_true", help="redo finished units instead of reusing them")
+    p.add_argument("--fresh", action="store_true", help="redo finished units instead of reusing them (also into "
+                                                         "a folder that holds the results of other settings)")
+    p.add_argument("--update", action="store_true",
+                   help="into a folder that holds the results of other settings: keep what still matches, redo "
+                        "the rest, replace its results.json and report")
     p.add_argument("--no-report", action="store_true", help="write results.json only")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.add_argument("--executor", default="local", metavar="WHERE",
@@ -335,7 +393,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     out = args.output or Path("reports") / scenes[0].stem
     try:
         res = run(scenes, out, settings, progress=not args.quiet, fresh=args.fresh, report=not args.no_report,
-                  executor=args.executor)
+                  executor=args.executor, update=args.update)
     except ValueError as e:
         if isinstance(e, CompareError):
             raise

@@ -313,14 +313,21 @@ def test_rerun_reuses_finished_units_and_redoes_changed_ones(tmp_path, monkeypat
         assert FakeReference.renders == [] and calls == []  # nothing rendered twice
         assert [s.to_json() for s in again.scenes] == [s.to_json() for s in first.scenes]
         # More frames: only the progressive unit is redone; the reference is reused.
+        from compare.errors import OutputError
+
+        with pytest.raises(OutputError, match=r"holds the results of other settings \(frames 8 → 16\); use "
+                                              r"--fresh to redo it with these, --update to keep what still "
+                                              r"matches, or another folder$"):
+            run_mod.run([CORNELL], out, RunSettings(frames=16, spp=16, sizes=[[48, 36]]), progress=False,
+                        report=False)
         more = run_mod.run([CORNELL], out, RunSettings(frames=16, spp=16, sizes=[[48, 36]]), progress=False,
-                           report=False)
+                           report=False, update=True)
         assert FakeReference.renders == [] and calls == [16]
         assert [p.step for p in more.scenes[0].run("progressive").points] == [1, 2, 4, 8, 16]
         # Another spp changes the ground truth: everything is measured again against it; the
         # rasterizer's finished render (its pixels do not depend on the ground truth) is reused.
         again = run_mod.run([CORNELL], out, RunSettings(frames=16, spp=32, sizes=[[48, 36]]), progress=False,
-                            report=False)
+                            report=False, update=True)
         assert {seed for _, seed in FakeReference.renders} == {0, 1} and calls == [16]
         assert again.scenes[0].run("progressive").key != more.scenes[0].run("progressive").key
         # A change to the rasterizer's code: its unit is redone, the reference reused.
@@ -351,7 +358,7 @@ def test_interrupted_run_resumes_without_redoing_finished_work(tmp_path):
     assert not (out / "results.json").exists()
     rendered = sorted(p.parent.name for p in out.rglob("render.json"))
     assert rendered == ["mitsuba", "reference"]  # finished renders were stored
-    assert not [p for p in out.rglob(".*") if p.is_file()]  # no temporary files left behind
+    assert not [p for p in out.rglob(".*") if p.is_file() and p.name != ".compare.lock"]  # no temporary files
     done = len(FakeReference.renders)
     res = synthetic_report(out, [CORNELL], report=False)
     assert len(FakeReference.renders) == done  # the reference was not rendered again
@@ -537,7 +544,7 @@ def test_no_likeness_skips_the_measurement_and_reuses_what_has_it(tmp_path):
         with synthetic_renderers():
             with pytest.MonkeyPatch.context() as mp:
                 mp.setattr("compare.renderers.blender._blender_checkpoints", counting_blender)
-                return run_mod.run([CORNELL], out, settings, progress=False, report=False)
+                return run_mod.run([CORNELL], out, settings, progress=False, report=False, update=True)
 
     # Without it: no likeness in the unit; asked for later, the unit is redone.
     res = run(tmp_path / "a", likeness=False)
@@ -654,3 +661,22 @@ def test_same_figures_as_before_the_renderer_protocol(tmp_path, gl_ctx):
     verdicts = [check(r, rules) for r in (before, now)]
     assert [str(v) for v in verdicts[0][0]] == [str(v) for v in verdicts[1][0]] and verdicts[0][1] == verdicts[1][1]
     assert verdicts[0][0]  # the rules above cross some bounds: the messages compared carry the values
+
+
+def test_output_folder_is_held_while_in_use_and_killed_writes_are_swept(tmp_path):
+    """A second command into a folder in use is refused; files a killed run left half-written
+    (``.<name>.part-*``) are removed by the next run, with a warning."""
+    from compare.errors import OutputError
+    from compare.fsutil import folder_lock
+
+    out = tmp_path / "out"
+    synthetic_report(out, [CORNELL], report=False)
+    with folder_lock(out, "compare run"):  # as if another run held it
+        with pytest.raises(OutputError, match=rf"^{re.escape(str(out))}: in use by compare run \(pid \d+\); wait "
+                                              "for it to finish or choose another output folder$"):
+            synthetic_report(out, [CORNELL], report=False)
+    stale = next(out.rglob("step-00001.exr")).parent / ".step-00001.exr.part-k1ll3d.exr"
+    stale.write_bytes(b"half an EXR")
+    with pytest.warns(UserWarning, match=r"removed 1 half-written file\(s\) an interrupted run left behind"):
+        synthetic_report(out, [CORNELL], report=False)
+    assert not stale.exists()

@@ -472,16 +472,18 @@ def _same_results(path: Path, results: Results) -> bool:
 
 def cmd_report(args: argparse.Namespace) -> int:
     """``compare report``; returns the exit status."""
-    from ..fsutil import check_output_folder
+    from ..fsutil import check_output_folder, folder_lock
 
     src = args.results.parent
     out = args.output or src
     check_output_folder("-o", out)
     results = Results.load(args.results)
-    held = Path(out) / "results.json"
-    if not args.fresh and held.is_file() and Path(out).resolve() != src.resolve() and not _same_results(held, results):
-        raise OutputError(f"-o {out}: holds the results of another run ({held}); choose another folder, or "
-                          "--fresh to replace them")
-    index = build_report(results, out, source_dir=src, plot_format=args.plot_format)
+    with folder_lock(out, "compare report"):
+        held = Path(out) / "results.json"
+        if (not args.fresh and held.is_file() and Path(out).resolve() != src.resolve()
+                and not _same_results(held, results)):
+            raise OutputError(f"-o {out}: holds the results of another run ({held}); choose another folder, or "
+                              "--fresh to replace them")
+        index = build_report(results, out, source_dir=src, plot_format=args.plot_format)
     print(f"{index}")
     return 0
