@@ -70,11 +70,22 @@ def _material(ctx: _Ctx, name: str, raw: Any) -> Material:
         metallic=_number(ctx, f"{w}.metallic", t.get("metallic", 0.0), lo=0.0, hi=1.0),
         roughness=_number(ctx, f"{w}.roughness", t.get("roughness", 0.5), lo=0.0, hi=1.0),
         emission=_color(ctx, f"{w}.emission", t.get("emission", [0, 0, 0])),
-        base_color_texture=(_file(ctx, f"{w}.base_color_texture", t["base_color_texture"], TEXTURE_SUFFIXES)
+        base_color_texture=(_texture(ctx, f"{w}.base_color_texture", t["base_color_texture"])
                             if "base_color_texture" in t else None),
-        metallic_roughness_texture=(_file(ctx, f"{w}.metallic_roughness_texture", t["metallic_roughness_texture"],
-                                          TEXTURE_SUFFIXES) if "metallic_roughness_texture" in t else None),
+        metallic_roughness_texture=(_texture(ctx, f"{w}.metallic_roughness_texture", t["metallic_roughness_texture"])
+                                    if "metallic_roughness_texture" in t else None),
     )
+
+
+def _texture(ctx: _Ctx, where: str, v: Any) -> Path:
+    """A texture file, read once here: unreadable, NaN or negative values are refused at load."""
+    from .textures import texture_problem
+
+    path = _file(ctx, where, v, TEXTURE_SUFFIXES)
+    problem = texture_problem(path)
+    if problem:
+        raise ctx.err(where, f"{v}: {problem}")
+    return path
 
 
 def _mesh(ctx: _Ctx, k: int, raw: Any, materials: dict[str, Material]) -> Mesh:

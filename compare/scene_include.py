@@ -18,6 +18,7 @@ from . import geometry
 from . import scene_fields as sf
 from . import scene_model as sm
 from .geometry import TriangleMesh
+from .textures import texture_problem
 from .gltf import (DEFAULT_CAMERA_WIDTH, DEFAULT_PUNCTUAL_SIZE, WATTS_PER_LUMEN, GltfCamera, GltfError, GltfLight,
                    load_gltf)
 
@@ -93,7 +94,13 @@ def include(ctx, where: str, raw: Any) -> Included:
         same = [i for i, o in enumerate(doc.materials) if o.name == m.name]
         name = f"{prefix}{m.name}" + (f"#{index}" if len(same) > 1 else "")
         if name not in materials:
-            tex = lambda i: doc.images[i] if i is not None and i < len(doc.images) else None  # noqa: E731
+            def tex(i):
+                path = doc.images[i] if i is not None and 0 <= i < len(doc.images) else None
+                problem = texture_problem(path) if path is not None else None
+                if problem:
+                    raise ctx.err(f"{where}.file", f"{given}: materials[{index}]: image {i}: {problem}")
+                return path
+
             materials[name] = sm.Material(name=name, base_color=m.base_color, metallic=m.metallic,
                                           roughness=m.roughness, emission=m.emission,
                                           base_color_texture=tex(m.base_color_image),

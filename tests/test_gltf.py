@@ -19,8 +19,9 @@ from compare.gltf import GltfError, GltfWriter, load_gltf
 from compare.scene import load_scene
 
 # A 2×2 PNG (red, green / blue, white), 8-bit RGB.
+# A valid 2x2 RGB PNG (the scene loader reads every texture it names).
 PNG_2X2 = base64.b64decode(
-    "iVBORw0KGgoAAAANSUhEUgAAAAIAAAACCAIAAAD91JpzAAAAFklEQVR4nGP4z8DAwMDAxMDAwMDAAAANHQEDasKb6QAAAABJRU5ErkJggg=="
+    "iVBORw0KGgoAAAANSUhEUgAAAAIAAAACCAIAAAD91JpzAAAAFklEQVR4nGM8kWLEwMDAxMDAwMDAAAARKAFipiAqoAAAAABJRU5ErkJggg=="
 )
 
 

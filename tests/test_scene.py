@@ -274,3 +274,37 @@ def test_numbers_float32_cannot_carry_are_refused(tmp_path, old, new, message):
     with pytest.raises(SceneError) as exc:
         load_scene(path)
     assert str(exc.value) == f"{path}: {message}"
+
+
+def test_textures_are_checked_when_the_scene_loads(tmp_path):
+    """Negative, NaN and unreadable texture files are refused at load, naming file and field (before:
+    they loaded, and Mitsuba rendered negative reflectance or stopped with its own traceback)."""
+    import OpenEXR
+    import numpy as np
+    import pytest
+
+    from compare.errors import SceneError
+    from compare.exr import write_exr
+
+    base = (Path(__file__).resolve().parent.parent / "scenes" / "cornell.toml").read_text()
+    white = "[materials.white]\nbase_color = [0.885809, 0.698859, 0.666422]"
+    neg = np.full((4, 4, 3), 0.5, np.float32)
+    neg[0, 0] = -2.0
+    write_exr(tmp_path / "neg.exr", neg)
+    nan = np.full((4, 4, 3), 0.5, np.float32)
+    nan[1, 1, 0] = np.nan  # written around the suite's writer, which refuses NaN
+    OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage},
+                 {c: np.ascontiguousarray(nan[..., i]) for i, c in enumerate("RGB")}).write(str(tmp_path / "nan.exr"))
+    (tmp_path / "bad.png").write_bytes(b"\x89PNG\r\n\x1a\n garbage")
+    cases = {
+        "neg.exr": "neg.exr: 3 negative value(s) (first at row 0, col 0: -2); texture values are reflectances "
+                   "and factors >= 0",
+        "nan.exr": "nan.exr: 1 NaN or infinite value(s) (first at row 1, col 1)",
+        "bad.png": "bad.png: unreadable image (",
+    }
+    for name, message in cases.items():
+        scene = tmp_path / f"{name}.toml"
+        scene.write_text(base.replace(white, f'{white}\nbase_color_texture = "{name}"'))
+        with pytest.raises(SceneError) as exc:
+            load_scene(scene)
+        assert str(exc.value).startswith(f"{scene}: materials.white.base_color_texture: {message}"), exc.value
