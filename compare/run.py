@@ -254,6 +254,9 @@ def _run_held(jobs: dict, out: Path, settings: RunSettings, registry: Registry, 
         context.provide("gl", gl_ctx)
     facts: dict[str, str] = {}
     try:
+        for sc in jobs.values():  # a size no renderer can render here is refused before any work
+            for spec in dict.fromkeys([settings.ground_truth, *settings.renderers]):
+                registry.get(spec).preflight(sc, context)
         scene_job = SceneJob(settings, out, registry=registry, context=context, fresh=fresh, progress=progress)
         units = len(jobs) * (1 + len(settings.renderers))
         if executor == "serial":

@@ -316,3 +316,16 @@ def test_example_external_renderer_beside_mitsuba_and_the_rasterizer(tmp_path, g
     a, b = (read_exr(tmp_path / "out" / r.image)[0] for r in (prog, ray))
     between = compare_images(a, b)
     assert between["flip"] < 0.2 and abs(b.mean() / a.mean() - 1) < 0.1, between
+
+
+def test_a_size_beyond_memory_is_refused_before_any_work(tmp_path, monkeypatch):
+    from compare.errors import SceneError
+    from compare.renderers import mitsuba
+
+    monkeypatch.setattr(mitsuba, "_available_memory", lambda: 64 * 2**20)  # a machine with 64 MiB free
+    settings = RunSettings(spp=4, sizes=[[1920, 1080]], renderers=["grey"])
+    with pytest.raises(SceneError, match=r"cornell\.toml: camera\.resolution: 1920x1080 needs about 0\.2 GiB for "
+                                         r"Mitsuba's film and the accumulation of its passes; 0\.1 GiB of memory "
+                                         r"is available here$"):
+        run_mod.run([CORNELL], tmp_path / "out", settings, progress=False, renderers=[GreyRenderer()])
+    assert not list((tmp_path / "out").rglob("*.exr"))

@@ -156,6 +156,10 @@ class Renderer:
         """Every setting that changes this renderer's pixels (JSON data)."""
         return []
 
+    def preflight(self, scene, context: RenderContext) -> None:
+        """Refuse, before any work of a run, a scene this renderer cannot render here (e.g. a size
+        beyond its memory), with an error naming the limit; default: nothing to check."""
+
     def reusable_keys(self, scene, settings) -> list[Any]:
         """Keys of other finished renders that serve a run with ``settings`` as well (default: none)."""
         return []

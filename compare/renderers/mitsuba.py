@@ -25,6 +25,35 @@ def pass_plan(checkpoints: list[int]) -> list[int]:
     return sorted(sums)
 
 
+#: Bytes per pixel a Mitsuba render holds at once: its film (RGBA and weight, float32, and the
+#: developed copy), the float64 accumulation of passes, and the float32 images handed on.
+FILM_BYTES_PER_PIXEL = 96
+
+
+def _available_memory() -> int:
+    """Bytes this machine can still give (MemAvailable), or 0 if unknown."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return 0
+
+
+def check_film_memory(scene) -> None:
+    """Refuse a resolution whose film and accumulation do not fit in the memory available."""
+    from ..errors import SceneError
+
+    w, h = scene.camera.resolution
+    need, have = w * h * FILM_BYTES_PER_PIXEL, _available_memory()
+    if have and need > 0.9 * have:
+        raise SceneError(f"{scene.path}: camera.resolution: {w}x{h} needs about {need / 2**30:.1f} GiB for "
+                         f"Mitsuba's film and the accumulation of its passes; {have / 2**30:.1f} GiB of memory "
+                         "is available here")
+
+
 class MitsubaRenderer(Renderer):
     """Mitsuba 3 (the best available variant), the suite's reference path tracer."""
 
@@ -61,6 +90,9 @@ class MitsubaRenderer(Renderer):
         return ReferenceRenderer(scene, materials=context.settings.materials, variant=opts.get("variant"),
                                  max_depth=opts.get("max_depth"), cache_dir=context.cache_dir,
                                  progress=context.progress)
+
+    def preflight(self, scene, context: RenderContext) -> None:
+        check_film_memory(scene)
 
     def key(self, scene, settings) -> dict:
         from ..reference import ReferenceRenderer

@@ -99,6 +99,13 @@ class ProgressiveRenderer(Renderer):
     def steps(self, settings) -> int:
         return int(settings.frames)
 
+    def preflight(self, scene, context: RenderContext) -> None:
+        from ..progressive.context import check_image_size
+
+        ctx = context.resource("gl", _create_gl_context, lambda c: c.release())
+        if ctx is not None:
+            check_image_size(ctx, scene.camera.resolution, str(scene.path))
+
     def key(self, scene, settings) -> list:
         return [self.name, source_fingerprint(*RASTERIZER_SOURCES)]
 
