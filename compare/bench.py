@@ -327,8 +327,11 @@ def _cmd_bench(args) -> int:
     items = tuple(x.strip() for x in args.only.split(",") if x.strip())
     bad = [x for x in items if x not in ITEMS]
     if bad:
-        print(f"compare bench: error: unknown item(s) {', '.join(bad)}; known: {', '.join(ITEMS)}", file=sys.stderr)
+        print(f"compare: error: --only: unknown item(s) {', '.join(bad)}; known: {', '.join(ITEMS)}", file=sys.stderr)
         return 2
+    from .fsutil import check_outputs
+
+    check_outputs({"-o": args.output}, inputs=(args.scene,), suffixes={"-o": ".json"})
     result = run_bench(args.scene, size=args.size, frames=args.frames, spp=args.spp, repeats=args.repeats,
                        items=items)
     write_text_atomic(args.output, json.dumps(result, indent=2))

@@ -11,3 +11,14 @@ __all__ = ["default_cache_dir"]
 def default_cache_dir() -> Path:
     """``$COMPARE_CACHE``, else ``~/.cache/compare``."""
     return Path(os.environ.get("COMPARE_CACHE") or Path.home() / ".cache" / "compare")
+
+
+def check_cache_dir(path: str | os.PathLike | None = None) -> Path:
+    """The cache folder (default :func:`default_cache_dir`), refused before any work with
+    :class:`~compare.errors.OutputError` when it cannot be created or written."""
+    from .fsutil import check_output_folder
+
+    folder = Path(path) if path else default_cache_dir()
+    check_output_folder("$COMPARE_CACHE (the reference cache; set it to a writable folder)", folder)
+    return folder
+

@@ -124,6 +124,10 @@ def cmd_render(args: argparse.Namespace) -> int:
     png = args.png or args.output.with_suffix(".png")
     check_outputs({"-o": args.output, "--png": png}, inputs=(args.scene, *scene.referenced_files),
                   suffixes={"-o": ".exr", "--png": ".png"})
+    if not args.no_cache:
+        from .cache import check_cache_dir
+
+        check_cache_dir()
     if args.size:
         scene = scene.with_resolution(*args.size)
     if args.max_depth is not None:

@@ -104,6 +104,15 @@ def _check_writable_below(option: str, path: Path, folder: Path) -> None:
         raise OutputError(f"{option} {path}: cannot be created, {folder} is a file, not a folder")
     if not os.access(folder, os.W_OK | os.X_OK):
         raise OutputError(f"{option} {path}: cannot write in {folder} (permission denied)")
+    # access() says yes to root everywhere and knows nothing of read-only or special file systems
+    # (/proc, a full disk): a file made and removed there says for sure.
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".compare-probe-", dir=folder)
+    except OSError as exc:
+        raise OutputError(f"{option} {path}: cannot write in {folder} ({exc.strerror or exc})") from None
+    os.close(fd)
+    with contextlib.suppress(OSError):
+        os.unlink(probe)
 
 
 def _umask() -> int:

@@ -183,6 +183,10 @@ def run(scene_paths: Iterable[str | os.PathLike], out: str | os.PathLike, settin
     _check_settings(settings, registry)
     out = Path(out)
     check_output_folder("-o", out)
+    if cache_dir is not False:
+        from .cache import check_cache_dir
+
+        check_cache_dir(cache_dir)
     paths = [Path(p) for p in scene_paths]
     if not paths:
         raise ValueError("no scene given")

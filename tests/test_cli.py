@@ -197,3 +197,23 @@ def test_a_bad_exposure_is_refused_before_any_work(tmp_path, capsys, command, va
     assert capsys.readouterr().err.strip().endswith(
         f"compare {command}: error: argument --exposure: expected a positive finite number, got '{value}'")
     assert not out.exists()
+
+
+def test_folders_that_cannot_be_written_are_one_error_before_any_work(tmp_path, capsys, monkeypatch):
+    """/proc takes no new files, even for root (access() says it would): before, these ended in a
+    FileNotFoundError traceback, the bench after all its work."""
+    for argv, message in (
+        (["run", "--size", "8x6", "--spp", "1", "--frames", "1", "--quiet", "-o", "/proc/compare-x"],
+         "compare: error: -o /proc/compare-x: cannot write in /proc ("),
+        (["bench", "--only", "first-frame", "-o", "/proc/compare-x.json"],
+         "compare: error: -o /proc/compare-x.json: cannot write in /proc ("),
+        (["diff", str(tmp_path / "a.exr"), str(tmp_path / "a.exr"), "--maps", "/proc/compare-maps"],
+         "compare: error: --maps /proc/compare-maps: cannot write in /proc ("),
+    ):
+        assert main(argv) == 2
+        assert capsys.readouterr().err.startswith(message), argv
+    monkeypatch.setenv("COMPARE_CACHE", "/proc/compare-cache")
+    assert main(["render", "--scene", CORNELL, "--spp", "1", "--size", "8x6", "-o", str(tmp_path / "x.exr")]) == 2
+    assert capsys.readouterr().err.startswith("compare: error: $COMPARE_CACHE (the reference cache; set it to a "
+                                              "writable folder) /proc/compare-cache: cannot write in /proc (")
+    assert not (tmp_path / "x.exr").exists()
