@@ -1,11 +1,12 @@
 """Property-based fuzzing of every input the suite reads: one clear error or a correct result.
 
-Scene files, meshes (OBJ, PLY, glTF), images (EXR, HDR), thresholds, results
+Scene files, meshes (OBJ, PLY, glTF), images (EXR, HDR, PNG), thresholds, results
 files and command lines are mutated at random (hypothesis). Each must either
 load, or fail with a :class:`compare.errors.CompareError` whose message names
 the file it is about; no other exception, no traceback, no file half-written.
 
-The default run tries a few dozen cases per input (seconds); ``-m slow`` runs
+Textures (PNG, EXR) are fuzzed through the scene that names them. The
+default run tries a few dozen cases per input (seconds); ``-m slow`` runs
 the same properties with many more.
 """
 
@@ -53,7 +54,8 @@ SCENE = {
     "render": {"max_depth": 4},
     "materials": {"white": {"base_color": [0.8, 0.8, 0.8], "roughness": 0.5, "metallic": 0.0},
                   "tex": {"base_color": [1.0, 1.0, 1.0], "base_color_texture": "tex.exr"},
-                  "lamp": {"base_color": [0.0, 0.0, 0.0], "emission": [1.0, 1.0, 1.0]}},
+                  "lamp": {"base_color": [0.0, 0.0, 0.0], "emission": [1.0, 1.0, 1.0]},
+                  "png": {"base_color_texture": "tex.png"}},
     "meshes": [{"name": "floor", "shape": "quad", "material": "white", "size": [2.0, 2.0]},
                {"name": "obj", "shape": "file", "file": "m.obj", "material": "tex"},
                {"name": "ply", "shape": "file", "file": "m.ply", "material": "lamp", "translate": [0.3, 0.0, 0.0]}],
@@ -94,6 +96,7 @@ def template(tmp_path_factory) -> Path:
     (folder / "m.ply").write_text(PLY)
     (folder / "part.gltf").write_text(json.dumps(_gltf()))
     write_exr(folder / "tex.exr", np.full((4, 4, 3), 0.5, np.float32))
+    (folder / "tex.png").write_bytes(PNG)
     write_exr(folder / "env.exr", np.full((8, 16, 3), 0.2, np.float32))
     (folder / "scene.toml").write_text(to_toml(SCENE))
     return folder
@@ -103,6 +106,19 @@ def _copy(template: Path, tmp: Path) -> Path:
     folder = tmp / f"case-{len(list(tmp.iterdir())) if tmp.exists() else 0}"
     shutil.copytree(template, folder)
     return folder
+
+
+def _png() -> bytes:
+    import io
+
+    from PIL import Image
+
+    b = io.BytesIO()
+    Image.new("RGB", (4, 4), (200, 100, 50)).save(b, "PNG")
+    return b.getvalue()
+
+
+PNG = _png()
 
 
 def _loads_or_names(path: Path, what: Path | None = None) -> None:
@@ -175,6 +191,7 @@ def check_scene_text(template: Path, tmp: Path, data: dict) -> None:
 
 
 def check_mesh_bytes(template: Path, tmp: Path, name: str, data: bytes) -> None:
+    """A file the scene names (a mesh or a texture) replaced by ``data``."""
     folder = _copy(template, tmp)
     (folder / name).write_bytes(data)
     _loads_or_names(folder / "scene.toml", folder / name)
@@ -337,6 +354,25 @@ def test_fuzz_image_files(template, case_dir, name, data):
 @given(name=st.sampled_from(["env.exr", "env.hdr"]), data=IMAGES)
 def test_fuzz_image_files_long(template, case_dir, name, data):
     check_image_bytes(template, case_dir, name, data)
+
+
+texture_bytes = st.one_of(
+    st.binary(max_size=120),
+    st.builds(lambda i: PNG[:i], st.integers(0, len(PNG))),
+    st.builds(lambda i, b: PNG[:i] + bytes([b]) + PNG[i + 1:], st.integers(0, len(PNG) - 1), st.integers(0, 255)))
+
+
+@QUICK
+@given(name=st.sampled_from(["tex.png", "tex.exr"]), data=texture_bytes)
+def test_fuzz_texture_files(template, case_dir, name, data):
+    check_mesh_bytes(template, case_dir, name, data)  # the scene names the texture: it loads or names it
+
+
+@pytest.mark.slow
+@LONG
+@given(name=st.sampled_from(["tex.png", "tex.exr"]), data=texture_bytes)
+def test_fuzz_texture_files_long(template, case_dir, name, data):
+    check_mesh_bytes(template, case_dir, name, data)
 
 
 THRESHOLDS = {"schema": 1, "rule": [{"scene": "Cornell box", "renderer": "progressive", "step": "final",

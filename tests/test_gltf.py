@@ -430,3 +430,22 @@ def test_included_scene_renders_like_its_toml_twin_reference(tmp_path):
     ib = ReferenceRenderer(b, cache_dir=False, progress=False).render(16).image
     assert np.isfinite(ia).all() and ia.mean() > 2e-3
     assert abs(ia.mean() - ib.mean()) < 0.03 * ib.mean()
+
+
+def test_fields_of_the_wrong_json_type_are_one_error_naming_the_file(tmp_path):
+    """Found by tests/test_fuzz.py: a string for a node's translation, a number for "asset" (before:
+    ValueError and AttributeError tracebacks)."""
+    from compare.geometry import box
+
+    w = GltfWriter()
+    w.node("b", mesh=w.mesh("b", [(box([1, 1, 1]), w.material("g"))]), translation=[0, 0, 0])
+    for edit, detail in ((lambda d: d["nodes"][0].__setitem__("translation", "up"),
+                          "ValueError: could not convert string to float: 'up'"),
+                         (lambda d: d.__setitem__("asset", 0), "AttributeError: 'int' object has no attribute 'get'")):
+        doc = w.document(embed_buffer=True)
+        edit(doc)
+        path = tmp_path / "bad.gltf"
+        path.write_text(json.dumps(doc))
+        with pytest.raises(GltfError) as exc:
+            load_gltf(path)
+        assert str(exc.value) == (f"{path}: malformed glTF ({detail}); check it with the Khronos glTF validator")
