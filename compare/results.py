@@ -267,6 +267,8 @@ class Environment:
     gl_renderer: str | None = None
     mitsuba_variant: str | None = None
     versions: dict[str, str | None] = field(default_factory=dict)
+    webgl_renderer: str | None = None
+    """The WebGL renderer the web engines ran on (SwiftShader, or a GPU), when any ran."""
 
     def to_json(self) -> dict:
         """JSON-ready dict."""
@@ -282,6 +284,7 @@ class Environment:
             gl_renderer=d.get("gl_renderer"),
             mitsuba_variant=d.get("mitsuba_variant"),
             versions=dict(d.get("versions") or {}),
+            webgl_renderer=d.get("webgl_renderer"),
         )
 
 

@@ -86,7 +86,8 @@ def _version(dist: str) -> str | None:
         return None
 
 
-def collect_environment(*, gl_renderer: str | None = None, mitsuba_variant: str | None = None) -> Environment:
+def collect_environment(*, gl_renderer: str | None = None, mitsuba_variant: str | None = None,
+                        webgl_renderer: str | None = None) -> Environment:
     """Describe this machine and the software versions (for the report's environment table)."""
     return Environment(
         cpu=cpu_model(),
@@ -94,6 +95,7 @@ def collect_environment(*, gl_renderer: str | None = None, mitsuba_variant: str 
         platform=platform.platform(),
         gl_renderer=gl_renderer,
         mitsuba_variant=mitsuba_variant,
+        webgl_renderer=webgl_renderer,
         versions={
             "python": platform.python_version(),
             "compare": __version__,
@@ -293,7 +295,8 @@ def _run_held(jobs: dict, out: Path, settings: RunSettings, registry: Registry, 
     res = Results(
         settings=settings,
         environment=collect_environment(gl_renderer=facts.get("gl_renderer"),
-                                        mitsuba_variant=facts.get("mitsuba_variant")),
+                                        mitsuba_variant=facts.get("mitsuba_variant"),
+                                        webgl_renderer=facts.get("webgl_renderer")),
         scenes=results,
         created=datetime.datetime.now(datetime.timezone.utc).replace(microsecond=0).isoformat().replace("+00:00", "Z"),
         compare_version=__version__,

@@ -83,6 +83,29 @@ setup_python() {
 
 have_chromium() { command -v chromium >/dev/null 2>&1 && command -v chromedriver >/dev/null 2>&1; }
 
+# The web engines (compare/renderers/web.py): Debian's Chromium, driven by Playwright (a dev
+# dependency), and three.js with three-gpu-pathtracer from npm, pinned by web/package-lock.json.
+# Optional: without them the web engines say what is missing and their tests skip with the reason.
+setup_web() {
+    if ! have_chromium; then
+        log "installing Chromium and ChromeDriver (the web engines and the report's browser test)"
+        apt_install chromium chromium-driver || log "WARNING: no Chromium: the web engines and browser tests will skip"
+    fi
+    local stamp="web/node_modules/.installed-$(sha256sum web/package-lock.json | cut -c1-16)"
+    if [ ! -f "$stamp" ]; then
+        if command -v npm >/dev/null 2>&1; then
+            log "installing the web engines' npm packages (npm ci --prefix web)"
+            if npm ci --prefix web --no-audit --no-fund --loglevel=error >&2; then
+                touch "$stamp"
+            else
+                log "WARNING: npm ci failed: the web engines will say so and their tests will skip"
+            fi
+        else
+            log "WARNING: no npm: the web engines will say so and their tests will skip"
+        fi
+    fi
+}
+
 BLENDER_VENV="$ROOT/.venv-blender"
 BLENDER_LIBS="libx11-6 libxext6 libxrender1 libxfixes3 libxi6 libxkbcommon0 libsm6 libice6 libgl1"
 
@@ -122,7 +145,7 @@ setup_blender() {
     export COMPARE_BLENDER_PYTHON="$BLENDER_VENV/bin/python"
 }
 
-setup() { setup_system; setup_python; }
+setup() { setup_system; setup_python; setup_web; }
 
 job="${1:-}"
 shift || true
@@ -138,10 +161,6 @@ case "$job" in
         ;;
     test)
         setup
-        if ! have_chromium; then
-            log "installing Chromium and ChromeDriver (the report's browser test)"
-            apt_install chromium chromium-driver || log "WARNING: no Chromium: the browser test will skip"
-        fi
         setup_blender
         exec "$VENV/bin/python" -m pytest "$@"
         ;;

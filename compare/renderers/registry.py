@@ -14,7 +14,8 @@ A renderer spec (``--renderers``, ``--renderer``) is looked up, in this order, a
        mine = "my_package.compare_plugin:MyRenderer"
 
 4. the built-ins: ``mitsuba``, ``progressive[:<option>[+<option>]]`` (:mod:`compare.variants`),
-   ``cycles`` and ``eevee``.
+   ``cycles`` and ``eevee``, and the web engines ``threejs`` and ``threejs-pathtracer``
+   (``web`` names both).
 
 A plug-in or a TOML file may not take a built-in's name.
 """
@@ -33,7 +34,9 @@ __all__ = ["BUILTIN", "ENTRY_POINT_GROUP", "TABLE_1", "Registry", "builtin"]
 
 ENTRY_POINT_GROUP = "compare.renderers"
 #: The built-in renderers' names (``progressive`` takes ``:<option>`` variants).
-BUILTIN = ("mitsuba", "progressive", "cycles", "eevee")
+BUILTIN = ("mitsuba", "progressive", "cycles", "eevee", "threejs", "threejs-pathtracer")
+#: ``--renderers web``: every web engine (compare.renderers.web).
+WEB = ("threejs", "threejs-pathtracer")
 #: What ``--renderers all`` means: the paper's Table 1 (and the three area models).
 TABLE_1 = ("mitsuba", "progressive", "progressive:paper", "progressive:ltc", "cycles", "eevee")
 
@@ -53,6 +56,10 @@ def builtin(spec: str) -> Renderer | None:
         from .blender import BlenderRenderer
 
         return BlenderRenderer(spec)
+    if spec in WEB:
+        from .web import WebRenderer
+
+        return WebRenderer(spec)
     return None
 
 
@@ -168,7 +175,7 @@ class Registry:
 
             more = [n for n in self.names() if n not in BUILTIN]
             raise ValueError(f"unknown renderer {spec!r}; expected mitsuba, progressive, progressive:<option> "
-                             f"(options: {', '.join(OPTIONS)}), cycles, eevee"
+                             f"(options: {', '.join(OPTIONS)}), cycles, eevee, threejs, threejs-pathtracer"
                              + (f", {', '.join(more)}" if more else "")
                              + " or all (renderers of a TOML file: --renderer-config FILE; `compare renderers` "
                                "lists what is available)")
@@ -182,6 +189,9 @@ class Registry:
             raise ValueError("expected at least one renderer, e.g. mitsuba,progressive")
         if "all" in items:
             items = list(TABLE_1) + [i for i in items if i != "all" and i not in TABLE_1]
+        if "web" in items:
+            k = items.index("web")
+            items = items[:k] + [w for w in WEB if w not in items] + items[k + 1:]
         for item in items:
             self.get(item)  # names an unknown renderer before hours of reference rendering
         if len(set(items)) != len(items):
@@ -197,7 +207,7 @@ class Registry:
         """Every renderer with its label, unit, source and availability (``compare renderers``)."""
         rows = []
         specs = ["mitsuba", "progressive", *(f"progressive:{o}" for o in ("paper", "ltc", "probes", "vsm")),
-                 "cycles", "eevee"]
+                 "cycles", "eevee", *WEB]
         sources = {s: "built-in" for s in specs}
         for n in self._plugins():
             sources.setdefault(n, f"entry point {self._plugins()[n].value}")

@@ -1,0 +1,158 @@
+"""Web engines in headless Chromium (compare.renderers.web): three.js and three-gpu-pathtracer.
+
+They render the suite's scenes from the same job file as external renderers, into float
+render targets, and are measured against the same ground truth. Skips with the reason
+where Chromium, Playwright or the npm packages are missing (``scripts/suite.sh setup``
+installs them).
+"""
+
+from __future__ import annotations
+
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from compare import run as run_mod
+from compare.exr import read_exr
+from compare.metrics import compare_images
+from compare.renderers import RenderContext, RendererError
+from compare.renderers.web import WebRenderer
+from compare.results import RunSettings
+from compare.scene import load_scene
+
+ROOT = Path(__file__).resolve().parent.parent
+CORNELL = ROOT / "scenes" / "cornell.toml"
+_OK, _WHY = WebRenderer("threejs").available()
+needs_web = pytest.mark.skipif(not _OK, reason=f"web engines unavailable: {_WHY}")
+
+
+def _render(engine: str, scene, steps: int, checkpoints=None):
+    r = WebRenderer(engine)
+    with RenderContext(RunSettings(frames=steps)) as context:
+        return r.render(scene, steps=steps, checkpoints=list(checkpoints or [steps]), seed=0, context=context)
+
+
+@needs_web
+def test_threejs_beside_mitsuba_and_the_rasterizer(tmp_path, gl_ctx):
+    settings = RunSettings(frames=8, spp=64, sizes=[[32, 24]], renderers=["mitsuba", "progressive", "threejs"])
+    res = run_mod.run([CORNELL], tmp_path / "out", settings, progress=False, gl_ctx=gl_ctx)
+    scene = res.scenes[0]
+    three, prog = scene.run("threejs"), scene.run("progressive")
+    assert [p.step for p in three.points] == [1, 2, 4, 8] and three.unit == "frame"
+    assert three.setup_seconds > 0 and 0 < three.points[0].seconds <= three.seconds
+    assert res.environment.webgl_renderer and "webgl_renderer" in three.metadata
+    # Against the same 64-spp ground truth at 32x24 (measured: three.js 0.25, the rasterizer 0.25): both
+    # lack the indirect light; three.js also the area light's shadows (RectAreaLight casts none).
+    assert 0.15 < three.final.metrics["flip"] < 0.35, three.final.metrics
+    assert abs(three.final.metrics["flip"] - prog.final.metrics["flip"]) < 0.1
+    assert "three.js" in (tmp_path / "out" / "index.html").read_text()
+
+
+@needs_web
+def test_threejs_lands_on_the_same_pixels(tmp_path):
+    """A small light facing the camera off the image centre: its pixels are where the camera's own
+    ray directions (compare.scene.Camera) put it, as in Mitsuba."""
+    path = tmp_path / "marker.toml"
+    path.write_text(textwrap.dedent("""
+        name = "marker"
+        [camera]
+        position = [0.0, 0.0, 0.0]
+        target = [0.0, 0.0, -1.0]
+        fov = 40.0
+        resolution = [40, 30]
+        [materials.black]
+        base_color = [0.0, 0.0, 0.0]
+        [[meshes]]
+        name = "backdrop"
+        shape = "quad"
+        material = "black"
+        corners = [[-9.0, -9.0, -5.0], [9.0, -9.0, -5.0], [9.0, 9.0, -5.0], [-9.0, 9.0, -5.0]]
+        [[lights]]
+        name = "marker"
+        center = [0.55, 0.3, -4.0]
+        size = [0.25, 0.25]
+        normal = [0.0, 0.0, 1.0]
+        radiance = [10.0, 10.0, 10.0]
+    """))
+    scene = load_scene(path)
+    image = _render("threejs", scene, 1).checkpoints[-1].image
+    cam = scene.camera
+    # the marker's centre on the film (pixels, x right, y down, row 0 at the top), by the camera's basis
+    r, u, f = cam.basis()
+    p = np.array([0.55, 0.3, -4.0]) - np.asarray(cam.position)
+    t = np.tan(np.radians(cam.fov) / 2)
+    sx, sy = (p @ r) / (p @ f), (p @ u) / (p @ f)
+    x, y = (sx / (t * cam.aspect) + 1) / 2 * cam.width, (1 - sy / t) / 2 * cam.height
+    lit = np.argwhere(image[..., 0] > 5.0)  # at frame 1 the pixels whose centres see the marker
+    assert len(lit) >= 4
+    cy, cx = lit.mean(0) + 0.5
+    assert abs(cx - x) < 0.5 and abs(cy - y) < 0.5, ((cx, cy), (x, y))
+
+
+@needs_web
+def test_threejs_environment_has_the_suites_orientation(tmp_path):
+    """The axes test map, turned 30 degrees: three.js's background against Mitsuba's (measured FLIP 0.016)."""
+    path = tmp_path / "env.toml"
+    path.write_text(textwrap.dedent("""
+        name = "axes environment"
+        [camera]
+        position = [0.0, 0.0, 0.0]
+        target = [1.0, 0.3, 0.2]
+        fov = 70.0
+        resolution = [48, 36]
+        [environment]
+        procedural = "axes"
+        rotation = 30.0
+        [materials.m]
+        base_color = [0.5, 0.5, 0.5]
+        [[meshes]]
+        name = "speck behind the camera"
+        shape = "quad"
+        material = "m"
+        corners = [[-50.0, -50.0, -50.0], [-50.0, -50.01, -50.0], [-50.01, -50.01, -50.0], [-50.01, -50.0, -50.0]]
+    """))
+    from compare.reference import ReferenceRenderer
+
+    scene = load_scene(path)
+    ours = _render("threejs", scene, 4).checkpoints[-1].image
+    truth = ReferenceRenderer(scene, cache_dir=tmp_path / "cache", progress=False).render(64).image
+    assert compare_images(truth, ours)["flip"] < 0.05
+    np.testing.assert_allclose(ours.mean((0, 1)), truth.mean((0, 1)), rtol=0.03)
+
+
+@needs_web
+def test_browser_path_tracer_converges_towards_mitsuba(tmp_path):
+    scene = load_scene(CORNELL).with_resolution(32, 24)
+    res = _render("threejs-pathtracer", scene, 8, [1, 2, 4, 8])
+    assert [c.step for c in res.checkpoints] == [1, 2, 4, 8] and res.setup_seconds > res.checkpoints[-1].seconds
+    from compare.reference import ReferenceRenderer
+
+    truth = ReferenceRenderer(scene, cache_dir=tmp_path / "cache", progress=False).render(256).image
+    errors = [compare_images(truth, c.image)["relmse"] for c in res.checkpoints]
+    assert errors[-1] < errors[0], errors
+    flip = compare_images(truth, res.checkpoints[-1].image)["flip"]
+    assert flip < 0.3, flip
+
+
+def test_missing_pieces_are_named(monkeypatch, tmp_path):
+    from compare.renderers import web
+
+    monkeypatch.setenv("COMPARE_CHROMIUM", str(tmp_path / "no-chromium"))
+    ok, why = WebRenderer("threejs").available()
+    assert not ok and why.startswith(f"Chromium {tmp_path / 'no-chromium'} ($COMPARE_CHROMIUM) is not an "
+                                     "executable file; scripts/suite.sh setup installs all of it")
+    monkeypatch.delenv("COMPARE_CHROMIUM")
+    monkeypatch.setattr(web, "chromium_path", lambda: "/bin/sh")
+    monkeypatch.setattr(web, "web_root", lambda: tmp_path)
+    ok, why = WebRenderer("threejs-pathtracer").available()
+    assert not ok and why.startswith(f"the npm package three is not in {tmp_path / 'node_modules'}; ")
+
+
+@needs_web
+def test_no_webgl_is_one_clear_error(monkeypatch):
+    monkeypatch.setenv("COMPARE_CHROMIUM_ARGS", "--disable-webgl --disable-gpu")
+    scene = load_scene(CORNELL).with_resolution(8, 6)
+    with pytest.raises(RendererError, match=r"^renderer 'threejs': the page failed: .*no WebGL 2 context"):
+        _render("threejs", scene, 1)
