@@ -81,15 +81,15 @@ setup_python() {
     touch "$stamp"
 }
 
-have_chromium() { command -v chromium >/dev/null 2>&1 && command -v chromedriver >/dev/null 2>&1; }
+have_chromium() { command -v chromium >/dev/null 2>&1; }
 
 # The web engines (compare/renderers/web.py): Debian's Chromium, driven by Playwright (a dev
 # dependency), and three.js with three-gpu-pathtracer from npm, pinned by web/package-lock.json.
 # Optional: without them the web engines say what is missing and their tests skip with the reason.
 setup_web() {
     if ! have_chromium; then
-        log "installing Chromium and ChromeDriver (the web engines and the report's browser test)"
-        apt_install chromium chromium-driver || log "WARNING: no Chromium: the web engines and browser tests will skip"
+        log "installing Chromium (the web engines and the report's browser test)"
+        apt_install chromium || log "WARNING: no Chromium: the web engines and browser tests will skip"
     fi
     local stamp="web/node_modules/.installed-$(sha256sum web/package-lock.json | cut -c1-16)"
     if [ ! -f "$stamp" ]; then

@@ -1,8 +1,7 @@
-"""The HTML report in a real browser: headless Chromium driven through chromedriver.
+"""The HTML report in a real browser: Debian's headless Chromium driven by Playwright.
 
-The client below speaks the W3C WebDriver protocol over HTTP with the standard
-library only (no selenium dependency): chromedriver starts Chromium, the test
-opens the report from ``file://`` exactly as a person would, and checks that
+The test opens the report from ``file://`` exactly as a person would (the same
+library and browser drive the web engines, compare.renderers.web), and checks that
 
 * every image loads (``naturalWidth > 0``) and nothing is fetched from outside
   the report folder;
@@ -15,8 +14,8 @@ opens the report from ``file://`` exactly as a person would, and checks that
 
 A full-page screenshot lands in the test's tmp folder (``report.png``).
 
-Needs Debian's ``chromium`` and ``chromium-driver``
-(``apt-get install -y chromium chromium-driver``); skips without them.
+Needs Debian's ``chromium`` (``apt-get install -y chromium``) and Playwright (a dev
+dependency); skips without them.
 """
 
 from __future__ import annotations
@@ -24,12 +23,7 @@ from __future__ import annotations
 import base64
 import json
 import re
-import shutil
-import socket
-import subprocess
 import time
-import urllib.error
-import urllib.request
 from pathlib import Path
 
 import numpy as np
@@ -38,137 +32,91 @@ import pytest
 from compare.tonemap import to_ldr
 
 CHROMIUM = Path("/usr/bin/chromium")
-# Debian's /usr/bin/chromium is a shell wrapper; chromedriver gets the real binary behind it.
-CHROMIUM_BINARY = Path("/usr/lib/chromium/chromium")
-ELEMENT = "element-6066-11e4-a52e-4f735466cecf"  # W3C WebDriver element reference key
 EVIL = "<script>alert(1)</script>"
-
-#: Flags for a hermetic headless browser: no GPU, no sandbox (containers run as root),
-#: no network chatter, a fresh profile per session.
-CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-                  "--disable-background-networking", "--disable-component-update", "--disable-sync",
-                  "--disable-dev-shm-usage", "--window-size=1400,1000"]
+#: A hermetic headless browser: no GPU, no network chatter, a fresh profile per session.
+CHROMIUM_FLAGS = ["--disable-gpu", "--disable-quic", "--no-first-run", "--disable-background-networking",
+                  "--disable-component-update", "--disable-sync", "--disable-dev-shm-usage"]
+KEYS = {"\ue011": "Home", "\ue010": "End"}  # the WebDriver key codes the tests speak
 
 
-def _chromedriver() -> str | None:
-    return shutil.which("chromedriver") or ("/usr/bin/chromedriver" if Path("/usr/bin/chromedriver").exists() else None)
+def _playwright() -> bool:
+    try:
+        import playwright.sync_api  # noqa: F401
+    except ImportError:
+        return False
+    return True
 
 
 pytestmark = [
-    pytest.mark.skipif(not CHROMIUM.exists(), reason="no /usr/bin/chromium: apt-get install -y chromium chromium-driver"),
-    pytest.mark.skipif(_chromedriver() is None, reason="no chromedriver: apt-get install -y chromium-driver"),
+    pytest.mark.skipif(not CHROMIUM.exists(), reason="no /usr/bin/chromium: apt-get install -y chromium"),
+    pytest.mark.skipif(not _playwright(), reason="no Playwright: pip install playwright (a dev dependency)"),
 ]
 
 
-# --------------------------------------------------------------------------- a tiny WebDriver client
-
-
-class WebDriverError(RuntimeError):
-    pass
+# --------------------------------------------------------------------------- the browser, through Playwright
 
 
 class Browser:
-    """Headless Chromium through chromedriver's W3C WebDriver HTTP API (stdlib only)."""
+    """Headless Chromium (Debian's) driven by Playwright, with the few calls the tests need."""
 
     def __init__(self, profile: Path):
-        with socket.socket() as s:
-            s.bind(("127.0.0.1", 0))
-            port = s.getsockname()[1]
-        self.base = f"http://127.0.0.1:{port}"
-        self.driver = subprocess.Popen([_chromedriver(), f"--port={port}"], stdout=subprocess.DEVNULL,
-                                       stderr=subprocess.DEVNULL)
+        from playwright.sync_api import sync_playwright
+
+        self._pw = sync_playwright().start()
         try:
-            self._wait_ready()
-            binary = CHROMIUM_BINARY if CHROMIUM_BINARY.exists() else CHROMIUM
-            caps = {"browserName": "chrome",
-                    "goog:chromeOptions": {"binary": str(binary),
-                                           "args": CHROMIUM_FLAGS + [f"--user-data-dir={profile}"]},
-                    "goog:loggingPrefs": {"browser": "ALL"}}
-            self.session = self._call("POST", "/session", {"capabilities": {"alwaysMatch": caps}})["sessionId"]
+            self._context = self._pw.chromium.launch_persistent_context(
+                str(profile), executable_path=str(CHROMIUM), headless=True, args=CHROMIUM_FLAGS,
+                viewport={"width": 1400, "height": 1000})
         except BaseException:
-            self.driver.terminate()
-            self.driver.wait(10)
+            self._pw.stop()
             raise
-
-    def _call(self, method: str, path: str, body: dict | None = None):
-        data = None if body is None else json.dumps(body).encode()
-        req = urllib.request.Request(self.base + path, data=data, method=method,
-                                     headers={"Content-Type": "application/json"})
-        try:
-            with urllib.request.urlopen(req, timeout=120) as r:
-                return json.loads(r.read())["value"]
-        except urllib.error.HTTPError as e:
-            raise WebDriverError(f"{method} {path}: {e.read().decode(errors='replace')[:1000]}") from None
-
-    def _wait_ready(self) -> None:
-        deadline = time.monotonic() + 20
-        while time.monotonic() < deadline:
-            try:
-                if self._call("GET", "/status").get("ready"):
-                    return
-            except (urllib.error.URLError, ConnectionError, WebDriverError):
-                pass
-            time.sleep(0.1)
-        raise WebDriverError("chromedriver did not start within 20 s")
-
-    def _s(self, path: str) -> str:
-        return f"/session/{self.session}{path}"
+        self.page = self._context.new_page()
+        self._console: list[dict] = []
+        self._dialogs: list[str] = []
+        self.page.on("console", lambda m: self._console.append(
+            {"level": "SEVERE" if m.type == "error" else m.type.upper(), "message": m.text}))
+        self.page.on("pageerror", lambda e: self._console.append({"level": "SEVERE", "message": str(e)}))
+        self.page.on("dialog", lambda d: (self._dialogs.append(d.message), d.dismiss()))
 
     def open(self, url: str) -> None:
-        self._call("POST", self._s("/url"), {"url": url})
+        self.page.goto(url)
 
     def js(self, script: str, *args):
         """Run ``script`` as a function body (``arguments[i]`` are ``args``) and return its value."""
-        return self._call("POST", self._s("/execute/sync"), {"script": script, "args": list(args)})
+        return self.page.evaluate("(args) => (function () { " + script + " }).apply(null, args)", list(args))
 
-    def find(self, css: str) -> dict:
-        ref = self._call("POST", self._s("/element"), {"using": "css selector", "value": css})
-        return ref
+    def find(self, css: str):
+        return self.page.locator(css).first
 
-    def keys(self, element: dict, text: str) -> None:
-        self._call("POST", self._s(f"/element/{element[ELEMENT]}/value"), {"text": text})
+    def keys(self, element, text: str) -> None:
+        for ch in text:
+            element.press(KEYS.get(ch, ch))
 
-    def drag(self, element: dict, x0: int, x1: int) -> None:
+    def drag(self, element, x0: int, x1: int) -> None:
         """Press the mouse at x0 and release it at x1 (pixels from the element's centre)."""
-        origin = {ELEMENT: element[ELEMENT]}
-        self._call("POST", self._s("/actions"), {"actions": [{
-            "type": "pointer", "id": "mouse", "parameters": {"pointerType": "mouse"},
-            "actions": [{"type": "pointerMove", "origin": origin, "x": x0, "y": 0},
-                        {"type": "pointerDown", "button": 0},
-                        {"type": "pointerMove", "origin": origin, "x": x1, "y": 0, "duration": 100},
-                        {"type": "pointerUp", "button": 0}]}]})
-        self._call("DELETE", self._s("/actions"))
+        box = element.bounding_box()
+        cx, cy = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+        self.page.mouse.move(cx + x0, cy)
+        self.page.mouse.down()
+        self.page.mouse.move(cx + x1, cy, steps=5)
+        self.page.mouse.up()
 
     def console(self) -> list[dict]:
         """Browser console entries since the last call."""
-        return self._call("POST", self._s("/se/log"), {"type": "browser"})
+        entries, self._console = self._console, []
+        return entries
 
     def alert_open(self) -> bool:
-        try:
-            self._call("GET", self._s("/alert/text"))
-            return True
-        except WebDriverError as e:
-            if "no such alert" in str(e):
-                return False
-            raise
+        return bool(self._dialogs)
 
     def screenshot(self, path: Path) -> None:
-        """Full-page PNG (through the DevTools protocol, beyond the window's viewport)."""
-        w, h = self.js("return [document.documentElement.scrollWidth, document.documentElement.scrollHeight]")
-        shot = self._call("POST", self._s("/goog/cdp/execute"), {"cmd": "Page.captureScreenshot", "params": {
-            "format": "png", "captureBeyondViewport": True,
-            "clip": {"x": 0, "y": 0, "width": w, "height": h, "scale": 1}}})
-        path.write_bytes(base64.b64decode(shot["data"]))
+        path.write_bytes(self.page.screenshot(full_page=True))
 
     def close(self) -> None:
         try:
-            self._call("DELETE", self._s(""))
+            self._context.close()
         finally:
-            self.driver.terminate()
-            try:
-                self.driver.wait(10)
-            except subprocess.TimeoutExpired:
-                self.driver.kill()
+            self._pw.stop()
 
 
 # --------------------------------------------------------------------------- fixtures
