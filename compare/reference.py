@@ -203,6 +203,8 @@ class ReferenceRenderer:
                 why = f"made with other {', '.join(wrong)}"
             elif image.shape != (cam.height, cam.width, 3):
                 why = f"{image.shape[1]}x{image.shape[0]} pixels instead of {cam.width}x{cam.height}"
+            elif "pixels_sha256" not in meta:
+                why = "written by an older version, without a checksum of its pixels"
             elif meta.get("pixels_sha256") != _pixels_hash(image):
                 why = "its pixels do not match the checksum it was written with"
             else:
