@@ -156,3 +156,24 @@ def test_no_webgl_is_one_clear_error(monkeypatch):
     scene = load_scene(CORNELL).with_resolution(8, 6)
     with pytest.raises(RendererError, match=r"^renderer 'threejs': the page failed: .*no WebGL 2 context"):
         _render("threejs", scene, 1)
+
+
+@needs_web
+def test_threejs_variants(tmp_path):
+    """threejs:shadows puts shadow-mapped spot lights where RectAreaLight casts none: the pixels the
+    direct-light ground truth has in shadow get darker; threejs:msaa renders; bad options are named."""
+    from compare.reference import ReferenceRenderer
+
+    scene = load_scene(CORNELL).with_resolution(32, 24)
+    plain = _render("threejs", scene, 4).checkpoints[-1].image
+    shadows = _render("threejs:shadows", scene, 4).checkpoints[-1].image
+    # both average the pixel's area: MSAA per frame, jittered frames over time (16 of them here)
+    smooth, msaa = (_render(s, scene, 16).checkpoints[-1].image for s in ("threejs", "threejs:msaa"))
+    direct = ReferenceRenderer(scene, max_depth=2, cache_dir=tmp_path / "cache", progress=False).render(64).image
+    shadowed = (direct.mean(-1) < 0.3 * plain.mean(-1)) & (plain.mean(-1) > 0.01)
+    assert shadowed.sum() >= 10
+    assert shadows[shadowed].mean() < 0.6 * plain[shadowed].mean(), (shadows[shadowed].mean(), plain[shadowed].mean())
+    assert np.isfinite(msaa).all() and abs(msaa.mean() / smooth.mean() - 1) < 0.05, (msaa.mean(), smooth.mean())
+    for bad in ("threejs:nope", "threejs-pathtracer:msaa", "threejs:msaa+msaa"):
+        with pytest.raises(ValueError, match=r"expected threejs:<option>\[\+<option>\] with options shadows"):
+            WebRenderer(bad)

@@ -25,10 +25,10 @@ function basis(x, y, z) {
   return new THREE.Quaternion().setFromRotationMatrix(m);
 }
 
-function floatTarget(w, h) {
+function floatTarget(w, h, samples = 0) {
   return new THREE.WebGLRenderTarget(w, h, {
     type: THREE.FloatType, format: THREE.RGBAFormat, colorSpace: THREE.LinearSRGBColorSpace,
-    minFilter: THREE.NearestFilter, magFilter: THREE.NearestFilter, depthBuffer: true, samples: 0,
+    minFilter: THREE.NearestFilter, magFilter: THREE.NearestFilter, depthBuffer: true, samples,
   });
 }
 
@@ -45,12 +45,28 @@ async function buildScene(renderer, job, base, options) {
   RectAreaLightUniformsLib.init();
   for (const l of job.scene.lights) {
     const [color, k] = linear(l.radiance);
-    // RectAreaLight: width along local x, height along local y, shining along local -z (one-sided)
-    const neg = (v) => v.map((c) => -c);
-    const light = new THREE.RectAreaLight(color, k, l.size[0], l.size[1]);
-    light.position.set(...l.center);
-    light.quaternion.copy(basis(l.tangent, neg(l.bitangent), neg(l.normal)));
-    scene.add(light);
+    if (options.shadows) {
+      // a shadow-mapped stand-in: a spot light at the centre, its on-axis intensity the
+      // rectangle's L·A (W/sr), its cone the lit hemisphere, instead of the unshadowed LTC light
+      // (the cone stops at 80 degrees: a shadow camera of 180 degrees has no projection)
+      const spot = new THREE.SpotLight(color, k * l.size[0] * l.size[1], 0, THREE.MathUtils.degToRad(80), 1, 2);
+      spot.position.set(...l.center);
+      spot.target.position.set(l.center[0] + l.normal[0], l.center[1] + l.normal[1], l.center[2] + l.normal[2]);
+      spot.castShadow = true;
+      spot.shadow.mapSize.set(1024, 1024);
+      spot.shadow.bias = -1e-4;
+      const diag = new THREE.Box3().setFromObject(gltf.scene).getSize(new THREE.Vector3()).length() || 1;
+      spot.shadow.camera.near = diag * 1e-3; // three's default 0.5 m would clip a room-sized scene
+      spot.shadow.camera.far = diag * 2;
+      scene.add(spot, spot.target);
+    } else {
+      // RectAreaLight: width along local x, height along local y, shining along local -z (one-sided)
+      const neg = (v) => v.map((c) => -c);
+      const light = new THREE.RectAreaLight(color, k, l.size[0], l.size[1]);
+      light.position.set(...l.center);
+      light.quaternion.copy(basis(l.tangent, neg(l.bitangent), neg(l.normal)));
+      scene.add(light);
+    }
     // the camera sees the emitter: a plane of its radiance facing the lit side
     const face = new THREE.Mesh(new THREE.PlaneGeometry(l.size[0], l.size[1]),
       new THREE.MeshBasicMaterial({ color: color.clone().multiplyScalar(k), side: THREE.FrontSide, toneMapped: false }));
@@ -80,6 +96,11 @@ async function buildScene(renderer, job, base, options) {
     }
   } else {
     scene.background = new THREE.Color(0, 0, 0);
+  }
+  if (options.shadows) {
+    renderer.shadowMap.enabled = true;
+    renderer.shadowMap.type = THREE.PCFSoftShadowMap;
+    scene.traverse((o) => { if (o.isMesh && !o.userData.isLightFace) { o.castShadow = true; o.receiveShadow = true; } });
   }
   return scene;
 }
@@ -126,8 +147,9 @@ window.compareSetup = async ({ job: jobUrl, engine, options }) => {
   const scene = await buildScene(renderer, job, base, options);
   const camera = makeCamera(job, scene);
   S = { job, renderer, scene, camera, w, h, engine, options, steps: 0, ms: 0 };
+  if (options.shadows) renderer.shadowMap.needsUpdate = true;
   if (engine === 'threejs') {
-    S.frame = floatTarget(w, h);
+    S.frame = floatTarget(w, h, options.msaa ? 4 : 0);
     S.acc = [floatTarget(w, h), floatTarget(w, h)];
     S.blend = new FullScreenQuad(new THREE.ShaderMaterial({
       uniforms: { prev: { value: null }, frame: { value: null }, weight: { value: 1 } },

@@ -56,10 +56,10 @@ def builtin(spec: str) -> Renderer | None:
         from .blender import BlenderRenderer
 
         return BlenderRenderer(spec)
-    if spec in WEB:
+    if base in WEB:
         from .web import WebRenderer
 
-        return WebRenderer(spec)
+        return WebRenderer(spec)  # ValueError for a bad option
     return None
 
 
@@ -166,7 +166,7 @@ class Registry:
             r = self._tables[spec]
         elif spec.partition(":")[0] in BUILTIN:
             r = builtin(spec)
-            if r is None:
+            if r is None:  # a built-in's name with ':' options it does not take
                 raise ValueError(f"unknown renderer {spec!r}: {spec.partition(':')[0]} takes no ':' options")
         elif spec in self._plugins():
             r = self._plugin(spec)
@@ -207,7 +207,7 @@ class Registry:
         """Every renderer with its label, unit, source and availability (``compare renderers``)."""
         rows = []
         specs = ["mitsuba", "progressive", *(f"progressive:{o}" for o in ("paper", "ltc", "probes", "vsm")),
-                 "cycles", "eevee", *WEB]
+                 "cycles", "eevee", *WEB, "threejs:shadows"]
         sources = {s: "built-in" for s in specs}
         for n in self._plugins():
             sources.setdefault(n, f"entry point {self._plugins()[n].value}")

@@ -44,6 +44,11 @@ __all__ = ["WEB_ENGINES", "WebRenderer", "web_root"]
 
 #: The web engines (``--renderers web`` is all of them).
 WEB_ENGINES = ("threejs", "threejs-pathtracer")
+#: Options of ``threejs:<option>[+<option>]`` and what they change.
+THREEJS_OPTIONS = {
+    "shadows": "shadow-mapped spot lights of the area lights' L·A instead of RectAreaLight (which casts no shadow)",
+    "msaa": "4x MSAA in each frame's float target",
+}
 CHROMIUM_ARGS = ("--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--ignore-gpu-blocklist")
 INSTALL = ("scripts/suite.sh setup installs all of it: Debian's chromium (apt-get install chromium), "
            "the npm packages (npm ci --prefix web) and Playwright (pip install playwright)")
@@ -103,13 +108,24 @@ class _Browser:
 class WebRenderer(Renderer):
     """One web engine in headless Chromium (see the module docstring)."""
 
-    def __init__(self, engine: str):
+    def __init__(self, spec: str):
+        engine, _, text = spec.partition(":")
         if engine not in WEB_ENGINES:
             raise ValueError(f"unknown web engine {engine!r}")
-        self.name = engine
+        opts = [o for o in text.split("+")] if text else []
+        if engine != "threejs" and opts or any(o not in THREEJS_OPTIONS for o in opts) or len(set(opts)) != len(opts):
+            raise ValueError(f"renderer {spec!r}: expected threejs:<option>[+<option>] with options "
+                             + ", ".join(f"{k} ({v})" for k, v in THREEJS_OPTIONS.items()))
+        self.name = spec
+        self.engine = engine
+        self.options = {o: True for o in opts}
         self.pathtracer = engine == "threejs-pathtracer"
         self.unit = "spp" if self.pathtracer else "frame"
-        self.label = "three.js path tracer (three-gpu-pathtracer)" if self.pathtracer else "three.js (RectAreaLight, PMREM)"
+        self.variant_of = "threejs" if opts else None
+        self.variant_note = ", ".join(opts)
+        what = ("shadow-mapped spot lights" if "shadows" in opts else "RectAreaLight") + ", PMREM" \
+            + (", 4x MSAA" if "msaa" in opts else "")
+        self.label = "three.js path tracer (three-gpu-pathtracer)" if self.pathtracer else f"three.js ({what})"
 
     def available(self) -> tuple[bool, str]:
         try:
@@ -133,7 +149,7 @@ class WebRenderer(Renderer):
     def key(self, scene, settings) -> list:
         root = web_root()
         files = [root / "engine.js", root / "index.html", root / "package-lock.json"]
-        return ["web", self.name, [(f.name, sha256_bytes(f.read_bytes())) for f in files if f.is_file()]]
+        return ["web", self.engine, sorted(self.options), [(f.name, sha256_bytes(f.read_bytes())) for f in files if f.is_file()]]
 
     def render(self, scene, *, steps: int, checkpoints: list[int], seed: int, context: RenderContext) -> Rendering:
         from .job import write_job
@@ -171,7 +187,7 @@ class WebRenderer(Renderer):
             page.goto(f"{origin}/web/index.html")
             page.wait_for_function("window.compareReady === true")
             info = page.evaluate("async (a) => await window.compareSetup(a)",
-                                 {"job": f"{origin}/job/job.json", "engine": self.name, "options": {}})
+                                 {"job": f"{origin}/job/job.json", "engine": self.engine, "options": self.options})
             setup = time.perf_counter() - t0
             w, h = scene.camera.resolution
             out = []
@@ -181,7 +197,8 @@ class WebRenderer(Renderer):
                 rgba = np.frombuffer(raw, dtype=np.float32).reshape(h, w, 4)
                 out.append(Checkpoint(int(step), float(r["ms"]) / 1000.0, np.ascontiguousarray(rgba[::-1, :, :3])))
             meta = {"compile_seconds": round(float(info.get("warm") or 0) / 1000, 3), "webgl_renderer": info.get("gl_renderer"), "three": info.get("three"),
-                    "chromium": browser.version, "engine": self.name}
+                    "chromium": browser.version, "engine": self.engine,
+                    "options": "+".join(sorted(self.options))}
             if console:
                 meta["console"] = " | ".join(console[-5:])
             return Rendering(out, setup, meta)
