@@ -213,3 +213,49 @@ def test_a_bad_cache_entry_is_discarded_reported_and_rendered_again(tmp_path, ta
         warnings.simplefilter("error")
         np.testing.assert_array_equal(ReferenceRenderer(scene, cache_dir=tmp_path, progress=False)
                                       .render_chunk(4, 0)[0], good)
+
+
+def _cornell(width: int, height: int):
+    from compare.scene import load_scene
+
+    return load_scene(ROOT / "scenes" / "cornell.toml").with_resolution(width, height)
+
+
+def test_a_pass_is_exactly_a_bare_mitsuba_render():
+    """render_chunk returns, bit for bit, what a bare ``mi.render`` of the same scene dictionary,
+    spp and seed returns: the wrapper adds its checks and its cache, never a change to the pixels
+    (``compare bench --only wrapper-overhead`` times the same two calls)."""
+    from compare.mitsuba_dict import scene_dict
+
+    scene = _cornell(16, 12)
+    r = ReferenceRenderer(scene, cache_dir=False, progress=False)
+    bare = r.mi.load_dict(scene_dict(scene, spp=1))
+    for spp, seed in ((1, 0), (4, 7)):
+        image, seconds = r.render_chunk(spp, seed)
+        assert image.dtype == np.float32 and image.shape == (12, 16, 3) and seconds > 0
+        np.testing.assert_array_equal(image, np.array(r.mi.render(bare, spp=spp, seed=seed)))
+
+
+@pytest.mark.parametrize("value", [np.nan, np.inf, -np.inf])
+def test_a_non_finite_pass_is_refused_and_never_cached(tmp_path, value):
+    """One NaN or infinite value in what Mitsuba returns is an error naming how many, where the first
+    is, the spp and the seed; nothing is written to the cache."""
+    from compare.errors import ImageError
+
+    r = ReferenceRenderer(_cornell(16, 12), cache_dir=tmp_path, progress=False)
+    real = r.mi
+
+    class OneBadValue:  # Mitsuba, but every render has one non-finite value
+        def __getattr__(self, name):
+            return getattr(real, name)
+
+        def render(self, *args, **kwargs):
+            image = np.array(real.render(*args, **kwargs))
+            image[5, 3, 1] = value
+            return real.TensorXf(image)
+
+    r.mi = OneBadValue()
+    with pytest.raises(ImageError, match=r"produced 1 non-finite values \(first at \(5, 3, 1\)\) at spp=2, seed=3"):
+        r.render_chunk(2, 3)
+    path = r._chunk_path(2, 3)
+    assert path is not None and not path.exists()
