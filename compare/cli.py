@@ -142,13 +142,12 @@ def cmd_render(args: argparse.Namespace) -> int:
                                                               context=context), scene=scene, checkpoints=[steps])
     last = rendering.checkpoints[-1]
     unit = {"frame": "frames", "spp": "spp", "sample": "samples"}.get(renderer.unit, renderer.unit)
-    from .scene_job import flat_metadata
+    from .scene_job import exr_metadata
 
-    meta = {**flat_metadata(rendering.metadata), "renderer": renderer.name, unit: last.step, "seed": args.seed,
+    meta = {**rendering.metadata, "renderer": renderer.name, unit: last.step, "seed": args.seed,
             "seconds": last.seconds, "setup_seconds": rendering.setup_seconds, "scene": str(args.scene),
             "scene_hash": scene.hash, "package": __version__}
-    write_exr(args.output, last.image, metadata={k: (int(v) if isinstance(v, bool) else v)
-                                                 for k, v in meta.items() if v is not None})
+    write_exr(args.output, last.image, metadata=exr_metadata(meta))
     write_png(png, last.image, exposure=args.exposure, operator=args.tonemap)
     print(f"{args.output}: {scene.camera.width}x{scene.camera.height}, {renderer.label}, {last.step} {unit} in "
           f"{last.seconds:.2f} s (set-up {rendering.setup_seconds:.2f} s); preview {png}")

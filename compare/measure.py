@@ -19,7 +19,7 @@ from .argtypes import positive_float, positive_int
 from .errors import CompareError
 from .fsutil import sha256_bytes
 from .renderers import RenderContext, Renderer, RendererError, Rendering
-from .renderers.job import read_checkpoints
+from .renderers.job import read_checkpoints, step_files
 
 __all__ = ["ImageFolder", "add_measure_parser", "measure"]
 
@@ -36,8 +36,8 @@ class ImageFolder(Renderer):
         self.name, self.label, self.unit = name, label, unit
         if not self.folder.is_dir():
             raise RendererError(f"compare measure: {self.folder} is not a folder")
-        steps = sorted(int(m.group(1)) for p in self.folder.glob("step-*.exr")
-                       if (m := re.fullmatch(r"step-0*(\d+)\.exr", p.name)) and int(m.group(1)) > 0)
+        self._files = step_files(self.folder)
+        steps = list(self._files)
         if not steps:
             raise RendererError(f"compare measure: {self.folder} holds no step-<N>.exr checkpoint")
         self._steps = steps
@@ -58,7 +58,7 @@ class ImageFolder(Renderer):
         from .exr import read_exr
 
         try:
-            image, _ = read_exr(self.folder / next(p.name for p in sorted(self.folder.glob("step-*.exr"))))
+            image, _ = read_exr(next(iter(self._files.values())))
         except CompareError as exc:
             raise RendererError(f"compare measure: {exc}") from None
         return image.shape[1], image.shape[0]

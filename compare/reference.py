@@ -60,6 +60,14 @@ def ladder_passes(spp: int) -> list[int]:
     return passes
 
 
+def pass_plan(checkpoints: list[int]) -> list[int]:
+    """Running spp sums to render for ``checkpoints``: the checkpoints and the doubling ladder up
+    to the last one (:func:`ladder_passes`)."""
+    sums = {int(c) for c in checkpoints}
+    sums.update(int(t) for t in np.cumsum(ladder_passes(int(max(sums)))))
+    return sorted(sums)
+
+
 @dataclass
 class Checkpoint:
     """Cumulative state of a render after some passes."""
@@ -228,19 +236,30 @@ class ReferenceRenderer:
 
     def iter_ladder(self, spp: int, seed: int = 0) -> Iterator[Checkpoint]:
         """Yield a :class:`Checkpoint` after each doubling pass (1, 2, 4, …, spp samples)."""
-        passes = ladder_passes(int(spp))
+        yield from self.iter_checkpoints(list(np.cumsum(ladder_passes(int(spp)))), seed)
+
+    def iter_checkpoints(self, checkpoints: list[int], seed: int = 0) -> Iterator[Checkpoint]:
+        """Yield a :class:`Checkpoint` at each of the ascending spp counts ``checkpoints``.
+
+        Samples are rendered in passes whose running sums are the checkpoints and, between them,
+        the doubling ladder up to the last one (:func:`pass_plan`), so every ladder shares its passes
+        (and the cache) with the others: a ground truth rendered with one checkpoint is bit for bit
+        the end of the doubling ladder of the same seed.
+        """
+        wanted = {int(c) for c in checkpoints}
         acc = np.zeros((self.scene.camera.height, self.scene.camera.width, 3), dtype=np.float64)
         total_spp, total_s = 0, 0.0
-        with tqdm(total=int(spp), unit="spp", desc=f"mitsuba {self.scene.name}", disable=not self.progress,
-                  leave=False) as bar:
-            for index, pass_spp in enumerate(passes):
-                for n, chunk_seed in self._pass_chunks(seed, index, pass_spp):
+        with tqdm(total=int(max(wanted)), unit="spp", desc=f"mitsuba {self.scene.name[:30]}",
+                  disable=not self.progress, leave=False) as bar:
+            for index, upto in enumerate(pass_plan(checkpoints)):
+                for n, chunk_seed in self._pass_chunks(seed, index, upto - total_spp):
                     image, seconds = self.render_chunk(n, chunk_seed)
                     acc += image.astype(np.float64) * n
-                    total_spp += n
                     total_s += seconds
                     bar.update(n)
-                yield Checkpoint(total_spp, total_s, (acc / total_spp).astype(np.float32))
+                total_spp = upto
+                if total_spp in wanted:
+                    yield Checkpoint(total_spp, total_s, (acc / total_spp).astype(np.float32))
 
     def ladder(self, spp: int, seed: int = 0) -> list[Checkpoint]:
         """All checkpoints of :meth:`iter_ladder` as a list."""

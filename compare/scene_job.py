@@ -47,7 +47,7 @@ from .renderers import RenderContext, Registry, Renderer, check_rendering
 from .results import NoiseFloor, Point, Reference, RendererRun, RunSettings, SceneResult, check_json_finite
 from .scene import Scene
 
-__all__ = ["SceneJob", "cpu_model", "scene_id"]
+__all__ = ["SceneJob", "cpu_model", "exr_metadata", "flat_metadata", "scene_id"]
 
 def cpu_model() -> str:
     """The CPU's model name (timings belong to a machine)."""
@@ -92,7 +92,7 @@ def flat_metadata(meta: dict) -> dict:
     return out
 
 
-def _exr_metadata(meta: dict) -> dict:
+def exr_metadata(meta: dict) -> dict:
     """EXR metadata takes str/int/float only (see compare.exr)."""
     out = {}
     for k, v in flat_metadata(meta).items():
@@ -110,7 +110,7 @@ def _write_image(path: Path, image: np.ndarray, metadata: dict, *, exposure: flo
     measures exactly what the renderer returned (half floats would round it to ~3 digits)."""
     from .tonemap import write_png
 
-    write_exr(path, image, metadata=_exr_metadata(metadata), half=False)
+    write_exr(path, image, metadata=exr_metadata(metadata), half=False)
     write_png(path.with_suffix(".png"), image, exposure=exposure, operator=tonemap)
 
 
@@ -198,6 +198,9 @@ class SceneJob:
         self.progress = progress
         self.machine = [cpu_model(), os.cpu_count()]
         self.facts: dict[str, str] = {}
+        # (scene id, renderer, role) -> (key, record) of what this process rendered or found finished:
+        # the measure stage does not compute the keys or read render.json again
+        self._done: dict[tuple[str, str, bool], tuple[str, dict]] = {}
 
     def _unit(self, sid: str, name: str) -> _Unit:
         safe = re.sub(r"[^a-z0-9_-]+", "-", name.lower())  # "progressive:paper" -> "progressive-paper"
@@ -224,6 +227,11 @@ class SceneJob:
 
     def _render_unit(self, scene: Scene, sid: str, spec: str, *, truth: bool, bar=None) -> tuple[str, dict]:
         """Render one unit unless a finished render with the same key is there; returns (key, record)."""
+        if (sid, spec, truth) not in self._done:
+            self._done[(sid, spec, truth)] = self._find_or_render(scene, sid, spec, truth=truth, bar=bar)
+        return self._done[(sid, spec, truth)]
+
+    def _find_or_render(self, scene: Scene, sid: str, spec: str, *, truth: bool, bar) -> tuple[str, dict]:
         r, steps, cps, seed = self._plan(spec, truth=truth)
         unit = self._unit(sid, "reference" if truth else spec)
         key = self._render_key(scene, r, steps, cps, seed)

@@ -65,28 +65,25 @@ class FakeReference:
     def settings(self) -> dict:
         return {"scene_hash": self.scene.hash, "variant": self.variant, "resolution": list(self.scene.camera.resolution)}
 
-    def _pass_chunks(self, seed, index, spp):
-        yield spp, seed * 1000 + index  # the ladder's seed stays readable in the chunk's
+    def iter_checkpoints(self, checkpoints, seed=0):
+        from compare.reference import pass_plan
 
-    def render_chunk(self, spp, seed):
-        """spp samples of standard deviation 0.5 each, averaged."""
-        w, h = self.scene.camera.resolution
-        rng = np.random.default_rng(seed)
-        FakeReference.renders.append((spp, seed // 1000))
-        return (_truth(w, h) + rng.normal(0, 0.5 / np.sqrt(spp), (h, w, 3))).astype(np.float32), 0.01 * spp
-
-    def iter_ladder(self, spp, seed=0):
         w, h = self.scene.camera.resolution
         truth = _truth(w, h)
         rng = np.random.default_rng(seed)
         acc = np.zeros_like(truth, dtype=np.float64)
         total = 0
-        for n in np.diff([0] + run_mod.checkpoint_steps(spp)):
+        for upto in pass_plan(checkpoints):
+            n = upto - total
             # n samples of standard deviation 0.5 each: their sum has deviation 0.5·sqrt(n)
             acc += truth * n + rng.normal(0, 0.5, truth.shape) * np.sqrt(n)
-            total += n
+            total = upto
             FakeReference.renders.append((total, seed))
-            yield Checkpoint(total, 0.01 * total, (acc / total).clip(0).astype(np.float32))
+            if total in checkpoints:
+                yield Checkpoint(total, 0.01 * total, (acc / total).clip(0).astype(np.float32))
+
+    def iter_ladder(self, spp, seed=0):
+        yield from self.iter_checkpoints(run_mod.checkpoint_steps(spp), seed)
 
 
 def fake_progressive(scene, *, frames, seed, options, checkpoints, ctx):

@@ -147,7 +147,6 @@ window.compareSetup = async ({ job: jobUrl, engine, options }) => {
   const scene = await buildScene(renderer, job, base, options);
   const camera = makeCamera(job, scene);
   S = { job, renderer, scene, camera, w, h, engine, options, steps: 0, ms: 0 };
-  if (options.shadows) renderer.shadowMap.needsUpdate = true;
   if (engine === 'threejs') {
     S.frame = floatTarget(w, h, options.msaa ? 4 : 0);
     S.acc = [floatTarget(w, h), floatTarget(w, h)];

@@ -26,7 +26,7 @@ import numpy as np
 from ..fsutil import write_text_atomic
 from .base import Checkpoint, RendererError, Rendering
 
-__all__ = ["JOB_SCHEMA", "export_gltf", "read_checkpoints", "write_job"]
+__all__ = ["JOB_SCHEMA", "export_gltf", "read_checkpoints", "step_files", "write_job"]
 
 #: Version of ``job.json``; a change of meaning of any field moves it.
 JOB_SCHEMA = 1
@@ -129,6 +129,16 @@ def _number(v: Any) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v >= 0
 
 
+def step_files(folder: Path) -> dict[int, Path]:
+    """The checkpoint images of ``folder`` by step (``step-<N>.exr``, N > 0, leading zeros allowed)."""
+    found = {}
+    for p in Path(folder).glob("step-*.exr"):
+        m = _STEP.fullmatch(p.name)
+        if m and int(m.group(1)) > 0:
+            found[int(m.group(1))] = p
+    return dict(sorted(found.items()))
+
+
 def read_checkpoints(folder: Path, *, who: str, size: tuple[int, int], checkpoints: list[int] | None) -> Rendering:
     """The checkpoints in ``folder`` (``step-<N>.exr`` and ``timings.json``), checked.
 
@@ -171,11 +181,7 @@ def read_checkpoints(folder: Path, *, who: str, size: tuple[int, int], checkpoin
     meta = timings.get("metadata") or {}
     if not isinstance(meta, dict):
         raise RendererError(f"{who}: {tpath}: metadata: expected an object, got {type(meta).__name__}")
-    found = {}
-    for p in folder.glob("step-*.exr"):
-        m = _STEP.fullmatch(p.name)
-        if m and int(m.group(1)) > 0:
-            found[int(m.group(1))] = p
+    found = step_files(folder)
     steps = sorted(found) if checkpoints is None else list(checkpoints)
     if not steps:
         raise RendererError(f"{who}: {folder} holds no step-<N>.exr checkpoint")

@@ -1,28 +1,15 @@
 """The Mitsuba 3 path tracer (:mod:`compare.reference`) as a renderer of the registry: ``mitsuba``.
 
-Checkpoints may be any ascending spp ladder. Samples are rendered in passes
-whose running sums are the checkpoints and, between them, the doubling ladder
-1, 2, 4, …, so a ground truth rendered with one checkpoint reuses the passes of
-a convergence ladder (and the reference cache) and the two agree bit for bit.
+Checkpoints may be any ascending spp ladder
+(:meth:`compare.reference.ReferenceRenderer.iter_checkpoints`: a ground truth rendered
+with one checkpoint reuses the passes of a convergence ladder and the reference cache).
 """
 
 from __future__ import annotations
 
 from .base import Checkpoint, RenderContext, Renderer, Rendering
 
-__all__ = ["MitsubaRenderer", "bench_wrapper_overhead", "pass_plan"]
-
-
-def pass_plan(checkpoints: list[int]) -> list[int]:
-    """Running spp sums to render: the checkpoints and the doubling ladder up to the last one."""
-    from ..reference import ladder_passes
-
-    last = int(checkpoints[-1])
-    sums, total = set(int(c) for c in checkpoints), 0
-    for n in ladder_passes(last):
-        total += n
-        sums.add(total)
-    return sorted(sums)
+__all__ = ["MitsubaRenderer", "bench_wrapper_overhead"]
 
 
 #: Bytes per pixel a Mitsuba render holds at once: its film (RGBA and weight, float32, and the
@@ -101,25 +88,8 @@ class MitsubaRenderer(Renderer):
         return ReferenceRenderer(scene, materials=settings.materials, cache_dir=False, progress=False).settings()
 
     def render(self, scene, *, steps: int, checkpoints: list[int], seed: int, context: RenderContext) -> Rendering:
-        import numpy as np
-        from tqdm.auto import tqdm
-
         rr = self._reference(scene, context)
-        wanted = set(checkpoints)
-        acc = np.zeros((scene.camera.height, scene.camera.width, 3), dtype=np.float64)
-        out: list[Checkpoint] = []
-        total, seconds = 0, 0.0
-        with tqdm(total=int(steps), unit="spp", desc=f"mitsuba {scene.name[:30]}", disable=not context.progress,
-                  leave=False) as bar:
-            for index, upto in enumerate(pass_plan(checkpoints)):
-                for n, chunk_seed in rr._pass_chunks(seed, index, upto - total):  # noqa: SLF001 - its pass seeds
-                    image, s = rr.render_chunk(n, chunk_seed)
-                    acc += image.astype(np.float64) * n
-                    seconds += s
-                    bar.update(n)
-                total = upto
-                if total in wanted:
-                    out.append(Checkpoint(total, seconds, (acc / total).astype(np.float32)))
+        out = [Checkpoint(c.spp, c.seconds, c.image) for c in rr.iter_checkpoints(checkpoints, seed)]
         meta = {"variant": rr.variant, "seed": seed, **rr.settings()}
         return Rendering(out, float(rr.load_seconds), meta)
 
