@@ -56,9 +56,10 @@ def _build_parser() -> argparse.ArgumentParser:
     r.add_argument("--samples", type=positive_int, default=64, help="EEVEE samples")
     r.add_argument("--size", type=parse_size, default=None, help="WIDTHxHEIGHT; default: the scene's resolution")
     r.add_argument("--seed", type=int, default=0, help="random seed")
-    r.add_argument("--materials", choices=["shared", "cycles"], default="shared",
-                   help="reference material mode: the shared BRDF plugin or its Blender Principled v2 flavour "
-                        "(Cycles-like)")
+    r.add_argument("--materials", choices=["shared", "cycles", "cycles-ggx"], default="shared",
+                   help="reference material mode: the shared BRDF plugin, its Blender Principled v2 flavour "
+                        "(Cycles-like; each material's distribution, Blender's default Multiscatter GGX) or that "
+                        "flavour with GGX single scattering")
     r.add_argument("--max-depth", type=int, default=None, help="path depth override (2 = direct light only)")
     r.add_argument("--variant", default=None, help="Mitsuba variant (default: best available)")
     r.add_argument("--no-cache", action="store_true", help="do not read or write the reference cache")

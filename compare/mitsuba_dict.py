@@ -1,6 +1,6 @@
 """Translate a :class:`compare.scene.Scene` into a Mitsuba 3 scene dictionary.
 
-Three material modes:
+Four material modes:
 
 ``shared``
     the suite's own glTF metallic-roughness BSDF plugin (:mod:`compare.brdf`),
@@ -9,7 +9,12 @@ Three material modes:
 ``cycles``
     the same plugin with ``flavour = "cycles"``: Blender's Principled BSDF v2
     as :mod:`compare.blender.export` sets it up (:mod:`compare.brdf.principled`),
-    for references meant to look like Blender Cycles.
+    for references meant to look like Blender Cycles, with each material's
+    ``distribution`` (Blender's default Multiscatter GGX unless the scene
+    says ``ggx``; :mod:`compare.brdf.multiscatter`).
+``cycles-ggx``
+    ``cycles`` with every material's distribution GGX (single scattering): the
+    counterpart of Blender renders with ``distribution = 'GGX'`` (``cycles:ggx``).
 ``diffuse``
     Lambert only (reflectance = base colour), for validation against closed
     forms such as the white furnace, where any specular lobe would get in the way.
@@ -19,14 +24,16 @@ The ``cycles`` mapping
 Base colour, metallic and roughness go in unchanged (Blender squares the
 roughness like glTF). The model is what Cycles evaluates for the exporter's
 Principled node (IOR 1.5, Specular IOR Level 0.5, white Specular Tint, Diffuse
-Roughness 0, ``distribution = 'GGX'``): GGX with height-correlated Smith
+Roughness 0, ``distribution`` GGX or Multiscatter GGX): GGX with height-correlated Smith
 masking (as ``shared``); the exact dielectric Fresnel of IOR 1.5 on the
 dielectric specular layer (``shared``: Schlick, F0 = 0.04), Schlick with
 F0 = base colour on the metal layer (Cycles' F82-tint with a white tint); and
 a Lambert lobe ``(1 - m)(1 - E_s(r, n.v)) c / pi`` under the specular layer,
 where ``E_s`` is Cycles' own albedo estimate of that layer, tabulated as
 Cycles tabulates it (``ggx_gen_schlick_ior_s``) and depending on the view
-direction only (``shared``: ``(1 - m)(1 - F_d(v.h))`` per light direction).
+direction only (``shared``: ``(1 - m)(1 - F_d(v.h))`` per light direction);
+with Multiscatter GGX, each specular lobe and that layer albedo are scaled by
+Cycles' energy compensation (:mod:`compare.brdf.multiscatter`).
 Until this mode used the plugin it was Mitsuba's ``principled`` BSDF (Disney
 2015: Disney diffuse with retro-reflection, Schlick Fresnel, no layering), which
 made the Cornell box 18-47 % brighter per region than Cycles.
@@ -38,24 +45,13 @@ specular reflection on smooth-shaded meshes (``ensure_valid_specular_reflection`
 Monte Carlo noise in the two tabulations of ``E_s`` (~3e-4), and sampling
 (lobe choice, light sampling, Sobol versus Mitsuba's samplers), which changes
 noise, not the expectation. Measured with :func:`compare.blender.likeness.cycles_likeness`
-(FLIP(Mitsuba, Cycles) / FLIP(Cycles seed A, seed B); Mitsuba's independent
-sampler is noisier than Cycles' Sobol at equal spp, which alone puts this ratio
-above 1): Cornell box 64x48 at 64 spp 1.06 (``shared`` 1.10, ``principled``
-5.17), kitchen and car at 96x72, 64 spp 1.11 and 1.39 (``shared`` 1.25 and 2.17,
-``principled`` 3.40 and 3.11), every region mean agreeing within 3 standard
-errors or 2 %; at 1024 spp (Cornell) and 512 spp (kitchen, car) every region
-still agrees (means at most 1.7, 2.9 and 2.1 % apart), ratio 1.14, 1.14 and
-1.53, noise-matched ratio (``Likeness.ratio_noise_matched``) 1.00, 1.02 and
-1.06 (``shared``: ratio 1.52, 1.78 and 5.20; 14 of 15, 42 of 53 and 5 of 12
-regions agree).
-Variants measured and dropped (same renders, 1024/512 spp; region means
-averaged over pixels, Cornell/kitchen/car): Schlick in place of the exact
-Fresnel, 0.9/1.2/1.7 % too dark (ratio 1.55/1.49/2.41); the specular lobe's
-true directional albedo in place of Cycles' table, +6.3/+3.0/+2.0 %
-(4.99/2.25/2.14); glTF's per-direction ``1 - F(v.h)``, +0.6/+2.6/+8.2 %
-(1.45/2.06/5.50); Kulla-Conty multiple-scattering compensation as Blender's
-``MULTI_GGX`` does it (which the exporter does not use), +6.5/+3.1/+1.7 %
-(5.08/2.31/2.00).
+against Cycles with the same distribution: see ``docs/cycles-likeness.md``.
+(The single-scattering model alone, against Blender renders that set GGX:
+Cornell box 64x48 at 64 spp 1.06, kitchen and car at 96x72 1.11 and 1.39; at
+1024/512 spp noise-matched 1.00, 1.02 and 1.06. Variants measured and dropped
+then: Schlick in place of the exact Fresnel, the specular lobe's true
+directional albedo in place of Cycles' table, glTF's per-direction
+``1 - F(v.h)``, each 1-8 % off in region means.)
 
 :data:`MATERIAL_MODELS` names the model behind a mode whose meaning changed
 after it was introduced; the reference's cache key includes it.
@@ -69,11 +65,13 @@ import numpy as np
 
 from .scene import AreaLight, Material, Scene
 
-MATERIAL_MODES = ("shared", "cycles", "diffuse")
+MATERIAL_MODES = ("shared", "cycles", "cycles-ggx", "diffuse")
 #: BSDF plugin name of the shared BRDF (registered by compare.brdf.mitsuba_plugin).
 SHARED_BSDF = "gltf_pbr"
 #: Model identifiers of modes whose model changed (part of the reference's cache key).
-MATERIAL_MODELS = {"cycles": "gltf_pbr:cycles"}
+MATERIAL_MODELS = {"cycles": "gltf_pbr:cycles:per-material-distribution", "cycles-ggx": "gltf_pbr:cycles"}
+#: Modes that model Blender's Principled BSDF, with the distribution they force (None: each material's).
+PRINCIPLED_MODES = {"cycles": None, "cycles-ggx": "ggx"}
 
 
 #: Scenes whose extent (the diagonal of everything the camera, lights and meshes span) is below
@@ -135,12 +133,12 @@ def material_dict(mat: Material, mode: str) -> dict:
 
         register()
         return {"type": SHARED_BSDF, "base_color": base, "metallic": mat.metallic, "roughness": mat.roughness}
-    if mode == "cycles":
+    if mode in PRINCIPLED_MODES:
         from .brdf.mitsuba_plugin import register
 
         register()
         return {"type": SHARED_BSDF, "flavour": "cycles", "base_color": base, "metallic": mat.metallic,
-                "roughness": mat.roughness}
+                "roughness": mat.roughness, "distribution": PRINCIPLED_MODES[mode] or mat.distribution}
     if mode == "diffuse":
         return {"type": "diffuse", "reflectance": base}
     raise ValueError(f"materials: expected one of {', '.join(MATERIAL_MODES)}, got {mode!r}")

@@ -31,7 +31,7 @@ from .backend import load_mitsuba
 from .exr import read_exr, write_exr
 from .errors import ImageError
 from .fsutil import sha256_bytes
-from .mitsuba_dict import MATERIAL_MODELS, MATERIAL_MODES, scene_dict, world_scale
+from .mitsuba_dict import MATERIAL_MODELS, MATERIAL_MODES, PRINCIPLED_MODES, scene_dict, world_scale
 from .scene import Scene
 
 #: Largest number of samples per pixel rendered in one Mitsuba call.
@@ -96,7 +96,7 @@ class ReferenceRenderer:
     scene
         The scene (its resolution is the render resolution).
     materials
-        ``"shared"`` (the suite's BRDF plugin), ``"cycles"`` (the plugin's Blender Principled v2
+        ``"shared"`` (the suite's BRDF plugin), ``"cycles"`` / ``"cycles-ggx"`` (the plugin's Blender Principled v2
         flavour) or ``"diffuse"`` (Lambert); see :mod:`compare.mitsuba_dict`.
     variant
         Mitsuba variant; None picks cuda_ad_rgb > llvm_ad_rgb > scalar_rgb.
@@ -165,6 +165,10 @@ class ReferenceRenderer:
         }
         if self.materials in MATERIAL_MODELS:  # a changed model must not reuse the old model's passes
             settings["material_model"] = MATERIAL_MODELS[self.materials]
+        if self.materials in PRINCIPLED_MODES:  # what the report says the ground truth models
+            forced = PRINCIPLED_MODES[self.materials]
+            settings["distribution"] = "/".join(sorted({forced or m.distribution
+                                                        for m in self.scene.materials.values()}))
         if self.world_scale != 1.0:  # tiny scenes are rendered scaled up (keys of all others stay as they were)
             settings["world_scale"] = self.world_scale
         return settings

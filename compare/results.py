@@ -206,7 +206,7 @@ class RunSettings:
     renderers : list of str
         Renderer specs: ``"mitsuba"`` (reference convergence and noise floor),
         ``"progressive"`` or ``"progressive:<option>"`` (:mod:`compare.variants`),
-        ``"cycles"``, ``"eevee"`` (Blender, the ``blender`` extra).
+        ``"cycles"``, ``"eevee"`` (Blender, the ``blender`` extra; ``:ggx`` sets GGX single scattering).
     sizes : list of [int, int]
         Resolutions; empty means each scene's own.
     exposure : float
@@ -215,11 +215,13 @@ class RunSettings:
         Tone-mapping operator for LDR metrics and previews (the report's
         interactive view implements ``"aces"`` only).
     materials : str
-        Reference material mode (``"shared"`` BRDF plugin or ``"cycles"``).
+        Reference material mode (``"shared"`` BRDF plugin, ``"cycles"`` or ``"cycles-ggx"``;
+        :mod:`compare.mitsuba_dict`).
     cycles_spp, eevee_samples : int
         Samples of the Blender renderers ``cycles`` and ``eevee`` (the paper: 1024 and 64).
     likeness : bool
-        With ``materials="cycles"``, measure whether the ground truth is Cycles-like
+        With ``materials="cycles"`` (``"cycles-ggx"``), measure whether the ground truth is
+        Cycles-like against the ``cycles`` (``cycles:ggx``) run
         (one more Cycles render and two Mitsuba passes at ``cycles_spp``, so it roughly
         triples the Cycles unit's cost; turn it off for large Table 1 runs).
     ground_truth : str

@@ -363,12 +363,15 @@ def add_run_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0, help="seed of the ground truth (its convergence ladder uses seed+1)")
     p.add_argument("--exposure", type=positive_float, default=1.0,
                    help="linear exposure before ACES tone mapping (LDR metrics and previews)")
-    p.add_argument("--materials", choices=["shared", "cycles"], default="shared",
-                   help="reference material mode: shared (the rasterizer's BRDF) or cycles (Blender's Principled "
-                        "BSDF v2, for comparisons with cycles and eevee)")
+    p.add_argument("--materials", choices=["shared", "cycles", "cycles-ggx"], default="shared",
+                   help="reference material mode: shared (the rasterizer's BRDF), cycles (Blender's Principled "
+                        "BSDF v2 with each material's distribution, Blender's default Multiscatter GGX; for "
+                        "comparisons with cycles and eevee) or cycles-ggx (the same with GGX single scattering; "
+                        "compare with cycles:ggx and eevee:ggx)")
     p.add_argument("--no-likeness", dest="likeness", action="store_false",
-                   help="with --materials cycles, skip the Cycles-likeness measurement (it renders Cycles once more "
-                        "and Mitsuba twice at --cycles-spp: about three times the Cycles unit's cost)")
+                   help="with --materials cycles (cycles-ggx), skip the Cycles-likeness measurement (it renders Cycles once more "
+                        "and Mitsuba twice with as many samples as give it Cycles' noise: about three times the "
+                        "Cycles unit's cost)")
     p.add_argument("--fresh", action="store_true", help="redo finished units instead of reusing them (also into "
                                                          "a folder that holds the results of other settings)")
     p.add_argument("--update", action="store_true",

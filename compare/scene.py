@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from . import geometry
+from .brdf.multiscatter import DEFAULT_DISTRIBUTION, DISTRIBUTIONS
 from .errors import CompareError, MissingComponentError, SceneError
 from .fsutil import sha256_bytes
 from .scene_fields import Ctx as _Ctx, color as _color, file_field as _file, fmt as _fmt, number as _number
@@ -63,7 +64,11 @@ def _camera(ctx: _Ctx, raw: Any) -> Camera:
 def _material(ctx: _Ctx, name: str, raw: Any) -> Material:
     w = f"materials.{name}"
     t = _table(ctx, w, raw, {"base_color", "metallic", "roughness", "emission", "base_color_texture",
-                             "metallic_roughness_texture"})
+                             "metallic_roughness_texture", "distribution"})
+    dist = t.get("distribution", DEFAULT_DISTRIBUTION)
+    if dist not in DISTRIBUTIONS:
+        raise ctx.err(f"{w}.distribution", f"expected one of {', '.join(map(repr, DISTRIBUTIONS))} (Blender's "
+                                           f"Principled BSDF distribution), got {_fmt(dist)}")
     return Material(
         name=name,
         base_color=_color(ctx, f"{w}.base_color", t.get("base_color", [0.8, 0.8, 0.8]), hi=1.0),
@@ -74,6 +79,7 @@ def _material(ctx: _Ctx, name: str, raw: Any) -> Material:
                             if "base_color_texture" in t else None),
         metallic_roughness_texture=(_texture(ctx, f"{w}.metallic_roughness_texture", t["metallic_roughness_texture"])
                                     if "metallic_roughness_texture" in t else None),
+        distribution=dist,
     )
 
 

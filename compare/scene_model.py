@@ -116,6 +116,10 @@ class Material:
     emission: tuple[float, float, float] = (0.0, 0.0, 0.0)
     base_color_texture: Path | None = None
     metallic_roughness_texture: Path | None = None
+    #: The Principled BSDF's microfacet distribution in Blender (``multi_ggx``, Blender's default, or
+    #: ``ggx``): what the Blender comparators set and the reference's ``cycles`` mode models. The
+    #: glTF BRDF (the rasterizer, the ``shared`` reference) is single-scattering GGX either way.
+    distribution: str = "multi_ggx"
 
     @property
     def is_emissive(self) -> bool:

@@ -8,6 +8,7 @@ second per sample whatever the resolution, so its renders are ``slow``.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from pathlib import Path
@@ -182,6 +183,15 @@ def test_build_job_writes_a_complete_job(tmp_path):
         assert arrays[f"{k}_positions"].shape == arrays[f"{k}_normals"].shape
         assert arrays[f"{k}_indices"].max() < len(arrays[f"{k}_positions"])
     assert job["environment"] is None
+    # Blender's default distribution unless the scene or the caller says otherwise
+    assert {m["distribution"] for m in job["materials"].values()} == {"MULTI_GGX"}
+    job = export.build_job(scene, engine="cycles", samples=8, seed=3, folder=tmp_path, distribution="ggx")
+    assert {m["distribution"] for m in job["materials"].values()} == {"GGX"}
+    white = dataclasses.replace(scene.materials["white"], distribution="ggx")
+    mixed = dataclasses.replace(scene, materials={**scene.materials, "white": white})
+    job = export.build_job(mixed, engine="cycles", samples=8, seed=3, folder=tmp_path)
+    assert job["materials"]["white"]["distribution"] == "GGX"
+    assert job["materials"]["red"]["distribution"] == "MULTI_GGX"
 
 
 def test_build_job_refuses_bad_arguments(tmp_path):
@@ -196,6 +206,8 @@ def test_build_job_refuses_bad_arguments(tmp_path):
         export.build_job(scene, engine="cycles", samples=1, seed=0, folder=tmp_path, settings={"x": [1]})
     with pytest.raises(ValueError, match="ladder"):
         export.build_job(scene, engine="cycles", samples=8, seed=0, folder=tmp_path, ladder=[1, 8])
+    with pytest.raises(ValueError, match="distribution"):
+        export.build_job(scene, engine="cycles", samples=8, seed=0, folder=tmp_path, distribution="GGX")
     # Seeds derived by hashing (uint32) fit Blender's signed 32-bit seed.
     job = export.build_job(scene, engine="cycles", samples=1, seed=2**32 - 5, folder=tmp_path)
     assert 0 <= job["settings"]["seed"] < 2**31
@@ -349,26 +361,47 @@ def test_cornell_geometry_and_lights_match_mitsuba_with_lambert():
 
 
 @pytest.fixture(scope="module")
-def cornell_cycles_pair():
-    """Cycles renders of the Cornell box at test size, seeds 0 and 1, shared by the likeness tests."""
-    scene = load_scene(CORNELL).with_resolution(64, 48)
-    return scene, tuple(render_blender(scene, engine="cycles", samples=64, seed=sd) for sd in (0, 1))
+def cornell_cycles_pairs():
+    """Cycles renders of the Cornell box at test size, seeds 0 and 1, for each Principled distribution."""
+    scene = load_scene(CORNELL).with_resolution(96, 72)
+    return scene, {d: tuple(render_blender(scene, engine="cycles", samples=256, seed=sd, distribution=d)
+                            for sd in (0, 1)) for d in ("multi_ggx", "ggx")}
 
 
 @needs_bpy
-@pytest.mark.parametrize("materials", ["shared", "cycles"])
-def test_cornell_reference_is_cycles_like(materials, cornell_cycles_pair):
-    """The issue's criterion at test resolution: FLIP(Mitsuba, Cycles) ≤ 1.25 × FLIP(Cycles A, Cycles B).
+@pytest.mark.parametrize("materials, distribution", [("cycles", "multi_ggx"), ("cycles-ggx", "ggx")])
+def test_cornell_reference_is_cycles_like(materials, distribution, cornell_cycles_pairs):
+    """The criterion at test size: FLIP(Mitsuba, Cycles) ≤ 1.25 × FLIP(Cycles A, Cycles B), and the same
+    for relMSE, with Mitsuba's noise matched to Cycles' by samples; against Blender's default
+    (Multiscatter GGX) and against GGX. Every region agrees.
 
-    Measured: ``cycles`` (the plugin's Principled v2 flavour) 1.06, ``shared`` 1.10; every region agrees.
+    Measured (96x72, 256 spp): FLIP 0.97-1.00, relMSE 0.98-1.02.
     """
     from compare.blender.likeness import cycles_likeness
 
-    scene, pair = cornell_cycles_pair
-    result = cycles_likeness(scene, spp=64, materials=materials, cache_dir=False, cycles=pair)
-    assert result.ratio <= 1.25, result.as_dict()
+    scene, pairs = cornell_cycles_pairs
+    pair = pairs[distribution]
+    assert {r.metadata["distribution"] for r in pair} == {distribution.upper()}
+    result = cycles_likeness(scene, spp=256, materials=materials, cache_dir=False, cycles=pair, match_noise=True)
+    assert result.mitsuba_spp > 256  # Mitsuba's independent sampler needs more samples for Cycles' noise
+    assert result.ratio <= 1.25 and result.relmse_ratio <= 1.25, result.as_dict()
+    assert result.ratio_noise_matched <= 1.25 and result.relmse_ratio_noise_matched <= 1.25, result.as_dict()
     bad = [r.as_dict() for r in result.regions if not r.agrees]
     assert not bad, bad
+
+
+@needs_bpy
+def test_likeness_tells_the_distributions_apart(cornell_cycles_pairs):
+    """The test above could fail: the Multiscatter model against GGX renders is far from Cycles-like
+    (measured 4.1 at 96x72, 512 spp), and a mode and renders of different distributions are refused."""
+    from compare.blender.likeness import cycles_likeness
+
+    scene, pairs = cornell_cycles_pairs
+    wrong = cycles_likeness(scene, spp=256, materials="cycles", cache_dir=False, cycles=pairs["ggx"],
+                            match_noise=True)
+    assert wrong.ratio > 1.25 and wrong.relmse_ratio > 1.25, wrong.as_dict()
+    with pytest.raises(ValueError, match="models GGX"):
+        cycles_likeness(scene, spp=256, materials="cycles-ggx", cache_dir=False, cycles=pairs["multi_ggx"])
 
 
 @needs_bpy

@@ -211,48 +211,81 @@ def test_plugin_traverse_and_string(mi_llvm):
 
 # -- the plugin's ``cycles`` flavour (Blender's Principled BSDF v2, compare.brdf.principled) --
 
-def _compare_cycles_flavour(mi, name, wi, wo, c, m, r):
+def _compare_cycles_flavour(mi, name, wi, wo, c, m, r, distribution=None):
     from compare.brdf import principled
     from compare.brdf.mitsuba_plugin import evaluate
 
-    value, pdf = evaluate(wi, wo, c, m, r, variant=mi.variant(), flavour="cycles")
+    value, pdf = evaluate(wi, wo, c, m, r, variant=mi.variant(), flavour="cycles", distribution=distribution)
+    dist = distribution or principled.DEFAULT_DISTRIBUTION
     n = np.array([0.0, 0.0, 1.0])
-    ref = principled.eval_principled(n, wi, wo, c, m, r)
-    _check(f"cycles flavour {name} eval", value / wo[:, 2:], ref, PLUGIN_RTOL, _scale(n, wi, wo, r)[:, None])
-    p = principled.specular_sampling_probability(wi[:, 2], c, m, r)
+    ref = principled.eval_principled(n, wi, wo, c, m, r, dist)
+    _check(f"cycles flavour {name} {dist} eval", value / wo[:, 2:], ref, PLUGIN_RTOL,
+           _scale(n, wi, wo, r)[:, None])
+    p = principled.specular_sampling_probability(wi[:, 2], c, m, r, dist)
     ref_pdf = p * brdf.pdf_ggx_vndf_reflection(wi, wo, brdf.alpha_from_roughness(r)) + (1 - p) * wo[:, 2] / np.pi
-    _check(f"cycles flavour {name} pdf", pdf, ref_pdf, 1e-5, np.zeros_like(ref_pdf))
+    _check(f"cycles flavour {name} {dist} pdf", pdf, ref_pdf, 1e-5, np.zeros_like(ref_pdf))
 
 
-def test_cycles_flavour_matches_numpy_llvm(mi_llvm):
-    _compare_cycles_flavour(mi_llvm, "llvm_ad_rgb", *_case_set(4))
+@pytest.mark.parametrize("distribution", [None, "multi_ggx", "ggx"])
+def test_cycles_flavour_matches_numpy_llvm(mi_llvm, distribution):
+    _compare_cycles_flavour(mi_llvm, "llvm_ad_rgb", *_case_set(4), distribution=distribution)
 
 
-def test_cycles_flavour_matches_numpy_scalar(mi_scalar):
+@pytest.mark.parametrize("distribution", ["multi_ggx", "ggx"])
+def test_cycles_flavour_matches_numpy_scalar(mi_scalar, distribution):
     wi, wo, c, m, r = _case_set(5)
     sel = np.r_[0:150, N_RANDOM // 2:N_RANDOM // 2 + 150]
-    _compare_cycles_flavour(mi_scalar, "scalar_rgb", wi[sel], wo[sel], c[sel], m[sel], r[sel])
+    _compare_cycles_flavour(mi_scalar, "scalar_rgb", wi[sel], wo[sel], c[sel], m[sel], r[sel], distribution)
 
 
 def test_cycles_flavour_differs_from_gltf_only_where_documented():
-    """Same D V; exact dielectric Fresnel (not Schlick); the diffuse weight depends on n.v only."""
+    """GGX: same D V; exact dielectric Fresnel (not Schlick); the diffuse weight depends on n.v only."""
     from compare.brdf import principled
 
     rng = np.random.default_rng(6)
     wi, wo = _local_directions(rng, 512)
     n = np.array([0.0, 0.0, 1.0])
     c = np.array([0.7, 0.5, 0.3])
-    spec_m, _ = principled.eval_principled_lobes(n, wi, wo, c, 1.0, 0.4)
+    spec_m, _ = principled.eval_principled_lobes(n, wi, wo, c, 1.0, 0.4, "ggx")
     gltf_m, _ = brdf.eval_brdf_lobes(n, wi, wo, c, 1.0, 0.4)
     np.testing.assert_allclose(spec_m, gltf_m, rtol=1e-12)  # metals: Schlick with F0 = c in both
     h = _unit(wi + wo)
     vh = np.sum(wi * h, -1)
-    spec_d, diff_d = principled.eval_principled_lobes(n, wi, wo, c, 0.0, 0.4)
+    spec_d, diff_d = principled.eval_principled_lobes(n, wi, wo, c, 0.0, 0.4, "ggx")
     unit, _ = brdf.eval_brdf_lobes(n, wi, wo, np.ones(3), 1.0, 0.4)  # D V
     np.testing.assert_allclose(spec_d, unit * principled.fresnel_dielectric(vh)[:, None], rtol=1e-12)
     w = diff_d[:, 0] * np.pi / c[0]
     np.testing.assert_allclose(w, 1.0 - principled.specular_layer_albedo(0.4, wi[:, 2]), rtol=1e-12)
     assert principled.fresnel_dielectric(1.0) == pytest.approx(brdf.DIELECTRIC_F0)
+
+
+def test_multiscatter_differs_from_ggx_by_its_compensation():
+    """Multiscatter GGX = GGX with each lobe x (1 + F_ms (1 - E)/E) and the layer albedo x (E + F_ms (1 - E))."""
+    from compare.brdf import multiscatter as ms
+    from compare.brdf import principled
+
+    rng = np.random.default_rng(7)
+    wi, wo = _local_directions(rng, 512)
+    n = np.array([0.0, 0.0, 1.0])
+    c = np.array([0.9, 0.6, 0.2])
+    mu = wi[:, 2]
+    for r in (0.3, 0.7, 1.0):
+        e = ms.ggx_e(r, mu)
+        e_avg = ms.ggx_eavg(r)
+        for m in (0.0, 1.0):
+            spec_g, diff_g = principled.eval_principled_lobes(n, wi, wo, c, m, r, "ggx")
+            spec_x, diff_x = principled.eval_principled_lobes(n, wi, wo, c, m, r, "multi_ggx")
+            fss = c + (1 - c) / 21 if m else np.full(3, (1.5 - 1) / (4.08567 + 1.00071 * 1.5))
+            f_ms = fss * e_avg / (1 - fss * (1 - e_avg))
+            np.testing.assert_allclose(spec_x, spec_g * (1 + f_ms * ((1 - e) / e)[:, None]), rtol=1e-12)
+            if m == 0.0:
+                e_s = principled.specular_layer_albedo(r, mu)
+                w = np.clip(1 - e_s * (e + f_ms[0] * (1 - e)), 0, 1)
+                np.testing.assert_allclose(diff_x, diff_g / (1 - e_s)[:, None] * w[:, None], rtol=1e-12)
+                # the multiscatter diffuse is brighter: less energy is taken by the specular layer
+                assert np.all(diff_x >= diff_g) and np.mean(diff_x / np.maximum(diff_g, 1e-30)) > 1.0 + 0.02 * r
+    with pytest.raises(ValueError, match="distribution"):
+        principled.eval_principled(n, wi, wo, c, 0.0, 0.5, "beckmann")
 
 
 def test_cycles_layer_table_reproduces_cycles():
@@ -276,7 +309,11 @@ def test_cycles_flavour_is_checked(mi_llvm):
     with pytest.raises(Exception, match="flavour"):
         mi_llvm.load_dict({"type": "gltf_pbr", "flavour": "disney"})
     bsdf = mi_llvm.load_dict({"type": "gltf_pbr", "flavour": "cycles"})
-    assert "cycles" in str(bsdf)
+    assert "cycles" in str(bsdf) and "multi_ggx" in str(bsdf)
+    with pytest.raises(Exception, match="distribution must be one of"):
+        mi_llvm.load_dict({"type": "gltf_pbr", "flavour": "cycles", "distribution": "beckmann"})
+    with pytest.raises(Exception, match="flavour 'cycles' only"):
+        mi_llvm.load_dict({"type": "gltf_pbr", "distribution": "ggx"})
 
 
 def test_register_is_idempotent(mi_llvm):

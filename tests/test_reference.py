@@ -120,32 +120,40 @@ def _counting(fn, log):
     return wrapper
 
 
-def test_cycles_mode_furnace_is_the_principled_albedo():
+@pytest.mark.parametrize("materials", ["cycles", "cycles-ggx"])
+def test_cycles_mode_furnace_is_the_principled_albedo(materials):
     """A white rough dielectric sphere in a unit environment (convex: one bounce): the pixels facing
-    the camera show the cycles model's directional albedo at n.v = 1, diffuse (1 − E_s) plus specular."""
+    the camera show the cycles model's directional albedo at n.v = 1, diffuse (1 − E_s L_d) plus
+    specular (L_d = 1 with GGX; Multiscatter GGX's layer factor otherwise)."""
     from compare import brdf
-    from compare.brdf import principled
-    from compare.mitsuba_dict import MATERIAL_MODELS
+    from compare.brdf import multiscatter, principled
+    from compare.mitsuba_dict import MATERIAL_MODELS, PRINCIPLED_MODES
 
     size = 24
-    r = ReferenceRenderer(furnace_scene(1.0, size), materials="cycles", cache_dir=False, progress=False)
-    assert r.settings()["material_model"] == MATERIAL_MODELS["cycles"]  # not the old principled's cache
+    dist = PRINCIPLED_MODES[materials] or "multi_ggx"  # the furnace's material keeps Blender's default
+    r = ReferenceRenderer(furnace_scene(1.0, size), materials=materials, cache_dir=False, progress=False)
+    assert r.settings()["material_model"] == MATERIAL_MODELS[materials]  # not an older model's cache
+    assert r.settings()["distribution"] == dist
     assert "material_model" not in ReferenceRenderer(furnace_scene(1.0, size), materials="shared",
                                                      cache_dir=False, progress=False).settings()
     centre = r.render(4096).image[10:14, 10:14].mean((0, 1))  # n.v > 0.98; about 0.1 % noise
-    # albedo at n.v = 1: specular by visible-normal sampling, diffuse = 1 − E_s(1, 1)
+    # albedo at n.v = 1: specular by visible-normal sampling, diffuse = 1 − E_s(1, 1) L_d
     g = (np.arange(256) + 0.5) / 256
     u = np.stack(np.meshgrid(g, g, indexing="ij"), -1).reshape(-1, 2)
     wi = np.broadcast_to([0.0, 0.0, 1.0], (len(u), 3))
     h = brdf.sample_ggx_vndf(wi, np.ones(len(u)), u)
     wo = 2.0 * h[:, 2:] * h - wi
-    spec, _ = principled.eval_principled_lobes([0.0, 0.0, 1.0], wi, wo, np.ones(3), 0.0, 1.0)
+    spec, _ = principled.eval_principled_lobes([0.0, 0.0, 1.0], wi, wo, np.ones(3), 0.0, 1.0, dist)
     pdf = brdf.pdf_ggx_vndf_reflection(wi, wo, 1.0)
     e_spec = np.mean(np.where(pdf > 0, spec[:, 0] * np.maximum(wo[:, 2], 0) / np.where(pdf > 0, pdf, 1), 0))
-    expected = 1.0 - principled.specular_layer_albedo(1.0, 1.0) + e_spec
-    print(f"cycles furnace: centre {centre}, expected {expected:.4f} (specular {e_spec:.4f})")
+    l_d = multiscatter.layer_factor(principled.FSS_DIELECTRIC, 1.0, 1.0) if dist == "multi_ggx" else 1.0
+    expected = 1.0 - principled.specular_layer_albedo(1.0, 1.0) * l_d + e_spec
+    print(f"{materials} furnace: centre {centre}, expected {expected:.4f} (specular {e_spec:.4f})")
     np.testing.assert_allclose(centre, expected, rtol=0.01)
-    assert expected < 0.99  # E_s darkens the diffuse by more than the rough specular reflects
+    if dist == "ggx":
+        assert expected < 0.99  # E_s darkens the diffuse by more than the rough specular reflects
+    else:
+        assert expected > 0.99  # Multiscatter GGX gives most of that back
 
 
 def _spp_of(renderer, victim):

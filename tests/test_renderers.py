@@ -329,3 +329,23 @@ def test_a_size_beyond_memory_is_refused_before_any_work(tmp_path, monkeypatch):
                                          r"is available here$"):
         run_mod.run([CORNELL], tmp_path / "out", settings, progress=False, renderers=[GreyRenderer()])
     assert not list((tmp_path / "out").rglob("*.exr"))
+
+
+def test_blender_distribution_options_are_variants_with_their_own_key():
+    """cycles:ggx / eevee:ggx set GGX everywhere: variants of their engine, keyed apart, matched with
+    the reference's cycles-ggx mode for the likeness; bad options are named."""
+    from compare.results import RunSettings
+
+    reg = Registry()
+    plain, ggx = reg.get("cycles"), reg.get("cycles:ggx")
+    assert ggx.variant_of == "cycles" and "GGX" in ggx.variant_note and plain.variant_of is None
+    scene = load_scene(CORNELL)
+    default = RunSettings(materials="cycles")
+    assert plain.key(scene, default) != ggx.key(scene, default)
+    assert plain._likeness(default) and not ggx._likeness(default)
+    assert ggx._likeness(RunSettings(materials="cycles-ggx")) and not plain._likeness(RunSettings(materials="cycles-ggx"))
+    assert not plain._likeness(RunSettings(materials="shared"))
+    assert reg.get("eevee:ggx").variant_of == "eevee"
+    for bad in ("cycles:nope", "eevee:ggx+msaa", "cycles:GGX"):
+        with pytest.raises(ValueError, match="the Principled BSDF's distribution"):
+            Registry().get(bad)

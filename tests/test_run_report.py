@@ -98,7 +98,7 @@ def fake_progressive(scene, *, frames, seed, options, checkpoints, ctx):
                        "first_frame_scale": options.get("first_frame_scale", 0.5)}
 
 
-def fake_blender(scene, *, engine, samples, seed, ladder):
+def fake_blender(scene, *, engine, samples, seed, ladder, distribution=None):
     """Synthetic Blender renders: Cycles close to the truth, EEVEE biased; one render per ladder step."""
     w, h = scene.camera.resolution
     truth = _truth(w, h) * (1.0 if engine == "cycles" else 0.85)
@@ -108,7 +108,7 @@ def fake_blender(scene, *, engine, samples, seed, ladder):
     return cps, 1.5, {"engine": engine, "samples": samples, "blender": "fake 5.0.1"}, None
 
 
-def fake_likeness(scene, *, samples, seed, first, cache_dir):
+def fake_likeness(scene, *, samples, seed, first, cache_dir, materials="cycles", distribution=None):
     return {"likeness_flip_cross": 0.05, "likeness_flip_seed": 0.045, "likeness_flip_mitsuba_seed": 0.05,
             "likeness_ratio": 0.05 / 0.045, "likeness_ratio_noise_matched": 1.0, "likeness_spp": samples,
             "likeness_regions": "15/15"}

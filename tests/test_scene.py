@@ -61,6 +61,9 @@ MALFORMED = [
      "materials.white.base_color: expected three non-negative numbers at most 1, got [0.8, 1.5, 0.8]"),
     (("base_color = [0.8, 0.8, 0.8]", "base_color = [0.8, 0.8, 0.8]\nroughness = -0.1"),
      "materials.white.roughness: expected a number in [0, 1], got -0.1"),
+    (("base_color = [0.8, 0.8, 0.8]", 'base_color = [0.8, 0.8, 0.8]\ndistribution = "beckmann"'),
+     "materials.white.distribution: expected one of 'multi_ggx', 'ggx' (Blender's Principled BSDF distribution), "
+     "got 'beckmann'"),
     (("normal = [0, -1, 0]", "normal = [0, 0, 0]"), "lights[0].normal: expected a non-zero direction, got [0, 0, 0]"),
     (("radiance = [10, 10, 10]", "radiance = [10, 10, 10]\npower = 5"),
      "lights[0]: give exactly one of 'radiance' (W/sr/m²) or 'power' (W)"),

@@ -60,10 +60,14 @@ it to α like glTF), ``IOR`` = 1.5 and ``Specular IOR Level`` = 0.5 (its neutral
 value) so that F0 = ((1.5 − 1)/(1.5 + 1))² = 0.04 for dielectrics, ``Specular
 Tint`` = white (no tint; for metals the F82 tint is then white too),
 ``Diffuse Roughness`` = 0 (Lambert; >0 would be Oren–Nayar), coat, sheen,
-subsurface and transmission 0, ``distribution = 'GGX'`` (single scattering,
-as glTF; Blender's default ``MULTI_GGX`` adds the energy lost between
-microfacets back, a few percent at roughness 1 for metals, and darkens the
-diffuse under it accordingly). What Cycles then evaluates differs from the
+subsurface and transmission 0, ``distribution`` = the material's
+``distribution`` (Blender's default ``MULTI_GGX`` unless the scene says
+``ggx``, or GGX for every material with ``distribution="ggx"``, the
+``cycles:ggx`` / ``eevee:ggx`` renderers; the worker reports what it set,
+metadata ``distribution``). Multiscatter GGX adds back the energy lost between
+microfacets (a few percent at roughness 1 for metals) and lets more light into
+the diffuse under the specular layer (:mod:`compare.brdf.multiscatter`). With
+GGX, what Cycles then evaluates differs from the
 suite's glTF BSDF (the reference's ``shared`` mode) in two ways: the exact
 dielectric Fresnel for IOR 1.5 in place of Schlick, and a Lambert lobe
 scaled by one minus Cycles' estimate of the specular layer's albedo at the view
@@ -159,12 +163,15 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from ..brdf.multiscatter import DISTRIBUTIONS
 from ..scene import AreaLight, Camera, Scene
 
 #: Version of the job format shared by this module and the worker.
 JOB_VERSION = 1
 #: Material models: the glTF → Principled mapping, or Lambert only.
 MATERIAL_MODES = ("principled", "diffuse")
+#: The suite's distribution names → Blender's enum identifiers of the Principled BSDF's ``distribution``.
+BLENDER_DISTRIBUTIONS = {"multi_ggx": "MULTI_GGX", "ggx": "GGX"}
 #: Public engine names → Blender's engine identifiers.
 ENGINES = {"cycles": "CYCLES", "eevee": "BLENDER_EEVEE"}
 #: EEVEE samples the paper used (Otto et al. 2020, Table 1).
@@ -285,9 +292,11 @@ def blender_environment_map(image: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(out, dtype=np.float32)
 
 
-def _material(mat, mode: str) -> dict[str, Any]:
+def _material(mat, mode: str, distribution: str | None = None) -> dict[str, Any]:
     tex = mat.base_color_texture
     return {
+        # Blender's enum identifier of the Principled BSDF's distribution.
+        "distribution": BLENDER_DISTRIBUTIONS[distribution or mat.distribution],
         "base_color": list(mat.base_color),
         "metallic": mat.metallic if mode == "principled" else 0.0,
         "roughness": mat.roughness,
@@ -350,7 +359,7 @@ def _eevee_settings(samples: int) -> dict[str, Any]:
 
 def build_job(scene: Scene, *, engine: str, samples: int, seed: int, folder: Path,
               materials: str = "principled", settings: Mapping[str, Any] | None = None, warmup: bool = False,
-              threads: int = 0, ladder: Sequence[int] = ()) -> dict[str, Any]:
+              threads: int = 0, ladder: Sequence[int] = (), distribution: str | None = None) -> dict[str, Any]:
     """Write the job for one render into ``folder`` and return its ``job.json`` content.
 
     ``materials``: ``"principled"`` (the mapping in the module notes) or
@@ -362,10 +371,14 @@ def build_job(scene: Scene, *, engine: str, samples: int, seed: int, folder: Pat
     name (recorded in the metadata). ``warmup`` renders one sample first
     (shader compilation, buffers) and leaves it out of the timed render.
     ``ladder``: sample counts below ``samples`` to render first as checkpoints.
+    ``distribution``: the Principled BSDF's distribution for every material
+    (``"multi_ggx"`` or ``"ggx"``); None keeps each material's own.
     """
     eng = engine_id(engine)
     if materials not in MATERIAL_MODES:
         raise ValueError(f"materials: expected one of {', '.join(MATERIAL_MODES)}, got {materials!r}")
+    if distribution is not None and distribution not in DISTRIBUTIONS:
+        raise ValueError(f"distribution: expected one of {', '.join(DISTRIBUTIONS)} or None, got {distribution!r}")
     if int(samples) < 1:
         raise ValueError(f"samples: expected a positive integer, got {samples}")
     ladder = sorted({int(n) for n in ladder})
@@ -439,7 +452,7 @@ def build_job(scene: Scene, *, engine: str, samples: int, seed: int, folder: Pat
         "camera": {"matrix": camera_matrix(cam).tolist(), "lens": camera_lens_mm(cam),
                    "sensor_height": SENSOR_HEIGHT_MM, "clip_start": near, "clip_end": far},
         "eevee_filter_size": EEVEE_FILTER_SIZE,
-        "materials": {name: _material(m, materials) for name, m in scene.materials.items()},
+        "materials": {name: _material(m, materials, distribution) for name, m in scene.materials.items()},
         "material_model": materials,
         "meshes": meshes,
         "lights": lights,

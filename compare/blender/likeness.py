@@ -21,11 +21,23 @@ renders (M1, M2), all of N samples per pixel, at the scene's resolution:
   (assuming pixels are independent, as they are for both samplers).
 
 Noise levels differ: Mitsuba's ``independent`` sampler is noisier at equal spp
-than Cycles' Sobol sequence. When FLIP grows like the noise's standard
-deviation, unbiased renderers give FLIP(M, A)² ≈ (FLIP(A, B)² + FLIP(M1, M2)²)/2,
-so ``ratio_noise_matched`` = ``flip_cross`` / √((``flip_seed``² +
-``flip_mitsuba_seed``²)/2) is ≈ 1 without bias, where ``ratio`` has a floor
-above 1 set by the noise ratio alone.
+than Cycles' Sobol sequence. Two ways to account for it, both reported:
+
+* **Matched by samples** (``match_noise=True``): Mitsuba renders
+  ``k × spp`` samples, ``k`` = relMSE(M1, M2) / relMSE(A, B) measured at
+  ``spp`` (MSE falls as 1/spp), so that both renderers carry the same noise and
+  ``ratio`` and ``relmse_ratio`` are ≈ 1 without bias. ``mitsuba_spp`` says
+  what was rendered.
+* **Matched in the formula**: relMSE adds variances, E relMSE(M, A) ≈ bias² +
+  (relMSE(A, B) + relMSE(M1, M2))/2, so ``relmse_ratio_noise_matched`` =
+  ``relmse_cross`` / the mean of the two seed-to-seed relMSEs is ≈ 1 without
+  bias; for FLIP, which grows like the noise's standard deviation,
+  ``ratio_noise_matched`` = ``flip_cross`` / √((``flip_seed``² +
+  ``flip_mitsuba_seed``²)/2).
+
+relMSE here is symmetric in its two images (denominator: the square of their
+mean, plus :data:`compare.metrics.RELMSE_EPS`), so that neither renderer's
+noise sits in the denominator alone.
 """
 
 from __future__ import annotations
@@ -301,6 +313,17 @@ def region_stats(masks: dict[str, np.ndarray], a: np.ndarray, b: np.ndarray, m1:
     return out
 
 
+def relmse_symmetric(a: np.ndarray, b: np.ndarray) -> float:
+    """``mean((a - b)² / (((a + b)/2)² + eps))``: relMSE with neither image as the reference."""
+    from ..metrics import RELMSE_EPS
+
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    if a.shape != b.shape or not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
+        raise ValueError("relmse_symmetric: expected two finite images of one shape")
+    return float(np.mean((a - b) ** 2 / ((0.5 * (a + b)) ** 2 + RELMSE_EPS)))
+
+
 @dataclass
 class Likeness:
     """The outcome of :func:`cycles_likeness` for one scene."""
@@ -312,6 +335,11 @@ class Likeness:
     flip_seed: float
     flip_cross: float
     flip_mitsuba_seed: float
+    relmse_seed: float = math.nan
+    relmse_cross: float = math.nan
+    relmse_mitsuba_seed: float = math.nan
+    mitsuba_spp: int = 0
+    distribution: str = ""
     regions: list[RegionStat] = field(default_factory=list)
     images: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
     seconds: dict[str, float] = field(default_factory=dict)
@@ -327,47 +355,77 @@ class Likeness:
         return self.flip_cross / max(math.sqrt(0.5 * (self.flip_seed ** 2 + self.flip_mitsuba_seed ** 2)), 1e-12)
 
     @property
+    def relmse_ratio(self) -> float:
+        """relMSE(Mitsuba, Cycles) / relMSE(Cycles seed A, seed B)."""
+        return self.relmse_cross / max(self.relmse_seed, 1e-300)
+
+    @property
+    def relmse_ratio_noise_matched(self) -> float:
+        """relMSE(Mitsuba, Cycles) / mean(relMSE(A, B), relMSE(M1, M2)): ≈ 1 for unbiased renderers."""
+        return self.relmse_cross / max(0.5 * (self.relmse_seed + self.relmse_mitsuba_seed), 1e-300)
+
+    @property
     def regions_agree(self) -> bool:
         return all(r.agrees for r in self.regions)
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready summary (no images)."""
-        return {"scene": self.scene, "spp": self.spp, "resolution": list(self.resolution),
-                "materials": self.materials, "flip_seed": self.flip_seed, "flip_cross": self.flip_cross,
+        return {"scene": self.scene, "spp": self.spp, "mitsuba_spp": self.mitsuba_spp,
+                "resolution": list(self.resolution), "materials": self.materials,
+                "distribution": self.distribution, "flip_seed": self.flip_seed, "flip_cross": self.flip_cross,
                 "flip_mitsuba_seed": self.flip_mitsuba_seed, "ratio": self.ratio,
-                "ratio_noise_matched": self.ratio_noise_matched,
+                "ratio_noise_matched": self.ratio_noise_matched, "relmse_seed": self.relmse_seed,
+                "relmse_cross": self.relmse_cross, "relmse_mitsuba_seed": self.relmse_mitsuba_seed,
+                "relmse_ratio": self.relmse_ratio, "relmse_ratio_noise_matched": self.relmse_ratio_noise_matched,
                 "regions_agree": self.regions_agree, "regions": [r.as_dict() for r in self.regions],
                 "seconds": self.seconds}
 
 
 def cycles_likeness(scene: Scene, *, spp: int, materials: str = "cycles", seeds: tuple[int, int] = (0, 1),
                     exposure: float = 1.0, operator: str = "aces", cache_dir=None, progress: bool = False,
-                    cycles=None) -> Likeness:
+                    cycles=None, match_noise: bool = False, max_noise_factor: float = 16.0) -> Likeness:
     """Compare Cycles with the Mitsuba reference at ``spp`` samples per pixel (see the module notes).
 
     ``materials`` is the reference's material mode (``"cycles"``: the plugin's
-    model of Blender's Principled BSDF v2; ``"shared"``: the suite's glTF BSDF;
-    ``"diffuse"``: Lambert; see :mod:`compare.mitsuba_dict`).
-    Cycles uses the Principled mapping of :mod:`compare.blender.export`, or
-    Lambert for ``"diffuse"`` (which isolates geometry, camera, lights and
-    bounces from the BSDF models). FLIP is LDR-FLIP after
+    model of Blender's Principled BSDF v2 with each material's distribution;
+    ``"cycles-ggx"``: the same with GGX everywhere; ``"shared"``: the suite's
+    glTF BSDF; ``"diffuse"``: Lambert; see :mod:`compare.mitsuba_dict`).
+    Cycles uses the Principled mapping of :mod:`compare.blender.export` with the
+    distribution the mode models (``cycles-ggx``: GGX; otherwise each
+    material's), or Lambert for ``"diffuse"`` (which isolates geometry, camera,
+    lights and bounces from the BSDF models). FLIP is LDR-FLIP after
     ``exposure`` and ``operator`` (:func:`compare.metrics.flip`). ``cycles``:
     two finished Cycles renders (:class:`~compare.blender.render.BlenderResult`)
-    of ``spp`` samples, seeds A and B, to reuse instead of rendering them again.
+    of ``spp`` samples, seeds A and B, with that distribution, to reuse instead
+    of rendering them again. ``match_noise``: render Mitsuba with as many more
+    samples as its noise needs to equal Cycles' (at most ``max_noise_factor`` ×).
     """
     from ..metrics import flip
+    from ..mitsuba_dict import PRINCIPLED_MODES
     from ..reference import ReferenceRenderer
     from .render import render_blender
 
     bm = "diffuse" if materials == "diffuse" else "principled"
+    forced = PRINCIPLED_MODES.get(materials)
     if cycles is None:
-        cycles = tuple(render_blender(scene, engine="cycles", samples=spp, seed=sd, materials=bm) for sd in seeds)
+        cycles = tuple(render_blender(scene, engine="cycles", samples=spp, seed=sd, materials=bm, distribution=forced)
+                       for sd in seeds)
     ra, rb = cycles
     if ra.samples != spp or rb.samples != spp or ra.metadata.get("materials") != bm:
         raise ValueError(f"cycles: expected two {bm} renders of {spp} spp, got {ra.samples} and {rb.samples}")
+    dist = {ra.metadata.get("distribution"), rb.metadata.get("distribution")}
+    if bm == "principled" and forced and dist != {forced.upper()}:
+        raise ValueError(f"cycles: materials {materials!r} models {forced.upper()}, the renders have {sorted(dist)}")
     ref = ReferenceRenderer(scene, materials=materials, cache_dir=cache_dir, progress=progress)
     t0 = time.perf_counter()
     m1, m2 = ref.independent_passes(2, spp, seed=seeds[0])
+    m_spp = int(spp)
+    relmse_seed = relmse_symmetric(ra.image, rb.image)
+    if match_noise:
+        k = relmse_symmetric(m1, m2) / max(relmse_seed, 1e-300)
+        if k > 1.05:
+            m_spp = int(math.ceil(min(k, max_noise_factor) * spp))
+            m1, m2 = ref.independent_passes(2, m_spp, seed=seeds[0])
     t_ref = time.perf_counter() - t0
 
     def f(r, t):
@@ -379,6 +437,10 @@ def cycles_likeness(scene: Scene, *, spp: int, materials: str = "cycles", seeds:
     return Likeness(
         scene=scene.name, spp=int(spp), resolution=(cam.width, cam.height), materials=materials,
         flip_seed=f(ra.image, rb.image), flip_cross=cross, flip_mitsuba_seed=f(m1, m2),
+        relmse_seed=relmse_seed,
+        relmse_cross=0.5 * (relmse_symmetric(m1, ra.image) + relmse_symmetric(m2, rb.image)),
+        relmse_mitsuba_seed=relmse_symmetric(m1, m2), mitsuba_spp=m_spp,
+        distribution="/".join(sorted(d for d in dist if d)),
         regions=region_stats(masks, ra.image, rb.image, m1, m2),
         images={"cycles_a": ra.image, "cycles_b": rb.image, "mitsuba_1": m1, "mitsuba_2": m2},
         seconds={"cycles_each": 0.5 * (ra.seconds + rb.seconds), "mitsuba_both": t_ref},

@@ -105,7 +105,8 @@ def blender_available() -> tuple[bool, str]:
 def render_blender(scene: Scene, *, engine: str = "cycles", samples: int, seed: int = 0,
                    materials: str = "principled", settings: Mapping[str, Any] | None = None,
                    ladder: Sequence[int] = (), warmup: bool | None = None, threads: int = 0,
-                   timeout: float | None = None, keep: str | os.PathLike | None = None) -> BlenderResult:
+                   timeout: float | None = None, keep: str | os.PathLike | None = None,
+                   distribution: str | None = None) -> BlenderResult:
     """Render ``scene`` with Blender Cycles (CPU) or EEVEE in a separate process.
 
     Parameters
@@ -137,6 +138,10 @@ def render_blender(scene: Scene, *, engine: str = "cycles", samples: int, seed: 
         Seconds before the worker is killed (:class:`BlenderError`); None waits.
     keep
         A folder to keep the job, log and EXRs in (default: a temporary folder, removed).
+    distribution
+        The Principled BSDF's distribution for every material (``"multi_ggx"``, Blender's
+        default, or ``"ggx"``); None keeps each material's own (``Material.distribution``).
+        What the worker set is in the metadata (``distribution``, ``distributions``).
 
     Raises
     ------
@@ -152,7 +157,7 @@ def render_blender(scene: Scene, *, engine: str = "cycles", samples: int, seed: 
         raise MissingComponentError(f"Blender renders need bpy: {why}")
     opts = dict(engine=engine, samples=int(samples), seed=int(seed), materials=materials, settings=settings,
                 ladder=tuple(ladder), warmup=(engine == "eevee") if warmup is None else bool(warmup),
-                threads=int(threads))
+                threads=int(threads), distribution=distribution)
     if keep is not None:
         Path(keep).mkdir(parents=True, exist_ok=True)
         return _run(py, scene, opts, timeout, Path(keep))
@@ -213,6 +218,9 @@ def _run(py: str, scene: Scene, opts: dict, timeout: float | None, folder: Path)
         "overrides": json.dumps(job["overrides"], sort_keys=True),
         "package": __version__,
     }
+    used = sorted(set(info.get("distributions", {}).values()))
+    meta["distribution"] = used[0] if len(used) == 1 else "mixed" if used else "none"
+    meta["distributions"] = json.dumps(info.get("distributions", {}), sort_keys=True)
     if engine == "cycles":
         meta.update({"device": "CPU", "max_bounces": cycles_bounces(scene.max_depth),
                      "pixel_filter": "box 1.0 px"})

@@ -35,7 +35,7 @@ def _principled(bpy, name: str, mat: dict, folder: str):
     nodes.clear()
     out = nodes.new("ShaderNodeOutputMaterial")
     bsdf = nodes.new("ShaderNodeBsdfPrincipled")
-    bsdf.distribution = "GGX"
+    bsdf.distribution = mat["distribution"]
     inp = bsdf.inputs
     inp["Base Color"].default_value = (*mat["base_color"], 1.0)
     inp["Metallic"].default_value = mat["metallic"]
@@ -303,6 +303,11 @@ def main(folder: str, spawn_time: float) -> int:
     t0 = time.perf_counter()
     sc = build(bpy, np, job, folder)
     result["build_seconds"] = time.perf_counter() - t0
+    # What the Principled BSDFs were set to, read back from Blender (the run's metadata records it).
+    result["distributions"] = {
+        name: node.distribution for name in job["materials"]
+        for node in getattr(bpy.data.materials.get(name), "node_tree", None).nodes
+        if node.type == "BSDF_PRINCIPLED"}
 
     key = "samples" if job["engine"] == "CYCLES" else "taa_render_samples"
     target = sc.cycles if job["engine"] == "CYCLES" else sc.eevee

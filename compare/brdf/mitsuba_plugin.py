@@ -15,6 +15,8 @@ Properties (each a float/rgb or a nested texture; defaults are glTF's):
 ``metallic``    default 1.0
 ``roughness``   perceptual roughness, default 1.0
 ``flavour``     string, ``"gltf"`` (default) or ``"cycles"``
+``distribution`` string, flavour ``"cycles"`` only: ``"multi_ggx"`` (default, Blender's
+                Multiscatter GGX) or ``"ggx"`` (single scattering)
 
 Flavours. ``"gltf"`` is the shared BRDF of :mod:`compare.brdf`, the same
 definition as the rasterizer's GLSL. ``"cycles"`` is Blender's Principled BSDF
@@ -26,7 +28,11 @@ white tint), and the Lambert lobe weighted by the view-only
 ``(1 - m)(1 - E_s(r, cos_i))`` (Cycles' albedo scaling under the specular layer,
 ``E_s`` read from :data:`compare.brdf.principled.LAYER_S_TABLE`, held in a
 Dr.Jit ``Texture2f`` with Cycles' grid and bilinear interpolation) in place of
-the per-direction ``(1 - m)(1 - F_d(v.h))``. The ``"gltf"`` flavour traces
+the per-direction ``(1 - m)(1 - F_d(v.h))``; with ``distribution = "multi_ggx"``
+each specular lobe times Multiscatter GGX's view-dependent energy compensation
+and the diffuse's layering albedo times its factor
+(:mod:`compare.brdf.multiscatter`, tables ``ggx_E`` and ``ggx_Eavg`` as
+Dr.Jit textures on Cycles' grid). The ``"gltf"`` flavour traces
 exactly the code it always has, so its results are bit-identical to the
 plugin without the option.
 
@@ -57,7 +63,7 @@ from __future__ import annotations
 
 import sys
 
-from . import ALPHA_MIN, COS_MIN, DIELECTRIC_F0, H_LEN2_MIN, SPECULAR_PROB_MIN, principled
+from . import ALPHA_MIN, COS_MIN, DIELECTRIC_F0, H_LEN2_MIN, SPECULAR_PROB_MIN, multiscatter, principled
 
 __all__ = ["FLAVOURS", "PLUGIN_NAME", "evaluate", "register", "registered_variants"]
 
@@ -153,6 +159,31 @@ def _make_class(mv, mitsuba):
             layer["texture"] = mv.Texture2f(mv.TensorXf(table), use_accel=False,
                                             filter_mode=dr.FilterMode.Linear, wrap_mode=dr.WrapMode.Clamp)
 
+    def make_energy_textures():
+        """Cycles' ggx_E (2D: row = cos_i, column = roughness) and ggx_Eavg (1D) as textures."""
+        if "e" not in layer:
+            kw = dict(use_accel=False, filter_mode=dr.FilterMode.Linear, wrap_mode=dr.WrapMode.Clamp)
+            layer["e"] = mv.Texture2f(mv.TensorXf(multiscatter.GGX_E_TABLE.astype("float32")[..., None]), **kw)
+            layer["e_avg"] = mv.Texture1f(mv.TensorXf(multiscatter.GGX_EAVG_TABLE.astype("float32")[..., None]),
+                                          **kw)
+
+    fss_dielectric = principled.FSS_DIELECTRIC
+
+    def compensation(c, r, cos_i):
+        """(K_m, K_d, L_d) of compare.brdf.principled: Multiscatter GGX's lobe scales and layer factor."""
+        n = multiscatter.ENERGY_TABLE_SIZE
+        u = (dr.clip(r, 0.0, 1.0) * (n - 1) + 0.5) * (1.0 / n)
+        e = layer["e"].eval(mv.Point2f(u, (dr.clip(cos_i, 0.0, 1.0) * (n - 1) + 0.5) * (1.0 / n)))[0]
+        e_avg = layer["e_avg"].eval(mv.Point1f(u))[0]
+        missing = (1.0 - e) / e
+
+        def f_ms(fss):
+            return fss * e_avg / (1.0 - fss * (1.0 - e_avg))
+
+        cc = dr.clip(c, 0.0, 1.0)
+        fms_d = f_ms(fss_dielectric)
+        return 1.0 + f_ms(cc + (1.0 - cc) * (1.0 / 21.0)) * missing, 1.0 + fms_d * missing, e + fms_d * (1.0 - e)
+
     def layer_albedo(r, cos_i):
         """E_s(r, cos_i) = F0 + (1 - F0) S: bilinear in Cycles' grid (texel i at coordinate i/15)."""
         n = principled.LAYER_TABLE_SIZE
@@ -173,8 +204,18 @@ def _make_class(mv, mitsuba):
             if self.flavour not in FLAVOURS:
                 raise ValueError(f"{PLUGIN_NAME}: flavour must be one of {', '.join(FLAVOURS)}, "
                                  f"got {self.flavour!r}")
+            self.distribution = props.get("distribution", multiscatter.DEFAULT_DISTRIBUTION)
+            if self.flavour != "cycles" and "distribution" in props:
+                raise ValueError(f"{PLUGIN_NAME}: distribution applies to flavour 'cycles' only "
+                                 f"(flavour {self.flavour!r} is glTF's single-scattering GGX)")
+            if self.distribution not in multiscatter.DISTRIBUTIONS:
+                raise ValueError(f"{PLUGIN_NAME}: distribution must be one of "
+                                 f"{', '.join(multiscatter.DISTRIBUTIONS)}, got {self.distribution!r}")
+            self.multiscatter = self.flavour == "cycles" and self.distribution == "multi_ggx"
             if self.flavour == "cycles":
                 make_layer_texture()
+            if self.multiscatter:
+                make_energy_textures()
             self.m_components = [diffuse_flags, glossy_flags]
             self.m_flags = diffuse_flags | glossy_flags
 
@@ -203,8 +244,13 @@ def _make_class(mv, mitsuba):
             w = schlick_weight(ci)
             if self.flavour == "cycles":
                 cc = dr.clip(c, 0.0, 1.0)
-                w_s = mean3(cc + (1.0 - cc) * w) * m + fresnel_dielectric(ci) * (1.0 - m)
-                w_d = (1.0 - m) * dr.clip(1.0 - layer_albedo(r, ci), 0.0, 1.0) * mean3(c)
+                if self.multiscatter:
+                    k_m, k_d, l_d = compensation(c, r, ci)
+                    w_s = mean3((cc + (1.0 - cc) * w) * k_m) * m + fresnel_dielectric(ci) * k_d * (1.0 - m)
+                    w_d = (1.0 - m) * dr.clip(1.0 - layer_albedo(r, ci) * l_d, 0.0, 1.0) * mean3(c)
+                else:
+                    w_s = mean3(cc + (1.0 - cc) * w) * m + fresnel_dielectric(ci) * (1.0 - m)
+                    w_d = (1.0 - m) * dr.clip(1.0 - layer_albedo(r, ci), 0.0, 1.0) * mean3(c)
             else:
                 f0 = DIELECTRIC_F0 + (c - DIELECTRIC_F0) * m
                 w_s = mean3(f0 + (1.0 - f0) * w)
@@ -241,7 +287,12 @@ def _make_class(mv, mitsuba):
                          + nv * dr.sqrt(nl * nl * (1.0 - a2) + a2))
 
             w = schlick_weight(vh)
-            if self.flavour == "cycles":
+            if self.flavour == "cycles" and self.multiscatter:
+                cc = dr.clip(c, 0.0, 1.0)
+                k_m, k_d, l_d = compensation(c, r, cos_i)
+                f = (cc + (1.0 - cc) * w) * k_m * m + fresnel_dielectric(vh) * k_d * (1.0 - m)
+                w_diff = (1.0 - m) * dr.clip(1.0 - layer_albedo(r, cos_i) * l_d, 0.0, 1.0)
+            elif self.flavour == "cycles":
                 cc = dr.clip(c, 0.0, 1.0)
                 f = (cc + (1.0 - cc) * w) * m + fresnel_dielectric(vh) * (1.0 - m)
                 w_diff = (1.0 - m) * dr.clip(1.0 - layer_albedo(r, cos_i), 0.0, 1.0)
@@ -330,13 +381,15 @@ def _make_class(mv, mitsuba):
             pass  # nothing is precomputed from the textures
 
         def to_string(self):
-            return (f"GltfPbrBSDF[\n  flavour = {self.flavour},\n  base_color = {self.base_color},\n"
+            dist = f"  distribution = {self.distribution},\n" if self.flavour == "cycles" else ""
+            return (f"GltfPbrBSDF[\n  flavour = {self.flavour},\n{dist}  base_color = {self.base_color},\n"
                     f"  metallic = {self.metallic},\n  roughness = {self.roughness}\n]")
 
     return GltfPbrBSDF
 
 
-def evaluate(wi, wo, base_color, metallic, roughness, *, variant: str | None = None, flavour: str = "gltf"):
+def evaluate(wi, wo, base_color, metallic, roughness, *, variant: str | None = None, flavour: str = "gltf",
+             distribution: str | None = None):
     """Evaluate the plugin's ``eval_pdf`` for per-direction materials; numpy in, numpy out.
 
     The materials vary per row: they are passed as N x 1 ``bitmap`` textures
@@ -353,6 +406,8 @@ def evaluate(wi, wo, base_color, metallic, roughness, *, variant: str | None = N
         Passed to :func:`register`.
     flavour : str
         The plugin's ``flavour`` (:data:`FLAVOURS`).
+    distribution : str, optional
+        The plugin's ``distribution`` (flavour ``cycles``); None leaves it unset (the default).
 
     Returns
     -------
@@ -376,8 +431,11 @@ def evaluate(wi, wo, base_color, metallic, roughness, *, variant: str | None = N
         return {"type": "bitmap", "data": mi.TensorXf(np.ascontiguousarray(data.reshape(1, count, -1))),
                 "raw": True, "filter_type": "nearest", "wrap_mode": "clamp"}
 
-    bsdf = mi.load_dict({"type": PLUGIN_NAME, "base_color": bitmap(base), "flavour": flavour,
-                         "metallic": bitmap(met), "roughness": bitmap(rough)})
+    props = {"type": PLUGIN_NAME, "base_color": bitmap(base), "flavour": flavour,
+             "metallic": bitmap(met), "roughness": bitmap(rough)}
+    if distribution is not None:
+        props["distribution"] = distribution
+    bsdf = mi.load_dict(props)
     ctx = mi.BSDFContext()
     u = (np.arange(count, dtype=np.float64) + 0.5) / count
     if dr.is_jit_v(mi.Float):

@@ -11,16 +11,21 @@ The model
 What Cycles' Principled BSDF (Blender 4.0 to 5.x, ``svm/closure.h``,
 ``closure/bsdf_microfacet.h``) builds for the exporter's node settings: IOR
 1.5, Specular IOR Level 0.5, Specular Tint white, Diffuse Roughness 0, no coat,
-sheen, subsurface or transmission, ``distribution = 'GGX'`` (single
-scattering, no energy compensation). With ``v`` towards the viewer, ``l``
-towards the light, ``h = normalize(v + l)``, base colour ``c``, metallic ``m``,
-perceptual roughness ``r`` (``alpha = r**2``)::
+sheen, subsurface or transmission, and either distribution: ``multi_ggx``
+(Blender's default, Multiscatter GGX) or ``ggx`` (single scattering). With
+``v`` towards the viewer, ``l`` towards the light, ``h = normalize(v + l)``,
+base colour ``c``, metallic ``m``, perceptual roughness ``r`` (``alpha = r**2``)::
 
-    f = [m F_m(v.h) + (1 - m) F_d(v.h)] D G2 / (4 n.v n.l)  +  w_d(r, n.v) c / pi
+    f = [m F_m(v.h) K_m + (1 - m) F_d(v.h) K_d] D G2 / (4 n.v n.l)  +  w_d(r, n.v) c / pi
     F_m(x) = c + (1 - c)(1 - x)^5                 F82-tint with a white tint = Schlick
     F_d(x) = exact dielectric Fresnel, IOR 1.5      (F_d(1) = F0 = 0.04)
-    w_d    = (1 - m)(1 - E_s(r, n.v))              albedo-scaled Lambert under the specular layer
+    w_d    = (1 - m)(1 - E_s(r, n.v) L_d)          albedo-scaled Lambert under the specular layer
     E_s    = F0 + (1 - F0) S(r, n.v)
+
+``K`` and ``L`` are Multiscatter GGX's energy compensation
+(:mod:`compare.brdf.multiscatter`: ``K = lobe_scale``, ``L = layer_factor``,
+with each lobe's average Fresnel ``F_ss``, per channel for the metal); with
+``ggx`` both are 1.
 
 D is GGX and G2 the height-correlated Smith term, the same functions as the
 shared BRDF (:mod:`compare.brdf`; ``D G2 / (4 n.v n.l) = D V``). ``E_s`` is
@@ -69,8 +74,11 @@ import numpy as np
 
 from . import (DIELECTRIC_F0, SPECULAR_PROB_MIN, _geometry, fresnel_schlick, ggx_d,
                sample_ggx_vndf, smith_v_height_correlated)
+from .multiscatter import (DEFAULT_DISTRIBUTION, DISTRIBUTIONS, fresnel_dielectric_fss, fresnel_f82_fss,
+                           layer_factor, lobe_scale)
 
 __all__ = [
+    "FSS_DIELECTRIC",
     "IOR",
     "LAYER_S_TABLE",
     "LAYER_TABLE_SIZE",
@@ -81,10 +89,14 @@ __all__ = [
     "layer_table",
     "specular_layer_albedo",
     "specular_sampling_probability",
+    "DEFAULT_DISTRIBUTION",
+    "DISTRIBUTIONS",
 ]
 
 #: Index of refraction of the dielectric specular layer (Principled's default; F0 = 0.04).
 IOR = 1.5
+#: Average Fresnel of the dielectric specular layer (Cycles' ``fresnel_dielectric_Fss(1.5)``).
+FSS_DIELECTRIC = float(fresnel_dielectric_fss(IOR))
 #: Points per axis of Cycles' ``ggx_gen_schlick_ior_s`` table.
 LAYER_TABLE_SIZE = 16
 
@@ -222,47 +234,73 @@ def specular_layer_albedo(roughness, cos_v):
     return DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * layer_s(roughness, cos_v)
 
 
-def eval_principled_lobes(n, v, l, base_color, metallic, roughness):
+def _check_distribution(distribution: str) -> bool:
+    """True for Multiscatter GGX; a clear error for anything but :data:`DISTRIBUTIONS`."""
+    if distribution not in DISTRIBUTIONS:
+        raise ValueError(f"distribution: expected one of {', '.join(DISTRIBUTIONS)}, got {distribution!r}")
+    return distribution == "multi_ggx"
+
+
+def _compensation(base, r, cos_v, multi: bool):
+    """(K_m (..., 3), K_d (...), L_d (...)): Multiscatter GGX's factors, or ones for GGX."""
+    if not multi:
+        ones = np.ones(np.shape(cos_v))
+        return np.ones(np.shape(cos_v) + (3,)), ones, ones
+    mu = np.clip(cos_v, 0.0, 1.0)
+    k_m = lobe_scale(fresnel_f82_fss(np.clip(base, 0.0, 1.0)), r, mu)
+    return k_m, lobe_scale(FSS_DIELECTRIC, r, mu), layer_factor(FSS_DIELECTRIC, r, mu)
+
+
+def eval_principled_lobes(n, v, l, base_color, metallic, roughness, distribution=DEFAULT_DISTRIBUTION):
     """The specular and diffuse terms of :func:`eval_principled`, separately.
 
     Returns
     -------
     specular, diffuse : ndarray
-        ``[m F_m + (1 - m) F_d] D V`` and ``(1 - m)(1 - E_s(r, n.v)) c / pi``,
+        ``[m F_m K_m + (1 - m) F_d K_d] D V`` and ``(1 - m)(1 - E_s(r, n.v) L_d) c / pi``,
         each ``(..., 3)`` float64, both zero below the horizon.
     """
+    multi = _check_distribution(distribution)
     g = _geometry(n, v, l, base_color, metallic, roughness)
     base, m, r, nv, vh, front = g.base, g.m, g.r, g.nv, g.vh, g.front
+    k_m, k_d, l_d = _compensation(np.broadcast_to(base, np.shape(nv) + (3,)), np.broadcast_to(r, np.shape(nv)),
+                                  nv, multi)
     dv = ggx_d(g.nh, g.alpha, g.sin2) * smith_v_height_correlated(nv, g.nl, g.alpha)
-    f_metal = fresnel_schlick(np.clip(base, 0.0, 1.0), vh[..., None])
-    f_diel = fresnel_dielectric(vh)[..., None]
+    f_metal = fresnel_schlick(np.clip(base, 0.0, 1.0), vh[..., None]) * k_m
+    f_diel = (fresnel_dielectric(vh) * k_d)[..., None]
     spec = (m[..., None] * f_metal + (1.0 - m[..., None]) * f_diel) * dv[..., None]
-    w_d = (1.0 - m) * np.clip(1.0 - specular_layer_albedo(r, np.clip(nv, 0.0, 1.0)), 0.0, 1.0)
+    w_d = (1.0 - m) * np.clip(1.0 - specular_layer_albedo(r, np.clip(nv, 0.0, 1.0)) * l_d, 0.0, 1.0)
     diff = w_d[..., None] * base / np.pi
     mask = front[..., None]
     return np.where(mask, spec, 0.0), np.where(mask, diff, 0.0)
 
 
-def eval_principled(n, v, l, base_color, metallic, roughness):
-    """Principled BSDF v2 f(n, v, l) (not multiplied by n.l); arguments as :func:`compare.brdf.eval_brdf`."""
-    spec, diff = eval_principled_lobes(n, v, l, base_color, metallic, roughness)
+def eval_principled(n, v, l, base_color, metallic, roughness, distribution=DEFAULT_DISTRIBUTION):
+    """Principled BSDF v2 f(n, v, l) (not multiplied by n.l); arguments as :func:`compare.brdf.eval_brdf`,
+    and ``distribution`` (:data:`DISTRIBUTIONS`, default Blender's ``multi_ggx``)."""
+    spec, diff = eval_principled_lobes(n, v, l, base_color, metallic, roughness, distribution)
     return spec + diff
 
 
-def specular_sampling_probability(cos_theta_i, base_color, metallic, roughness):
+def specular_sampling_probability(cos_theta_i, base_color, metallic, roughness,
+                                  distribution=DEFAULT_DISTRIBUTION):
     """Probability with which the plugin's ``cycles`` flavour samples the specular lobe.
 
     As :func:`compare.brdf.specular_sampling_probability`, with this model's
-    lobe weights at the incident cosine: ``w_s = m mean_rgb(F_m(cos)) + (1 - m) F_d(cos)``
-    and ``w_d = (1 - m)(1 - E_s(r, cos)) mean_rgb(c)``.
+    lobe weights at the incident cosine: ``w_s = m mean_rgb(F_m(cos) K_m) + (1 - m) F_d(cos) K_d``
+    and ``w_d = (1 - m)(1 - E_s(r, cos) L_d) mean_rgb(c)``.
     """
+    multi = _check_distribution(distribution)
     c = np.clip(np.asarray(cos_theta_i, dtype=np.float64), 0.0, 1.0)
     base = np.asarray(base_color, dtype=np.float64)
     m = np.clip(np.asarray(metallic, dtype=np.float64), 0.0, 1.0)
     r = np.clip(np.asarray(roughness, dtype=np.float64), 0.0, 1.0)
-    f_metal = np.mean(fresnel_schlick(np.clip(base, 0.0, 1.0), c[..., None]), axis=-1)
-    w_s = m * f_metal + (1.0 - m) * fresnel_dielectric(c)
-    w_d = (1.0 - m) * np.clip(1.0 - specular_layer_albedo(r, c), 0.0, 1.0) * np.mean(base, axis=-1)
+    shape = np.broadcast_shapes(c.shape, m.shape, r.shape, base.shape[:-1])
+    k_m, k_d, l_d = _compensation(np.broadcast_to(base, shape + (3,)), np.broadcast_to(r, shape),
+                                  np.broadcast_to(c, shape), multi)
+    f_metal = np.mean(fresnel_schlick(np.clip(base, 0.0, 1.0), c[..., None]) * k_m, axis=-1)
+    w_s = m * f_metal + (1.0 - m) * fresnel_dielectric(c) * k_d
+    w_d = (1.0 - m) * np.clip(1.0 - specular_layer_albedo(r, c) * l_d, 0.0, 1.0) * np.mean(base, axis=-1)
     total = w_s + w_d
     ratio = w_s / np.where(total > 0.0, total, 1.0)
     return np.where(w_d > 0.0, np.maximum(ratio, SPECULAR_PROB_MIN), 1.0)

@@ -52,10 +52,10 @@ def builtin(spec: str) -> Renderer | None:
         from .progressive import ProgressiveRenderer
 
         return ProgressiveRenderer(spec)
-    if spec in ("cycles", "eevee"):
+    if base in ("cycles", "eevee"):
         from .blender import BlenderRenderer
 
-        return BlenderRenderer(spec)
+        return BlenderRenderer(spec)  # ValueError for a bad option
     if base in WEB:
         from .web import WebRenderer
 
@@ -175,7 +175,7 @@ class Registry:
 
             more = [n for n in self.names() if n not in BUILTIN]
             raise ValueError(f"unknown renderer {spec!r}; expected mitsuba, progressive, progressive:<option> "
-                             f"(options: {', '.join(OPTIONS)}), cycles, eevee, threejs, threejs-pathtracer"
+                             f"(options: {', '.join(OPTIONS)}), cycles, cycles:ggx, eevee, eevee:ggx, threejs, threejs-pathtracer"
                              + (f", {', '.join(more)}" if more else "")
                              + " or all (renderers of a TOML file: --renderer-config FILE; `compare renderers` "
                                "lists what is available)")
@@ -207,7 +207,7 @@ class Registry:
         """Every renderer with its label, unit, source and availability (``compare renderers``)."""
         rows = []
         specs = ["mitsuba", "progressive", *(f"progressive:{o}" for o in ("paper", "ltc", "probes", "vsm")),
-                 "cycles", "eevee", *WEB, "threejs:shadows"]
+                 "cycles", "cycles:ggx", "eevee", "eevee:ggx", *WEB, "threejs:shadows"]
         sources = {s: "built-in" for s in specs}
         for n in self._plugins():
             sources.setdefault(n, f"entry point {self._plugins()[n].value}")

@@ -238,6 +238,15 @@ def _scene_view(scene: SceneResult, plots: dict[str, Path], out: Path, exposure:
     }
 
 
+#: What the reference's material mode models, in words (compare.mitsuba_dict).
+MATERIALS_NOTES = {
+    "shared": "the glTF BRDF the rasterizer evaluates (GGX single scattering, Schlick Fresnel)",
+    "cycles": "Blender's Principled BSDF v2 with each material's distribution (Blender's default: Multiscatter GGX)",
+    "cycles-ggx": "Blender's Principled BSDF v2 with GGX (single scattering) everywhere",
+    "diffuse": "Lambert only",
+}
+
+
 def _likeness(scene: SceneResult) -> dict | None:
     """The Cycles-likeness a run measured (``cycles`` with ``--materials cycles``), formatted, or None."""
     run = next((r for r in scene.runs if "likeness_ratio" in r.metadata), None)
@@ -247,7 +256,10 @@ def _likeness(scene: SceneResult) -> dict | None:
     return {"spp": m.get("likeness_spp"), "cross": fmt_num(m.get("likeness_flip_cross"), 4),
             "seed": fmt_num(m.get("likeness_flip_seed"), 4), "ratio": fmt_num(m.get("likeness_ratio"), 3),
             "matched": fmt_num(m.get("likeness_ratio_noise_matched"), 3),
-            "mitsuba": fmt_num(m.get("likeness_flip_mitsuba_seed"), 4), "regions": m.get("likeness_regions")}
+            "mitsuba": fmt_num(m.get("likeness_flip_mitsuba_seed"), 4), "regions": m.get("likeness_regions"),
+            "mitsuba_spp": m.get("likeness_mitsuba_spp"), "relmse_ratio": fmt_num(m.get("likeness_relmse_ratio"), 3),
+            "relmse_matched": fmt_num(m.get("likeness_relmse_ratio_noise_matched"), 3),
+            "distribution": m.get("distribution"), "materials": m.get("likeness_materials")}
 
 
 def _ablations(scene: SceneResult, baseline: str = "progressive") -> list[dict]:
@@ -431,6 +443,7 @@ def build_report(results: Results, out_dir: str | os.PathLike, *, source_dir: st
         settings=results.settings,
         env=results.environment,
         table1=_table1(results),
+        materials_note=MATERIALS_NOTES.get(results.settings.materials, results.settings.materials),
         scenes=[_scene_view(s, plots[s.id], out, results.settings.exposure, results.settings.baseline)
                 for s in results.scenes],
         metric_headings=[h for _, h, _ in TABLE_METRICS],

@@ -1,0 +1,235 @@
+"""Cycles' Multiscatter GGX: the energy compensation of Blender's default Principled BSDF.
+
+Blender's Principled BSDF (4.0 to 5.x) defaults to ``distribution =
+'MULTI_GGX'``. Since Blender 4.0 Cycles does not random-walk between
+microfacets for it; it scales the single-scattering GGX lobe by an
+albedo-based factor (``microfacet_ggx_preserve_energy`` in
+``kernel/closure/bsdf_microfacet.h``, Kulla & Conty, "Revisiting Physically
+Based Shading at Imageworks", 2017, with one ``F_ss`` cancelled). For a lobe of
+perceptual roughness ``r`` seen from ``v`` (``mu = n.v``)::
+
+    E     = ggx_E(r, mu)       albedo of the GGX lobe with F = 1 (height-correlated Smith)
+    E_avg = ggx_Eavg(r)        its cosine-weighted mean over mu, 2 * int E(mu) mu dmu
+    F_ms  = F_ss E_avg / (1 - F_ss (1 - E_avg))
+    lobe  = f_ss(v, l) * (1 + F_ms (1 - E) / E)          (lobe_scale)
+
+where ``F_ss`` is the lobe's average Fresnel: for the dielectric specular layer
+``fresnel_dielectric_Fss(ior)`` (Cycles' rational fit; 0.0895 at IOR 1.5),
+for the metallic F82-tint lobe with a white tint ``mix(F0, 1, 1/21)`` per
+channel (``fresnel_f82_Fss`` with B = 0). The factor depends on ``v`` only,
+as in Cycles, where ``mu`` is the direction towards the previous path vertex.
+
+The layer under the specular (the diffuse) is weighted by
+``1 - E_s * (E + F_ms (1 - E))`` (:func:`layer_factor`): Cycles' compensation
+multiplies the closure's weight by ``E + F_ms (1 - E)`` and its energy scale by
+``1/E``, and ``closure_layering_weight`` reads the albedo estimate ``E_s``
+(:mod:`compare.brdf.principled`) times that weight. With GGX (single
+scattering) both factors are 1. Because ``E < 1`` at any roughness above ~0.2,
+the multiscatter diffuse is *brighter* than the single-scattering one (at
+roughness 1 and normal incidence, weight 1 - 0.045 against 1 - 0.090 for
+IOR 1.5), and glossy lobes gain up to (1 - E)/E F_ms.
+
+The tables are computed the way ``cycles_precompute.cpp`` computes its
+``ggx_E`` (32 x 32, roughness and mu on the grid ``i/31``, each clamped to at
+least 1e-4) and ``ggx_Eavg`` (32): the mean of ``G2(v, l) / G1(v)`` (zero when
+``l`` falls below the horizon) over GGX visible normals drawn for ``v``
+(:func:`energy_tables`, Hammersley points here, Sobol in Cycles), and looked up
+as ``lookup_table_read_2D`` / ``lookup_table_read`` do (linear, texel ``i`` at
+coordinate ``i/31``). ``energy_table.npz`` holds the result at 256²
+Hammersley points per cell (E) and 64 Gauss-Legendre nodes in mu of 128² points
+each (E_avg). It agrees with Cycles' own tables (``scene/shader.tables`` of
+Blender 5.0) within 3.6e-5 in E and 2e-5 in E_avg over all 1056 entries;
+``tests/test_multiscatter.py`` recomputes part of it and checks values read
+from Cycles' tables.
+Regenerate with ``python -m compare.brdf.multiscatter``.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+__all__ = [
+    "DEFAULT_DISTRIBUTION",
+    "DISTRIBUTIONS",
+    "ENERGY_TABLE_SIZE",
+    "GGX_E_TABLE",
+    "GGX_EAVG_TABLE",
+    "energy_tables",
+    "fresnel_dielectric_fss",
+    "fresnel_f82_fss",
+    "ggx_e",
+    "ggx_eavg",
+    "layer_factor",
+    "lobe_scale",
+    "multiscatter_fresnel",
+]
+
+#: The Principled BSDF's microfacet distributions this suite models (Blender's enum names, lower case).
+DISTRIBUTIONS = ("multi_ggx", "ggx")
+#: Blender's default (what a Principled BSDF node and Blender's glTF importer create).
+DEFAULT_DISTRIBUTION = "multi_ggx"
+#: Points per axis of Cycles' ``ggx_E`` and ``ggx_Eavg`` tables.
+ENERGY_TABLE_SIZE = 32
+TABLE_PATH = Path(__file__).with_name("energy_table.npz")
+
+
+def _lambda(cos_theta, alpha):
+    """GGX Smith Lambda (Heitz 2014, eq. 72) as Cycles' ``bsdf_lambda``."""
+    c2 = np.maximum(np.asarray(cos_theta, dtype=np.float64) ** 2, 1e-300)
+    return 0.5 * (np.sqrt(1.0 + alpha * alpha * np.maximum(1.0 / c2 - 1.0, 0.0)) - 1.0)
+
+
+def _albedo(rough: float, mu, u: np.ndarray) -> np.ndarray:
+    """E(rough, mu) for each mu, averaged over the visible-normal samples ``u`` (S, 2)."""
+    from . import sample_ggx_vndf
+
+    mu = np.atleast_1d(np.asarray(mu, dtype=np.float64))
+    alpha = rough * rough
+    wi = np.stack([np.sqrt(1.0 - mu * mu), np.zeros_like(mu), mu], axis=-1)[:, None, :]
+    wi = np.broadcast_to(wi, (len(mu), len(u), 3))
+    h = sample_ggx_vndf(wi, np.full(wi.shape[:2], alpha), np.broadcast_to(u, wi.shape[:2] + (2,)))
+    wo_z = 2.0 * np.sum(h * wi, axis=-1) * h[..., 2] - wi[..., 2]
+    lam_i = _lambda(wi[..., 2], alpha)
+    lam_o = _lambda(np.maximum(wo_z, 1e-12), alpha)
+    weight = np.where(wo_z > 0.0, (1.0 + lam_i) / (1.0 + lam_i + lam_o), 0.0)
+    return weight.mean(axis=-1)
+
+
+def _hammersley(samples: int) -> np.ndarray:
+    """``samples**2`` Hammersley points: a product grid would give only ``samples`` distinct
+    heights, and E at low roughness is decided in the last 0.1 % of the GGX tail."""
+    count = samples * samples
+    i = np.arange(count, dtype=np.uint64)
+    bits = np.zeros(count)
+    scale = 0.5
+    while np.any(i):
+        bits += (i & np.uint64(1)).astype(np.float64) * scale
+        i >>= np.uint64(1)
+        scale *= 0.5
+    return np.stack([(np.arange(count) + 0.5) / count, bits + 0.5 / count], axis=-1)
+
+
+def energy_tables(samples: int = 256, avg_nodes: int = 64) -> tuple[np.ndarray, np.ndarray]:
+    """Cycles' ``ggx_E`` and ``ggx_Eavg`` recomputed (see the module notes).
+
+    Parameters
+    ----------
+    samples : int
+        Visible-normal samples: ``samples**2`` Hammersley points per cell.
+    avg_nodes : int
+        Gauss-Legendre nodes in mu for E_avg (each node's E from ``samples // 2``
+        squared Hammersley points).
+
+    Returns
+    -------
+    e : ndarray, shape (32, 32)
+        Row j: mu = j/31; column i: roughness = i/31.
+    e_avg : ndarray, shape (32,)
+        Entry i: roughness i/31.
+    """
+    n = ENERGY_TABLE_SIZE
+    u = _hammersley(samples)
+    u_avg = _hammersley(max(samples // 2, 8))
+    x, w = np.polynomial.legendre.leggauss(avg_nodes)
+    mu_avg, w_avg = 0.5 * (x + 1.0), 0.5 * w
+    grid = np.clip(np.arange(n) / (n - 1), 1e-4, 1.0)
+    e = np.empty((n, n))
+    e_avg = np.empty(n)
+    for i, rough in enumerate(grid):
+        if rough ** 4 <= 2e-10:  # alpha^2 at or below BSDF_ROUGHNESS_SQ_THRESH: Cycles' perfect mirror
+            e[:, i], e_avg[i] = 1.0, 1.0
+            continue
+        e[:, i] = np.concatenate([_albedo(rough, grid[j:j + 4], u) for j in range(0, n, 4)])
+        e_avg[i] = np.sum(w_avg * 2.0 * mu_avg * _albedo(rough, mu_avg, u_avg))
+    return np.clip(e, 0.0, 1.0), np.clip(e_avg, 0.0, 1.0)
+
+
+def _load() -> tuple[np.ndarray, np.ndarray]:
+    with np.load(TABLE_PATH) as data:
+        return data["ggx_E"].astype(np.float64), data["ggx_Eavg"].astype(np.float64)
+
+
+#: ``ggx_E``: row j: mu = j/31, column i: roughness = i/31.
+#: ``ggx_Eavg``: entry i: roughness i/31.
+GGX_E_TABLE, GGX_EAVG_TABLE = _load()
+
+
+def _axis(x, n):
+    x = np.clip(np.asarray(x, dtype=np.float64), 0.0, 1.0) * (n - 1)
+    i = np.minimum(x.astype(np.int64), n - 1)
+    return i, np.minimum(i + 1, n - 1), x - i
+
+
+def ggx_e(roughness, mu):
+    """E(r, mu): bilinear lookup of :data:`GGX_E_TABLE` as Cycles' ``lookup_table_read_2D``."""
+    t = GGX_E_TABLE
+    i0, i1, tx = _axis(roughness, t.shape[1])
+    j0, j1, ty = _axis(mu, t.shape[0])
+    a = t[j0, i0] * (1.0 - tx) + t[j0, i1] * tx
+    b = t[j1, i0] * (1.0 - tx) + t[j1, i1] * tx
+    return a * (1.0 - ty) + b * ty
+
+
+def ggx_eavg(roughness):
+    """E_avg(r): linear lookup of :data:`GGX_EAVG_TABLE` as Cycles' ``lookup_table_read``."""
+    i0, i1, t = _axis(roughness, len(GGX_EAVG_TABLE))
+    return GGX_EAVG_TABLE[i0] * (1.0 - t) + GGX_EAVG_TABLE[i1] * t
+
+
+def fresnel_dielectric_fss(eta):
+    """Average dielectric Fresnel (Cycles' ``fresnel_dielectric_Fss``, its fit for IOR >= 1)."""
+    eta = np.asarray(eta, dtype=np.float64)
+    return (eta - 1.0) / (4.08567 + 1.00071 * eta)
+
+
+def fresnel_f82_fss(f0):
+    """Average F82-tint Fresnel with a white tint: ``mix(F0, 1, 1/21)`` (Cycles' ``fresnel_f82_Fss``, B = 0)."""
+    f0 = np.asarray(f0, dtype=np.float64)
+    return f0 + (1.0 - f0) / 21.0
+
+
+def multiscatter_fresnel(fss, roughness):
+    """``F_ms = F_ss E_avg / (1 - F_ss (1 - E_avg))``; ``fss`` broadcasts against ``roughness``."""
+    e_avg = ggx_eavg(roughness)
+    fss = np.asarray(fss, dtype=np.float64)
+    if fss.ndim > np.ndim(e_avg):  # per-channel F_ss (metals): roughness varies over the leading axes
+        e_avg = np.asarray(e_avg)[..., None]
+    return fss * e_avg / (1.0 - fss * (1.0 - e_avg))
+
+
+def lobe_scale(fss, roughness, mu):
+    """``1 + F_ms (1 - E) / E``: what Multiscatter GGX multiplies the single-scattering lobe by."""
+    e = ggx_e(roughness, mu)
+    f_ms = multiscatter_fresnel(fss, roughness)
+    if np.ndim(f_ms) > np.ndim(e):
+        e = np.asarray(e)[..., None]
+    return 1.0 + f_ms * (1.0 - e) / e
+
+
+def layer_factor(fss, roughness, mu):
+    """``E + F_ms (1 - E)``: the factor on the specular layer's albedo estimate that the diffuse sees."""
+    e = ggx_e(roughness, mu)
+    f_ms = multiscatter_fresnel(fss, roughness)
+    if np.ndim(f_ms) > np.ndim(e):
+        e = np.asarray(e)[..., None]
+    return e + f_ms * (1.0 - e)
+
+
+def main(argv=None) -> int:
+    """Regenerate ``energy_table.npz``."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--samples", type=int, default=256, help="square root of the Hammersley points per cell")
+    parser.add_argument("--out", type=Path, default=TABLE_PATH, help=f"output .npz (default: {TABLE_PATH})")
+    args = parser.parse_args(argv)
+    e, e_avg = energy_tables(args.samples)
+    np.savez_compressed(args.out, ggx_E=e.astype(np.float32), ggx_Eavg=e_avg.astype(np.float32),
+                        samples=np.int64(args.samples))
+    print(f"wrote {args.out}: ggx_E {e.shape}, ggx_Eavg {e_avg.shape}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
