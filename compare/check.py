@@ -15,7 +15,7 @@ A thresholds file (TOML) is a list of rules; each rule selects checkpoints of
     note = "why these numbers"  # optional, printed with a violation
 
 Values that can be bounded: every metric of
-:func:`compare.metrics.compare_images` (``flip``, ``flip_hdr``, ``ssim``,
+:func:`compare.metrics.compare_images` (``flip``, ``flip_median``, ``flip_p95``, ``flip_hdr``, ``ssim``,
 ``psnr``, ``mse``, ``relmse``), ``one_minus_ssim``, and the run's timings
 ``seconds`` (cumulative at that checkpoint), ``first_frame_seconds`` and
 ``setup_seconds``.

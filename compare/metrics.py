@@ -428,7 +428,41 @@ def flip(
 #: compare against (black, saturated or flat): its LDR metrics are undefined (None).
 LDR_DEGENERATE_RANGE = 1.0 / 255.0
 #: The metrics of the tone-mapped images (None for such a reference), as results.json names them.
-LDR_METRICS = ("psnr", "ssim", "flip")
+LDR_METRICS = ("psnr", "ssim", "flip", "flip_median", "flip_p95")
+
+
+def flip_statistics(fmap) -> dict[str, float]:
+    """Pooled values of a FLIP map beside its mean, as NVIDIA's FLIP tool reports them.
+
+    ``flip_median``: the *weighted* median, the error below which half of the
+    total error lies (each pixel weighted by its own error, FLIP's
+    "weighted median"; 0 for an error-free map); ``flip_p95``: the plain 95th
+    percentile of the per-pixel errors (the worst 5 % of the image start there).
+    """
+    v = np.sort(np.asarray(fmap, dtype=np.float64).ravel())
+    if v.size == 0 or not np.all(np.isfinite(v)):
+        raise ImageError("flip_statistics: expected a non-empty, finite FLIP map")
+    total = float(v.sum())
+    median = 0.0
+    if total > 0.0:
+        median = float(v[min(int(np.searchsorted(np.cumsum(v), 0.5 * total)), v.size - 1)])
+    return {"flip_median": median, "flip_p95": float(np.percentile(v, 95.0))}
+
+
+def hdr_exposure_range(ref) -> tuple[float, float] | None:
+    """HDR-FLIP's exposure range (start, stop) for ``ref``, or None for a black reference.
+
+    FLIP chooses it from the reference's maximum and median luminance; computed
+    once per ground truth and passed to every HDR-FLIP against it
+    (:func:`compare_images` ``hdr_range``), every renderer's HDR-FLIP sweeps the
+    same exposures, and the range is recorded in ``results.json``.
+    """
+    r = np.maximum(_checked_pair(ref, ref)[0], 0)
+    try:
+        _, _, used = _flip_eval(r, r, "HDR", {})
+    except ImageError:
+        return None
+    return float(used["startExposure"]), float(used["stopExposure"])
 
 
 def compare_images(
@@ -438,6 +472,7 @@ def compare_images(
     exposure: float = 1.0,
     operator: Operator = "aces",
     flip_hdr: bool = True,
+    hdr_range: tuple[float, float] | None = None,
 ) -> dict[str, float | None]:
     """Every metric for one reference/test pair, as a JSON-ready dict.
 
@@ -451,12 +486,16 @@ def compare_images(
         The tone mapping for the LDR metrics (PSNR, SSIM, LDR-FLIP).
     flip_hdr : bool, optional
         Also compute HDR-FLIP (several LDR-FLIP passes, the slowest metric).
+    hdr_range : (float, float), optional
+        HDR-FLIP's exposure range (:func:`hdr_exposure_range` of the ground
+        truth); None lets FLIP choose it from ``ref``.
 
     Returns
     -------
     dict
-        ``mse``, ``relmse`` (linear HDR), ``psnr``, ``ssim``, ``flip``
-        (tone-mapped LDR), ``flip_hdr`` (when requested), and ``ldr_range``, the
+        ``mse``, ``relmse`` (linear HDR), ``psnr``, ``ssim``, ``flip``,
+        ``flip_median``, ``flip_p95`` (tone-mapped LDR; :func:`flip_statistics`),
+        ``flip_hdr`` (when requested), and ``ldr_range``, the
         spread (max − min) of the tone-mapped reference. All values are Python
         floats, except three documented ``None`` cases so the dict stays valid
         JSON: ``psnr`` is ``None`` when the LDR images are identical (PSNR is
@@ -483,10 +522,14 @@ def compare_images(
     }
     if ldr_range >= LDR_DEGENERATE_RANGE:
         p = _psnr_ldr(rl, tl)
-        out.update(psnr=None if math.isinf(p) else p, ssim=_ssim_ldr(rl, tl)[0], flip=_flip_eval(rl, tl, "LDR", {})[0])
+        mean, fmap, _ = _flip_eval(rl, tl, "LDR", {})
+        out.update(psnr=None if math.isinf(p) else p, ssim=_ssim_ldr(rl, tl)[0], flip=mean, **flip_statistics(fmap))
     if flip_hdr:
+        params = {} if hdr_range is None else {"startExposure": float(hdr_range[0]),
+                                               "stopExposure": float(hdr_range[1])}
         try:
-            out["flip_hdr"] = _flip_eval(np.maximum(r, 0), np.maximum(t, 0), "HDR", {})[0]
+            out["flip_hdr"] = _flip_eval(np.maximum(r, 0), np.maximum(t, 0), "HDR",
+                                         _check_flip_parameters(params, "HDR"))[0]
         except ImageError:
             out["flip_hdr"] = None  # black reference, see flip()
     return out

@@ -44,7 +44,8 @@ Schema 1
             "unit": "spp", "spp": 1024, "seed": 0,   # spp: its budget, in its unit
             "seconds": 41.2, "load_seconds": 0.01, "variant": "llvm_ad_rgb",
             "image": "runs/<id>/reference/final.exr",
-            "preview": "runs/<id>/reference/final.png"
+            "preview": "runs/<id>/reference/final.png",
+            "flip_hdr_exposure": [-2.1, 4.3] | null  # HDR-FLIP's exposure range, fixed per ground truth
           },
           "noise_floor": {                          # or null (the ground-truth renderer not in the run)
             "method": "independent-full", "spp": 1024, "seeds": [0, 1],
@@ -69,7 +70,8 @@ Schema 1
                 {"step": 1, "seconds": 0.05,
                  "metrics": {"mse": ..., "relmse": ..., "psnr": ... | null,
                              "ssim": ..., "flip": ...,
-                             "flip_hdr": ... | null},   # last checkpoint only (cost)
+                             "flip_median": ..., "flip_p95": ...,  # FLIP's weighted median, 95th percentile
+                             "flip_hdr": ... | null},   # last checkpoint only (cost); the reference's range
                  "image": "runs/<id>/progressive/step-0001.exr",
                  "preview": "runs/<id>/progressive/step-0001.png"}
               ]
@@ -524,6 +526,9 @@ class Reference:
     metadata: dict[str, Any] = field(default_factory=dict)
     label: str = ""
     unit: str = "spp"
+    #: HDR-FLIP's exposure range [start, stop] for this ground truth, used by every run's
+    #: HDR-FLIP (compare.metrics.hdr_exposure_range); None for a black ground truth.
+    flip_hdr_exposure: list[float] | None = None
 
     def to_json(self) -> dict:
         """JSON-ready dict."""
@@ -545,6 +550,8 @@ class Reference:
             metadata=dict(d.get("metadata") or {}),
             label=str(d.get("label") or ""),
             unit=str(d.get("unit") or "spp"),
+            flip_hdr_exposure=(None if d.get("flip_hdr_exposure") is None
+                               else [float(x) for x in d["flip_hdr_exposure"]]),
         )
 
 

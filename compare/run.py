@@ -348,7 +348,7 @@ def add_run_parser(subparsers) -> argparse.ArgumentParser:
                    metavar="LIST", help="comma-separated: mitsuba (reference convergence + noise floor), "
                                         "progressive, progressive:<option>[+<option>] with options " + ", ".join(VARIANT_OPTIONS)
                                         + " (e.g. progressive:paper,progressive:ltc,progressive:budget16), "
-                                        "cycles and eevee (Blender, the blender extra), renderers of installed plug-ins and of "
+                                        "cycles and eevee (Blender, the blender extra; cycles:ggx, eevee:ggx set GGX in every Principled BSDF), renderers of installed plug-ins and of "
                                         "--renderer-config, or all (the paper's Table 1: " + ",".join(ALL_RENDERERS)
                                         + "); `compare renderers` lists them")
     p.add_argument("--renderer-config", type=Path, default=None, metavar="TOML",

@@ -75,6 +75,11 @@ def scene_id(scene: Scene) -> str:
     return f"{slug}-{scene.file_hash[:8]}-{w}x{h}"
 
 
+#: Part of every measurement's key: bumped when the metrics of a checkpoint change (2: FLIP's weighted
+#: median and 95th percentile; HDR-FLIP with the ground truth's exposure range).
+MEASURE_VERSION = 2
+
+
 def _key(*parts: Any) -> str:
     return sha256_bytes(json.dumps(parts, sort_keys=True, default=str))
 
@@ -299,14 +304,25 @@ class SceneJob:
 
         def truth() -> np.ndarray:  # read the ground truth at most once per scene
             if "gt" not in cached:
+                from .metrics import hdr_exposure_range
+
                 cached["gt"] = read_exr(self.out / ref.image)[0]
+                # One HDR-FLIP exposure range per ground truth: every run's HDR-FLIP sweeps the same exposures.
+                cached["hdr_range"] = hdr_exposure_range(cached["gt"])
+                ref.flip_hdr_exposure = None if cached["hdr_range"] is None else list(cached["hdr_range"])
             return cached["gt"]
+
+        def hdr_range():
+            truth()
+            return cached["hdr_range"]
+
+        hdr_range()  # recorded with the reference even when every run's metrics are reused
 
         runs: list[RendererRun] = []
         noise_floor = None
         for spec in s.renderers:
             key, record = self._render_unit(scene, sid, spec, truth=False)
-            run = self._measure_unit(scene, sid, spec, key, record, gt_key, truth, bar)
+            run = self._measure_unit(scene, sid, spec, key, record, gt_key, truth, bar, hdr_range)
             if spec == s.ground_truth:
                 nf = run.final.metrics
                 noise_floor = NoiseFloor(method="independent-full", spp=ref.spp, seeds=[ref.seed, ref.seed + 1],
@@ -319,10 +335,10 @@ class SceneJob:
                            noise_floor=noise_floor, runs=runs)
 
     def _measure_unit(self, scene: Scene, sid: str, spec: str, render_key: str, record: dict, gt_key: str,
-                      truth, bar) -> RendererRun:
+                      truth, bar, hdr_range) -> RendererRun:
         s = self.settings
         unit = self._unit(sid, spec)
-        key = _key("measure", render_key, gt_key, s.exposure, s.tonemap, __version__)
+        key = _key("measure", render_key, gt_key, s.exposure, s.tonemap, __version__, MEASURE_VERSION)
         stored = None if self.fresh else unit.measured(key)
         if stored is not None:
             return RendererRun.from_json(stored)
@@ -334,7 +350,7 @@ class SceneJob:
         for p in tqdm(record["points"], desc="metrics", unit="checkpoint", leave=False, disable=not self.progress):
             image = read_exr(self.out / p["image"])[0]
             what = f"{scene.name}: {spec} at {record['unit']} {p['step']}"
-            metrics = _measure(gt, image, s, what, final=p is last)
+            metrics = _measure(gt, image, s, what, final=p is last, hdr_range=hdr_range())
             points.append(Point(int(p["step"]), float(p["seconds"]), metrics, p["image"], p["preview"]))
         run = RendererRun(
             renderer=spec, label=record["label"], unit=record["unit"], steps=int(record["steps"]), key=key,
@@ -347,7 +363,8 @@ class SceneJob:
         return run
 
 
-def _measure(gt: np.ndarray, image: np.ndarray, settings: RunSettings, what: str, *, final: bool) -> dict:
+def _measure(gt: np.ndarray, image: np.ndarray, settings: RunSettings, what: str, *, final: bool,
+             hdr_range: tuple[float, float] | None = None) -> dict:
     """Metrics of one checkpoint against the ground truth.
 
     HDR-FLIP runs several LDR-FLIP passes (one per exposure of its range) and
@@ -357,7 +374,8 @@ def _measure(gt: np.ndarray, image: np.ndarray, settings: RunSettings, what: str
     from .metrics import compare_images
 
     try:
-        m = compare_images(gt, image, exposure=settings.exposure, operator=settings.tonemap, flip_hdr=final)
+        m = compare_images(gt, image, exposure=settings.exposure, operator=settings.tonemap, flip_hdr=final,
+                           hdr_range=hdr_range)
     except ImageError as e:
         raise ImageError(f"{what}: {e}") from e
     m.setdefault("flip_hdr", None)

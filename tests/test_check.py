@@ -164,3 +164,28 @@ def test_a_degenerate_ground_truth_fails_the_gate_with_the_reason():
         "(LDR range 0 < 1/255: black, saturated or flat) at this exposure, so there is nothing to compare",
         "Cornell box 64x48 progressive (frame 8): ssim is undefined: the ground truth tone-maps to a constant "
         "(LDR range 0 < 1/255: black, saturated or flat) at this exposure, so there is nothing to compare"]
+
+
+def test_gate_on_flip_pooling_and_fixed_hdr_flip(tmp_path, gl_ctx):
+    """compare check bounds FLIP's weighted median and 95th percentile like any metric; compare run
+    records the ground truth's HDR-FLIP exposure range and computes every HDR-FLIP with it."""
+    from compare import run as run_mod
+    from compare.exr import read_exr
+    from compare.metrics import flip, hdr_exposure_range
+
+    res = run_mod.run([ROOT / "scenes" / "cornell.toml"], tmp_path / "r",
+                      RunSettings(frames=4, spp=8, sizes=[[32, 24]]), progress=False,
+                      cache_dir=tmp_path / "cache", gl_ctx=gl_ctx, report=False)
+    (scene,) = res.scenes
+    final = scene.run("progressive").final.metrics
+    assert 0 < final["flip_median"] <= 1 and final["flip"] <= final["flip_p95"] <= 1
+    violations, checked = check(res, rules({"renderer": "progressive", "max": {"flip_p95": final["flip_p95"] / 2,
+                                                                             "flip_median": 1.0}}))
+    assert checked == 2 and len(violations) == 1 and "flip_p95" in str(violations[0])
+    gt = read_exr(tmp_path / "r" / scene.reference.image)[0]
+    start, stop = scene.reference.flip_hdr_exposure
+    assert (start, stop) == pytest.approx(hdr_exposure_range(gt))
+    img = read_exr(tmp_path / "r" / scene.run("progressive").image)[0]
+    fixed = flip(gt, img, mode="HDR", parameters={"startExposure": start, "stopExposure": stop})[0]
+    assert final["flip_hdr"] == pytest.approx(fixed, rel=1e-6)
+    assert Results.load(tmp_path / "r" / "results.json").scenes[0].reference.flip_hdr_exposure == [start, stop]

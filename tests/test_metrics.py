@@ -54,7 +54,7 @@ def test_identical_images(reference):
     res = M.compare_images(reference, reference)
     ldr_range = res.pop("ldr_range")
     assert res == {"mse": 0.0, "relmse": 0.0, "psnr": None, "ssim": pytest.approx(1.0),
-                   "flip": 0.0, "flip_hdr": 0.0}
+                   "flip": 0.0, "flip_median": 0.0, "flip_p95": 0.0, "flip_hdr": 0.0}
     assert ldr_range > 0.5  # the checkerboard spans most of the LDR range
     json.dumps(res, allow_nan=False)  # strict JSON, psnr inf reported as null
 
@@ -275,3 +275,35 @@ def test_save_error_maps_refuses_bad_maps(tmp_path):
     with pytest.raises(ValueError, match="file name"):
         M.save_error_maps(tmp_path, {"../escape": np.zeros((2, 2))})
     assert list(tmp_path.iterdir()) == []
+
+
+# --------------------------------------------------------------------------- FLIP pooling and HDR range
+
+
+def test_flip_statistics_closed_forms():
+    # 91 pixels of error 0.1 and 9 of 0.9: the total is 9.1 + 8.1, more than half of it at 0.1
+    fmap = np.array([0.1] * 91 + [0.9] * 9).reshape(10, 10)
+    st = M.flip_statistics(fmap)
+    assert st["flip_median"] == pytest.approx(0.1)
+    assert st["flip_p95"] == pytest.approx(0.9)
+    # 50 pixels of 0.1, 50 of 0.3: three quarters of the error is in the 0.3 pixels
+    st = M.flip_statistics(np.array([0.1] * 50 + [0.3] * 50))
+    assert st["flip_median"] == pytest.approx(0.3) and st["flip_p95"] == pytest.approx(0.3)
+    assert M.flip_statistics(np.zeros((4, 4))) == {"flip_median": 0.0, "flip_p95": 0.0}
+    with pytest.raises(ImageError):
+        M.flip_statistics(np.array([0.1, np.nan]))
+
+
+def test_hdr_flip_range_is_the_references_and_fixed(reference):
+    start, stop = M.hdr_exposure_range(reference)
+    assert start < stop
+    # what FLIP chooses from the reference is what hdr_exposure_range returns ...
+    _, _, used = M.flip(reference, reference * 1.3, mode="HDR")
+    assert (used["startExposure"], used["stopExposure"]) == pytest.approx((start, stop))
+    # ... and with the range given, a test image on a black background does not move it
+    test = np.zeros_like(reference)
+    test[: reference.shape[0] // 2] = reference[: reference.shape[0] // 2]
+    fixed = M.compare_images(reference, test, hdr_range=(start, stop))["flip_hdr"]
+    assert fixed == pytest.approx(M.flip(reference, test, mode="HDR",
+                                         parameters={"startExposure": start, "stopExposure": stop})[0])
+    assert M.hdr_exposure_range(np.zeros_like(reference)) is None

@@ -71,6 +71,8 @@ _HALF_MAX = 65504.0
 #: Metrics shown in tables, in order: (key for metric_value, heading, digits).
 TABLE_METRICS = (
     ("flip", "FLIP", 4),
+    ("flip_median", "FLIP w. median", 4),
+    ("flip_p95", "FLIP p95", 4),
     ("flip_hdr", "HDR-FLIP", 4),
     ("ssim", "SSIM", 4),
     ("psnr", "PSNR (dB)", 2),
@@ -225,7 +227,9 @@ def _scene_view(scene: SceneResult, plots: dict[str, Path], out: Path, exposure:
                       "seconds": fmt_seconds(scene.reference.seconds),
                       "load": fmt_seconds(scene.reference.load_seconds),
                       "variant": scene.reference.variant, "preview": scene.reference.preview,
-                      "what": _gt_label(scene.reference), "renderer": scene.reference.renderer},
+                      "what": _gt_label(scene.reference), "renderer": scene.reference.renderer,
+                      "hdr_range": (None if scene.reference.flip_hdr_exposure is None else
+                                    [fmt_num(x, 3) for x in scene.reference.flip_hdr_exposure])},
         "noise_floor": None if nf is None else {"spp": nf.spp, "seeds": nf.seeds, "vals": _metrics_row(nf.metrics)},
         "runs": runs,
         "equal": equal,
@@ -241,7 +245,7 @@ def _scene_view(scene: SceneResult, plots: dict[str, Path], out: Path, exposure:
 #: What the reference's material mode models, in words (compare.mitsuba_dict).
 MATERIALS_NOTES = {
     "shared": "the glTF BRDF the rasterizer evaluates (GGX single scattering, Schlick Fresnel)",
-    "cycles": "Blender's Principled BSDF v2 with each material's distribution (Blender's default: Multiscatter GGX)",
+    "cycles": "Blender's Principled BSDF v2 with each material's distribution, by default Blender's Multiscatter GGX",
     "cycles-ggx": "Blender's Principled BSDF v2 with GGX (single scattering) everywhere",
     "diffuse": "Lambert only",
 }
