@@ -69,10 +69,23 @@ def _build_parser() -> argparse.ArgumentParser:
     r.add_argument("-o", "--output", required=True, type=Path, help="output EXR path")
     r.set_defaults(func=cmd_render)
 
-    d = sub.add_parser("diff", help="print error metrics of TEST against REF",
+    d = sub.add_parser("diff", help="print error metrics of TEST against REF, or z-test whether they converge "
+                                    "to one image (--ztest)",
                        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    d.add_argument("reference", type=Path, help="reference EXR")
-    d.add_argument("test", type=Path, help="test EXR")
+    d.add_argument("reference", type=Path, help="reference EXR (with --ztest: or a folder of independent renders)")
+    d.add_argument("test", type=Path, help="test EXR (with --ztest: or a folder of independent renders)")
+    d.add_argument("--ztest", action="store_true",
+                   help="per-pixel z-test (compare/ztest.py): exit status 0 when the two are consistent with one "
+                        "image, 1 when not; each side's variance comes from a folder of independent renders or "
+                        "--reference-variance / --test-variance")
+    d.add_argument("--reference-variance", type=Path, default=None, metavar="EXR",
+                   help="per-pixel variance of the reference's mean (--ztest)")
+    d.add_argument("--test-variance", type=Path, default=None, metavar="EXR",
+                   help="per-pixel variance of the test's mean (--ztest)")
+    d.add_argument("--alpha", type=float, default=0.01, help="family-wise significance level of --ztest")
+    d.add_argument("--block", type=positive_int, default=1,
+                   help="--ztest on the means of BLOCK x BLOCK tiles instead of pixels (sees changes that cover "
+                        "many pixels below the noise of one)")
     d.add_argument("--maps", type=Path, default=None, help="write error maps (PNG) into this folder")
     d.add_argument("--exposure", type=positive_float, default=1.0,
                    help="exposure before tone mapping (SSIM, LDR-FLIP)")
@@ -175,6 +188,10 @@ def cmd_diff(args: argparse.Namespace) -> int:
     from .exr import read_exr
     from .metrics import compare_images, error_maps, save_error_maps
 
+    if args.ztest:
+        return _ztest(args)
+    if args.reference_variance or args.test_variance:
+        raise UsageError("--reference-variance and --test-variance belong to --ztest")
     if args.maps:
         from .fsutil import check_output_folder
 
@@ -191,6 +208,26 @@ def cmd_diff(args: argparse.Namespace) -> int:
         for k, v in metrics.items():
             print(f"{k:<{width}}  {v:.6g}" if isinstance(v, float) else f"{k:<{width}}  {v}")
     return 0
+
+
+def _ztest(args: argparse.Namespace) -> int:
+    from .errors import ImageError
+    from .ztest import load_side, z_test
+
+    if not 0 < args.alpha < 1:
+        raise UsageError(f"--alpha: expected a level in (0, 1), got {args.alpha}")
+    ref, ref_var, ref_dof = load_side(args.reference, args.reference_variance, "reference")
+    test, test_var, test_dof = load_side(args.test, args.test_variance, "test")
+    if ref.shape != test.shape:
+        raise ImageError(f"{args.test}: {test.shape[1]}x{test.shape[0]}, but {args.reference} is "
+                         f"{ref.shape[1]}x{ref.shape[0]}")
+    if ref_var is None and test_var is None:
+        raise UsageError("--ztest needs the variance of at least one side: give a folder of independent renders "
+                         "or --reference-variance / --test-variance")
+    res = z_test(ref, 0.0 if ref_var is None else ref_var, test, 0.0 if test_var is None else test_var,
+                 alpha=args.alpha, block=args.block, dof_a=ref_dof, dof_b=test_dof)
+    print(json.dumps(res.as_dict(), indent=2) if args.json else str(res))
+    return 0 if res.passed else 1
 
 
 def main(argv: list[str] | None = None) -> int:

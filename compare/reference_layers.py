@@ -1,0 +1,222 @@
+"""Per-effect ground truths: a path tracer that writes each kind of light into its own layer.
+
+:data:`LAYERS` split the image by where its light comes from, so that a
+renderer's error can be attributed to the approximation that causes it::
+
+    image = emission + direct_area + direct_env + indirect_diffuse + indirect_specular
+
+``emission``
+    light reaching the camera straight from an emitter: area lights, emissive
+    meshes, the environment seen as background (paths of one segment).
+``direct_area`` / ``direct_env``
+    light of emitting surfaces (area lights, emissive meshes) / of the
+    environment, reflected once at the first surface the camera sees (shadowed).
+``indirect_diffuse`` / ``indirect_specular``
+    all light that bounced more than once, split by the lobe the path's first
+    bounce sampled at that first surface (diffuse, or glossy/specular).
+
+``direct_area_unshadowed`` is not part of the sum: the area lights' direct
+light without visibility (emitter sampling at the first surface with no shadow
+ray), what a renderer's unshadowed light model (LTC, the preview) converges to.
+
+:class:`LayersIntegrator` is Mitsuba's ``path`` algorithm (emitter sampling and
+BSDF sampling combined by the power heuristic, Russian roulette from depth 5),
+written in Python with Dr.Jit so that every contribution can be routed to its
+layer as it is added. The layers sum to its image exactly (the same float
+additions), and its image converges to the one of Mitsuba's ``path``
+(``tests/test_reference_layers.py`` checks both against independent renders).
+Registered as the integrator ``compare_layers``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["LAYERS", "SUM_LAYERS", "EXTRA_LAYERS", "INTEGRATOR_NAME", "register", "split_layers"]
+
+#: The layers that sum to the image, in order.
+SUM_LAYERS = ("emission", "direct_area", "direct_env", "indirect_diffuse", "indirect_specular")
+#: Layers beside the sum.
+EXTRA_LAYERS = ("direct_area_unshadowed",)
+#: Every layer the integrator writes.
+LAYERS = SUM_LAYERS + EXTRA_LAYERS
+#: Name under which :class:`LayersIntegrator` is registered.
+INTEGRATOR_NAME = "compare_layers"
+
+_REGISTERED: set[str] = set()
+
+
+def register():
+    """Register ``compare_layers`` for the active Mitsuba variant (idempotent); returns ``mitsuba``."""
+    import mitsuba as mi
+
+    variant = mi.variant()
+    if variant not in _REGISTERED:
+        cls = _make_class(mi)
+        mi.register_integrator(INTEGRATOR_NAME, lambda props, _cls=cls: _cls(props))
+        _REGISTERED.add(variant)
+    return mi
+
+
+def split_layers(channels: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """(image, {layer: image}) of a render's channels (H, W, 3 + 3 · len(LAYERS)), float32."""
+    channels = np.asarray(channels, dtype=np.float32)
+    want = 3 + 3 * len(LAYERS)
+    if channels.ndim != 3 or channels.shape[2] != want:
+        raise ValueError(f"expected (H, W, {want}) channels of the layers integrator, got {channels.shape}")
+    layers = {name: np.ascontiguousarray(channels[..., 3 + 3 * k: 6 + 3 * k]) for k, name in enumerate(LAYERS)}
+    return np.ascontiguousarray(channels[..., :3]), layers
+
+
+def mis_weight(pdf_a, pdf_b):
+    """Power-heuristic weight of strategy a against b (0 where undefined)."""
+    import drjit as dr
+
+    a2, b2 = dr.square(pdf_a), dr.square(pdf_b)
+    w = a2 / (a2 + b2)
+    return dr.select(dr.isfinite(w), w, 0)
+
+
+def infinite(emitter):
+    """Whether ``emitter`` (an EmitterPtr) is an environment."""
+    import mitsuba as mi
+
+    return mi.has_flag(emitter.flags(), mi.EmitterFlags.Infinite)
+
+
+def _make_class(mi):
+    class LayersIntegrator(mi.SamplingIntegrator):
+        """Mitsuba's path tracer with each contribution routed to its layer (see the module notes)."""
+
+        def __init__(self, props):
+            mi.SamplingIntegrator.__init__(self, props)
+            self.max_depth = int(props.get("max_depth", -1))
+            self.rr_depth = int(props.get("rr_depth", 5))
+            if self.max_depth < -1 or self.max_depth == 0:
+                raise ValueError(f"{INTEGRATOR_NAME}: max_depth must be -1 or >= 1, got {self.max_depth}")
+            self.limit = 2**31 - 1 if self.max_depth == -1 else self.max_depth
+
+        def aov_names(self):
+            return [f"{name}.{c}" for name in LAYERS for c in "RGB"]
+
+        def sample(self, scene, sampler, ray, medium=None, active=True):
+            return _sample(self, scene, sampler, ray, active)
+
+        def to_string(self):
+            return f"LayersIntegrator[max_depth = {self.max_depth}, rr_depth = {self.rr_depth}]"
+
+    return LayersIntegrator
+
+
+def _sample(self, scene, sampler, ray, active):
+    """One path (see the module notes); returns (radiance, valid, layer channels)."""
+    import drjit as dr
+    import mitsuba as mi
+
+    return _trace(mi, dr, self.limit, self.rr_depth, scene, sampler, ray, active)
+
+
+def _trace_impl(mi, dr, limit, rr_depth, scene, sampler, ray, active):
+    ctx = mi.BSDFContext()
+    ray = mi.Ray3f(ray)
+    depth = mi.UInt32(0)
+    L = mi.Spectrum(0.0)
+    emission = mi.Spectrum(0.0)
+    d_area = mi.Spectrum(0.0)
+    d_env = mi.Spectrum(0.0)
+    i_diff = mi.Spectrum(0.0)
+    i_spec = mi.Spectrum(0.0)
+    d_unshadowed = mi.Spectrum(0.0)
+    beta = mi.Spectrum(1.0)
+    eta = mi.Float(1.0)
+    first_diffuse = mi.Bool(False)
+    active = mi.Bool(active)
+    prev_si = dr.zeros(mi.SurfaceInteraction3f)
+    prev_bsdf_pdf = mi.Float(1.0)
+    prev_bsdf_delta = mi.Bool(True)
+
+    while dr.hint(active, max_iterations=limit, label="compare_layers"):
+        si = scene.ray_intersect(ray, ray_flags=mi.RayFlags.All, coherent=(depth == 0))
+
+        # Emitter hit (BSDF sampling), weighted against emitter sampling of the previous vertex.
+        ds = mi.DirectionSample3f(scene, si=si, ref=prev_si)
+        mis = mis_weight(prev_bsdf_pdf, scene.pdf_emitter_direction(prev_si, ds, ~prev_bsdf_delta))
+        le = beta * mis * ds.emitter.eval(si)
+        hit_env = infinite(ds.emitter)
+        if depth == 0:
+            emission += le
+        elif depth == 1:
+            if hit_env:
+                d_env += le
+            else:
+                d_area += le
+        elif first_diffuse:
+            i_diff += le
+        else:
+            i_spec += le
+        L += le
+
+        active_next = (depth + 1 < limit) & si.is_valid()
+        bsdf = si.bsdf(ray)
+
+        # Emitter sampling (with visibility), weighted against BSDF sampling.
+        active_em = active_next & mi.has_flag(bsdf.flags(), mi.BSDFFlags.Smooth)
+        ds_em, em_weight = scene.sample_emitter_direction(si, sampler.next_2d(), True, active_em)
+        active_em &= ds_em.pdf != 0.0
+        wo = si.to_local(ds_em.d)
+        bsdf_val, bsdf_pdf = bsdf.eval_pdf(ctx, si, wo, active_em)
+        mis_em = dr.select(ds_em.delta, 1.0, mis_weight(ds_em.pdf, bsdf_pdf))
+        lr = dr.select(active_em, beta * mis_em * bsdf_val * em_weight, 0.0)
+        em_env = infinite(ds_em.emitter)
+        if depth == 0:
+            if em_env:
+                d_env += lr
+            else:
+                d_area += lr
+        elif first_diffuse:
+            i_diff += lr
+        else:
+            i_spec += lr
+        L += lr
+
+        # The area lights' direct light without visibility, at the first surface only.
+        active_u = active_next & (depth == 0) & mi.has_flag(bsdf.flags(), mi.BSDFFlags.Smooth)
+        ds_u, w_u = scene.sample_emitter_direction(si, sampler.next_2d(), False, active_u)
+        active_u &= (ds_u.pdf != 0.0) & ~infinite(ds_u.emitter) & ~ds_u.delta
+        val_u = bsdf.eval(ctx, si, si.to_local(ds_u.d), active_u)
+        d_unshadowed += dr.select(active_u, val_u * w_u, 0.0)
+
+        # Continue the path by BSDF sampling.
+        bs, bsdf_weight = bsdf.sample(ctx, si, sampler.next_1d(), sampler.next_2d(), active_next)
+        if depth == 0:
+            first_diffuse = mi.has_flag(bs.sampled_type, mi.BSDFFlags.Diffuse)
+        ray = si.spawn_ray(si.to_world(bs.wo))
+        eta *= bs.eta
+        beta *= bsdf_weight
+        prev_si = si
+        prev_bsdf_pdf = bs.pdf
+        prev_bsdf_delta = mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta)
+
+        beta_max = dr.max(beta)
+        active_next &= beta_max != 0.0
+        rr_prob = dr.minimum(beta_max * dr.square(eta), 0.95)
+        rr_active = depth >= rr_depth
+        beta[rr_active] *= dr.rcp(rr_prob)
+        active_next &= ~rr_active | (sampler.next_1d() < rr_prob)
+        depth[si.is_valid()] += 1
+        active = active_next
+
+    aovs = []
+    for layer in (emission, d_area, d_env, i_diff, i_spec, d_unshadowed):
+        aovs += [layer[0], layer[1], layer[2]]
+    return L, mi.Bool(True), aovs
+
+
+def _trace(mi, dr, limit, rr_depth, scene, sampler, ray, active):
+    global _TRACE
+    if _TRACE is None:
+        _TRACE = dr.syntax(_trace_impl)  # transformed once: Dr.Jit loops and ifs of the path
+    return _TRACE(mi, dr, limit, rr_depth, scene, sampler, ray, active)
+
+
+_TRACE = None
