@@ -269,6 +269,35 @@ class ReferenceRenderer:
         """All checkpoints of :meth:`iter_ladder` as a list."""
         return list(self.iter_ladder(spp, seed))
 
+    def render_layers(self, spp: int, seed: int = 0) -> tuple[np.ndarray, dict[str, np.ndarray], float]:
+        """Per-effect ground truths (:mod:`compare.reference_layers`) of ``spp`` samples.
+
+        One render with the layers integrator in place of ``path`` (same scene, materials
+        and depth): returns (its image, {layer: image}, seconds). The layers of
+        :data:`~compare.reference_layers.SUM_LAYERS` sum to the image; they are not
+        cached (a run keeps them in its folder).
+        """
+        from . import reference_layers
+
+        reference_layers.register()
+        d = scene_dict(self.scene, spp=1, materials=self.materials, sampler=self.sampler,
+                       max_depth=self.max_depth, scale=self.world_scale)
+        d["integrator"] = {"type": reference_layers.INTEGRATOR_NAME, "max_depth": int(self.max_depth)}
+        scene = self.mi.load_dict(d)
+        acc = None
+        total, seconds = 0, 0.0
+        for n, chunk_seed in self._pass_chunks(derive_seed("layers", seed), 0, int(spp)):
+            t0 = time.perf_counter()
+            channels = np.array(self.mi.render(scene, spp=int(n), seed=int(chunk_seed)), dtype=np.float64)
+            seconds += time.perf_counter() - t0
+            if not np.all(np.isfinite(channels)):
+                raise ImageError(f"{self.scene.path}: the layers render of {n} spp (seed {chunk_seed}) holds "
+                                 f"{int((~np.isfinite(channels)).sum())} non-finite values")
+            acc = channels * n if acc is None else acc + channels * n
+            total += n
+        image, layers = reference_layers.split_layers((acc / total).astype(np.float32))
+        return image, layers, seconds
+
     def render(self, spp: int, seed: int = 0) -> RenderResult:
         """Render ``spp`` samples per pixel (the last checkpoint of the ladder)."""
         last = None

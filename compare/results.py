@@ -66,6 +66,9 @@ Schema 1
               "image": "runs/<id>/progressive/final.exr",
               "preview": "runs/<id>/progressive/final.png",
               "maps": {"flip": "runs/<id>/progressive/maps/flip.png", ...},
+              "layers": {"indirect_diffuse": {"flip": ..., "relmse": ..., "mean_ratio": ... | null,
+                                              "share": ..., "rendered": false, "map": "runs/..png"}, ...},
+                                                    # error per kind of light (compare/layer_metrics.py); {} if none
               "points": [                           # every checkpoint, ascending
                 {"step": 1, "seconds": 0.05,
                  "metrics": {"mse": ..., "relmse": ..., "psnr": ... | null,
@@ -373,6 +376,11 @@ class RendererRun:
         The renderer this one is a variant of (e.g. ``progressive`` for ``progressive:paper``).
     variant_note : str
         What the variant changes, for the ablation table.
+    layers : dict
+        Error per kind of light of the final image (:func:`compare.layer_metrics.layer_metrics`):
+        layer name → ``{"flip", "flip_median", "flip_p95", "relmse", "mean_ratio", "share",
+        "rendered", "map"}``; empty when the renderer gives no layers (measured on the full
+        image only) or the ground truth has none.
     """
 
     renderer: str
@@ -390,6 +398,7 @@ class RendererRun:
     points: list[Point] = field(default_factory=list)
     variant_of: str | None = None
     variant_note: str = ""
+    layers: dict[str, dict[str, Any]] = field(default_factory=dict)
 
     @property
     def family(self) -> str:
@@ -504,6 +513,7 @@ class RendererRun:
             points=[Point.from_json(p, f"{where}.points[{i}]") for i, p in enumerate(points)],
             variant_of=d.get("variant_of"),
             variant_note=str(d.get("variant_note") or ""),
+            layers={str(k): dict(v) for k, v in (d.get("layers") or {}).items()},
         )
 
 

@@ -43,7 +43,7 @@ from . import __version__
 from .errors import ImageError
 from .exr import read_exr, write_exr
 from .fsutil import sha256_bytes, write_text_atomic
-from .renderers import RenderContext, Registry, Renderer, check_rendering
+from .renderers import RenderContext, Registry, Renderer, check_layers, check_rendering
 from .results import NoiseFloor, Point, Reference, RendererRun, RunSettings, SceneResult, check_json_finite
 from .scene import Scene
 
@@ -75,9 +75,9 @@ def scene_id(scene: Scene) -> str:
     return f"{slug}-{scene.file_hash[:8]}-{w}x{h}"
 
 
-#: Part of every measurement's key: bumped when the metrics of a checkpoint change (2: FLIP's weighted
-#: median and 95th percentile; HDR-FLIP with the ground truth's exposure range).
-MEASURE_VERSION = 2
+#: Part of every measurement's key: bumped when what is measured changes (2: FLIP's weighted median
+#: and 95th percentile; HDR-FLIP with the ground truth's exposure range; 3: errors per layer).
+MEASURE_VERSION = 3
 
 
 def _key(*parts: Any) -> str:
@@ -127,7 +127,7 @@ def _paths_in(d: Any) -> Iterable[str]:
                 continue  # renderer-reported facts, not files
             if k in ("image", "preview") and isinstance(v, str):
                 yield v
-            elif k == "maps" and isinstance(v, dict):
+            elif k in ("maps", "layers") and isinstance(v, dict):
                 yield from (p for p in v.values() if isinstance(p, str))
             else:
                 yield from _paths_in(v)
@@ -250,6 +250,9 @@ class SceneJob:
                     break
             if stored is not None:
                 self._note_facts(r, stored.get("metadata") or {})
+                if truth and "layers" not in stored:  # a ground truth from before per-effect layers
+                    stored["layers"] = self._save_layers(unit, r.name, self._truth_layers(r, scene, steps, seed))
+                    unit.save_render(key, stored)
                 return key, stored
         if bar is not None:
             what = "ground truth" if truth else spec
@@ -267,11 +270,31 @@ class SceneJob:
                          exposure=self.settings.exposure, tonemap=self.settings.tonemap)
             points.append({"step": c.step, "seconds": c.seconds, "image": unit.rel(path),
                            "preview": unit.rel(path.with_suffix(".png"))})
+        layers = rendering.layers
+        if truth and not layers:  # the per-effect ground truths, a render of their own
+            layers = self._truth_layers(r, scene, steps, seed)
         record = {"renderer": r.name, "label": r.label, "unit": r.unit, "steps": int(points[-1]["step"]),
                   "seed": seed, "setup_seconds": rendering.setup_seconds, "metadata": meta,
-                  "variant_of": r.variant_of, "variant_note": r.variant_note, "points": points}
+                  "variant_of": r.variant_of, "variant_note": r.variant_note, "points": points,
+                  "layers": self._save_layers(unit, r.name, layers)}
         unit.save_render(key, record)
         return key, record
+
+    def _truth_layers(self, r: Renderer, scene: Scene, steps: int, seed: int) -> dict[str, np.ndarray]:
+        """The ground truth's per-effect layers, when its renderer makes them (``render_layers``)."""
+        make = getattr(r, "render_layers", None)  # duck-typed renderers need not have it
+        if not callable(make):
+            return {}
+        return check_layers(r.name, make(scene, steps=steps, seed=seed, context=self.context), scene)
+
+    def _save_layers(self, unit: _Unit, name: str, layers: dict[str, np.ndarray]) -> dict[str, str]:
+        """Write a unit's layers (``layer-<name>.exr``); returns name → relative path."""
+        out = {}
+        for layer, image in layers.items():
+            path = unit.dir / f"layer-{layer}.exr"
+            write_exr(path, image, metadata={"renderer": name, "layer": layer})
+            out[layer] = unit.rel(path)
+        return out
 
     def _note_facts(self, r: Renderer, meta: dict) -> None:
         for k, v in r.facts(meta).items():
@@ -318,11 +341,16 @@ class SceneJob:
 
         hdr_range()  # recorded with the reference even when every run's metrics are reused
 
+        def truth_layers() -> dict[str, np.ndarray]:  # the per-effect ground truths, read once
+            if "layers" not in cached:
+                cached["layers"] = {k: read_exr(self.out / v)[0] for k, v in (gt.get("layers") or {}).items()}
+            return cached["layers"]
+
         runs: list[RendererRun] = []
         noise_floor = None
         for spec in s.renderers:
             key, record = self._render_unit(scene, sid, spec, truth=False)
-            run = self._measure_unit(scene, sid, spec, key, record, gt_key, truth, bar, hdr_range)
+            run = self._measure_unit(scene, sid, spec, key, record, gt_key, truth, bar, hdr_range, truth_layers)
             if spec == s.ground_truth:
                 nf = run.final.metrics
                 noise_floor = NoiseFloor(method="independent-full", spp=ref.spp, seeds=[ref.seed, ref.seed + 1],
@@ -335,7 +363,7 @@ class SceneJob:
                            noise_floor=noise_floor, runs=runs)
 
     def _measure_unit(self, scene: Scene, sid: str, spec: str, render_key: str, record: dict, gt_key: str,
-                      truth, bar, hdr_range) -> RendererRun:
+                      truth, bar, hdr_range, truth_layers) -> RendererRun:
         s = self.settings
         unit = self._unit(sid, spec)
         key = _key("measure", render_key, gt_key, s.exposure, s.tonemap, __version__, MEASURE_VERSION)
@@ -358,7 +386,8 @@ class SceneJob:
             setup_seconds=float(record["setup_seconds"]), metadata=dict(record["metadata"]),
             image=points[-1].image, preview=points[-1].preview,
             maps=_maps(unit, gt, image, s), points=points,
-            variant_of=record.get("variant_of"), variant_note=record.get("variant_note") or "")
+            variant_of=record.get("variant_of"), variant_note=record.get("variant_note") or "",
+            layers=_layers(unit, truth_layers(), record, self.out, s, f"{scene.name}: {spec}"))
         unit.save_result(key, run.to_json())
         return run
 
@@ -389,6 +418,30 @@ def _maps(unit: _Unit, gt: np.ndarray, image: np.ndarray, settings: RunSettings)
     maps = error_maps(gt, image, exposure=settings.exposure, operator=settings.tonemap)
     written = save_error_maps(unit.dir / "maps", maps)
     return {name: unit.rel(path) for name, path in written.items()}
+
+
+def _layers(unit: _Unit, truth: dict[str, np.ndarray], record: dict, out: Path, settings: RunSettings,
+            what: str) -> dict[str, dict]:
+    """Errors per kind of light of a run that gives layers, with a FLIP map per layer; {} otherwise."""
+    from .layer_metrics import layer_metrics
+    from .metrics import error_maps, save_error_maps
+
+    paths = record.get("layers") or {}
+    if not truth or not paths:
+        return {}
+    try:
+        run = {k: read_exr(out / v)[0] for k, v in paths.items()}
+        result = layer_metrics(truth, run, exposure=settings.exposure, operator=settings.tonemap)
+        zero = np.zeros_like(next(iter(truth.values())))
+        for name, entry in result.items():
+            fmap = error_maps(truth[name], run.get(name, zero), exposure=settings.exposure,
+                              operator=settings.tonemap)["flip"]
+            written = save_error_maps(unit.dir / "maps", {f"layer-{name}-flip": fmap})
+            entry["map"] = unit.rel(next(iter(written.values())))
+    except ImageError as e:
+        raise ImageError(f"{what} layers: {e}") from e
+    check_json_finite(result, f"layer metrics of {what}")
+    return result
 
 
 def _display_path(path: Path) -> str:

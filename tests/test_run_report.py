@@ -85,6 +85,24 @@ class FakeReference:
     def iter_ladder(self, spp, seed=0):
         yield from self.iter_checkpoints(run_mod.checkpoint_steps(spp), seed)
 
+    def render_layers(self, spp, seed=0):
+        """Per-effect layers of the truth: the patch is emission, the rest 60 % direct, 40 % indirect."""
+        layers = _split(_truth(*self.scene.camera.resolution))
+        layers["indirect_diffuse"] = layers.pop("rest") * 0.4
+        layers["direct_area"] = layers["indirect_diffuse"] * 1.5
+        layers["direct_area_unshadowed"] = layers["direct_area"] * 1.1
+        image = layers["emission"] + layers["direct_area"] + layers["indirect_diffuse"]
+        return image, layers, 0.01
+
+
+def _split(image: np.ndarray) -> dict[str, np.ndarray]:
+    """The bright patch of _truth as emission, the rest as 'rest'."""
+    patch = np.zeros(image.shape[:2], dtype=bool)
+    h, w = image.shape[:2]
+    patch[: h // 4, w // 3: 2 * w // 3] = True
+    return {"emission": np.where(patch[..., None], image, 0).astype(np.float32),
+            "rest": np.where(patch[..., None], 0, image).astype(np.float32)}
+
 
 def fake_progressive(scene, *, frames, seed, options, checkpoints, ctx):
     """A biased, quickly converging stand-in for the progressive renderer."""
@@ -94,8 +112,10 @@ def fake_progressive(scene, *, frames, seed, options, checkpoints, ctx):
     rng = np.random.default_rng(seed + 7)
     cps = [(f, 0.002 * f, (truth + rng.normal(0, 0.05, truth.shape) / f).clip(0).astype(np.float32))
            for f in checkpoints]
+    layers = _split(cps[-1][2])
+    layers["direct_area"] = layers.pop("rest")  # the rasterizer has no indirect light
     return cps, 0.05, {"gl_renderer": "fake GL", "area_model": area_model or "radiometric", "frames": frames,
-                       "first_frame_scale": options.get("first_frame_scale", 0.5)}
+                       "first_frame_scale": options.get("first_frame_scale", 0.5)}, layers
 
 
 def fake_blender(scene, *, engine, samples, seed, ladder, distribution=None):
@@ -376,9 +396,9 @@ def test_nan_from_a_renderer_is_an_error_not_a_number(tmp_path):
     from compare.renderers import RendererError
 
     def nan_progressive(scene, **k):
-        cps, setup, meta = fake_progressive(scene, **k)
+        cps, setup, meta, layers = fake_progressive(scene, **k)
         cps[-1][2][3, 4, 1] = np.nan
-        return cps, setup, meta
+        return cps, setup, meta, layers
 
     with synthetic_renderers(progressive=nan_progressive):
         with pytest.raises(RendererError, match=r"^renderer 'progressive' at step 4: 1 pixel\(s\) are NaN or "

@@ -114,6 +114,8 @@ class ProgressiveResult:
     """str/int/float only: renderer, frames, seed, seconds, gl_renderer, area_model, ..."""
     checkpoints: list[Checkpoint] = field(default_factory=list)
     plan: Plan | None = None
+    layers: dict[str, np.ndarray] = field(default_factory=dict)
+    """The final image split by kind of light (:meth:`ProgressiveRenderer.layers`)."""
 
 
 class ProgressiveRenderer:
@@ -556,19 +558,52 @@ class ProgressiveRenderer:
             first = self.first
             fbo = self.compose.run(first.targets, first.direct if self._preview_valid else None, upsample=True)
             return read_rgb(self.ctx, fbo, what=what)
-        direct = None
+        fbo = self.compose.run(self.base, self._direct_texture(), self.env_acc,
+                               self.indirect_pass.texture if self.indirect_pass is not None else None)
+        return read_rgb(self.ctx, fbo, what=what)
+
+    def _direct_texture(self):
+        """The direct light the display shows now (a texture), or None."""
         # The preview (every light, unshadowed) stays until every light has a sample: before that
         # the direct mean would show a few lights scaled up to stand for all of them.
         if self.ltc is not None and self.ltc.gbuffer_frames > 0:
-            direct = self.ltc.compose()
-        elif (self.direct_acc is not None and self.direct_acc.count > 0
+            return self.ltc.compose()
+        if (self.direct_acc is not None and self.direct_acc.count > 0
                 and (len(self._lights_sampled) == len(self.scene.lights) or not self._preview_valid)):
-            direct = self.direct_acc.current
-        elif self._preview_valid:
-            direct = self.preview.texture if self.preview is not None else self.first.direct
-        fbo = self.compose.run(self.base, direct, self.env_acc,
-                               self.indirect_pass.texture if self.indirect_pass is not None else None)
-        return read_rgb(self.ctx, fbo, what=what)
+            return self.direct_acc.current
+        if self._preview_valid:
+            return self.preview.texture if self.preview is not None else self.first.direct
+        return None
+
+    def layers(self) -> dict[str, np.ndarray]:
+        """The displayed image split by kind of light (:mod:`compare.reference_layers`), from the
+        targets the renderer keeps: ``emission`` (the every-frame mean: emission and background),
+        ``direct_area`` (the direct light shown), ``direct_env`` (the environment light shown) and
+        ``indirect_diffuse`` (the irradiance volume's, with probes). Light it does not render
+        (indirect specular; indirect diffuse without probes) has no layer: it is zero. The
+        layers sum to :meth:`image`. Empty after a reduced frame 0 alone (a preview, no means yet).
+        """
+        if self.frame == 0:
+            raise RuntimeError("no frame rendered yet; iterate frames() or call render_frame() first")
+        if self.frame == 1 and self._reduced_first:
+            return {}
+        from .readback import read_texture_rgb
+
+        what = f"progressive render of {self.scene.path} (frame {self.frame})"
+        out = {"emission": read_texture_rgb(self.ctx, self.base.current, what=what)}
+        direct = self._direct_texture()
+        if direct is not None:
+            out["direct_area"] = read_texture_rgb(self.ctx, direct, what=what)
+        if len(self.base.textures[0]) > 1:
+            acc = self.env_acc
+            if acc is not None and min(acc.counts) > 0:
+                out["direct_env"] = (read_texture_rgb(self.ctx, acc.current(0), what=what)
+                                     + read_texture_rgb(self.ctx, acc.current(1), what=what))
+            else:
+                out["direct_env"] = read_texture_rgb(self.ctx, self.base.current_of(1), what=what)
+        if self.indirect_pass is not None:
+            out["indirect_diffuse"] = read_texture_rgb(self.ctx, self.indirect_pass.texture, what=what)
+        return out
 
     def reset(self) -> None:
         """Start the plan again (same seed, same image)."""
@@ -702,4 +737,5 @@ def render_progressive(scene, *, frames: int = DEFAULT_FRAMES, seed: int = 0, ar
             metadata=r.metadata(),
             checkpoints=taken,
             plan=r.plan,
+            layers=r.layers(),
         )

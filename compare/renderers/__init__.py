@@ -6,7 +6,8 @@ through :class:`~compare.renderers.registry.Registry` and the protocol of
 for renderer authors.
 """
 
-from .base import Checkpoint, RenderContext, Renderer, RendererError, Rendering, check_rendering, doubling_steps
+from .base import (Checkpoint, RenderContext, Renderer, RendererError, Rendering, check_layers, check_rendering,
+                   doubling_steps)
 from .registry import ENTRY_POINT_GROUP, TABLE_1, Registry
 
 __all__ = [
@@ -18,6 +19,7 @@ __all__ = [
     "RendererError",
     "Registry",
     "Rendering",
+    "check_layers",
     "check_rendering",
     "doubling_steps",
 ]

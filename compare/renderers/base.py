@@ -23,7 +23,12 @@ A renderer of the suite, built in or plugged in, is an object with
 :meth:`Renderer.render`
     renders a scene (its camera's resolution) with a seed and returns a
     :class:`Rendering`: :class:`Checkpoint` s (step, cumulative seconds, linear
-    float32 H×W×3 image), set-up seconds outside those and flat metadata.
+    float32 H×W×3 image), set-up seconds outside those and flat metadata, and
+    optionally the final image split by kind of light (``layers``, the names of
+    :mod:`compare.reference_layers`), which the report measures layer by layer;
+:meth:`Renderer.render_layers`
+    optional: those layers as a render of their own, made when the renderer is the
+    ground truth (the Mitsuba reference's per-effect ground truths).
 
 Checkpoints are checked here (:func:`check_rendering`), once for every renderer:
 the steps asked for, ascending times, the scene's size, finite pixels. A broken renderer gets one :class:`RendererError` naming it.
@@ -39,7 +44,8 @@ import numpy as np
 
 from ..errors import CompareError
 
-__all__ = ["UNITS", "Checkpoint", "RenderContext", "Renderer", "RendererError", "Rendering", "check_rendering", "doubling_steps"]
+__all__ = ["UNITS", "Checkpoint", "RenderContext", "Renderer", "RendererError", "Rendering", "check_layers",
+           "check_rendering", "doubling_steps"]
 
 #: What a step may count.
 UNITS = ("spp", "frame", "sample")
@@ -65,6 +71,9 @@ class Rendering:
     checkpoints: list[Checkpoint]
     setup_seconds: float = 0.0
     metadata: dict[str, Any] = field(default_factory=dict)
+    #: The last checkpoint's image split by kind of light: layer name (compare.reference_layers.LAYERS)
+    #: → H×W×3 image. A layer left out is light the renderer does not render (zero).
+    layers: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 class RenderContext:
@@ -168,6 +177,11 @@ class Renderer:
         """Render ``scene`` with ``seed``; a checkpoint at every step of ``checkpoints`` (the last is ``steps``)."""
         raise NotImplementedError
 
+    def render_layers(self, scene, *, steps: int, seed: int, context: RenderContext) -> dict[str, np.ndarray]:
+        """Per-effect layers of a ``steps`` render made for them alone (for a ground truth whose
+        :meth:`render` gives none); default: none."""
+        return {}
+
     def benchmarks(self) -> dict[str, Any]:
         """``compare bench`` items about this renderer's own internals: name → a function
         ``(scene, *, frames, spp, repeats, context) -> list[compare.figures.Figure]``."""
@@ -227,4 +241,28 @@ def check_rendering(renderer: Renderer, rendering: Any, *, scene, checkpoints: l
                                 f"(first at x={x}, y={y})")
         if int(c.step) in checkpoints:
             out.append(Checkpoint(int(c.step), float(t), img))
-    return Rendering(out, float(rendering.setup_seconds), dict(rendering.metadata or {}))
+    return Rendering(out, float(rendering.setup_seconds), dict(rendering.metadata or {}),
+                     check_layers(name, rendering.layers, scene))
+
+
+def check_layers(name: str, layers: Any, scene) -> dict[str, np.ndarray]:
+    """A renderer's layers as float32 images, each named, of the scene's size and finite."""
+    from ..reference_layers import LAYERS
+
+    if not layers:
+        return {}
+    if not isinstance(layers, dict):
+        raise RendererError(f"renderer {name!r}: layers must be a dict of name → image, got {type(layers).__name__}")
+    w, h = scene.camera.resolution
+    out = {}
+    for key, img in layers.items():
+        if key not in LAYERS:
+            raise RendererError(f"renderer {name!r}: unknown layer {key!r} (layers: {', '.join(LAYERS)})")
+        img = np.asarray(img)
+        if img.ndim != 3 or img.shape[:2] != (h, w) or img.shape[2] < 3:
+            raise RendererError(f"renderer {name!r}: layer {key!r} has shape {img.shape}, expected ({h}, {w}, 3)")
+        img = np.ascontiguousarray(img[..., :3], dtype=np.float32)
+        if not np.all(np.isfinite(img)):
+            raise RendererError(f"renderer {name!r}: layer {key!r} holds NaN or infinite values")
+        out[key] = img
+    return out

@@ -93,6 +93,11 @@ class MitsubaRenderer(Renderer):
         meta = {"variant": rr.variant, "seed": seed, **rr.settings()}
         return Rendering(out, float(rr.load_seconds), meta)
 
+    def render_layers(self, scene, *, steps: int, seed: int, context: RenderContext) -> dict:
+        """The per-effect ground truths (compare.reference_layers) at the ground truth's spp."""
+        _, layers, _ = self._reference(scene, context).render_layers(steps, seed)
+        return layers
+
     def facts(self, metadata: dict) -> dict[str, str]:
         v = metadata.get("variant")
         return {"mitsuba_variant": v} if isinstance(v, str) else {}

@@ -47,8 +47,8 @@ def _create_gl_context():
 
 
 def _progressive_checkpoints(scene, *, frames: int, seed: int, options: dict, checkpoints: list[int],
-                             ctx) -> tuple[list[tuple[int, float, np.ndarray]], float, dict]:
-    """Run the progressive renderer; returns (checkpoints, setup seconds, metadata).
+                             ctx) -> tuple[list[tuple[int, float, np.ndarray]], float, dict, dict]:
+    """Run the progressive renderer; returns (checkpoints, setup seconds, metadata, final layers).
 
     ``setup`` is the renderer's own set-up time or else the wall time of the
     call minus its timed frames (context-side set-up, shader compilation,
@@ -68,7 +68,7 @@ def _progressive_checkpoints(scene, *, frames: int, seed: int, options: dict, ch
     setup = meta.get("setup_seconds")
     if not isinstance(setup, (int, float)) or not np.isfinite(setup):
         setup = max(0.0, wall - float(result.seconds))
-    return cps, float(setup), meta
+    return cps, float(setup), meta, dict(result.layers)
 
 
 class ProgressiveRenderer(Renderer):
@@ -111,12 +111,12 @@ class ProgressiveRenderer(Renderer):
 
     def render(self, scene, *, steps: int, checkpoints: list[int], seed: int, context: RenderContext) -> Rendering:
         ctx = context.resource("gl", _create_gl_context, lambda c: c.release())
-        cps, setup, meta = _progressive_checkpoints(scene, frames=steps, seed=seed, options=self.options,
-                                                    checkpoints=list(checkpoints), ctx=ctx)
+        cps, setup, meta, layers = _progressive_checkpoints(scene, frames=steps, seed=seed, options=self.options,
+                                                            checkpoints=list(checkpoints), ctx=ctx)
         if self.open_ended:  # the budget decided the count: keep what was asked for below it and the end
             done = cps[-1][0]
             cps = [c for c in cps if c[0] in checkpoints and c[0] < done] + [cps[-1]]
-        return Rendering([Checkpoint(s, t, img) for s, t, img in cps], setup, meta)
+        return Rendering([Checkpoint(s, t, img) for s, t, img in cps], setup, meta, layers)
 
     def benchmarks(self) -> dict:
         if self.name != "progressive":

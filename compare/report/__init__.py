@@ -235,6 +235,7 @@ def _scene_view(scene: SceneResult, plots: dict[str, Path], out: Path, exposure:
         "equal": equal,
         "ablations": _ablations(scene, baseline),
         "likeness": _likeness(scene),
+        "layers": _layers(scene),
         "plots": {k: rel(v) for k, v in plots.items()},
         "viewer": viewer,
         "viewer_right": right,
@@ -249,6 +250,38 @@ MATERIALS_NOTES = {
     "cycles-ggx": "Blender's Principled BSDF v2 with GGX (single scattering) everywhere",
     "diffuse": "Lambert only",
 }
+
+
+#: Layer headings of the per-effect table (compare.reference_layers).
+LAYER_TITLES = {"emission": "emission", "direct_area": "direct, area lights", "direct_env": "direct, environment",
+                "indirect_diffuse": "indirect diffuse", "indirect_specular": "indirect specular",
+                "direct_area_unshadowed": "direct, area lights, unshadowed"}
+
+
+def _layers(scene: SceneResult) -> dict | None:
+    """The per-effect table: each run with layers × each layer (share of the error, FLIP, relMSE, mean
+    ratio, FLIP map); the runs measured on the full image only; None when the ground truth has no layers."""
+    names = next((list(r.layers) for r in scene.runs if r.layers), None)
+    if names is None:
+        return None
+    rows = []
+    for run in scene.runs:
+        if not run.layers:
+            continue
+        cells = []
+        for name in names:
+            e = run.layers.get(name, {})
+            share = e.get("share")
+            cells.append({"share": "—" if share is None else f"{100 * share:.1f} %",
+                          "flip": fmt_num(e.get("flip"), 3), "relmse": fmt_num(e.get("relmse"), 3),
+                          "ratio": fmt_num(e.get("mean_ratio"), 3), "rendered": bool(e.get("rendered")),
+                          "map": e.get("map")})
+        top = max((n for n in names if run.layers.get(n, {}).get("share") is not None),
+                  key=lambda n: run.layers[n]["share"], default=None)
+        rows.append({"label": run.label, "cells": cells, "top": LAYER_TITLES.get(top, top) if top else None,
+                     "top_share": (f"{100 * run.layers[top]['share']:.0f} %" if top else None)})
+    return {"names": [LAYER_TITLES.get(n, n) for n in names], "rows": rows,
+            "full_only": [r.label for r in scene.runs if not r.layers and r.renderer != scene.reference.renderer]}
 
 
 def _likeness(scene: SceneResult) -> dict | None:
@@ -352,6 +385,7 @@ def _referenced(results: Results) -> list[str]:
         for r in s.runs:
             paths += [p for p in (r.image, r.preview) if p]
             paths += list(r.maps.values())
+            paths += [e["map"] for e in r.layers.values() if isinstance(e.get("map"), str)]
             for pt in r.points:
                 paths += [p for p in (pt.image, pt.preview) if p]
     return paths
