@@ -621,3 +621,21 @@ def test_image_sizes_beyond_the_context_are_refused_up_front(gl_ctx, monkeypatch
     with pytest.raises(SceneError, match=r"camera.resolution: 16x12 needs about \d+ GiB of render targets, more "
                                          r"than this machine's \d+ GiB of memory"):
         ProgressiveRenderer(load_scene(CORNELL).with_resolution(16, 12), frames=2, ctx=gl_ctx)
+
+
+@pytest.mark.parametrize("scene_file, options", [
+    ("cornell.toml", {}),
+    ("cornell.toml", {"area_model": "ltc"}),
+    ("car.toml", {}),  # environment: occluded diffuse and specular means
+    ("kitchen.toml", {"indirect": "probes"}),  # irradiance volume
+])
+def test_layers_sum_to_the_displayed_image(gl_ctx, scene_file, options):
+    """The rasterizer's layers (compare.reference_layers names) are its targets, and sum to its image."""
+    scene = load_scene(Path(__file__).resolve().parent.parent / "scenes" / scene_file).with_resolution(40, 30)
+    res = render_progressive(scene, frames=12, ctx=gl_ctx, **options)
+    layers = res.layers
+    assert "emission" in layers and "direct_area" in layers
+    assert ("direct_env" in layers) == scene.features().environment
+    assert ("indirect_diffuse" in layers) == (options.get("indirect") == "probes")
+    assert "indirect_specular" not in layers  # it renders none
+    np.testing.assert_allclose(sum(layers.values()), res.image, rtol=1e-6, atol=1e-6)

@@ -701,3 +701,28 @@ def test_output_folder_is_held_while_in_use_and_killed_writes_are_swept(tmp_path
     with pytest.warns(UserWarning, match=r"removed 1 half-written file\(s\) an interrupted run left behind"):
         synthetic_report(out, [CORNELL], report=False)
     assert not stale.exists()
+
+
+def test_cornell_error_by_kind_of_light(tmp_path, gl_ctx):
+    """compare run measures the rasterizer layer by layer against the reference's per-effect ground
+    truths: on the Cornell box most of its error is the indirect diffuse light it does not render;
+    a renderer without layers (an external command) is measured on the full image only."""
+    from compare.report import build_report
+
+    settings = RunSettings(frames=16, spp=64, sizes=[[48, 36]],
+                           renderers=["mitsuba", "progressive", "numpy-raycaster"],
+                           renderer_config=str(ROOT / "examples" / "renderers.toml"))
+    res = run_mod.run([CORNELL], tmp_path / "out", settings, progress=False, cache_dir=tmp_path / "cache",
+                      gl_ctx=gl_ctx, report=False)
+    (scene,) = res.scenes
+    layers = scene.run("progressive").layers
+    shares = {n: e["share"] for n, e in layers.items() if "share" in e}
+    assert sum(shares.values()) == pytest.approx(1.0, abs=1e-9)
+    assert max(shares, key=shares.get) == "indirect_diffuse" and shares["indirect_diffuse"] > 0.5, shares
+    assert not layers["indirect_diffuse"]["rendered"] and layers["direct_area"]["rendered"]
+    assert 0.8 < layers["direct_area"]["mean_ratio"] < 1.2
+    assert all((tmp_path / "out" / e["map"]).is_file() for e in layers.values())
+    assert scene.run("numpy-raycaster").layers == {} and scene.run("mitsuba").layers == {}
+    html = build_report(res, tmp_path / "out").read_text()
+    assert "Error by kind of light" in html and "most error: indirect diffuse" in html
+    assert "Measured on the full image only (they give no layers): " in html
