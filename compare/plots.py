@@ -23,6 +23,7 @@ from .results import Results, SceneResult, metric_value
 __all__ = [
     "PLOT_METRICS",
     "Comparison",
+    "bias_figure",
     "equal_error",
     "equal_time",
     "error_figure",
@@ -229,6 +230,51 @@ def equal_figure(scene: SceneResult, path: str | Path, metric: str = "flip") -> 
     return path
 
 
+def bias_figure(scene: SceneResult, path: str | Path) -> Path | None:
+    """Squared bias (with its 95 % interval) and variance beside the relMSE, against seconds, one
+    panel per run that has the split (``settings.seeds`` >= 2, :mod:`compare.bias`); None if none has."""
+    runs = [r for r in scene.runs if any("rel_bias2" in p.metrics for p in r.points)]
+    if not runs:
+        return None
+    path = Path(path)
+    fig = _new_figure(4.2 * len(runs), 3.6)
+    axes = fig.subplots(1, len(runs), squeeze=False)[0]
+    for ax, run in zip(axes, runs):
+        pts = [p for p in run.points if "rel_bias2" in p.metrics and p.seconds > 0]
+        ts = [p.seconds for p in pts]
+        mse = [p.metrics["relmse_mean"] for p in pts]
+        var = [p.metrics["rel_variance"] for p in pts]
+        b2 = [p.metrics["rel_bias2"] for p in pts]
+        ci = [p.metrics["rel_bias2_ci"] for p in pts]
+        ax.plot(ts, mse, "o-", ms=4, lw=1.4, label="relMSE")
+        ax.plot(ts, var, "s--", ms=3, lw=1.2, label="variance (noise)")
+        # A log axis shows no zero or negative estimate: those sit on a floor a hundredth of the
+        # smallest variance, hollow when the interval holds 0 (no bias found), filled when biased.
+        floor = 0.01 * min([v for v in var + mse if v > 0] or [1e-12])
+        ax.plot(ts, [max(b, floor) for b in b2], "-", color="C2", lw=1.4, label="bias²")
+        found = [b - c > 0 for b, c in zip(b2, ci)]
+        ax.plot([t for t, f in zip(ts, found) if f], [b for b, f in zip(b2, found) if f], "^", color="C2", ms=5)
+        ax.plot([t for t, f in zip(ts, found) if not f], [max(b, floor) for b, f in zip(b2, found) if not f], "^",
+                mfc="none", color="C2", ms=5, label="bias² within its interval of 0")
+        lo = [max(b - c, floor) for b, c in zip(b2, ci)]
+        hi = [max(b + c, floor) for b, c in zip(b2, ci)]
+        ax.fill_between(ts, lo, hi, alpha=0.2, color="C2", label="bias² 95 % interval")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        from matplotlib.ticker import NullFormatter
+
+        ax.xaxis.set_minor_formatter(NullFormatter())
+        ax.set_xlabel("seconds (cumulative)")
+        ax.set_ylabel("relMSE")
+        ax.set_title(_text(f"{run.label} ({pts[0].metrics.get('seeds', '')} seeds)" if pts else run.label),
+                     fontsize=9)
+        ax.grid(True, which="both", alpha=0.25)
+    axes[0].legend(fontsize=7, loc="best")
+    fig.suptitle(_text(f"{scene.name} — {scene.size}: bias against noise"), fontsize=11)
+    _save(fig, path)
+    return path
+
+
 def make_plots(results: Results, out_dir: str | Path, *, fmt: str = "png") -> dict[str, dict[str, Path]]:
     """Draw every figure of a result set.
 
@@ -244,7 +290,8 @@ def make_plots(results: Results, out_dir: str | Path, *, fmt: str = "png") -> di
     Returns
     -------
     dict
-        Scene id → ``{"error": path, "equal": path}``.
+        Scene id → ``{"error": path, "equal": path}``, and ``"bias"`` where a run has the
+        bias/variance split.
     """
     if fmt not in ("png", "svg"):
         raise ValueError(f"fmt: expected 'png' or 'svg', got {fmt!r}")
@@ -255,4 +302,7 @@ def make_plots(results: Results, out_dir: str | Path, *, fmt: str = "png") -> di
             "error": error_figure(scene, out_dir / f"{scene.id}-error.{fmt}"),
             "equal": equal_figure(scene, out_dir / f"{scene.id}-equal.{fmt}"),
         }
+        bias = bias_figure(scene, out_dir / f"{scene.id}-bias.{fmt}")
+        if bias is not None:
+            made[scene.id]["bias"] = bias
     return made

@@ -19,7 +19,7 @@ Schema 1
         "renderers": ["mitsuba", "progressive"],
         "sizes": [[320, 240]],                      # [] = each scene's own resolution
         "exposure": 1.0, "tonemap": "aces", "materials": "shared",
-        "cycles_spp": 1024, "eevee_samples": 64, "likeness": true,
+        "cycles_spp": 1024, "eevee_samples": 64, "likeness": true, "seeds": 1,
         "ground_truth": "mitsuba",                  # the renderer every run is measured against
         "baseline": "progressive",                  # the ablation table's baseline
         "renderer_config": null                     # a renderer TOML file, or null
@@ -74,7 +74,11 @@ Schema 1
                  "metrics": {"mse": ..., "relmse": ..., "psnr": ... | null,
                              "ssim": ..., "flip": ...,
                              "flip_median": ..., "flip_p95": ...,  # FLIP's weighted median, 95th percentile
-                             "flip_hdr": ... | null},   # last checkpoint only (cost); the reference's range
+                             "flip_hdr": ... | null,   # last checkpoint only (cost); the reference's range
+                             "mse_mean": ..., "variance": ..., "bias2": ..., "bias2_ci": ...,
+                             "truth_variance": ..., "seeds": K,     # with settings.seeds >= 2 (compare/bias.py)
+                             "relmse_mean": ..., "rel_variance": ..., "rel_bias2": ..., "rel_bias2_ci": ...,
+                             "rel_truth_variance": ...},            # the same in relMSE units
                  "image": "runs/<id>/progressive/step-0001.exr",
                  "preview": "runs/<id>/progressive/step-0001.png"}
               ]
@@ -229,6 +233,10 @@ class RunSettings:
         Cycles-like against the ``cycles`` (``cycles:ggx``) run
         (one more Cycles render and two Mitsuba passes at ``cycles_spp``, so it roughly
         triples the Cycles unit's cost; turn it off for large Table 1 runs).
+    seeds : int
+        Independent runs of every renderer (seeds differ); with 2 or more each checkpoint also
+        gets the split of its error into squared bias and variance (:mod:`compare.bias`:
+        ``mse_mean``, ``variance``, ``bias2``, ``bias2_ci`` among its metrics).
     ground_truth : str
         The renderer whose full-budget render (seed ``seed``) every run is measured
         against; its own run, if listed, uses seed ``seed + 1`` and gives the noise floor.
@@ -249,6 +257,7 @@ class RunSettings:
     cycles_spp: int = 1024
     eevee_samples: int = 64
     likeness: bool = True
+    seeds: int = 1
     ground_truth: str = "mitsuba"
     baseline: str = "progressive"
     renderer_config: str | None = None

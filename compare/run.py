@@ -372,6 +372,9 @@ def add_run_parser(subparsers) -> argparse.ArgumentParser:
                    help="with --materials cycles (cycles-ggx), skip the Cycles-likeness measurement (it renders Cycles once more "
                         "and Mitsuba twice with as many samples as give it Cycles' noise: about three times the "
                         "Cycles unit's cost)")
+    p.add_argument("--seeds", type=positive_int, default=1,
+                   help="independent runs of every renderer (different seeds); 2 or more split each checkpoint's "
+                        "error into squared bias and variance (compare/bias.py), at that many times the cost")
     p.add_argument("--fresh", action="store_true", help="redo finished units instead of reusing them (also into "
                                                          "a folder that holds the results of other settings)")
     p.add_argument("--update", action="store_true",
@@ -400,7 +403,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     settings = RunSettings(frames=args.frames, spp=args.spp, seed=args.seed, renderers=renderers,
                            sizes=[list(s) for s in (args.size or [])], exposure=args.exposure, tonemap="aces",
                            materials=args.materials, cycles_spp=args.cycles_spp, eevee_samples=args.eevee_samples,
-                           likeness=args.likeness, ground_truth=args.ground_truth, baseline=args.baseline,
+                           likeness=args.likeness, seeds=args.seeds, ground_truth=args.ground_truth,
+                           baseline=args.baseline,
                            renderer_config=config)
     scenes = args.scenes if isinstance(args.scenes, list) else [args.scenes]  # the default is one Path
     out = args.output or Path("reports") / scenes[0].stem

@@ -80,6 +80,10 @@ def scene_id(scene: Scene) -> str:
 MEASURE_VERSION = 3
 
 
+#: Seed offset between a renderer's independent runs (settings.seeds).
+REPLICA_SEED_STRIDE = 7919
+
+
 def _key(*parts: Any) -> str:
     return sha256_bytes(json.dumps(parts, sort_keys=True, default=str))
 
@@ -205,21 +209,30 @@ class SceneJob:
         self.facts: dict[str, str] = {}
         # (scene id, renderer, role) -> (key, record) of what this process rendered or found finished:
         # the measure stage does not compute the keys or read render.json again
-        self._done: dict[tuple[str, str, bool], tuple[str, dict]] = {}
+        self._done: dict[tuple[str, str, bool, int], tuple[str, dict]] = {}
 
     def _unit(self, sid: str, name: str) -> _Unit:
         safe = re.sub(r"[^a-z0-9_-]+", "-", name.lower())  # "progressive:paper" -> "progressive-paper"
         return _Unit(self.out, self.out / "runs" / sid / safe)
 
-    def _plan(self, spec: str, *, truth: bool) -> tuple[Renderer, int, list[int], int]:
-        """(renderer, steps, checkpoints, seed) of the ground truth or of a run."""
+    def _plan(self, spec: str, *, truth: bool, replica: int = 0) -> tuple[Renderer, int, list[int], int]:
+        """(renderer, steps, checkpoints, seed) of the ground truth or of a run (``replica`` k >= 1:
+        the k-th further independent run, for the bias/variance split)."""
         s = self.settings
         r = self.registry.get(spec)
         steps = int(r.steps(s))
         if truth:
             return r, steps, [steps], s.seed
         # the ground-truth renderer's own run is independent of the ground truth (noise floor)
-        return r, steps, list(r.checkpoints(steps)), s.seed + (1 if spec == s.ground_truth else 0)
+        seed = s.seed + (1 if spec == s.ground_truth else 0) + REPLICA_SEED_STRIDE * replica
+        return r, steps, list(r.checkpoints(steps)), seed
+
+    def _replicas(self, spec: str) -> int:
+        """Further independent runs of ``spec`` the settings ask for (none for an open-ended renderer,
+        whose runs would not share their checkpoints)."""
+        if self.settings.seeds < 2 or getattr(self.registry.get(spec), "open_ended", False):
+            return 0
+        return int(self.settings.seeds) - 1
 
     def _render_key(self, scene: Scene, r: Renderer, steps: int, checkpoints: list[int], seed: int,
                     key: Any = None) -> str:
@@ -230,15 +243,18 @@ class SceneJob:
 
     # -- stage 1: render ------------------------------------------------------------------------
 
-    def _render_unit(self, scene: Scene, sid: str, spec: str, *, truth: bool, bar=None) -> tuple[str, dict]:
+    def _render_unit(self, scene: Scene, sid: str, spec: str, *, truth: bool, bar=None,
+                     replica: int = 0) -> tuple[str, dict]:
         """Render one unit unless a finished render with the same key is there; returns (key, record)."""
-        if (sid, spec, truth) not in self._done:
-            self._done[(sid, spec, truth)] = self._find_or_render(scene, sid, spec, truth=truth, bar=bar)
-        return self._done[(sid, spec, truth)]
+        if (sid, spec, truth, replica) not in self._done:
+            self._done[(sid, spec, truth, replica)] = self._find_or_render(scene, sid, spec, truth=truth, bar=bar,
+                                                                           replica=replica)
+        return self._done[(sid, spec, truth, replica)]
 
-    def _find_or_render(self, scene: Scene, sid: str, spec: str, *, truth: bool, bar) -> tuple[str, dict]:
-        r, steps, cps, seed = self._plan(spec, truth=truth)
-        unit = self._unit(sid, "reference" if truth else spec)
+    def _find_or_render(self, scene: Scene, sid: str, spec: str, *, truth: bool, bar,
+                        replica: int = 0) -> tuple[str, dict]:
+        r, steps, cps, seed = self._plan(spec, truth=truth, replica=replica)
+        unit = self._unit(sid, "reference" if truth else spec if not replica else f"{spec}-seed{replica}")
         key = self._render_key(scene, r, steps, cps, seed)
         if not self.fresh:
             stored = unit.rendered(key)
@@ -308,6 +324,8 @@ class SceneJob:
             bar.update(1)
         for spec in self.settings.renderers:
             self._render_unit(scene, sid, spec, truth=False, bar=bar)
+            for k in range(1, self._replicas(spec) + 1):
+                self._render_unit(scene, sid, spec, truth=False, bar=bar, replica=k)
             if bar is not None:
                 bar.update(1)
 
@@ -356,6 +374,16 @@ class SceneJob:
                 noise_floor = NoiseFloor(method="independent-full", spp=ref.spp, seeds=[ref.seed, ref.seed + 1],
                                          metrics=dict(nf), mse_reference_estimate=float(nf["mse"]) / 2.0)
             runs.append(run)
+        if noise_floor is not None:  # the ground truth's own variance is no bias of the runs (compare.bias)
+            for run in runs:
+                for p in run.points:
+                    if "bias2" in p.metrics:
+                        rel_floor = noise_floor.metrics.get("relmse")
+                        p.metrics["truth_variance"] = noise_floor.mse_reference_estimate
+                        p.metrics["bias2"] -= noise_floor.mse_reference_estimate
+                        if rel_floor is not None:
+                            p.metrics["rel_truth_variance"] = rel_floor / 2.0
+                            p.metrics["rel_bias2"] -= rel_floor / 2.0
         w, h = scene.camera.resolution
         feats = scene.features()
         return SceneResult(id=sid, name=scene.name, path=_display_path(scene.path), hash=scene.hash, width=w,
@@ -366,7 +394,10 @@ class SceneJob:
                       truth, bar, hdr_range, truth_layers) -> RendererRun:
         s = self.settings
         unit = self._unit(sid, spec)
-        key = _key("measure", render_key, gt_key, s.exposure, s.tonemap, __version__, MEASURE_VERSION)
+        replicas = [self._render_unit(scene, sid, spec, truth=False, replica=k)
+                    for k in range(1, self._replicas(spec) + 1)]
+        key = _key("measure", render_key, gt_key, s.exposure, s.tonemap, __version__, MEASURE_VERSION,
+                   [k for k, _ in replicas])
         stored = None if self.fresh else unit.measured(key)
         if stored is not None:
             return RendererRun.from_json(stored)
@@ -375,10 +406,20 @@ class SceneJob:
         gt = truth()
         points: list[Point] = []
         last = record["points"][-1]
+        others = [{q["step"]: q["image"] for q in rec["points"]} for _, rec in replicas]
         for p in tqdm(record["points"], desc="metrics", unit="checkpoint", leave=False, disable=not self.progress):
             image = read_exr(self.out / p["image"])[0]
             what = f"{scene.name}: {spec} at {record['unit']} {p['step']}"
             metrics = _measure(gt, image, s, what, final=p is last, hdr_range=hdr_range())
+            if others and all(p["step"] in o for o in others):
+                from .bias import bias_variance
+
+                stack = np.stack([image] + [read_exr(self.out / o[p["step"]])[0] for o in others])
+                b = bias_variance(stack, gt)
+                rel = bias_variance(stack, gt, relative=True)
+                metrics.update(mse_mean=b["mse"], variance=b["variance"], bias2=b["bias2"], bias2_ci=b["bias2_ci"],
+                               relmse_mean=rel["mse"], rel_variance=rel["variance"], rel_bias2=rel["bias2"],
+                               rel_bias2_ci=rel["bias2_ci"], seeds=b["seeds"])
             points.append(Point(int(p["step"]), float(p["seconds"]), metrics, p["image"], p["preview"]))
         run = RendererRun(
             renderer=spec, label=record["label"], unit=record["unit"], steps=int(record["steps"]), key=key,

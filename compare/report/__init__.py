@@ -49,6 +49,7 @@ from __future__ import annotations
 import argparse
 import base64
 import json
+import math
 import os
 import shutil
 from pathlib import Path
@@ -236,6 +237,8 @@ def _scene_view(scene: SceneResult, plots: dict[str, Path], out: Path, exposure:
         "ablations": _ablations(scene, baseline),
         "likeness": _likeness(scene),
         "layers": _layers(scene),
+        "noise_check": _noise_check(scene),
+        "bias": _bias(scene),
         "plots": {k: rel(v) for k, v in plots.items()},
         "viewer": viewer,
         "viewer_right": right,
@@ -282,6 +285,55 @@ def _layers(scene: SceneResult) -> dict | None:
                      "top_share": (f"{100 * run.layers[top]['share']:.0f} %" if top else None)})
     return {"names": [LAYER_TITLES.get(n, n) for n in names], "rows": rows,
             "full_only": [r.label for r in scene.runs if not r.layers and r.renderer != scene.reference.renderer]}
+
+
+#: The ground truth is converged enough to judge a run when its noise floor's relMSE is at most this
+#: fraction of the smallest relMSE it judges.
+NOISE_FRACTION = 0.1
+
+
+def _noise_check(scene: SceneResult) -> dict | None:
+    """How the ground truth's own noise compares with the errors it judges (relMSE, additive in noise):
+    the fraction of the smallest, the spp that would bring it to :data:`NOISE_FRACTION`, and the runs
+    whose error is within the noise floor (which then cannot tell them from the ground truth)."""
+    nf = scene.noise_floor
+    if nf is None:
+        return None
+    floor = nf.metrics.get("relmse")
+    judged = [r for r in scene.runs if r.renderer != scene.reference.renderer and r.points
+              and r.final.metrics.get("relmse") is not None]
+    if floor is None or not judged:
+        return None
+    smallest = min(judged, key=lambda r: r.final.metrics["relmse"])
+    err = smallest.final.metrics["relmse"]
+    fraction = floor / err if err > 0 else float("inf")
+    within = []
+    for r in judged:
+        m, f = r.final.metrics, nf.metrics
+        if m["relmse"] <= floor or (m.get("flip") is not None and f.get("flip") is not None and m["flip"] <= f["flip"]):
+            within.append(r.label)
+    need = None
+    if fraction > NOISE_FRACTION and scene.reference.unit == "spp" and math.isfinite(fraction):
+        need = int(math.ceil(scene.reference.spp * fraction / NOISE_FRACTION))
+    return {"fraction": f"{100 * fraction:.1f} %" if math.isfinite(fraction) else "∞",
+            "ok": fraction <= NOISE_FRACTION, "target": f"{100 * NOISE_FRACTION:.0f} %",
+            "smallest": smallest.label, "smallest_relmse": fmt_num(err, 3), "floor": fmt_num(floor, 3),
+            "need_spp": need, "within": within}
+
+
+def _bias(scene: SceneResult) -> list[dict]:
+    """The bias/variance split at each run's final checkpoint (settings.seeds >= 2)."""
+    rows = []
+    for r in scene.runs:
+        m = r.final.metrics if r.points else {}
+        if "rel_bias2" not in m:
+            continue
+        b, ci = m["rel_bias2"], m["rel_bias2_ci"]
+        rows.append({"label": r.label, "seeds": m.get("seeds"), "mse": fmt_num(m["relmse_mean"], 3),
+                     "variance": fmt_num(m["rel_variance"], 3), "bias2": fmt_num(b, 3), "ci": fmt_num(ci, 2),
+                     "share": f"{100 * max(b, 0.0) / m['relmse_mean']:.0f} %" if m["relmse_mean"] > 0 else "—",
+                     "verdict": "biased" if b - ci > 0 else "no bias found (within its interval of 0)"})
+    return rows
 
 
 def _likeness(scene: SceneResult) -> dict | None:
