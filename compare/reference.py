@@ -123,6 +123,9 @@ class ReferenceRenderer:
         self.cache_dir = None if cache_dir is False else Path(cache_dir or default_cache_dir())
         self.world_scale = world_scale(scene)  # in every cache key: computed once, not per pass
         self._mi_scene = None
+        #: (per-pixel variance of the last checkpoint's mean, its degrees of freedom) from the spread of
+        #: the independent passes it averages (iter_checkpoints), or None before one with two passes.
+        self.variance: tuple[np.ndarray, int] | None = None
         self.load_seconds = 0.0
         self.warmup_seconds: float | None = None
 
@@ -252,18 +255,29 @@ class ReferenceRenderer:
         """
         wanted = {int(c) for c in checkpoints}
         acc = np.zeros((self.scene.camera.height, self.scene.camera.width, 3), dtype=np.float64)
+        acc2 = np.zeros_like(acc)  # sum of n x^2 over chunk means: the spread of the passes
+        chunks = 0
         total_spp, total_s = 0, 0.0
         with tqdm(total=int(max(wanted)), unit="spp", desc=f"mitsuba {self.scene.name[:30]}",
                   disable=not self.progress, leave=False) as bar:
             for index, upto in enumerate(pass_plan(checkpoints)):
                 for n, chunk_seed in self._pass_chunks(seed, index, upto - total_spp):
                     image, seconds = self.render_chunk(n, chunk_seed)
-                    acc += image.astype(np.float64) * n
+                    x = image.astype(np.float64)
+                    acc += x * n
+                    acc2 += x * x * n
+                    chunks += 1
                     total_s += seconds
                     bar.update(n)
                 total_spp = upto
                 if total_spp in wanted:
-                    yield Checkpoint(total_spp, total_s, (acc / total_spp).astype(np.float32))
+                    mean = acc / total_spp
+                    if chunks >= 2:
+                        # Each chunk mean x_i of n_i samples has variance s^2 / n_i, so
+                        # sum n_i (x_i - mean)^2 / (C - 1) estimates s^2 (C - 1 degrees of freedom).
+                        spread = np.maximum(acc2 - total_spp * mean * mean, 0.0)
+                        self.variance = ((spread / ((chunks - 1) * total_spp)).astype(np.float32), chunks - 1)
+                    yield Checkpoint(total_spp, total_s, mean.astype(np.float32))
 
     def ladder(self, spp: int, seed: int = 0) -> list[Checkpoint]:
         """All checkpoints of :meth:`iter_ladder` as a list."""

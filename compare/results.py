@@ -45,7 +45,9 @@ Schema 1
             "seconds": 41.2, "load_seconds": 0.01, "variant": "llvm_ad_rgb",
             "image": "runs/<id>/reference/final.exr",
             "preview": "runs/<id>/reference/final.png",
-            "flip_hdr_exposure": [-2.1, 4.3] | null  # HDR-FLIP's exposure range, fixed per ground truth
+            "flip_hdr_exposure": [-2.1, 4.3] | null, # HDR-FLIP's exposure range, fixed per ground truth
+            "variance": "runs/<id>/reference/final-variance.exr" | null,  # per-pixel, from its passes
+            "variance_dof": 21 | null
           },
           "noise_floor": {                          # or null (the ground-truth renderer not in the run)
             "method": "independent-full", "spp": 1024, "seeds": [0, 1],
@@ -548,6 +550,10 @@ class Reference:
     #: HDR-FLIP's exposure range [start, stop] for this ground truth, used by every run's
     #: HDR-FLIP (compare.metrics.hdr_exposure_range); None for a black ground truth.
     flip_hdr_exposure: list[float] | None = None
+    #: Per-pixel variance of ``image`` (an EXR; from the spread of the renderer's independent passes)
+    #: and its degrees of freedom, for ``compare diff --ztest``; None where the renderer gives none.
+    variance: str | None = None
+    variance_dof: int | None = None
 
     def to_json(self) -> dict:
         """JSON-ready dict."""
@@ -571,6 +577,8 @@ class Reference:
             unit=str(d.get("unit") or "spp"),
             flip_hdr_exposure=(None if d.get("flip_hdr_exposure") is None
                                else [float(x) for x in d["flip_hdr_exposure"]]),
+            variance=d.get("variance"),
+            variance_dof=None if d.get("variance_dof") is None else int(d["variance_dof"]),
         )
 
 

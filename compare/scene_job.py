@@ -129,7 +129,7 @@ def _paths_in(d: Any) -> Iterable[str]:
         for k, v in d.items():
             if k == "metadata":
                 continue  # renderer-reported facts, not files
-            if k in ("image", "preview") and isinstance(v, str):
+            if k in ("image", "preview", "variance") and isinstance(v, str):
                 yield v
             elif k in ("maps", "layers") and isinstance(v, dict):
                 yield from (p for p in v.values() if isinstance(p, str))
@@ -293,6 +293,12 @@ class SceneJob:
                   "seed": seed, "setup_seconds": rendering.setup_seconds, "metadata": meta,
                   "variant_of": r.variant_of, "variant_note": r.variant_note, "points": points,
                   "layers": self._save_layers(unit, r.name, layers)}
+        if truth and rendering.variance is not None:  # the ground truth's own noise, pixel by pixel
+            var, dof = rendering.variance
+            path = unit.dir / "final-variance.exr"
+            write_exr(path, var, metadata={"renderer": r.name, "what": "per-pixel variance of final.exr's mean",
+                                           "dof": int(dof)})
+            record.update(variance=unit.rel(path), variance_dof=int(dof))
         unit.save_render(key, record)
         return key, record
 
@@ -340,7 +346,8 @@ class SceneJob:
         ref = Reference(spp=int(final["step"]), seed=int(gt["seed"]), seconds=float(final["seconds"]),
                         variant=str(gt["metadata"].get("variant", "")), load_seconds=float(gt["setup_seconds"]),
                         renderer=gt["renderer"], label=gt["label"], unit=gt["unit"], key=gt_key,
-                        image=final["image"], preview=final["preview"], metadata=dict(gt["metadata"]))
+                        image=final["image"], preview=final["preview"], metadata=dict(gt["metadata"]),
+                        variance=gt.get("variance"), variance_dof=gt.get("variance_dof"))
         cached: dict[str, np.ndarray] = {}
 
         def truth() -> np.ndarray:  # read the ground truth at most once per scene

@@ -143,7 +143,9 @@ def load_side(path: Path, variance: Path | None, what: str) -> tuple[np.ndarray,
 
     ``path``: an EXR, or a folder of at least two EXRs that are independent renders of
     equal samples (their spread gives the variance). ``variance``: an EXR of the
-    per-pixel variance of ``path``'s mean, for a single EXR.
+    per-pixel variance of ``path``'s mean, for a single EXR (its ``dof`` metadata, as
+    ``compare run`` writes beside a ground truth, gives the degrees of freedom; else
+    the variance is taken as known).
     """
     from .exr import read_exr
 
@@ -163,10 +165,12 @@ def load_side(path: Path, variance: Path | None, what: str) -> tuple[np.ndarray,
     image = read_exr(path)[0].astype(np.float64)
     if variance is None:
         return image, None, math.inf
-    var = read_exr(variance)[0].astype(np.float64)
+    var, meta = read_exr(variance)
+    var = var.astype(np.float64)
     if var.shape != image.shape:
         raise ImageError(f"{what} variance {variance}: {var.shape[1]}x{var.shape[0]}, but {path} is "
                          f"{image.shape[1]}x{image.shape[0]}")
     if np.any(var < 0):
         raise ImageError(f"{what} variance {variance}: negative values")
-    return image, var, math.inf
+    dof = meta.get("dof")  # written beside a ground truth: estimated from its passes
+    return image, var, float(dof) if isinstance(dof, (int, float)) and dof > 0 else math.inf

@@ -61,6 +61,7 @@ class FakeReference:
         self.scene = scene
         self.variant = "fake_rgb"
         self.load_seconds = 0.01
+        self.variance = None  # no per-pixel variance of its passes
 
     def settings(self) -> dict:
         return {"scene_hash": self.scene.hash, "variant": self.variant, "resolution": list(self.scene.camera.resolution)}

@@ -91,3 +91,26 @@ def test_ztest_command(tmp_path, two_references, capsys):
     write_exr(tmp_path / "one" / "x.exr", mb)
     assert main(["diff", str(tmp_path / "one"), str(tmp_path / "b"), "--ztest"]) == 2
     assert "at least two EXRs" in capsys.readouterr().err
+
+
+def test_reference_ladder_is_consistent_with_its_ground_truth(tmp_path, capsys):
+    """The ground truth and the convergence ladder of another seed, each with the per-pixel variance of
+    its own passes: consistent; the ground truth 1 % brighter: not (tiles of 8 x 8)."""
+    r = ReferenceRenderer(load_scene(CORNELL).with_resolution(32, 24), cache_dir=False, progress=False)
+    gt = list(r.iter_checkpoints([4096], seed=0))[-1].image
+    gt_var, gt_dof = r.variance
+    ladder = r.ladder(4096, seed=1)[-1].image
+    ladder_var, ladder_dof = r.variance
+    assert gt_dof >= 8 and ladder_dof >= 8  # passes of at most 64 spp: many of them
+    res = z_test(gt, gt_var, ladder, ladder_var, dof_a=gt_dof, dof_b=ladder_dof)
+    assert res.passed, str(res)
+    res = z_test(gt * 1.01, gt_var * 1.01**2, ladder, ladder_var, dof_a=gt_dof, dof_b=ladder_dof, block=8)
+    assert not res.passed, str(res)
+    # the same through the command line, with the variance image compare run writes beside a ground truth
+    write_exr(tmp_path / "gt.exr", gt)
+    write_exr(tmp_path / "gt-var.exr", gt_var, metadata={"dof": gt_dof})
+    write_exr(tmp_path / "ladder.exr", ladder)
+    write_exr(tmp_path / "ladder-var.exr", ladder_var, metadata={"dof": ladder_dof})
+    assert main(["diff", str(tmp_path / "gt.exr"), str(tmp_path / "ladder.exr"), "--ztest",
+                 "--reference-variance", str(tmp_path / "gt-var.exr"),
+                 "--test-variance", str(tmp_path / "ladder-var.exr")]) == 0

@@ -74,6 +74,9 @@ class Rendering:
     #: The last checkpoint's image split by kind of light: layer name (compare.reference_layers.LAYERS)
     #: → H×W×3 image. A layer left out is light the renderer does not render (zero).
     layers: dict[str, np.ndarray] = field(default_factory=dict)
+    #: Per-pixel variance of the last checkpoint's image (H×W×3) and its degrees of freedom, where
+    #: the renderer can estimate it (the Mitsuba reference: from its independent passes); else None.
+    variance: tuple[np.ndarray, int] | None = None
 
 
 class RenderContext:
@@ -241,8 +244,17 @@ def check_rendering(renderer: Renderer, rendering: Any, *, scene, checkpoints: l
                                 f"(first at x={x}, y={y})")
         if int(c.step) in checkpoints:
             out.append(Checkpoint(int(c.step), float(t), img))
+    variance = rendering.variance
+    if variance is not None:
+        var, dof = variance
+        var = np.asarray(var)
+        if var.shape[:2] != (h, w) or var.ndim != 3 or not np.all(np.isfinite(var)) or np.any(var < 0):
+            raise RendererError(f"renderer {name!r}: the variance image must be finite, >= 0 and {w}x{h}")
+        if isinstance(dof, bool) or not isinstance(dof, (int, np.integer)) or dof < 1:
+            raise RendererError(f"renderer {name!r}: the variance's degrees of freedom must be >= 1, got {dof!r}")
+        variance = (np.ascontiguousarray(var[..., :3], dtype=np.float32), int(dof))
     return Rendering(out, float(rendering.setup_seconds), dict(rendering.metadata or {}),
-                     check_layers(name, rendering.layers, scene))
+                     check_layers(name, rendering.layers, scene), variance)
 
 
 def check_layers(name: str, layers: Any, scene) -> dict[str, np.ndarray]:

@@ -91,7 +91,7 @@ class MitsubaRenderer(Renderer):
         rr = self._reference(scene, context)
         out = [Checkpoint(c.spp, c.seconds, c.image) for c in rr.iter_checkpoints(checkpoints, seed)]
         meta = {"variant": rr.variant, "seed": seed, **rr.settings()}
-        return Rendering(out, float(rr.load_seconds), meta)
+        return Rendering(out, float(rr.load_seconds), meta, variance=rr.variance)
 
     def render_layers(self, scene, *, steps: int, seed: int, context: RenderContext) -> dict:
         """The per-effect ground truths (compare.reference_layers) at the ground truth's spp."""

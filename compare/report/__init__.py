@@ -229,6 +229,7 @@ def _scene_view(scene: SceneResult, plots: dict[str, Path], out: Path, exposure:
                       "load": fmt_seconds(scene.reference.load_seconds),
                       "variant": scene.reference.variant, "preview": scene.reference.preview,
                       "what": _gt_label(scene.reference), "renderer": scene.reference.renderer,
+                      "variance": scene.reference.variance, "variance_dof": scene.reference.variance_dof,
                       "hdr_range": (None if scene.reference.flip_hdr_exposure is None else
                                     [fmt_num(x, 3) for x in scene.reference.flip_hdr_exposure])},
         "noise_floor": None if nf is None else {"spp": nf.spp, "seeds": nf.seeds, "vals": _metrics_row(nf.metrics)},
@@ -431,7 +432,7 @@ def _table1(results: Results) -> dict:
 def _referenced(results: Results) -> list[str]:
     paths = []
     for s in results.scenes:
-        for p in (s.reference.image, s.reference.preview):
+        for p in (s.reference.image, s.reference.preview, s.reference.variance):
             if p:
                 paths.append(p)
         for r in s.runs:
