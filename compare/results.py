@@ -19,7 +19,7 @@ Schema 1
         "renderers": ["mitsuba", "progressive"],
         "sizes": [[320, 240]],                      # [] = each scene's own resolution
         "exposure": 1.0, "tonemap": "aces", "materials": "shared",
-        "cycles_spp": 1024, "eevee_samples": 64, "likeness": true, "seeds": 1,
+        "cycles_spp": 1024, "eevee_samples": 64, "likeness": true, "seeds": 1, "scene_spp": false,
         "ground_truth": "mitsuba",                  # the renderer every run is measured against
         "baseline": "progressive",                  # the ablation table's baseline
         "renderer_config": null                     # a renderer TOML file, or null
@@ -235,6 +235,8 @@ class RunSettings:
         Cycles-like against the ``cycles`` (``cycles:ggx``) run
         (one more Cycles render and two Mitsuba passes at ``cycles_spp``, so it roughly
         triples the Cycles unit's cost; turn it off for large Table 1 runs).
+    scene_spp : bool
+        ``--spp auto``: each scene's ``[render] reference_spp`` where it sets one, else ``spp``.
     seeds : int
         Independent runs of every renderer (seeds differ); with 2 or more each checkpoint also
         gets the split of its error into squared bias and variance (:mod:`compare.bias`:
@@ -260,6 +262,7 @@ class RunSettings:
     eevee_samples: int = 64
     likeness: bool = True
     seeds: int = 1
+    scene_spp: bool = False
     ground_truth: str = "mitsuba"
     baseline: str = "progressive"
     renderer_config: str | None = None

@@ -328,6 +328,15 @@ def _renderer_list(text: str) -> list[str]:
     return items
 
 
+#: The ground truth's samples per pixel when neither --spp nor the scene says.
+DEFAULT_SPP = 1024
+
+
+def _spp_arg(text: str):
+    """``--spp``: a positive integer, or ``auto``."""
+    return "auto" if text == "auto" else positive_int(text)
+
+
 def add_run_parser(subparsers) -> argparse.ArgumentParser:
     """Add ``compare run`` to an argparse subparsers object; returns the new parser."""
     p = subparsers.add_parser(
@@ -343,7 +352,9 @@ def add_run_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--size", type=_sizes_arg, default=None, metavar="WxH[,WxH...]",
                    help="resolutions, comma-separated; default: each scene's own")
     p.add_argument("--frames", type=positive_int, default=128, help="progressive frames (checkpoints at 1, 2, 4, ...)")
-    p.add_argument("--spp", type=positive_int, default=1024, help="reference samples per pixel (ground truth)")
+    p.add_argument("--spp", type=_spp_arg, default=1024,
+                   help="reference samples per pixel (ground truth), or auto: each scene's [render] reference_spp "
+                        "(what its ground truth needs to judge the built-in renderers), else 1024")
     p.add_argument("--renderers", type=_renderer_list, default="mitsuba,progressive",
                    metavar="LIST", help="comma-separated: mitsuba (reference convergence + noise floor), "
                                         "progressive, progressive:<option>[+<option>] with options " + ", ".join(VARIANT_OPTIONS)
@@ -400,7 +411,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         if isinstance(e, CompareError):
             raise
         raise _UsageError(f"--renderers: {e}") from None
-    settings = RunSettings(frames=args.frames, spp=args.spp, seed=args.seed, renderers=renderers,
+    auto = args.spp == "auto"
+    settings = RunSettings(frames=args.frames, spp=DEFAULT_SPP if auto else args.spp, scene_spp=auto,
+                           seed=args.seed, renderers=renderers,
                            sizes=[list(s) for s in (args.size or [])], exposure=args.exposure, tonemap="aces",
                            materials=args.materials, cycles_spp=args.cycles_spp, eevee_samples=args.eevee_samples,
                            likeness=args.likeness, seeds=args.seeds, ground_truth=args.ground_truth,

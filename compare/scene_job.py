@@ -32,6 +32,7 @@ import json
 import os
 import platform
 import re
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterable
@@ -215,10 +216,17 @@ class SceneJob:
         safe = re.sub(r"[^a-z0-9_-]+", "-", name.lower())  # "progressive:paper" -> "progressive-paper"
         return _Unit(self.out, self.out / "runs" / sid / safe)
 
-    def _plan(self, spec: str, *, truth: bool, replica: int = 0) -> tuple[Renderer, int, list[int], int]:
+    def settings_for(self, scene: Scene) -> RunSettings:
+        """The run's settings for ``scene``: with ``scene_spp`` (``--spp auto``), its ``reference_spp``."""
+        s = self.settings
+        if s.scene_spp and scene.reference_spp is not None:
+            return dataclasses.replace(s, spp=int(scene.reference_spp))
+        return s
+
+    def _plan(self, scene: Scene, spec: str, *, truth: bool, replica: int = 0) -> tuple[Renderer, int, list[int], int]:
         """(renderer, steps, checkpoints, seed) of the ground truth or of a run (``replica`` k >= 1:
         the k-th further independent run, for the bias/variance split)."""
-        s = self.settings
+        s = self.settings_for(scene)
         r = self.registry.get(spec)
         steps = int(r.steps(s))
         if truth:
@@ -253,7 +261,7 @@ class SceneJob:
 
     def _find_or_render(self, scene: Scene, sid: str, spec: str, *, truth: bool, bar,
                         replica: int = 0) -> tuple[str, dict]:
-        r, steps, cps, seed = self._plan(spec, truth=truth, replica=replica)
+        r, steps, cps, seed = self._plan(scene, spec, truth=truth, replica=replica)
         unit = self._unit(sid, "reference" if truth else spec if not replica else f"{spec}-seed{replica}")
         key = self._render_key(scene, r, steps, cps, seed)
         if not self.fresh:

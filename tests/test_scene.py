@@ -311,3 +311,20 @@ def test_textures_are_checked_when_the_scene_loads(tmp_path):
         with pytest.raises(SceneError) as exc:
             load_scene(scene)
         assert str(exc.value).startswith(f"{scene}: materials.white.base_color_texture: {message}"), exc.value
+
+
+def test_reference_spp_is_the_scenes_choice_under_spp_auto(tmp_path):
+    from compare.renderers import Registry
+    from compare.renderers.base import RenderContext
+    from compare.results import RunSettings
+    from compare.scene_job import SceneJob
+
+    scene = load_scene(write(tmp_path, GOOD + "\n[render]\nreference_spp = 4096\n"))
+    assert scene.reference_spp == 4096 and load_scene(write(tmp_path, GOOD)).reference_spp is None
+    job = SceneJob(RunSettings(spp=64), tmp_path / "o", registry=Registry(), context=RenderContext(RunSettings()))
+    assert job.settings_for(scene).spp == 64  # a given --spp holds
+    job = SceneJob(RunSettings(spp=64, scene_spp=True), tmp_path / "o", registry=Registry(),
+                   context=RenderContext(RunSettings()))
+    assert job.settings_for(scene).spp == 4096 and job.settings_for(load_scene(write(tmp_path, GOOD))).spp == 64
+    with pytest.raises(SceneError, match=r"render.reference_spp: expected a positive integer, got 0"):
+        load_scene(write(tmp_path, GOOD + "\n[render]\nreference_spp = 0\n"))
