@@ -31,12 +31,13 @@ __all__ = ["TILE", "bias_variance"]
 TILE = 8
 
 
-def bias_variance(images, truth, *, truth_variance: float = 0.0, relative: bool = False) -> dict[str, float]:
+def bias_variance(images, truth, *, truth_variance: float = 0.0,
+                  relative: bool = False) -> dict[str, float | int | None]:
     """Split the error of K >= 2 independent renders (K, H, W, 3) against ``truth`` (see the notes).
 
     Returns ``mse`` (of one run, averaged over the K), ``variance`` (of one run), ``bias2``
-    (``mse - variance - truth_variance``), ``bias2_ci`` (half-width of its 95 % interval)
-    and ``seeds`` (K). ``relative``: every squared difference divided by ``truth² + eps``
+    (``mse - variance - truth_variance``), ``bias2_ci`` (half-width of its 95 % interval;
+    None for two runs of a single pixel, where nothing estimates it) and ``seeds`` (K). ``relative``: every squared difference divided by ``truth² + eps``
     per pixel (relMSE's weights, :data:`compare.metrics.RELMSE_EPS`), so that the split is
     in relMSE units and bright pixels (a visible light's edges) do not decide it.
     """
@@ -79,6 +80,8 @@ def bias_variance(images, truth, *, truth_variance: float = 0.0, relative: bool 
         th, tw = max(h // TILE, 1), max(w // TILE, 1)
         hh, ww = (h // th) * th, (w // tw) * tw
         tiles = d[:hh, :ww].reshape(th, hh // th, tw, ww // tw).mean(axis=(1, 3)).ravel()
-        ci = 1.96 * float(np.std(tiles, ddof=1)) / math.sqrt(tiles.size) if tiles.size > 1 else math.inf
+        if tiles.size < 4:  # an image too small for tiles: its pixels stand in
+            tiles = d.ravel()
+        ci = 1.96 * float(np.std(tiles, ddof=1)) / math.sqrt(tiles.size) if tiles.size > 1 else None
     return {"mse": mse, "variance": variance, "bias2": mse - variance - float(truth_variance), "bias2_ci": ci,
             "seeds": int(t.shape[0])}

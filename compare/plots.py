@@ -245,7 +245,7 @@ def bias_figure(scene: SceneResult, path: str | Path) -> Path | None:
         mse = [p.metrics["relmse_mean"] for p in pts]
         var = [p.metrics["rel_variance"] for p in pts]
         b2 = [p.metrics["rel_bias2"] for p in pts]
-        ci = [p.metrics["rel_bias2_ci"] for p in pts]
+        ci = [p.metrics["rel_bias2_ci"] or 0.0 for p in pts]  # None: no interval (a single pixel)
         ax.plot(ts, mse, "o-", ms=4, lw=1.4, label="relMSE")
         ax.plot(ts, var, "s--", ms=3, lw=1.2, label="variance (noise)")
         # A log axis shows no zero or negative estimate: those sit on a floor a hundredth of the

@@ -257,6 +257,7 @@ class ReferenceRenderer:
         acc = np.zeros((self.scene.camera.height, self.scene.camera.width, 3), dtype=np.float64)
         acc2 = np.zeros_like(acc)  # sum of n x^2 over chunk means: the spread of the passes
         chunks = 0
+        self.variance = None  # of this call's checkpoints only
         total_spp, total_s = 0, 0.0
         with tqdm(total=int(max(wanted)), unit="spp", desc=f"mitsuba {self.scene.name[:30]}",
                   disable=not self.progress, leave=False) as bar:

@@ -330,10 +330,12 @@ def _bias(scene: SceneResult) -> list[dict]:
         if "rel_bias2" not in m:
             continue
         b, ci = m["rel_bias2"], m["rel_bias2_ci"]
+        verdict = ("interval unknown (too few pixels)" if ci is None else
+                   "biased" if b - ci > 0 else "no bias found (within its interval of 0)")
         rows.append({"label": r.label, "seeds": m.get("seeds"), "mse": fmt_num(m["relmse_mean"], 3),
                      "variance": fmt_num(m["rel_variance"], 3), "bias2": fmt_num(b, 3), "ci": fmt_num(ci, 2),
                      "share": f"{100 * max(b, 0.0) / m['relmse_mean']:.0f} %" if m["relmse_mean"] > 0 else "—",
-                     "verdict": "biased" if b - ci > 0 else "no bias found (within its interval of 0)"})
+                     "verdict": verdict})
     return rows
 
 
