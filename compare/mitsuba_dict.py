@@ -128,17 +128,25 @@ def material_dict(mat: Material, mode: str) -> dict:
     """BSDF dictionary for one material in ``mode`` (one of :data:`MATERIAL_MODES`)."""
     base = ({"type": "bitmap", "filename": str(mat.base_color_texture), "raw": False}
             if mat.base_color_texture else {"type": "rgb", "value": list(mat.base_color)})
+    metallic, roughness = mat.metallic, mat.roughness
+    if mat.metallic_roughness_texture is not None and mode != "diffuse":
+        from .textures import split_metallic_roughness
+
+        # glTF's channels (B = metallic, G = roughness) as two maps; like every map, they replace the factors.
+        m_file, r_file = split_metallic_roughness(mat.metallic_roughness_texture)
+        metallic = {"type": "bitmap", "filename": str(m_file), "raw": True}
+        roughness = {"type": "bitmap", "filename": str(r_file), "raw": True}
     if mode == "shared":
         from .brdf.mitsuba_plugin import register
 
         register()
-        return {"type": SHARED_BSDF, "base_color": base, "metallic": mat.metallic, "roughness": mat.roughness}
+        return {"type": SHARED_BSDF, "base_color": base, "metallic": metallic, "roughness": roughness}
     if mode in PRINCIPLED_MODES:
         from .brdf.mitsuba_plugin import register
 
         register()
-        return {"type": SHARED_BSDF, "flavour": "cycles", "base_color": base, "metallic": mat.metallic,
-                "roughness": mat.roughness, "distribution": PRINCIPLED_MODES[mode] or mat.distribution}
+        return {"type": SHARED_BSDF, "flavour": "cycles", "base_color": base, "metallic": metallic,
+                "roughness": roughness, "distribution": PRINCIPLED_MODES[mode] or mat.distribution}
     if mode == "diffuse":
         return {"type": "diffuse", "reflectance": base}
     raise ValueError(f"materials: expected one of {', '.join(MATERIAL_MODES)}, got {mode!r}")

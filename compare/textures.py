@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["texture_problem"]
+__all__ = ["load_texture", "split_metallic_roughness", "texture_problem"]
 
 
 def texture_problem(path: Path) -> str | None:
@@ -44,3 +44,45 @@ def texture_problem(path: Path) -> str | None:
     except (OSError, UnidentifiedImageError, SyntaxError, ValueError) as exc:
         return f"unreadable image ({exc})"
     return None
+
+
+def load_texture(path: Path, *, srgb: bool) -> np.ndarray:
+    """A texture file as linear float32 (H, W, 3), row 0 at the top of the image.
+
+    ``srgb``: 8-bit PNG/JPEG values are sRGB-encoded colours (a base-colour map) and are
+    decoded with the exact sRGB curve, as Mitsuba's ``bitmap`` with ``raw = False`` does;
+    otherwise (factors: a metallic-roughness map) they are taken as they are, / 255. EXR
+    values are linear either way.
+    """
+    from .tonemap import srgb_decode
+
+    path = Path(path)
+    if path.suffix.lower() == ".exr":
+        from .exr import read_exr
+
+        return np.ascontiguousarray(read_exr(path)[0], dtype=np.float32)
+    from PIL import Image
+
+    with Image.open(path) as im:
+        data = np.asarray(im.convert("RGB"), dtype=np.float64) / 255.0
+    return np.ascontiguousarray(srgb_decode(data) if srgb else data, dtype=np.float32)
+
+
+def split_metallic_roughness(path: Path) -> tuple[Path, Path]:
+    """A glTF metallic-roughness map (G = roughness, B = metallic) as two grey EXRs, (metallic,
+    roughness), in the cache (named by the file's content, written once): a renderer whose
+    texture lookups return one value per texel (Mitsuba's ``eval_1``) reads each from its own."""
+    from .cache import default_cache_dir
+    from .exr import write_exr
+    from .fsutil import sha256_bytes
+
+    path = Path(path)
+    key = sha256_bytes(path.read_bytes())[:32]
+    folder = default_cache_dir() / "textures"
+    out = (folder / f"{key}-metallic.exr", folder / f"{key}-roughness.exr")
+    if not all(p.is_file() for p in out):
+        mr = load_texture(path, srgb=False)
+        for p, channel in zip(out, (2, 1)):
+            write_exr(p, np.repeat(mr[..., channel:channel + 1], 3, axis=2),
+                      metadata={"what": f"channel {'RGB'[channel]} of a metallic-roughness map"})
+    return out

@@ -443,3 +443,22 @@ def test_compare_render_takes_the_blender_renderers(tmp_path, capsys, engine, op
     assert image.shape == (18, 24, 3) and np.isfinite(image).all() and image.mean() > 0
     assert meta["renderer"] == engine and meta["spp"] == 4 and meta["engine"] == engine
     assert "4 spp in" in capsys.readouterr().out
+
+
+@needs_bpy
+def test_cycles_reads_the_metallic_roughness_map_as_its_factors(tmp_path):
+    """glTF's channels in Blender (G = roughness, B = metallic, Non-Color): each half of the map renders
+    as the factors it holds."""
+    from test_textures import _regions, _scene
+
+    textured = _scene(tmp_path, 'base_color = [0.8, 0.6, 0.4]\nmetallic_roughness_texture = "mr.png"')
+    regions = _regions(textured)
+    got = render_blender(textured, engine="cycles", samples=256, seed=1).image
+    for half, factors, names in (("left", "metallic = 0.0\nroughness = 1.0", ("quadrant 00", "quadrant 10")),
+                                 ("right", f"metallic = 1.0\nroughness = {204 / 255}", ("quadrant 01", "quadrant 11"))):
+        (tmp_path / half).mkdir()
+        want = render_blender(_scene(tmp_path / half, f"base_color = [0.8, 0.6, 0.4]\n{factors}"), engine="cycles",
+                              samples=256, seed=1).image
+        for name in names:
+            m = regions[name]
+            np.testing.assert_allclose(got[m].mean(0), want[m].mean(0), rtol=0.03, err_msg=f"{half} {name}")

@@ -85,8 +85,11 @@ brighter per region on the Cornell box.) With Lambert on both sides the regions
 of all three scenes agree within noise (one of the kitchen's 41 at z = 3.2, a
 34-pixel drawer front), so the rest of the mapping is not the cause.
 Emission = ``Emission Color`` with strength 1, made one-sided (as Mitsuba's
-``area`` emitter on a mesh) by zeroing it on back faces. The
-``metallic_roughness_texture`` is ignored, as in :mod:`compare.mitsuba_dict`.
+``area`` emitter on a mesh) by zeroing it on back faces. A
+``metallic_roughness_texture`` drives Roughness (its G channel) and Metallic (B)
+through a Separate Color node, the image read as Non-Color, as Blender's glTF
+importer wires it (and as :mod:`compare.mitsuba_dict` reads it); like the base
+colour map it replaces the factors.
 Texture coordinates: Mitsuba's v runs down the image, Blender's up, so v → 1 − v.
 
 Environment
@@ -304,6 +307,9 @@ def _material(mat, mode: str, distribution: str | None = None) -> dict[str, Any]
         "specular_ior_level": 0.5 if mode == "principled" else 0.0,
         "emission": list(mat.emission),
         "base_color_texture": str(tex) if tex else None,
+        # glTF channels G = roughness, B = metallic (linear); with "diffuse" only the roughness is wired.
+        "metallic_roughness_texture": (str(mat.metallic_roughness_texture)
+                                       if mat.metallic_roughness_texture and mode == "principled" else None),
         # 8-bit images hold sRGB-encoded colour; EXR holds linear values.
         "base_color_texture_colorspace": (None if not tex else
                                           "Linear Rec.709" if Path(tex).suffix.lower() == ".exr" else "sRGB"),

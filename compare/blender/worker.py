@@ -58,6 +58,21 @@ def _principled(bpy, name: str, mat: dict, folder: str):
         uv.uv_map = "UVMap"
         links.new(uv.outputs["UV"], tex.inputs["Vector"])
         links.new(tex.outputs["Color"], inp["Base Color"])
+    if mat.get("metallic_roughness_texture"):
+        # glTF's channels, as Blender's own glTF importer wires them: G = roughness, B = metallic.
+        tex = nodes.new("ShaderNodeTexImage")
+        img = bpy.data.images.load(mat["metallic_roughness_texture"], check_existing=True)
+        img.colorspace_settings.name = "Non-Color"
+        tex.image = img
+        tex.interpolation = "Linear"
+        tex.extension = "REPEAT"
+        uv = nodes.new("ShaderNodeUVMap")
+        uv.uv_map = "UVMap"
+        links.new(uv.outputs["UV"], tex.inputs["Vector"])
+        split = nodes.new("ShaderNodeSeparateColor")
+        links.new(tex.outputs["Color"], split.inputs["Color"])
+        links.new(split.outputs["Green"], inp["Roughness"])
+        links.new(split.outputs["Blue"], inp["Metallic"])
     if max(mat["emission"]) > 0:
         _one_sided_emission(nodes, links, inp["Emission Color"], mat["emission"])
         inp["Emission Strength"].default_value = 1.0

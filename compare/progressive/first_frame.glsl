@@ -19,6 +19,10 @@
 
 in vec3 in_position;
 in vec3 in_normal;
+#if TEXTURES
+in vec2 in_uv;
+out vec2 v_uv;
+#endif
 
 uniform mat4 u_view_proj;
 // The first frame's depth pre-pass and shading pass must agree on depth bit for bit.
@@ -31,6 +35,9 @@ out vec3 v_normal;
 void main() {
     v_position = in_position;
     v_normal = in_normal;
+#if TEXTURES
+    v_uv = in_uv;
+#endif
     if (u_background_pass > 0.5) {
         vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2));
         gl_Position = vec4(p * 2.0 - 1.0, 1.0, 1.0);
@@ -52,10 +59,9 @@ uniform vec2 u_viewport;
 in vec3 v_position;
 in vec3 v_normal;
 
+#include "material.glsl"
+
 uniform vec3 u_camera_position;
-uniform vec3 u_base_color;
-uniform float u_metallic;
-uniform float u_roughness;
 uniform vec3 u_emission;
 uniform float u_kind;             // 1 = shaded surface, 2 = emitter that reflects nothing
 uniform float u_background_pass;
@@ -104,10 +110,13 @@ void main() {
     vec3 direct = vec3(0.0);
     vec3 env = vec3(0.0);
     if (u_kind < 1.5) {
+        vec3 base_color = material_base_color();
+        float metallic = material_metallic();
+        float roughness = material_roughness();
 #if ENVIRONMENT
         vec3 diffuse;
         vec3 specular;
-        env_split_sum(n, v, u_base_color, u_metallic, u_roughness, diffuse, specular);
+        env_split_sum(n, v, base_color, metallic, roughness, diffuse, specular);
         env = diffuse + specular;
 #endif
 #if LIGHTS > 0
@@ -119,7 +128,7 @@ void main() {
             u_light_half = u_lights_half[i];
             u_light_radiance = u_lights_radiance[i];
             u_light_area = u_lights_area[i];
-            direct += light_preview(v_position, n, v, u_base_color, u_metallic, u_roughness);
+            direct += light_preview(v_position, n, v, base_color, metallic, roughness);
         }
 #endif
     }

@@ -100,7 +100,7 @@ class FirstFramePass:
         self.lut_texture = lut_texture
         defines = {"LIGHTS": len(self.lights), "ENVIRONMENT": int(environment is not None),
                    "AREA_MODEL_PAPER": int(area_model == "paper"), "AREA_MODEL_LTC": int(area_model == "ltc"),
-                   "MATERIALS_DIFFUSE": int(materials == "diffuse")}
+                   "MATERIALS_DIFFUSE": int(materials == "diffuse"), "TEXTURES": int(gpu_scene.textured)}
         if area_model == "ltc" and ltc_table is None and self.lights:
             raise ValueError("area_model 'ltc' needs the LTC table (ltc_table)")
         self.ltc_table = ltc_table

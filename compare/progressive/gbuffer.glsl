@@ -9,6 +9,10 @@
 
 in vec3 in_position;
 in vec3 in_normal;
+#if TEXTURES
+in vec2 in_uv;
+out vec2 v_uv;
+#endif
 
 uniform mat4 u_view_proj;
 
@@ -18,6 +22,9 @@ out vec3 v_normal;
 void main() {
     v_position = in_position;
     v_normal = in_normal;
+#if TEXTURES
+    v_uv = in_uv;
+#endif
     gl_Position = u_view_proj * vec4(in_position, 1.0);
 }
 
@@ -26,10 +33,9 @@ void main() {
 in vec3 v_position;
 in vec3 v_normal;
 
+#include "material.glsl"
+
 uniform vec3 u_camera_position;
-uniform vec3 u_base_color;
-uniform float u_metallic;
-uniform float u_roughness;
 uniform vec3 u_emission;   // radiance leaving the front side (the side the normal faces)
 uniform float u_kind;      // 1 = shaded surface, 2 = emitter that reflects nothing
 
@@ -42,8 +48,8 @@ void main() {
     vec3 n = normalize(v_normal);
     bool front = dot(n, u_camera_position - v_position) > 0.0;
     out_position = vec4(v_position, u_kind);
-    out_normal = vec4(n, u_roughness);
-    out_material = vec4(u_base_color, u_metallic);
+    out_normal = vec4(n, material_roughness());
+    out_material = vec4(material_base_color(), material_metallic());
     out_emission = vec4(front ? u_emission : vec3(0.0), 1.0);
 }
 

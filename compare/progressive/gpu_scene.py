@@ -1,7 +1,11 @@
 """Scene upload (once per scene) and the camera's matrices.
 
-Every mesh gets one vertex buffer (position, normal; float32, interleaved) and one
-index buffer, and keeps its material as uniform values set before its draw call.
+Every mesh gets one vertex buffer (position, normal, texture coordinates; float32,
+interleaved) and one index buffer, and keeps its material as uniform values set before
+its draw call, and its base-colour and metallic-roughness maps (uploaded once per file,
+linear RGBA16F with mipmaps; :mod:`compare.progressive` samples them trilinearly) where
+the material has them. Programs built without ``TEXTURES`` read no coordinates and no
+maps: a scene without textures does no texture work.
 Each area light is uploaded as a quad too: the G-buffer pass shows it as an
 emitter, and shadow maps of *other* lights see it as an occluder (the reference's
 light rectangles block light as well).
@@ -14,6 +18,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from .shaders import set_uniform
+
+
+#: First texture unit of the material maps (above every unit a pass binds for its own textures).
+MAP_UNIT = 14
 
 
 def mat_bytes(m: np.ndarray) -> bytes:
@@ -86,6 +94,8 @@ class GpuMesh:
     kind: float
     """1 = shaded surface, 2 = emitter that reflects nothing (a light's quad)."""
     light: int | None = None
+    base_color_map: object = None
+    metallic_roughness_map: object = None
 
 
 class GpuScene:
@@ -96,19 +106,49 @@ class GpuScene:
         self.meshes: list[GpuMesh] = []
         self.light_quads: list[GpuMesh] = []
         self._vaos: dict[tuple[int, int, bool], object] = {}
+        self._maps: dict[tuple[str, bool], object] = {}
+        #: Whether any mesh has a map: the programs' TEXTURES define.
+        self.textured = bool(scene.features().textures)
         for mesh in scene.meshes:
             tri = mesh.triangles()
             mat = scene.materials[mesh.material]
-            self.meshes.append(self._upload(mesh.name, tri.positions, tri.normals, tri.indices,
-                                            mat.base_color, mat.metallic, mat.roughness, mat.emission, 1.0))
+            gm = self._upload(mesh.name, tri.positions, tri.normals, tri.indices, mat.base_color, mat.metallic,
+                              mat.roughness, mat.emission, 1.0, uvs=tri.uvs)
+            if self.textured:
+                if mat.base_color_texture is not None:
+                    gm.base_color_map = self._map(mat.base_color_texture, srgb=True)
+                if mat.metallic_roughness_texture is not None:
+                    gm.metallic_roughness_map = self._map(mat.metallic_roughness_texture, srgb=False)
+            self.meshes.append(gm)
         quad = np.array([[0, 1, 2], [0, 2, 3]], dtype=np.uint32)
         for i, light in enumerate(scene.lights):
             normals = np.tile(np.asarray(light.normal, dtype=np.float32), (4, 1))
             self.light_quads.append(self._upload(light.name, light.corners(), normals, quad, (0.0, 0.0, 0.0),
                                                  0.0, 1.0, light.radiance, 2.0, light=i))
 
-    def _upload(self, name, positions, normals, indices, base, metallic, roughness, emission, kind, light=None):
-        data = np.hstack([np.asarray(positions, dtype=np.float32), np.asarray(normals, dtype=np.float32)])
+    def _map(self, path, *, srgb: bool):
+        """One map file as a mipmapped linear RGBA16F texture (uploaded once per file and kind)."""
+        from ..textures import load_texture
+
+        key = (str(path), srgb)
+        if key not in self._maps:
+            rgb = load_texture(path, srgb=srgb)
+            h, w = rgb.shape[:2]
+            rgba = np.concatenate([rgb, np.ones((h, w, 1), dtype=np.float32)], axis=2)
+            # Rows top first: texture coordinate t = 0 is the image's top row, as glTF's v = 0 (and
+            # Mitsuba's bitmap lookup) is. Linear values are filtered, never encoded ones.
+            tex = self.ctx.texture((w, h), 4, np.ascontiguousarray(rgba, dtype=np.float16).tobytes(), dtype="f2")
+            tex.repeat_x = tex.repeat_y = True
+            tex.build_mipmaps()
+            tex.filter = (self.ctx.LINEAR_MIPMAP_LINEAR, self.ctx.LINEAR)
+            self._maps[key] = tex
+        return self._maps[key]
+
+    def _upload(self, name, positions, normals, indices, base, metallic, roughness, emission, kind, light=None,
+                uvs=None):
+        n = len(positions)
+        uv = np.zeros((n, 2), dtype=np.float32) if uvs is None else np.asarray(uvs, dtype=np.float32)
+        data = np.hstack([np.asarray(positions, dtype=np.float32), np.asarray(normals, dtype=np.float32), uv])
         vbo = self.ctx.buffer(np.ascontiguousarray(data, dtype=np.float32).tobytes())
         ibo = self.ctx.buffer(np.ascontiguousarray(indices, dtype=np.uint32).tobytes())
         return GpuMesh(name, vbo, ibo, tuple(base), float(metallic), float(roughness), tuple(emission), float(kind),
@@ -118,7 +158,12 @@ class GpuScene:
         key = (id(program), index, normals)
         vao = self._vaos.get(key)
         if vao is None:
-            layout = (mesh.vbo, "3f 3f", "in_position", "in_normal") if normals else (mesh.vbo, "3f 12x", "in_position")
+            if normals and program.get("in_uv", None) is not None:
+                layout = (mesh.vbo, "3f 3f 2f", "in_position", "in_normal", "in_uv")
+            elif normals:
+                layout = (mesh.vbo, "3f 3f 8x", "in_position", "in_normal")
+            else:
+                layout = (mesh.vbo, "3f 20x", "in_position")
             vao = self.ctx.vertex_array(program, [layout], index_buffer=mesh.ibo, index_element_size=4)
             self._vaos[key] = (vao, program)
             return vao
@@ -136,6 +181,14 @@ class GpuScene:
             set_uniform(program, "u_roughness", mesh.roughness)
             set_uniform(program, "u_emission", mesh.emission)
             set_uniform(program, "u_kind", mesh.kind)
+            if self.textured:
+                for unit, (name, tex) in enumerate((("base_color", mesh.base_color_map),
+                                                    ("metallic_roughness", mesh.metallic_roughness_map)),
+                                                   start=MAP_UNIT):
+                    set_uniform(program, f"u_has_{name}_map", 0.0 if tex is None else 1.0)
+                    if tex is not None:
+                        tex.use(location=unit)
+                        set_uniform(program, f"u_{name}_map", unit)
             self._vao(program, index, mesh, True).render(instances=instances)
 
     def draw_occluders(self, program, skip_light: int | None = None) -> None:
@@ -157,5 +210,8 @@ class GpuScene:
         for mesh in self.meshes + self.light_quads:
             mesh.vbo.release()
             mesh.ibo.release()
+        for tex in self._maps.values():
+            tex.release()
+        self._maps.clear()
         self.meshes, self.light_quads = [], []
 

@@ -13,6 +13,10 @@
 
 in vec3 in_position;
 in vec3 in_normal;
+#if TEXTURES
+in vec2 in_uv;
+out vec2 v_uv;
+#endif
 
 uniform ivec3 u_counts;    // probes along x, y, z
 uniform vec3 u_origin;     // position of probe (0, 0, 0)
@@ -46,6 +50,9 @@ void main() {
     gl_Position = vec4(clip.xy * (u_face / u_atlas) + offset * clip.w, clip.z, clip.w);
     v_position = in_position;
     v_normal = in_normal;
+#if TEXTURES
+    v_uv = in_uv;
+#endif
     v_probe = c;
 }
 
@@ -55,8 +62,8 @@ in vec3 v_position;
 in vec3 v_normal;
 flat in vec3 v_probe;
 
-uniform vec3 u_base_color;
-uniform float u_metallic;
+#include "material.glsl"
+
 uniform vec3 u_emission;
 uniform float u_kind;      // 1 = shaded surface, 2 = light quad (reflects nothing)
 uniform int u_lambert;     // 1: materials "diffuse" (albedo = base colour, metallic ignored)
@@ -70,10 +77,10 @@ void main() {
     vec3 n = normalize(v_normal);
     vec3 to_probe = v_probe - v_position;
     bool front = dot(n, to_probe) > 0.0;
-    float m = u_lambert == 1 ? 0.0 : clamp(u_metallic, 0.0, 1.0);
+    float m = u_lambert == 1 ? 0.0 : clamp(material_metallic(), 0.0, 1.0);
     out_position = vec4(v_position, length(to_probe));
     out_normal = vec4(n, u_kind);
-    out_albedo = vec4((1.0 - m) * u_base_color, front ? 1.0 : -1.0);
+    out_albedo = vec4((1.0 - m) * material_base_color(), front ? 1.0 : -1.0);
     out_emission = vec4(front ? u_emission : vec3(0.0), 1.0);
 }
 

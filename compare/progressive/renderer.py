@@ -389,10 +389,6 @@ class ProgressiveRenderer:
                        "compare.progressive (baked diffuse light; only [[lights]] rectangles are sampled)")
             warnings.warn(msg, stacklevel=3)
             self.notes.append(msg)
-        if feats.textures:
-            msg = "material textures are not implemented in compare.progressive yet: base colour factors are used"
-            warnings.warn(msg, stacklevel=3)
-            self.notes.append(msg)
 
     def _background(self) -> tuple[float, float, float]:
         env = self.scene.environment

@@ -1,0 +1,132 @@
+"""Material maps in the rasterizer and the reference: base colour (sRGB) and metallic-roughness (glTF channels)."""
+
+from __future__ import annotations
+
+import textwrap
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from compare.progressive import render_progressive
+from compare.progressive.gpu_scene import GpuScene
+from compare.reference import ReferenceRenderer
+from compare.scene import load_scene
+
+QUADRANTS = {(0, 0): (230, 40, 40), (0, 1): (40, 200, 60), (1, 0): (50, 60, 220), (1, 1): (240, 230, 60)}
+
+
+def _scene(tmp_path, material: str, *, mr: bool = False):
+    """A 2 x 2 floor quad (the map's quadrants: image top = +z, left = -x) beside a grey control quad,
+    under one light, direct light only."""
+    img = np.zeros((64, 64, 3), dtype=np.uint8)
+    for (r, c), colour in QUADRANTS.items():
+        img[32 * r:32 * r + 32, 32 * c:32 * c + 32] = colour
+    Image.fromarray(img).save(tmp_path / "quadrants.png")
+    mrmap = np.zeros((64, 64, 3), dtype=np.uint8)
+    mrmap[:, :32] = (0, 255, 0)        # left half: rough dielectric
+    mrmap[:, 32:] = (0, 204, 255)      # right half: metal of roughness 0.8
+    Image.fromarray(mrmap).save(tmp_path / "mr.png")
+    (tmp_path / "t.toml").write_text(textwrap.dedent(f'''
+        [camera]
+        position = [0.0, 2.2, 2.6]
+        target = [0.2, 0.0, 0.0]
+        fov = 45
+        resolution = [80, 60]
+        [materials.floor]
+        {material}
+        [materials.grey]
+        base_color = [0.5, 0.5, 0.5]
+        roughness = 1.0
+        [[meshes]]
+        name = "floor"
+        shape = "quad"
+        size = [2.0, 2.0]
+        material = "floor"
+        [[meshes]]
+        name = "control"
+        shape = "quad"
+        size = [0.8, 0.8]
+        material = "grey"
+        translate = [1.6, 0.0, 0.0]
+        [[lights]]
+        center = [0.0, 1.4, 0.3]
+        size = [1.2, 1.2]
+        normal = [0, -1, 0]
+        radiance = [4, 4, 4]
+        [render]
+        max_depth = 2
+        '''))
+    return load_scene(tmp_path / "t.toml")
+
+
+def _regions(scene) -> dict[str, np.ndarray]:
+    """Pixels whose camera ray hits the floor well inside one quadrant (or the control quad)."""
+    cam = scene.camera
+    jj, ii = np.mgrid[0:cam.height, 0:cam.width]
+    d = cam.ray_directions(ii + 0.5, jj + 0.5)
+    o = np.asarray(cam.position)
+    t = -o[1] / np.where(d[..., 1] < 0, d[..., 1], -1e-30)
+    p = o + d * t[..., None]
+    x, z = p[..., 0], p[..., 2]
+    out = {}
+    for (r, c) in QUADRANTS:
+        xs = (x > -0.9) & (x < -0.1) if c == 0 else (x > 0.1) & (x < 0.9)
+        zs = (z > 0.1) & (z < 0.9) if r == 0 else (z > -0.9) & (z < -0.1)
+        out[f"quadrant {r}{c}"] = (t > 0) & xs & zs
+    out["control"] = (t > 0) & (np.abs(x - 1.6) < 0.3) & (np.abs(z) < 0.3)
+    return out
+
+
+def test_base_colour_map_matches_the_reference(tmp_path, gl_ctx):
+    """Every quadrant of an sRGB base-colour map within 5 % of Mitsuba's (direct light; the control too)."""
+    scene = _scene(tmp_path, 'base_color_texture = "quadrants.png"\nroughness = 1.0')
+    # LTC: the unshadowed light in closed form, so that the point-sample discretisation of the default
+    # area model (-9 ... +8 % per pixel, issue 18's measurements) does not hide what the map does
+    raster = render_progressive(scene, frames=64, ctx=gl_ctx, area_model="ltc").image
+    ref = ReferenceRenderer(scene, cache_dir=False, progress=False).render(512).image
+    for name, mask in _regions(scene).items():
+        assert mask.sum() > 30, name
+        np.testing.assert_allclose(raster[mask].mean(0), ref[mask].mean(0), rtol=0.05, atol=0.002, err_msg=name)
+
+
+def test_metallic_roughness_map_is_its_factors(tmp_path, gl_ctx):
+    """glTF's channels (G = roughness, B = metallic): each half of the map renders as the factors it
+    holds, in the rasterizer and in the reference."""
+    textured = _scene(tmp_path, 'base_color = [0.8, 0.6, 0.4]\nmetallic_roughness_texture = "mr.png"')
+    halves = {"left": ("metallic = 0.0\nroughness = 1.0", ("quadrant 00", "quadrant 10")),
+              "right": (f"metallic = 1.0\nroughness = {204 / 255}", ("quadrant 01", "quadrant 11"))}
+    regions = _regions(textured)
+
+    def images(scene):
+        return (render_progressive(scene, frames=32, ctx=gl_ctx, area_model="ltc").image,
+                ReferenceRenderer(scene, cache_dir=False, progress=False).render(1024, seed=3).image)
+
+    got = images(textured)
+    for half, (factors, names) in halves.items():
+        sub = tmp_path / half
+        sub.mkdir()
+        want = images(_scene(sub, f"base_color = [0.8, 0.6, 0.4]\n{factors}"))
+        for renderer, a, b, tol in (("rasterizer", got[0], want[0], 0.01), ("reference", got[1], want[1], 0.03)):
+            for name in names:
+                m = regions[name]
+                np.testing.assert_allclose(a[m].mean(0), b[m].mean(0), rtol=tol, err_msg=f"{renderer}: {half} {name}")
+
+
+def test_maps_replace_their_factors_and_leave_the_control_alone(tmp_path, gl_ctx):
+    textured = _scene(tmp_path, 'base_color_texture = "quadrants.png"\nroughness = 1.0')
+    (tmp_path / "plain").mkdir()
+    plain = _scene(tmp_path / "plain", 'base_color = [0.8, 0.8, 0.8]\nroughness = 1.0')
+    a = render_progressive(textured, frames=16, ctx=gl_ctx).image
+    b = render_progressive(plain, frames=16, ctx=gl_ctx).image
+    regions = _regions(textured)
+    np.testing.assert_array_equal(a[regions["control"]], b[regions["control"]])  # direct light: no crosstalk
+    red, green = a[regions["quadrant 00"]].mean(0), a[regions["quadrant 01"]].mean(0)
+    assert red[0] > 3 * red[1] and green[1] > 3 * green[0]  # the map, the right way up and round
+
+
+def test_no_texture_work_without_textures(tmp_path, gl_ctx):
+    plain = _scene(tmp_path, 'base_color = [0.8, 0.8, 0.8]')
+    textured = _scene(tmp_path, 'base_color_texture = "quadrants.png"')
+    assert not GpuScene(gl_ctx, plain).textured and GpuScene(gl_ctx, textured).textured
+    assert "texture upload and sampling" in plain.features().omitted()
