@@ -19,7 +19,8 @@ Materials
     ``pbrMetallicRoughness`` factors map one to one (the scene model *is* glTF's
     material model); the alpha of ``baseColorFactor`` and ``alphaMode`` are
     ignored (opaque). ``emissiveFactor`` × ``KHR_materials_emissive_strength``
-    is the emission in W·sr⁻¹·m⁻². Primitives without a material get glTF's
+    is the emission in W·sr⁻¹·m⁻², and ``emissiveTexture`` (sRGB) multiplies it.
+    Normal and occlusion textures are left out with a note. Primitives without a material get glTF's
     default material (white, metallic 1, roughness 1). Textures: the base
     colour and metallic-roughness images become the material's texture files
     (external images are checked to stay inside the scene's folder; images
@@ -105,6 +106,7 @@ class GltfMaterial:
     emission: tuple[float, float, float] = (0.0, 0.0, 0.0)
     base_color_image: int | None = None
     metallic_roughness_image: int | None = None
+    emissive_image: int | None = None
 
 
 @dataclass(frozen=True)
@@ -401,16 +403,17 @@ class _Reader:
         emission = np.asarray(m.get("emissiveFactor", [0.0, 0.0, 0.0]), dtype=np.float64)
         strength = m.get("extensions", {}).get("KHR_materials_emissive_strength", {}).get("emissiveStrength", 1.0)
         emission = emission * float(strength)
-        if "emissiveTexture" in m or "normalTexture" in m or "occlusionTexture" in m:
-            self.notes.append(f"{w}: emissive, normal and occlusion textures ignored")
+        if "normalTexture" in m or "occlusionTexture" in m:
+            self.notes.append(f"{w}: normal and occlusion textures ignored")
 
-        def image(key: str) -> int | None:
-            info = pbr.get(key)
+        def image(key: str, table: dict | None = None) -> int | None:
+            info = (pbr if table is None else table).get(key)
             if info is None:
                 return None
             if info.get("texCoord", 0) != 0 or "KHR_texture_transform" in info.get("extensions", {}):
                 self.notes.append(f"{w}.{key}: only TEXCOORD_0 without a texture transform is supported")
-            tex = self.item("textures", info.get("index", -1), f"{w}.pbrMetallicRoughness.{key}.index")
+            where = f"{w}.pbrMetallicRoughness.{key}" if table is None else f"{w}.{key}"
+            tex = self.item("textures", info.get("index", -1), f"{where}.index")
             src = tex.get("source")
             if src is None:
                 self.notes.append(f"{w}.{key}: texture has no PNG/JPEG source; ignored")
@@ -425,6 +428,7 @@ class _Reader:
             emission=tuple(float(max(e, 0.0)) for e in emission),  # type: ignore[arg-type]
             base_color_image=image("baseColorTexture"),
             metallic_roughness_image=image("metallicRoughnessTexture"),
+            emissive_image=image("emissiveTexture", m),
         )
 
     def image(self, index: int) -> Path | None:

@@ -210,7 +210,13 @@ def mesh_object(name: str, scene: Scene, mesh_index: int, mode: str, scale: floa
     props = mi.Properties()
     props["bsdf"] = mi.load_dict(material_dict(mat, mode))
     if mat.is_emissive:
-        props["emitter"] = mi.load_dict({"type": "area", "radiance": {"type": "rgb", "value": list(mat.emission)}})
+        radiance = {"type": "rgb", "value": list(mat.emission)}
+        if mat.emissive_texture is not None:
+            from .textures import emission_map
+
+            radiance = {"type": "bitmap", "filename": str(emission_map(mat.emissive_texture, mat.emission)),
+                        "raw": True}
+        props["emitter"] = mi.load_dict({"type": "area", "radiance": radiance})
     m = mi.Mesh(name, len(tri.positions), tri.triangle_count, props, has_vertex_normals=True,
                 has_vertex_texcoords=True)
     params = mi.traverse(m)

@@ -64,7 +64,7 @@ def _camera(ctx: _Ctx, raw: Any) -> Camera:
 def _material(ctx: _Ctx, name: str, raw: Any) -> Material:
     w = f"materials.{name}"
     t = _table(ctx, w, raw, {"base_color", "metallic", "roughness", "emission", "base_color_texture",
-                             "metallic_roughness_texture", "distribution"})
+                             "metallic_roughness_texture", "emissive_texture", "distribution"})
     dist = t.get("distribution", DEFAULT_DISTRIBUTION)
     if dist not in DISTRIBUTIONS:
         raise ctx.err(f"{w}.distribution", f"expected one of {', '.join(map(repr, DISTRIBUTIONS))} (Blender's "
@@ -79,6 +79,8 @@ def _material(ctx: _Ctx, name: str, raw: Any) -> Material:
                             if "base_color_texture" in t else None),
         metallic_roughness_texture=(_texture(ctx, f"{w}.metallic_roughness_texture", t["metallic_roughness_texture"])
                                     if "metallic_roughness_texture" in t else None),
+        emissive_texture=(_texture(ctx, f"{w}.emissive_texture", t["emissive_texture"])
+                          if "emissive_texture" in t else None),
         distribution=dist,
     )
 

@@ -104,7 +104,8 @@ def include(ctx, where: str, raw: Any) -> Included:
             materials[name] = sm.Material(name=name, base_color=m.base_color, metallic=m.metallic,
                                           roughness=m.roughness, emission=m.emission,
                                           base_color_texture=tex(m.base_color_image),
-                                          metallic_roughness_texture=tex(m.metallic_roughness_image))
+                                          metallic_roughness_texture=tex(m.metallic_roughness_image),
+                                          emissive_texture=tex(m.emissive_image))
         return name
 
     meshes, lights = [], []

@@ -116,6 +116,8 @@ class Material:
     emission: tuple[float, float, float] = (0.0, 0.0, 0.0)
     base_color_texture: Path | None = None
     metallic_roughness_texture: Path | None = None
+    #: An sRGB emission map, multiplied by ``emission`` (glTF's emissiveTexture × emissiveFactor).
+    emissive_texture: Path | None = None
     #: The Principled BSDF's microfacet distribution in Blender (``multi_ggx``, Blender's default, or
     #: ``ggx``): what the Blender comparators set and the reference's ``cycles`` mode models. The
     #: glTF BRDF (the rasterizer, the ``shared`` reference) is single-scattering GGX either way.
@@ -278,7 +280,7 @@ class Scene:
             area_lights=bool(self.lights),
             glossy=any(m.is_glossy for m in used),
             metallic=any(m.metallic > 0 for m in used),
-            textures=any(m.base_color_texture or m.metallic_roughness_texture for m in used),
+            textures=any(m.base_color_texture or m.metallic_roughness_texture or m.emissive_texture for m in used),
             emissive_meshes=any(m.is_emissive for m in used),
         )
 

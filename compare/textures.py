@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["load_texture", "split_metallic_roughness", "texture_problem"]
+__all__ = ["emission_map", "load_texture", "split_metallic_roughness", "texture_problem"]
 
 
 def texture_problem(path: Path) -> str | None:
@@ -85,4 +85,20 @@ def split_metallic_roughness(path: Path) -> tuple[Path, Path]:
         for p, channel in zip(out, (2, 1)):
             write_exr(p, np.repeat(mr[..., channel:channel + 1], 3, axis=2),
                       metadata={"what": f"channel {'RGB'[channel]} of a metallic-roughness map"})
+    return out
+
+
+def emission_map(path: Path, emission) -> Path:
+    """An emission map (sRGB) times the material's ``emission`` as a linear EXR in the cache (named
+    by the file's content and the factor, written once): the radiance a renderer emits per texel."""
+    from .cache import default_cache_dir
+    from .exr import write_exr
+    from .fsutil import sha256_bytes
+
+    path = Path(path)
+    factor = np.asarray(emission, dtype=np.float64).reshape(3)
+    key = sha256_bytes(path.read_bytes(), repr(factor.tolist()))[:32]
+    out = default_cache_dir() / "textures" / f"{key}-emission.exr"
+    if not out.is_file():
+        write_exr(out, load_texture(path, srgb=True) * factor, metadata={"what": "emission map x emission"})
     return out

@@ -462,3 +462,17 @@ def test_cycles_reads_the_metallic_roughness_map_as_its_factors(tmp_path):
         for name in names:
             m = regions[name]
             np.testing.assert_allclose(got[m].mean(0), want[m].mean(0), rtol=0.03, err_msg=f"{half} {name}")
+
+
+@needs_bpy
+def test_cycles_multiplies_the_emission_by_its_map(tmp_path):
+    from compare.tonemap import srgb_decode
+    from test_textures import QUADRANTS, _regions, _scene
+
+    scene = _scene(tmp_path, 'base_color = [0.0, 0.0, 0.0]\nemission = [2.0, 1.0, 0.5]\n'
+                             'emissive_texture = "quadrants.png"', light=False)
+    image = render_blender(scene, engine="cycles", samples=16, seed=1).image
+    regions = _regions(scene)
+    for (r, c), colour in QUADRANTS.items():
+        want = np.array([2.0, 1.0, 0.5]) * srgb_decode(np.array(colour) / 255.0)
+        np.testing.assert_allclose(image[regions[f"quadrant {r}{c}"]].mean(0), want, rtol=0.01, err_msg=f"{r}{c}")

@@ -13,10 +13,15 @@ from compare.progressive.gpu_scene import GpuScene
 from compare.reference import ReferenceRenderer
 from compare.scene import load_scene
 
+LIGHT = """[[lights]]
+        center = [0.0, 1.4, 0.3]
+        size = [1.2, 1.2]
+        normal = [0, -1, 0]
+        radiance = [4, 4, 4]"""
 QUADRANTS = {(0, 0): (230, 40, 40), (0, 1): (40, 200, 60), (1, 0): (50, 60, 220), (1, 1): (240, 230, 60)}
 
 
-def _scene(tmp_path, material: str, *, mr: bool = False):
+def _scene(tmp_path, material: str, *, light: bool = True):
     """A 2 x 2 floor quad (the map's quadrants: image top = +z, left = -x) beside a grey control quad,
     under one light, direct light only."""
     img = np.zeros((64, 64, 3), dtype=np.uint8)
@@ -49,11 +54,7 @@ def _scene(tmp_path, material: str, *, mr: bool = False):
         size = [0.8, 0.8]
         material = "grey"
         translate = [1.6, 0.0, 0.0]
-        [[lights]]
-        center = [0.0, 1.4, 0.3]
-        size = [1.2, 1.2]
-        normal = [0, -1, 0]
-        radiance = [4, 4, 4]
+        {LIGHT if light else ""}
         [render]
         max_depth = 2
         '''))
@@ -130,3 +131,22 @@ def test_no_texture_work_without_textures(tmp_path, gl_ctx):
     textured = _scene(tmp_path, 'base_color_texture = "quadrants.png"')
     assert not GpuScene(gl_ctx, plain).textured and GpuScene(gl_ctx, textured).textured
     assert "texture upload and sampling" in plain.features().omitted()
+
+
+def test_emission_map_multiplies_the_emission(tmp_path, gl_ctx):
+    """An sRGB emission map times the emission: each quadrant shows emission x the decoded texel in the
+    rasterizer and in the reference."""
+    from compare.tonemap import srgb_decode
+
+    scene = _scene(tmp_path, 'base_color = [0.0, 0.0, 0.0]\nemission = [2.0, 1.0, 0.5]\n'
+                             'emissive_texture = "quadrants.png"', light=False)
+    assert scene.features().textures and scene.materials["floor"].is_emissive
+    raster = render_progressive(scene, frames=16, ctx=gl_ctx).image
+    ref = ReferenceRenderer(scene, cache_dir=False, progress=False).render(64).image
+    regions = _regions(scene)
+    for (r, c), colour in QUADRANTS.items():
+        m = regions[f"quadrant {r}{c}"]
+        want = np.array([2.0, 1.0, 0.5]) * srgb_decode(np.array(colour) / 255.0)
+        # no light but the floor's own: its pixels are its emission alone
+        np.testing.assert_allclose(raster[m].mean(0), want, rtol=0.01, err_msg=f"rasterizer {r}{c}")
+        np.testing.assert_allclose(ref[m].mean(0), want, rtol=0.01, err_msg=f"reference {r}{c}")

@@ -89,7 +89,8 @@ Emission = ``Emission Color`` with strength 1, made one-sided (as Mitsuba's
 ``metallic_roughness_texture`` drives Roughness (its G channel) and Metallic (B)
 through a Separate Color node, the image read as Non-Color, as Blender's glTF
 importer wires it (and as :mod:`compare.mitsuba_dict` reads it); like the base
-colour map it replaces the factors.
+colour map it replaces the factors. An ``emissive_texture`` (sRGB) multiplies the
+emission (a Mix node, Multiply), as glTF's emissiveTexture does.
 Texture coordinates: Mitsuba's v runs down the image, Blender's up, so v → 1 − v.
 
 Environment
@@ -310,6 +311,9 @@ def _material(mat, mode: str, distribution: str | None = None) -> dict[str, Any]
         # glTF channels G = roughness, B = metallic (linear); with "diffuse" only the roughness is wired.
         "metallic_roughness_texture": (str(mat.metallic_roughness_texture)
                                        if mat.metallic_roughness_texture and mode == "principled" else None),
+        "emissive_texture": str(mat.emissive_texture) if mat.emissive_texture else None,
+        "emissive_texture_colorspace": (None if not mat.emissive_texture else "Linear Rec.709"
+                                        if Path(mat.emissive_texture).suffix.lower() == ".exr" else "sRGB"),
         # 8-bit images hold sRGB-encoded colour; EXR holds linear values.
         "base_color_texture_colorspace": (None if not tex else
                                           "Linear Rec.709" if Path(tex).suffix.lower() == ".exr" else "sRGB"),

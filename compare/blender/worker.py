@@ -74,7 +74,26 @@ def _principled(bpy, name: str, mat: dict, folder: str):
         links.new(split.outputs["Green"], inp["Roughness"])
         links.new(split.outputs["Blue"], inp["Metallic"])
     if max(mat["emission"]) > 0:
-        _one_sided_emission(nodes, links, inp["Emission Color"], mat["emission"])
+        emitted = None
+        if mat.get("emissive_texture"):
+            # glTF's emissiveTexture (sRGB) times the emission factor
+            tex = nodes.new("ShaderNodeTexImage")
+            img = bpy.data.images.load(mat["emissive_texture"], check_existing=True)
+            img.colorspace_settings.name = mat["emissive_texture_colorspace"]
+            tex.image = img
+            tex.interpolation = "Linear"
+            tex.extension = "REPEAT"
+            uv = nodes.new("ShaderNodeUVMap")
+            uv.uv_map = "UVMap"
+            links.new(uv.outputs["UV"], tex.inputs["Vector"])
+            product = nodes.new("ShaderNodeMix")
+            product.data_type = "RGBA"
+            product.blend_type = "MULTIPLY"
+            product.inputs["Factor"].default_value = 1.0
+            links.new(tex.outputs["Color"], product.inputs["A"])
+            product.inputs["B"].default_value = (*mat["emission"], 1.0)
+            emitted = product.outputs["Result"]
+        _one_sided_emission(nodes, links, inp["Emission Color"], mat["emission"], emitted)
         inp["Emission Strength"].default_value = 1.0
         if hasattr(m, "cycles") and hasattr(m.cycles, "emission_sampling"):
             m.cycles.emission_sampling = "FRONT"
@@ -82,12 +101,15 @@ def _principled(bpy, name: str, mat: dict, folder: str):
     return m
 
 
-def _one_sided_emission(nodes, links, socket, color) -> None:
-    """Drive ``socket`` with ``color`` on front faces and black on back faces (Mitsuba's area emitter)."""
+def _one_sided_emission(nodes, links, socket, color, source=None) -> None:
+    """Drive ``socket`` with ``color`` (or the output ``source``) on front faces and black on back faces
+    (Mitsuba's area emitter)."""
     geo = nodes.new("ShaderNodeNewGeometry")
     mix = nodes.new("ShaderNodeMix")
     mix.data_type = "RGBA"
     mix.inputs["A"].default_value = (*color, 1.0)
+    if source is not None:
+        links.new(source, mix.inputs["A"])
     mix.inputs["B"].default_value = (0.0, 0.0, 0.0, 1.0)
     links.new(geo.outputs["Backfacing"], mix.inputs["Factor"])
     links.new(mix.outputs["Result"], socket)

@@ -62,7 +62,6 @@ in vec3 v_normal;
 #include "material.glsl"
 
 uniform vec3 u_camera_position;
-uniform vec3 u_emission;
 uniform float u_kind;             // 1 = shaded surface, 2 = emitter that reflects nothing
 uniform float u_background_pass;
 
@@ -106,7 +105,7 @@ void main() {
 #endif
     vec3 n = normalize(v_normal);
     vec3 v = normalize(u_camera_position - v_position);
-    vec3 c = dot(n, v) > 0.0 ? u_emission : vec3(0.0);
+    vec3 c = dot(n, v) > 0.0 ? material_emission() : vec3(0.0);
     vec3 direct = vec3(0.0);
     vec3 env = vec3(0.0);
     if (u_kind < 1.5) {

@@ -36,7 +36,6 @@ in vec3 v_normal;
 #include "material.glsl"
 
 uniform vec3 u_camera_position;
-uniform vec3 u_emission;   // radiance leaving the front side (the side the normal faces)
 uniform float u_kind;      // 1 = shaded surface, 2 = emitter that reflects nothing
 
 layout(location = 0) out vec4 out_position;  // world position, w = kind (0 = background)
@@ -50,7 +49,7 @@ void main() {
     out_position = vec4(v_position, u_kind);
     out_normal = vec4(n, material_roughness());
     out_material = vec4(material_base_color(), material_metallic());
-    out_emission = vec4(front ? u_emission : vec3(0.0), 1.0);
+    out_emission = vec4(front ? material_emission() : vec3(0.0), 1.0);
 }
 
 #endif

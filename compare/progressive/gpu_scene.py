@@ -20,8 +20,9 @@ import numpy as np
 from .shaders import set_uniform
 
 
-#: First texture unit of the material maps (above every unit a pass binds for its own textures).
-MAP_UNIT = 14
+#: First texture unit of the material maps (above every unit a pass binds for its own textures;
+#: the three maps take 13, 14 and 15, the last of the 16 a fragment shader is guaranteed).
+MAP_UNIT = 13
 
 
 def mat_bytes(m: np.ndarray) -> bytes:
@@ -96,6 +97,7 @@ class GpuMesh:
     light: int | None = None
     base_color_map: object = None
     metallic_roughness_map: object = None
+    emission_map: object = None
 
 
 class GpuScene:
@@ -119,6 +121,8 @@ class GpuScene:
                     gm.base_color_map = self._map(mat.base_color_texture, srgb=True)
                 if mat.metallic_roughness_texture is not None:
                     gm.metallic_roughness_map = self._map(mat.metallic_roughness_texture, srgb=False)
+                if mat.emissive_texture is not None:
+                    gm.emission_map = self._map(mat.emissive_texture, srgb=True)
             self.meshes.append(gm)
         quad = np.array([[0, 1, 2], [0, 2, 3]], dtype=np.uint32)
         for i, light in enumerate(scene.lights):
@@ -183,8 +187,8 @@ class GpuScene:
             set_uniform(program, "u_kind", mesh.kind)
             if self.textured:
                 for unit, (name, tex) in enumerate((("base_color", mesh.base_color_map),
-                                                    ("metallic_roughness", mesh.metallic_roughness_map)),
-                                                   start=MAP_UNIT):
+                                                    ("metallic_roughness", mesh.metallic_roughness_map),
+                                                    ("emission", mesh.emission_map)), start=MAP_UNIT):
                     set_uniform(program, f"u_has_{name}_map", 0.0 if tex is None else 1.0)
                     if tex is not None:
                         tex.use(location=unit)

@@ -64,7 +64,6 @@ flat in vec3 v_probe;
 
 #include "material.glsl"
 
-uniform vec3 u_emission;
 uniform float u_kind;      // 1 = shaded surface, 2 = light quad (reflects nothing)
 uniform int u_lambert;     // 1: materials "diffuse" (albedo = base colour, metallic ignored)
 
@@ -81,7 +80,7 @@ void main() {
     out_position = vec4(v_position, length(to_probe));
     out_normal = vec4(n, u_kind);
     out_albedo = vec4((1.0 - m) * material_base_color(), front ? 1.0 : -1.0);
-    out_emission = vec4(front ? u_emission : vec3(0.0), 1.0);
+    out_emission = vec4(front ? material_emission() : vec3(0.0), 1.0);
 }
 
 #endif

@@ -70,6 +70,8 @@ def export_gltf(scene, path: Path) -> Path:
             pbr["baseColorTexture"] = {"index": texture(Path(m.base_color_texture))}
         if m.metallic_roughness_texture is not None:
             pbr["metallicRoughnessTexture"] = {"index": texture(Path(m.metallic_roughness_texture))}
+        if m.emissive_texture is not None:
+            w.doc["materials"][index[name]]["emissiveTexture"] = {"index": texture(Path(m.emissive_texture))}
     for mesh in scene.meshes:
         tri = mesh.triangles()
         uvs = tri.uvs is not None and len(tri.uvs) == len(tri.positions)
