@@ -20,6 +20,9 @@ Materials
     material model); the alpha of ``baseColorFactor`` and ``alphaMode`` are
     ignored (opaque). ``emissiveFactor`` × ``KHR_materials_emissive_strength``
     is the emission in W·sr⁻¹·m⁻², and ``emissiveTexture`` (sRGB) multiplies it.
+    ``KHR_texture_transform`` (offset, rotation, scale) and the sampler's wrapS and
+    magFilter become the material's texture settings (one per material: the base
+    colour map's, with a note when its maps differ).
     Normal and occlusion textures are left out with a note. Primitives without a material get glTF's
     default material (white, metallic 1, roughness 1). Textures: the base
     colour and metallic-roughness images become the material's texture files
@@ -80,7 +83,11 @@ COMPONENT_TYPES = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint1
 TYPE_SIZES = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
 #: Extensions that are read. A file that *requires* any other (Draco, meshopt, BasisU, WebP, ...) is
 #: refused; others it merely uses are ignored with one warning.
-SUPPORTED_EXTENSIONS = ("KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_mesh_quantization")
+SUPPORTED_EXTENSIONS = ("KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_mesh_quantization",
+                        "KHR_texture_transform")
+#: glTF sampler codes → the scene model's texture_wrap and texture_filter.
+GL_WRAPS = {10497: "repeat", 33071: "clamp", 33648: "mirror"}
+GL_FILTERS = {9728: "nearest", 9729: "linear"}
 #: Watts per lumen at 555 nm: candela → W/sr for KHR_lights_punctual.
 WATTS_PER_LUMEN = 1.0 / 683.0
 DEFAULT_PUNCTUAL_SIZE = 0.05
@@ -107,6 +114,11 @@ class GltfMaterial:
     base_color_image: int | None = None
     metallic_roughness_image: int | None = None
     emissive_image: int | None = None
+    texture_offset: tuple[float, float] = (0.0, 0.0)
+    texture_rotation: float = 0.0
+    texture_scale: tuple[float, float] = (1.0, 1.0)
+    texture_wrap: str = "repeat"
+    texture_filter: str = "linear"
 
 
 @dataclass(frozen=True)
@@ -406,29 +418,55 @@ class _Reader:
         if "normalTexture" in m or "occlusionTexture" in m:
             self.notes.append(f"{w}: normal and occlusion textures ignored")
 
+        sampling: list[tuple[str, tuple]] = []  # (texture key, its transform and sampler) of each map
+
         def image(key: str, table: dict | None = None) -> int | None:
             info = (pbr if table is None else table).get(key)
             if info is None:
                 return None
-            if info.get("texCoord", 0) != 0 or "KHR_texture_transform" in info.get("extensions", {}):
-                self.notes.append(f"{w}.{key}: only TEXCOORD_0 without a texture transform is supported")
+            xf = info.get("extensions", {}).get("KHR_texture_transform", {})
+            if info.get("texCoord", 0) != 0 or xf.get("texCoord", 0) != 0:
+                self.notes.append(f"{w}.{key}: only TEXCOORD_0 is supported")
             where = f"{w}.pbrMetallicRoughness.{key}" if table is None else f"{w}.{key}"
             tex = self.item("textures", info.get("index", -1), f"{where}.index")
+            sampler = self.item("samplers", tex["sampler"], f"{where}: texture sampler") if "sampler" in tex else {}
+            wrap_s, wrap_t = sampler.get("wrapS", 10497), sampler.get("wrapT", 10497)
+            if wrap_s != wrap_t:
+                self.notes.append(f"{w}.{key}: wrapT differs from wrapS; wrapS is used for both")
+            try:
+                offset = tuple(float(x) for x in xf.get("offset", [0.0, 0.0]))
+                scale = tuple(float(x) for x in xf.get("scale", [1.0, 1.0]))
+                rotation = math.degrees(float(xf.get("rotation", 0.0)))
+            except (TypeError, ValueError):
+                raise self.err(f"{where}.extensions.KHR_texture_transform", f"expected numbers, got {xf!r}") from None
+            if len(offset) != 2 or len(scale) != 2 or not all(map(math.isfinite, offset + scale + (rotation,))):
+                raise self.err(f"{where}.extensions.KHR_texture_transform", f"expected finite offset, rotation and "
+                                                                            f"scale, got {xf!r}")
+            sampling.append((key, (offset, rotation, scale, GL_WRAPS.get(wrap_s, "repeat"),
+                                   GL_FILTERS.get(sampler.get("magFilter", 9729), "linear"))))
             src = tex.get("source")
             if src is None:
                 self.notes.append(f"{w}.{key}: texture has no PNG/JPEG source; ignored")
             return src
 
         clamp = lambda v: min(max(float(v), 0.0), 1.0)  # noqa: E731
+        images = dict(base_color_image=image("baseColorTexture"),
+                      metallic_roughness_image=image("metallicRoughnessTexture"),
+                      emissive_image=image("emissiveTexture", m))
+        # The scene model has one transform and sampler per material: the first map's (base colour first).
+        offset, rotation, scale, wrap, filt = sampling[0][1] if sampling else ((0.0, 0.0), 0.0, (1.0, 1.0),
+                                                                             "repeat", "linear")
+        if any(s != sampling[0][1] for _, s in sampling[1:]):
+            self.notes.append(f"{w}: its maps have different texture transforms or samplers; "
+                              f"{sampling[0][0]}'s is used for all")
         return GltfMaterial(
             name=str(m.get("name") or f"material{index}"),
             base_color=tuple(clamp(c) for c in base[:3]),  # type: ignore[arg-type]
             metallic=clamp(pbr.get("metallicFactor", 1.0)),
             roughness=clamp(pbr.get("roughnessFactor", 1.0)),
             emission=tuple(float(max(e, 0.0)) for e in emission),  # type: ignore[arg-type]
-            base_color_image=image("baseColorTexture"),
-            metallic_roughness_image=image("metallicRoughnessTexture"),
-            emissive_image=image("emissiveTexture", m),
+            texture_offset=offset, texture_rotation=rotation, texture_scale=scale, texture_wrap=wrap,
+            texture_filter=filt, **images,
         )
 
     def image(self, index: int) -> Path | None:

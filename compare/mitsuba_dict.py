@@ -124,9 +124,20 @@ def sensor_dict(scene: Scene, *, spp: int, sampler: str = "independent", scale: 
     }
 
 
+def bitmap_dict(mat: Material, filename, *, raw: bool) -> dict:
+    """A Mitsuba ``bitmap`` of one of ``mat``'s maps, with its texture transform and sampler settings."""
+    import mitsuba as mi
+
+    d = {"type": "bitmap", "filename": str(filename), "raw": raw, "wrap_mode": mat.texture_wrap,
+         "filter_type": "nearest" if mat.texture_filter == "nearest" else "bilinear"}
+    if mat.has_uv_transform:
+        d["to_uv"] = mi.ScalarTransform3f(mat.uv_transform().tolist())
+    return d
+
+
 def material_dict(mat: Material, mode: str) -> dict:
     """BSDF dictionary for one material in ``mode`` (one of :data:`MATERIAL_MODES`)."""
-    base = ({"type": "bitmap", "filename": str(mat.base_color_texture), "raw": False}
+    base = (bitmap_dict(mat, mat.base_color_texture, raw=False)
             if mat.base_color_texture else {"type": "rgb", "value": list(mat.base_color)})
     metallic, roughness = mat.metallic, mat.roughness
     if mat.metallic_roughness_texture is not None and mode != "diffuse":
@@ -134,8 +145,8 @@ def material_dict(mat: Material, mode: str) -> dict:
 
         # glTF's channels (B = metallic, G = roughness) as two maps; like every map, they replace the factors.
         m_file, r_file = split_metallic_roughness(mat.metallic_roughness_texture)
-        metallic = {"type": "bitmap", "filename": str(m_file), "raw": True}
-        roughness = {"type": "bitmap", "filename": str(r_file), "raw": True}
+        metallic = bitmap_dict(mat, m_file, raw=True)
+        roughness = bitmap_dict(mat, r_file, raw=True)
     if mode == "shared":
         from .brdf.mitsuba_plugin import register
 
@@ -214,8 +225,7 @@ def mesh_object(name: str, scene: Scene, mesh_index: int, mode: str, scale: floa
         if mat.emissive_texture is not None:
             from .textures import emission_map
 
-            radiance = {"type": "bitmap", "filename": str(emission_map(mat.emissive_texture, mat.emission)),
-                        "raw": True}
+            radiance = bitmap_dict(mat, emission_map(mat.emissive_texture, mat.emission), raw=True)
         props["emitter"] = mi.load_dict({"type": "area", "radiance": radiance})
     m = mi.Mesh(name, len(tri.positions), tri.triangle_count, props, has_vertex_normals=True,
                 has_vertex_texcoords=True)

@@ -26,6 +26,10 @@ import numpy as np
 
 from . import geometry
 from .brdf.multiscatter import DEFAULT_DISTRIBUTION, DISTRIBUTIONS
+
+#: Texture sampling settings of a material (glTF samplers: wrapS/T and magFilter).
+TEXTURE_WRAPS = ("repeat", "clamp", "mirror")
+TEXTURE_FILTERS = ("linear", "nearest")
 from .errors import CompareError, MissingComponentError, SceneError
 from .fsutil import sha256_bytes
 from .scene_fields import Ctx as _Ctx, color as _color, file_field as _file, fmt as _fmt, number as _number
@@ -64,7 +68,18 @@ def _camera(ctx: _Ctx, raw: Any) -> Camera:
 def _material(ctx: _Ctx, name: str, raw: Any) -> Material:
     w = f"materials.{name}"
     t = _table(ctx, w, raw, {"base_color", "metallic", "roughness", "emission", "base_color_texture",
-                             "metallic_roughness_texture", "emissive_texture", "distribution"})
+                             "metallic_roughness_texture", "emissive_texture", "distribution", "texture_offset",
+                             "texture_rotation", "texture_scale", "texture_wrap", "texture_filter"})
+    wrap = t.get("texture_wrap", "repeat")
+    if wrap not in TEXTURE_WRAPS:
+        raise ctx.err(f"{w}.texture_wrap", f"expected one of {', '.join(map(repr, TEXTURE_WRAPS))}, got {_fmt(wrap)}")
+    filt = t.get("texture_filter", "linear")
+    if filt not in TEXTURE_FILTERS:
+        raise ctx.err(f"{w}.texture_filter", f"expected one of {', '.join(map(repr, TEXTURE_FILTERS))}, "
+                                             f"got {_fmt(filt)}")
+    scale = _vector(ctx, f"{w}.texture_scale", t.get("texture_scale", [1.0, 1.0]), 2)
+    if 0.0 in scale:
+        raise ctx.err(f"{w}.texture_scale", f"expected two non-zero numbers, got {_fmt(t.get('texture_scale'))}")
     dist = t.get("distribution", DEFAULT_DISTRIBUTION)
     if dist not in DISTRIBUTIONS:
         raise ctx.err(f"{w}.distribution", f"expected one of {', '.join(map(repr, DISTRIBUTIONS))} (Blender's "
@@ -81,6 +96,11 @@ def _material(ctx: _Ctx, name: str, raw: Any) -> Material:
                                     if "metallic_roughness_texture" in t else None),
         emissive_texture=(_texture(ctx, f"{w}.emissive_texture", t["emissive_texture"])
                           if "emissive_texture" in t else None),
+        texture_offset=_vector(ctx, f"{w}.texture_offset", t.get("texture_offset", [0.0, 0.0]), 2),
+        texture_rotation=_number(ctx, f"{w}.texture_rotation", t.get("texture_rotation", 0.0)),
+        texture_scale=scale,
+        texture_wrap=wrap,
+        texture_filter=filt,
         distribution=dist,
     )
 

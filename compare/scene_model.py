@@ -118,6 +118,26 @@ class Material:
     metallic_roughness_texture: Path | None = None
     #: An sRGB emission map, multiplied by ``emission`` (glTF's emissiveTexture × emissiveFactor).
     emissive_texture: Path | None = None
+    #: The texture transform of every map of the material (glTF's KHR_texture_transform): offset,
+    #: rotation (degrees here; radians in glTF) and scale, applied as offset · rotation · scale.
+    texture_offset: tuple[float, float] = (0.0, 0.0)
+    texture_rotation: float = 0.0
+    texture_scale: tuple[float, float] = (1.0, 1.0)
+    #: How the maps are sampled: ``texture_wrap`` "repeat", "clamp" or "mirror"; ``texture_filter``
+    #: "linear" (mipmapped where a renderer has mipmaps) or "nearest".
+    texture_wrap: str = "repeat"
+    texture_filter: str = "linear"
+
+    def uv_transform(self) -> np.ndarray:
+        """The 3 × 3 matrix glTF's KHR_texture_transform applies to texture coordinates (column vectors)."""
+        c, s = math.cos(math.radians(self.texture_rotation)), math.sin(math.radians(self.texture_rotation))
+        t = np.array([[1.0, 0.0, self.texture_offset[0]], [0.0, 1.0, self.texture_offset[1]], [0.0, 0.0, 1.0]])
+        r = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+        return t @ r @ np.diag([self.texture_scale[0], self.texture_scale[1], 1.0])
+
+    @property
+    def has_uv_transform(self) -> bool:
+        return (self.texture_offset, self.texture_rotation, self.texture_scale) != ((0.0, 0.0), 0.0, (1.0, 1.0))
     #: The Principled BSDF's microfacet distribution in Blender (``multi_ggx``, Blender's default, or
     #: ``ggx``): what the Blender comparators set and the reference's ``cycles`` mode models. The
     #: glTF BRDF (the rasterizer, the ``shared`` reference) is single-scattering GGX either way.

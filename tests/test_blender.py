@@ -464,6 +464,17 @@ def test_cycles_reads_the_metallic_roughness_map_as_its_factors(tmp_path):
             np.testing.assert_allclose(got[m].mean(0), want[m].mean(0), rtol=0.03, err_msg=f"{half} {name}")
 
 
+#: Texture transforms that move whole quadrants of the map (the floor's regions stay one colour each), with
+#: the quadrant (row, column) of the map that region (r, c) then shows: glTF's rotation matrix
+#: [[cos, sin], [-sin, cos]] takes (u, v) to (v, 1 - u) at 90 degrees (repeat wrap).
+QUADRANT_MAPS = [
+    ("texture_offset = [0.5, 0.0]", lambda r, c: (r, 1 - c)),
+    ("texture_rotation = 90", lambda r, c: (1 - c, r)),
+    ("texture_rotation = 180", lambda r, c: (1 - r, 1 - c)),
+    ("texture_offset = [0.5, 0.5]\ntexture_scale = [-1.0, 1.0]", lambda r, c: (1 - r, c)),
+]
+
+
 @needs_bpy
 def test_cycles_multiplies_the_emission_by_its_map(tmp_path):
     from compare.tonemap import srgb_decode
@@ -475,4 +486,21 @@ def test_cycles_multiplies_the_emission_by_its_map(tmp_path):
     regions = _regions(scene)
     for (r, c), colour in QUADRANTS.items():
         want = np.array([2.0, 1.0, 0.5]) * srgb_decode(np.array(colour) / 255.0)
+        np.testing.assert_allclose(image[regions[f"quadrant {r}{c}"]].mean(0), want, rtol=0.01, err_msg=f"{r}{c}")
+
+
+@needs_bpy
+@pytest.mark.parametrize("settings, source", QUADRANT_MAPS)
+def test_cycles_applies_the_texture_transform(tmp_path, settings, source):
+    """The material's texture transform through a Mapping node (Blender's v runs up): an emission map
+    turned and shifted by whole quadrants shows each region the quadrant the transform says."""
+    from compare.tonemap import srgb_decode
+    from test_textures import QUADRANTS, _regions, _scene
+
+    scene = _scene(tmp_path, 'base_color = [0.0, 0.0, 0.0]\nemission = [1.0, 1.0, 1.0]\n'
+                             f'emissive_texture = "quadrants.png"\n{settings}', light=False)
+    image = render_blender(scene, engine="cycles", samples=16, seed=1).image
+    regions = _regions(scene)
+    for (r, c) in QUADRANTS:
+        want = srgb_decode(np.array(QUADRANTS[source(r, c)]) / 255.0)
         np.testing.assert_allclose(image[regions[f"quadrant {r}{c}"]].mean(0), want, rtol=0.01, err_msg=f"{r}{c}")

@@ -452,3 +452,35 @@ def test_fields_of_the_wrong_json_type_are_one_error_naming_the_file(tmp_path):
         with pytest.raises(GltfError) as exc:
             load_gltf(path)
         assert str(exc.value) == (f"{path}: malformed glTF ({detail}); check it with the Khronos glTF validator")
+
+
+def test_texture_transform_and_sampler_are_imported_and_exported(tmp_path, monkeypatch):
+    """KHR_texture_transform and the sampler's wrapS / magFilter become the material's texture settings;
+    the glTF a renderer of the registry receives (compare.renderers.job.export_gltf) carries them back."""
+    import math
+
+    from compare.renderers.job import export_gltf
+
+    monkeypatch.setenv("COMPARE_CACHE", str(tmp_path / "cache"))
+    w = simple_writer()
+    img = w._add("images", {"bufferView": w.view(PNG_2X2), "mimeType": "image/png"})
+    smp = w._add("samplers", {"wrapS": 33648, "wrapT": 33648, "magFilter": 9728})
+    w._add("textures", {"source": img, "sampler": smp})
+    w._use("KHR_texture_transform")
+    w.doc["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {
+        "index": 0, "extensions": {"KHR_texture_transform": {"offset": [0.25, 0.5], "rotation": math.pi / 2,
+                                                             "scale": [2.0, 3.0]}}}
+    w.write(tmp_path / "t.glb")
+    s = quiet_load(write_toml(tmp_path, 'include = "t.glb"\n'))
+    mat = s.materials["t/paint"]
+    assert mat.texture_offset == (0.25, 0.5) and mat.texture_rotation == pytest.approx(90.0)
+    assert mat.texture_scale == (2.0, 3.0) and mat.texture_wrap == "mirror" and mat.texture_filter == "nearest"
+    np.testing.assert_allclose(mat.uv_transform() @ [1.0, 0.0, 1.0], [0.25, 0.5 - 2.0, 1.0], atol=1e-12)
+    (tmp_path / "out").mkdir()
+    out = export_gltf(s, tmp_path / "out" / "scene.gltf")
+    from compare.gltf import load_gltf
+
+    again = next(m for m in load_gltf(out).materials if m.base_color_image is not None)
+    assert (again.texture_offset, again.texture_scale, again.texture_wrap, again.texture_filter) == (
+        (0.25, 0.5), (2.0, 3.0), "mirror", "nearest")
+    assert again.texture_rotation == pytest.approx(90.0)

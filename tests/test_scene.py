@@ -328,3 +328,17 @@ def test_reference_spp_is_the_scenes_choice_under_spp_auto(tmp_path):
     assert job.settings_for(scene).spp == 4096 and job.settings_for(load_scene(write(tmp_path, GOOD))).spp == 64
     with pytest.raises(SceneError, match=r"render.reference_spp: expected a positive integer, got 0"):
         load_scene(write(tmp_path, GOOD + "\n[render]\nreference_spp = 0\n"))
+
+
+@pytest.mark.parametrize("field, value, message", [
+    ("texture_wrap", '"wrap"', "texture_wrap: expected one of 'repeat', 'clamp', 'mirror', got 'wrap'"),
+    ("texture_filter", '"cubic"', "texture_filter: expected one of 'linear', 'nearest', got 'cubic'"),
+    ("texture_scale", "[1.0, 0.0]", "texture_scale: expected two non-zero numbers"),
+    ("texture_offset", "[1.0]", "texture_offset: expected two numbers"),
+    ("emissive_texture", '"missing.png"', "emissive_texture"),
+])
+def test_bad_texture_settings_name_file_and_field(tmp_path, field, value, message):
+    text = GOOD.replace("base_color = [0.8, 0.8, 0.8]", f"base_color = [0.8, 0.8, 0.8]\n{field} = {value}", 1)
+    with pytest.raises(SceneError, match=f"materials.white.{message}".replace("[", r"\[").replace("]", r"\]")
+                       .replace("(", r"\(").replace(")", r"\)").replace(".", r"\.")):
+        load_scene(write(tmp_path, text))

@@ -296,9 +296,32 @@ def blender_environment_map(image: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(out, dtype=np.float32)
 
 
+def blender_uv_mapping(mat) -> dict[str, list[float]] | None:
+    """The material's texture transform as a Blender Mapping node (POINT: scale, then rotate about Z,
+    then translate), or None for none.
+
+    The transform is glTF's, on glTF's coordinates (v down the image); Blender's v runs up
+    (v_b = 1 − v, see the module notes), so the node applies F M F with F the flip of v. Its linear part is
+    a rotation times the scales (M's rotation turns the other way in Blender's frame).
+    """
+    if not mat.has_uv_transform:
+        return None
+    flip = np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 1.0], [0.0, 0.0, 1.0]])
+    a = flip @ mat.uv_transform() @ flip
+    lin = a[:2, :2]
+    sx, sy = float(np.linalg.norm(lin[:, 0])), float(np.linalg.norm(lin[:, 1]))
+    if np.linalg.det(lin) < 0:
+        sy = -sy
+    angle = math.atan2(lin[1, 0], lin[0, 0])
+    return {"location": [float(a[0, 2]), float(a[1, 2]), 0.0], "rotation": [0.0, 0.0, angle], "scale": [sx, sy, 1.0]}
+
+
 def _material(mat, mode: str, distribution: str | None = None) -> dict[str, Any]:
     tex = mat.base_color_texture
     return {
+        "uv_mapping": blender_uv_mapping(mat),
+        "texture_extension": {"repeat": "REPEAT", "clamp": "EXTEND", "mirror": "MIRROR"}[mat.texture_wrap],
+        "texture_interpolation": "Closest" if mat.texture_filter == "nearest" else "Linear",
         # Blender's enum identifier of the Principled BSDF's distribution.
         "distribution": BLENDER_DISTRIBUTIONS[distribution or mat.distribution],
         "base_color": list(mat.base_color),

@@ -48,27 +48,11 @@ def _principled(bpy, name: str, mat: dict, folder: str):
                 "Thin Film Thickness"):
         inp[key].default_value = 0.0
     if mat.get("base_color_texture"):
-        tex = nodes.new("ShaderNodeTexImage")
-        img = bpy.data.images.load(mat["base_color_texture"], check_existing=True)
-        img.colorspace_settings.name = mat["base_color_texture_colorspace"]
-        tex.image = img
-        tex.interpolation = "Linear"
-        tex.extension = "REPEAT"
-        uv = nodes.new("ShaderNodeUVMap")
-        uv.uv_map = "UVMap"
-        links.new(uv.outputs["UV"], tex.inputs["Vector"])
+        tex = _image_node(bpy, nodes, links, mat, mat["base_color_texture"], mat["base_color_texture_colorspace"])
         links.new(tex.outputs["Color"], inp["Base Color"])
     if mat.get("metallic_roughness_texture"):
         # glTF's channels, as Blender's own glTF importer wires them: G = roughness, B = metallic.
-        tex = nodes.new("ShaderNodeTexImage")
-        img = bpy.data.images.load(mat["metallic_roughness_texture"], check_existing=True)
-        img.colorspace_settings.name = "Non-Color"
-        tex.image = img
-        tex.interpolation = "Linear"
-        tex.extension = "REPEAT"
-        uv = nodes.new("ShaderNodeUVMap")
-        uv.uv_map = "UVMap"
-        links.new(uv.outputs["UV"], tex.inputs["Vector"])
+        tex = _image_node(bpy, nodes, links, mat, mat["metallic_roughness_texture"], "Non-Color")
         split = nodes.new("ShaderNodeSeparateColor")
         links.new(tex.outputs["Color"], split.inputs["Color"])
         links.new(split.outputs["Green"], inp["Roughness"])
@@ -77,15 +61,7 @@ def _principled(bpy, name: str, mat: dict, folder: str):
         emitted = None
         if mat.get("emissive_texture"):
             # glTF's emissiveTexture (sRGB) times the emission factor
-            tex = nodes.new("ShaderNodeTexImage")
-            img = bpy.data.images.load(mat["emissive_texture"], check_existing=True)
-            img.colorspace_settings.name = mat["emissive_texture_colorspace"]
-            tex.image = img
-            tex.interpolation = "Linear"
-            tex.extension = "REPEAT"
-            uv = nodes.new("ShaderNodeUVMap")
-            uv.uv_map = "UVMap"
-            links.new(uv.outputs["UV"], tex.inputs["Vector"])
+            tex = _image_node(bpy, nodes, links, mat, mat["emissive_texture"], mat["emissive_texture_colorspace"])
             product = nodes.new("ShaderNodeMix")
             product.data_type = "RGBA"
             product.blend_type = "MULTIPLY"
@@ -99,6 +75,31 @@ def _principled(bpy, name: str, mat: dict, folder: str):
             m.cycles.emission_sampling = "FRONT"
     links.new(bsdf.outputs["BSDF"], out.inputs["Surface"])
     return m
+
+
+def _image_node(bpy, nodes, links, mat: dict, path: str, colorspace: str):
+    """An image texture node of ``path`` reading the mesh's UVs through the material's texture transform
+    (a Mapping node, export.blender_uv_mapping) with its wrap and filter."""
+    tex = nodes.new("ShaderNodeTexImage")
+    img = bpy.data.images.load(path, check_existing=True)
+    img.colorspace_settings.name = colorspace
+    tex.image = img
+    tex.interpolation = mat["texture_interpolation"]
+    tex.extension = mat["texture_extension"]
+    uv = nodes.new("ShaderNodeUVMap")
+    uv.uv_map = "UVMap"
+    mapping = mat.get("uv_mapping")
+    if mapping:
+        node = nodes.new("ShaderNodeMapping")
+        node.vector_type = "POINT"
+        node.inputs["Location"].default_value = mapping["location"]
+        node.inputs["Rotation"].default_value = mapping["rotation"]
+        node.inputs["Scale"].default_value = mapping["scale"]
+        links.new(uv.outputs["UV"], node.inputs["Vector"])
+        links.new(node.outputs["Vector"], tex.inputs["Vector"])
+    else:
+        links.new(uv.outputs["UV"], tex.inputs["Vector"])
+    return tex
 
 
 def _one_sided_emission(nodes, links, socket, color, source=None) -> None:

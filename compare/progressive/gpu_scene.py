@@ -98,6 +98,8 @@ class GpuMesh:
     base_color_map: object = None
     metallic_roughness_map: object = None
     emission_map: object = None
+    uv_transform: bytes = b""
+    wrap: float = 0.0
 
 
 class GpuScene:
@@ -108,7 +110,7 @@ class GpuScene:
         self.meshes: list[GpuMesh] = []
         self.light_quads: list[GpuMesh] = []
         self._vaos: dict[tuple[int, int, bool], object] = {}
-        self._maps: dict[tuple[str, bool], object] = {}
+        self._maps: dict[tuple, object] = {}
         #: Whether any mesh has a map: the programs' TEXTURES define.
         self.textured = bool(scene.features().textures)
         for mesh in scene.meshes:
@@ -118,11 +120,14 @@ class GpuScene:
                               mat.roughness, mat.emission, 1.0, uvs=tri.uvs)
             if self.textured:
                 if mat.base_color_texture is not None:
-                    gm.base_color_map = self._map(mat.base_color_texture, srgb=True)
+                    gm.base_color_map = self._map(mat.base_color_texture, mat, srgb=True)
                 if mat.metallic_roughness_texture is not None:
-                    gm.metallic_roughness_map = self._map(mat.metallic_roughness_texture, srgb=False)
+                    gm.metallic_roughness_map = self._map(mat.metallic_roughness_texture, mat, srgb=False)
                 if mat.emissive_texture is not None:
-                    gm.emission_map = self._map(mat.emissive_texture, srgb=True)
+                    gm.emission_map = self._map(mat.emissive_texture, mat, srgb=True)
+                # GLSL mat3 is column-major: the bytes of the transpose of the row-major matrix
+                gm.uv_transform = np.ascontiguousarray(mat.uv_transform().T, dtype=np.float32).tobytes()
+                gm.wrap = float(("repeat", "clamp", "mirror").index(mat.texture_wrap))
             self.meshes.append(gm)
         quad = np.array([[0, 1, 2], [0, 2, 3]], dtype=np.uint32)
         for i, light in enumerate(scene.lights):
@@ -130,11 +135,12 @@ class GpuScene:
             self.light_quads.append(self._upload(light.name, light.corners(), normals, quad, (0.0, 0.0, 0.0),
                                                  0.0, 1.0, light.radiance, 2.0, light=i))
 
-    def _map(self, path, *, srgb: bool):
-        """One map file as a mipmapped linear RGBA16F texture (uploaded once per file and kind)."""
+    def _map(self, path, mat, *, srgb: bool):
+        """One map file as a linear RGBA16F texture, mipmapped unless the material samples it
+        ``nearest`` (uploaded once per file, kind and sampler settings)."""
         from ..textures import load_texture
 
-        key = (str(path), srgb)
+        key = (str(path), srgb, mat.texture_wrap == "repeat", mat.texture_filter)
         if key not in self._maps:
             rgb = load_texture(path, srgb=srgb)
             h, w = rgb.shape[:2]
@@ -142,9 +148,13 @@ class GpuScene:
             # Rows top first: texture coordinate t = 0 is the image's top row, as glTF's v = 0 (and
             # Mitsuba's bitmap lookup) is. Linear values are filtered, never encoded ones.
             tex = self.ctx.texture((w, h), 4, np.ascontiguousarray(rgba, dtype=np.float16).tobytes(), dtype="f2")
-            tex.repeat_x = tex.repeat_y = True
-            tex.build_mipmaps()
-            tex.filter = (self.ctx.LINEAR_MIPMAP_LINEAR, self.ctx.LINEAR)
+            # "mirror" is wrapped in the shader; its samplers clamp, which at a mirror's seam is exact
+            tex.repeat_x = tex.repeat_y = mat.texture_wrap == "repeat"
+            if mat.texture_filter == "nearest":
+                tex.filter = (self.ctx.NEAREST, self.ctx.NEAREST)
+            else:
+                tex.build_mipmaps()
+                tex.filter = (self.ctx.LINEAR_MIPMAP_LINEAR, self.ctx.LINEAR)
             self._maps[key] = tex
         return self._maps[key]
 
@@ -186,6 +196,9 @@ class GpuScene:
             set_uniform(program, "u_emission", mesh.emission)
             set_uniform(program, "u_kind", mesh.kind)
             if self.textured:
+                if mesh.uv_transform:
+                    set_uniform(program, "u_uv_transform", mesh.uv_transform)
+                    set_uniform(program, "u_wrap", mesh.wrap)
                 for unit, (name, tex) in enumerate((("base_color", mesh.base_color_map),
                                                     ("metallic_roughness", mesh.metallic_roughness_map),
                                                     ("emission", mesh.emission_map)), start=MAP_UNIT):

@@ -13,6 +13,8 @@ uniform vec3 u_emission;   // radiance leaving the front side (the side the norm
 
 #if TEXTURES
 in vec2 v_uv;
+uniform mat3 u_uv_transform;                 // the material's KHR_texture_transform
+uniform float u_wrap;                        // 0 repeat, 1 clamp, 2 mirror
 uniform sampler2D u_base_color_map;
 uniform sampler2D u_metallic_roughness_map;
 uniform float u_has_base_color_map;          // 1: sample u_base_color_map, 0: u_base_color
@@ -20,17 +22,29 @@ uniform float u_has_metallic_roughness_map;
 uniform sampler2D u_emission_map;            // linear RGB, multiplied by u_emission
 uniform float u_has_emission_map;
 
+// Texture coordinates wrapped here for "mirror" (the samplers repeat for "repeat" and clamp
+// otherwise, which at a mirror's seam is what mirroring gives), with the derivatives of the
+// unwrapped coordinates, so that mip levels do not jump at the seams.
+vec4 sample_map(sampler2D map) {
+    vec2 uv = (u_uv_transform * vec3(v_uv, 1.0)).xy;
+    vec2 dx = dFdx(uv);
+    vec2 dy = dFdy(uv);
+    if (u_wrap > 1.5) {
+        uv = 1.0 - abs(mod(uv, 2.0) - 1.0);
+    }
+    return textureGrad(map, uv, dx, dy);
+}
 vec3 material_base_color() {
-    return u_has_base_color_map > 0.5 ? texture(u_base_color_map, v_uv).rgb : u_base_color;
+    return u_has_base_color_map > 0.5 ? sample_map(u_base_color_map).rgb : u_base_color;
 }
 float material_metallic() {
-    return u_has_metallic_roughness_map > 0.5 ? texture(u_metallic_roughness_map, v_uv).b : u_metallic;
+    return u_has_metallic_roughness_map > 0.5 ? sample_map(u_metallic_roughness_map).b : u_metallic;
 }
 float material_roughness() {
-    return u_has_metallic_roughness_map > 0.5 ? texture(u_metallic_roughness_map, v_uv).g : u_roughness;
+    return u_has_metallic_roughness_map > 0.5 ? sample_map(u_metallic_roughness_map).g : u_roughness;
 }
 vec3 material_emission() {
-    return u_has_emission_map > 0.5 ? u_emission * texture(u_emission_map, v_uv).rgb : u_emission;
+    return u_has_emission_map > 0.5 ? u_emission * sample_map(u_emission_map).rgb : u_emission;
 }
 #else
 #define material_emission() u_emission

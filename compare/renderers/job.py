@@ -56,22 +56,40 @@ def export_gltf(scene, path: Path) -> Path:
     textures: dict[Path, int] = {}
 
     def texture(src: Path) -> int:
+        """The image index of ``src``, copied beside the glTF once."""
         if src not in textures:
             name = f"texture-{len(textures)}{src.suffix.lower()}"
             shutil.copyfile(src, path.parent / name)
-            image = w._add("images", {"uri": name})  # noqa: SLF001 - the writer's own list
-            textures[src] = w._add("textures", {"source": image})  # noqa: SLF001
+            textures[src] = w._add("images", {"uri": name})  # noqa: SLF001 - the writer's own list
         return textures[src]
+
+    samplers: dict[tuple[str, str], int] = {}
+
+    def info(m, src) -> dict:
+        """A texture info of map ``src`` with material ``m``'s sampler and texture transform."""
+        key = (m.texture_wrap, m.texture_filter)
+        if key not in samplers:
+            wrap = {"repeat": 10497, "clamp": 33071, "mirror": 33648}[m.texture_wrap]
+            filt = 9728 if m.texture_filter == "nearest" else 9729
+            samplers[key] = w._add("samplers", {"wrapS": wrap, "wrapT": wrap, "magFilter": filt})  # noqa: SLF001
+        tex = w._add("textures", {"source": texture(Path(src)), "sampler": samplers[key]})  # noqa: SLF001
+        out = {"index": tex}
+        if m.has_uv_transform:
+            out["extensions"] = {"KHR_texture_transform": {"offset": list(m.texture_offset),
+                                                           "rotation": math.radians(m.texture_rotation),
+                                                           "scale": list(m.texture_scale)}}
+            w._use("KHR_texture_transform")  # noqa: SLF001
+        return out
 
     for name, m in scene.materials.items():
         index[name] = w.material(name, m.base_color, m.metallic, m.roughness, m.emission)
         pbr = w.doc["materials"][index[name]]["pbrMetallicRoughness"]
         if m.base_color_texture is not None:
-            pbr["baseColorTexture"] = {"index": texture(Path(m.base_color_texture))}
+            pbr["baseColorTexture"] = info(m, m.base_color_texture)
         if m.metallic_roughness_texture is not None:
-            pbr["metallicRoughnessTexture"] = {"index": texture(Path(m.metallic_roughness_texture))}
+            pbr["metallicRoughnessTexture"] = info(m, m.metallic_roughness_texture)
         if m.emissive_texture is not None:
-            w.doc["materials"][index[name]]["emissiveTexture"] = {"index": texture(Path(m.emissive_texture))}
+            w.doc["materials"][index[name]]["emissiveTexture"] = info(m, m.emissive_texture)
     for mesh in scene.meshes:
         tri = mesh.triangles()
         uvs = tri.uvs is not None and len(tri.uvs) == len(tri.positions)
