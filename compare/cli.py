@@ -224,8 +224,11 @@ def _ztest(args: argparse.Namespace) -> int:
     if ref_var is None and test_var is None:
         raise UsageError("--ztest needs the variance of at least one side: give a folder of independent renders "
                          "or --reference-variance / --test-variance")
-    res = z_test(ref, 0.0 if ref_var is None else ref_var, test, 0.0 if test_var is None else test_var,
-                 alpha=args.alpha, block=args.block, dof_a=ref_dof, dof_b=test_dof)
+    try:
+        res = z_test(ref, 0.0 if ref_var is None else ref_var, test, 0.0 if test_var is None else test_var,
+                     alpha=args.alpha, block=args.block, dof_a=ref_dof, dof_b=test_dof)
+    except ValueError as exc:  # e.g. a --block larger than the image
+        raise UsageError(f"--ztest: {exc}") from None
     print(json.dumps(res.as_dict(), indent=2) if args.json else str(res))
     return 0 if res.passed else 1
 

@@ -23,7 +23,7 @@ Materials
     ``KHR_texture_transform`` (offset, rotation, scale) and the sampler's wrapS and
     magFilter become the material's texture settings (one per material: the base
     colour map's, with a note when its maps differ).
-    Normal and occlusion textures are left out with a note. Primitives without a material get glTF's
+    ``occlusionTexture`` and its strength are the occlusion map; normal textures are left out with a note. Primitives without a material get glTF's
     default material (white, metallic 1, roughness 1). Textures: the base
     colour and metallic-roughness images become the material's texture files
     (external images are checked to stay inside the scene's folder; images
@@ -114,6 +114,8 @@ class GltfMaterial:
     base_color_image: int | None = None
     metallic_roughness_image: int | None = None
     emissive_image: int | None = None
+    occlusion_image: int | None = None
+    occlusion_strength: float = 1.0
     texture_offset: tuple[float, float] = (0.0, 0.0)
     texture_rotation: float = 0.0
     texture_scale: tuple[float, float] = (1.0, 1.0)
@@ -415,8 +417,8 @@ class _Reader:
         emission = np.asarray(m.get("emissiveFactor", [0.0, 0.0, 0.0]), dtype=np.float64)
         strength = m.get("extensions", {}).get("KHR_materials_emissive_strength", {}).get("emissiveStrength", 1.0)
         emission = emission * float(strength)
-        if "normalTexture" in m or "occlusionTexture" in m:
-            self.notes.append(f"{w}: normal and occlusion textures ignored")
+        if "normalTexture" in m:
+            self.notes.append(f"{w}: normal texture ignored")
 
         sampling: list[tuple[str, tuple]] = []  # (texture key, its transform and sampler) of each map
 
@@ -452,7 +454,8 @@ class _Reader:
         clamp = lambda v: min(max(float(v), 0.0), 1.0)  # noqa: E731
         images = dict(base_color_image=image("baseColorTexture"),
                       metallic_roughness_image=image("metallicRoughnessTexture"),
-                      emissive_image=image("emissiveTexture", m))
+                      emissive_image=image("emissiveTexture", m),
+                      occlusion_image=image("occlusionTexture", m))
         # The scene model has one transform and sampler per material: the first map's (base colour first).
         offset, rotation, scale, wrap, filt = sampling[0][1] if sampling else ((0.0, 0.0), 0.0, (1.0, 1.0),
                                                                              "repeat", "linear")
@@ -467,6 +470,7 @@ class _Reader:
             emission=tuple(float(max(e, 0.0)) for e in emission),  # type: ignore[arg-type]
             texture_offset=offset, texture_rotation=rotation, texture_scale=scale, texture_wrap=wrap,
             texture_filter=filt, **images,
+            occlusion_strength=clamp(m.get("occlusionTexture", {}).get("strength", 1.0)),
         )
 
     def image(self, index: int) -> Path | None:

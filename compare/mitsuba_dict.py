@@ -19,6 +19,11 @@ Four material modes:
     Lambert only (reflectance = base colour), for validation against closed
     forms such as the white furnace, where any specular lobe would get in the way.
 
+Maps: base colour (sRGB), metallic-roughness (split into its B and G channels),
+emission (sRGB, times the emission), each with the material's texture transform,
+wrap and filter (:func:`bitmap_dict`). An occlusion map is left out: a path
+tracer computes the occlusion it stands for.
+
 The ``cycles`` mapping
 ----------------------
 Base colour, metallic and roughness go in unchanged (Blender squares the

@@ -68,7 +68,8 @@ def _camera(ctx: _Ctx, raw: Any) -> Camera:
 def _material(ctx: _Ctx, name: str, raw: Any) -> Material:
     w = f"materials.{name}"
     t = _table(ctx, w, raw, {"base_color", "metallic", "roughness", "emission", "base_color_texture",
-                             "metallic_roughness_texture", "emissive_texture", "distribution", "texture_offset",
+                             "metallic_roughness_texture", "emissive_texture", "occlusion_texture",
+                             "occlusion_strength", "distribution", "texture_offset",
                              "texture_rotation", "texture_scale", "texture_wrap", "texture_filter"})
     wrap = t.get("texture_wrap", "repeat")
     if wrap not in TEXTURE_WRAPS:
@@ -96,6 +97,9 @@ def _material(ctx: _Ctx, name: str, raw: Any) -> Material:
                                     if "metallic_roughness_texture" in t else None),
         emissive_texture=(_texture(ctx, f"{w}.emissive_texture", t["emissive_texture"])
                           if "emissive_texture" in t else None),
+        occlusion_texture=(_texture(ctx, f"{w}.occlusion_texture", t["occlusion_texture"])
+                           if "occlusion_texture" in t else None),
+        occlusion_strength=_number(ctx, f"{w}.occlusion_strength", t.get("occlusion_strength", 1.0), lo=0.0, hi=1.0),
         texture_offset=_vector(ctx, f"{w}.texture_offset", t.get("texture_offset", [0.0, 0.0]), 2),
         texture_rotation=_number(ctx, f"{w}.texture_rotation", t.get("texture_rotation", 0.0)),
         texture_scale=scale,

@@ -106,6 +106,8 @@ def include(ctx, where: str, raw: Any) -> Included:
                                           base_color_texture=tex(m.base_color_image),
                                           metallic_roughness_texture=tex(m.metallic_roughness_image),
                                           emissive_texture=tex(m.emissive_image),
+                                          occlusion_texture=tex(m.occlusion_image),
+                                          occlusion_strength=m.occlusion_strength,
                                           texture_offset=m.texture_offset, texture_rotation=m.texture_rotation,
                                           texture_scale=m.texture_scale, texture_wrap=m.texture_wrap,
                                           texture_filter=m.texture_filter)

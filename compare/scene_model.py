@@ -118,6 +118,11 @@ class Material:
     metallic_roughness_texture: Path | None = None
     #: An sRGB emission map, multiplied by ``emission`` (glTF's emissiveTexture × emissiveFactor).
     emissive_texture: Path | None = None
+    #: glTF's occlusion map (R channel, linear) and its strength: it darkens the ambient and indirect
+    #: light a renderer approximates (environment light, irradiance probes), never the direct light. A
+    #: path tracer computes that occlusion itself and leaves the map out (the reference, Cycles).
+    occlusion_texture: Path | None = None
+    occlusion_strength: float = 1.0
     #: The texture transform of every map of the material (glTF's KHR_texture_transform): offset,
     #: rotation (degrees here; radians in glTF) and scale, applied as offset · rotation · scale.
     texture_offset: tuple[float, float] = (0.0, 0.0)
@@ -300,7 +305,8 @@ class Scene:
             area_lights=bool(self.lights),
             glossy=any(m.is_glossy for m in used),
             metallic=any(m.metallic > 0 for m in used),
-            textures=any(m.base_color_texture or m.metallic_roughness_texture or m.emissive_texture for m in used),
+            textures=any(m.base_color_texture or m.metallic_roughness_texture or m.emissive_texture
+                         or m.occlusion_texture for m in used),
             emissive_meshes=any(m.is_emissive for m in used),
         )
 

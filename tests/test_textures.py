@@ -21,7 +21,7 @@ LIGHT = """[[lights]]
 QUADRANTS = {(0, 0): (230, 40, 40), (0, 1): (40, 200, 60), (1, 0): (50, 60, 220), (1, 1): (240, 230, 60)}
 
 
-def _scene(tmp_path, material: str, *, light: bool = True):
+def _scene(tmp_path, material: str, *, light: bool = True, environment: bool = False):
     """A 2 x 2 floor quad (the map's quadrants: image top = +z, left = -x) beside a grey control quad,
     under one light, direct light only."""
     img = np.zeros((64, 64, 3), dtype=np.uint8)
@@ -32,6 +32,9 @@ def _scene(tmp_path, material: str, *, light: bool = True):
     mrmap[:, :32] = (0, 255, 0)        # left half: rough dielectric
     mrmap[:, 32:] = (0, 204, 255)      # right half: metal of roughness 0.8
     Image.fromarray(mrmap).save(tmp_path / "mr.png")
+    ao = np.zeros((64, 64, 3), dtype=np.uint8)
+    ao[:, 32:] = 255                   # left half occluded, right half open
+    Image.fromarray(ao).save(tmp_path / "ao.png")
     (tmp_path / "t.toml").write_text(textwrap.dedent(f'''
         [camera]
         position = [0.0, 2.2, 2.6]
@@ -55,6 +58,8 @@ def _scene(tmp_path, material: str, *, light: bool = True):
         material = "grey"
         translate = [1.6, 0.0, 0.0]
         {LIGHT if light else ""}
+        {"[environment]" if environment else ""}
+        {"constant = [0.6, 0.6, 0.6]" if environment else ""}
         [render]
         max_depth = 2
         '''))
@@ -191,3 +196,33 @@ def test_texture_transform_moves_whole_quadrants(tmp_path, gl_ctx, index):
         m = regions[f"quadrant {r}{c}"]
         np.testing.assert_allclose(raster[m].mean(0), want, rtol=0.01, err_msg=f"rasterizer {r}{c}")
         np.testing.assert_allclose(ref[m].mean(0), want, rtol=0.01, err_msg=f"reference {r}{c}")
+
+
+@pytest.mark.parametrize("strength", [1.0, 0.5])
+def test_occlusion_map_darkens_only_the_ambient_light(tmp_path, gl_ctx, strength):
+    """glTF's occlusion map scales the rasterizer's environment light by 1 + strength (map - 1) and leaves
+    the area light's direct light as it was; the reference, a path tracer, leaves the map out."""
+    (tmp_path / "plain").mkdir()
+    plain = _scene(tmp_path / "plain", 'base_color = [0.8, 0.8, 0.8]\nroughness = 1.0', environment=True)
+    occluded = _scene(tmp_path, 'base_color = [0.8, 0.8, 0.8]\nroughness = 1.0\n'
+                                f'occlusion_texture = "ao.png"\nocclusion_strength = {strength}', environment=True)
+    a = render_progressive(occluded, frames=16, ctx=gl_ctx).layers
+    b = render_progressive(plain, frames=16, ctx=gl_ctx).layers
+    regions = _regions(occluded)
+    np.testing.assert_array_equal(a["direct_area"], b["direct_area"])
+    for name in ("quadrant 00", "quadrant 10"):  # the map's left half: 0
+        m = regions[name]
+        np.testing.assert_allclose(a["direct_env"][m].mean(0), (1 - strength) * b["direct_env"][m].mean(0),
+                                   rtol=1e-3, atol=1e-6, err_msg=name)
+    for name in ("quadrant 01", "quadrant 11", "control"):  # the right half: 1, and the control has no map
+        m = regions[name]
+        np.testing.assert_allclose(a["direct_env"][m].mean(0), b["direct_env"][m].mean(0), rtol=1e-3, err_msg=name)
+    # the irradiance volume's indirect light too
+    a = render_progressive(occluded, frames=8, ctx=gl_ctx, indirect="probes", probe_grid=(2, 2, 2)).layers
+    b = render_progressive(plain, frames=8, ctx=gl_ctx, indirect="probes", probe_grid=(2, 2, 2)).layers
+    for name, factor in (("quadrant 00", 1 - strength), ("quadrant 11", 1.0)):
+        m = regions[name]
+        np.testing.assert_allclose(a["indirect_diffuse"][m].mean(0), factor * b["indirect_diffuse"][m].mean(0),
+                                   rtol=1e-3, atol=1e-6, err_msg=f"probes {name}")
+    ref = [ReferenceRenderer(s, cache_dir=False, progress=False).render(4, seed=1).image for s in (occluded, plain)]
+    np.testing.assert_array_equal(ref[0], ref[1])

@@ -90,7 +90,9 @@ Emission = ``Emission Color`` with strength 1, made one-sided (as Mitsuba's
 through a Separate Color node, the image read as Non-Color, as Blender's glTF
 importer wires it (and as :mod:`compare.mitsuba_dict` reads it); like the base
 colour map it replaces the factors. An ``emissive_texture`` (sRGB) multiplies the
-emission (a Mix node, Multiply), as glTF's emissiveTexture does.
+emission (a Mix node, Multiply), as glTF's emissiveTexture does. An
+``occlusion_texture`` is left out: Cycles computes occlusion (as the reference does,
+and as Blender's glTF importer leaves it unconnected).
 Texture coordinates: Mitsuba's v runs down the image, Blender's up, so v → 1 − v.
 
 Environment

@@ -55,6 +55,9 @@ void main() {
             env_split_sum(normalize(gn.xyz), normalize(u_camera_position - gp.xyz), gm.rgb, gm.a, gn.w,
                           diffuse, specular);
             env = diffuse + specular;
+#if OCCLUSION
+            env *= texelFetch(u_emission, p, 0).a;  // the occlusion map's factor (gbuffer.glsl)
+#endif
         }
 #endif
     } else {

@@ -85,10 +85,10 @@ class AccumulatePass:
     unoccluded environment light of shaded surfaces (``accumulate.glsl``).
     """
 
-    def __init__(self, ctx, environment=None, materials: str = "shared"):
+    def __init__(self, ctx, environment=None, materials: str = "shared", occlusion: bool = False):
         self.ctx = ctx
         self.environment = environment
-        defines = {"ENVIRONMENT": int(environment is not None)}
+        defines = {"ENVIRONMENT": int(environment is not None), "OCCLUSION": int(bool(occlusion))}
         if environment is not None:
             defines.update(environment.defines(materials))
         self.program = load_program(ctx, "accumulate.glsl", defines)

@@ -37,6 +37,9 @@
 uniform sampler2D u_position;  // G-buffer: world position, w = kind
 uniform sampler2D u_normal;    // G-buffer: shading normal, w = roughness
 uniform sampler2D u_material;  // G-buffer: base colour, a = metallic
+#if OCCLUSION
+uniform sampler2D u_emission;  // G-buffer: a = the occlusion map's factor
+#endif
 uniform sampler2D u_prev_diffuse;   // running means before this frame
 uniform sampler2D u_prev_specular;
 
@@ -152,6 +155,11 @@ void main() {
             }
         }
     }
+#if OCCLUSION
+    float ao = texelFetch(u_emission, p, 0).a;  // the occlusion map's factor (gbuffer.glsl)
+    c_d *= ao;
+    c_s *= ao;
+#endif
     out_diffuse = vec4(running_mean(texelFetch(u_prev_diffuse, p, 0).rgb, c_d, m_d, u_counts.x), 1.0);
     out_specular = vec4(running_mean(texelFetch(u_prev_specular, p, 0).rgb, c_s, m_s, u_counts.y), 1.0);
 }

@@ -207,10 +207,12 @@ class EnvOcclusionTargets:
 class EnvOcclusionPass:
     """The environment's screen-space occlusion (``env_occlusion.glsl``), one pass per environment frame."""
 
-    def __init__(self, ctx, environment: EnvironmentLighting, materials: str = "shared"):
+    def __init__(self, ctx, environment: EnvironmentLighting, materials: str = "shared", occlusion: bool = False):
         self.ctx = ctx
         self.environment = environment
-        self.program = load_program(ctx, "env_occlusion.glsl", environment.defines(materials))
+        self.occlusion = bool(occlusion)
+        self.program = load_program(ctx, "env_occlusion.glsl",
+                                    {**environment.defines(materials), "OCCLUSION": int(self.occlusion)})
         self.vao = ctx.vertex_array(self.program, [])
 
     def run(self, acc: EnvOcclusionTargets, gbuffer, view_proj: bytes, camera_position, camera_forward, samples,
@@ -230,6 +232,9 @@ class EnvOcclusionPass:
         set_uniform(p, "u_prev_diffuse", 3)
         set_uniform(p, "u_prev_specular", 4)
         self.environment.bind(p, first_unit=5)
+        if self.occlusion:  # the occlusion maps' factors (G-buffer emission.a); 5 … 8 are the environment's
+            gbuffer["emission"].use(location=9)
+            set_uniform(p, "u_emission", 9)
         kinds = np.zeros(MAX_SAMPLES_PER_FRAME, np.int32)
         us = np.zeros((MAX_SAMPLES_PER_FRAME, 3), np.float32)
         for i, s in enumerate(samples):

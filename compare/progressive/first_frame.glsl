@@ -116,7 +116,7 @@ void main() {
         vec3 diffuse;
         vec3 specular;
         env_split_sum(n, v, base_color, metallic, roughness, diffuse, specular);
-        env = diffuse + specular;
+        env = (diffuse + specular) * material_occlusion();
 #endif
 #if LIGHTS > 0
         for (int i = 0; i < LIGHTS; ++i) {

@@ -41,7 +41,7 @@ uniform float u_kind;      // 1 = shaded surface, 2 = emitter that reflects noth
 layout(location = 0) out vec4 out_position;  // world position, w = kind (0 = background)
 layout(location = 1) out vec4 out_normal;    // unit shading normal, w = perceptual roughness
 layout(location = 2) out vec4 out_material;  // base colour, a = metallic
-layout(location = 3) out vec4 out_emission;  // emitted radiance towards the camera
+layout(location = 3) out vec4 out_emission;  // emitted radiance towards the camera, a = occlusion
 
 void main() {
     vec3 n = normalize(v_normal);
@@ -49,7 +49,7 @@ void main() {
     out_position = vec4(v_position, u_kind);
     out_normal = vec4(n, material_roughness());
     out_material = vec4(material_base_color(), material_metallic());
-    out_emission = vec4(front ? material_emission() : vec3(0.0), 1.0);
+    out_emission = vec4(front ? material_emission() : vec3(0.0), material_occlusion());
 }
 
 #endif

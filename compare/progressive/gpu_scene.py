@@ -21,8 +21,8 @@ from .shaders import set_uniform
 
 
 #: First texture unit of the material maps (above every unit a pass binds for its own textures;
-#: the three maps take 13, 14 and 15, the last of the 16 a fragment shader is guaranteed).
-MAP_UNIT = 13
+#: the four maps take 12 … 15, the last of the 16 a fragment shader is guaranteed).
+MAP_UNIT = 12
 
 
 def mat_bytes(m: np.ndarray) -> bytes:
@@ -98,6 +98,8 @@ class GpuMesh:
     base_color_map: object = None
     metallic_roughness_map: object = None
     emission_map: object = None
+    occlusion_map: object = None
+    occlusion_strength: float = 1.0
     uv_transform: bytes = b""
     wrap: float = 0.0
 
@@ -113,6 +115,8 @@ class GpuScene:
         self._maps: dict[tuple, object] = {}
         #: Whether any mesh has a map: the programs' TEXTURES define.
         self.textured = bool(scene.features().textures)
+        #: Whether any mesh has an occlusion map: the OCCLUSION define of the passes of ambient light.
+        self.occluded = any(scene.materials[m.material].occlusion_texture is not None for m in scene.meshes)
         for mesh in scene.meshes:
             tri = mesh.triangles()
             mat = scene.materials[mesh.material]
@@ -125,6 +129,9 @@ class GpuScene:
                     gm.metallic_roughness_map = self._map(mat.metallic_roughness_texture, mat, srgb=False)
                 if mat.emissive_texture is not None:
                     gm.emission_map = self._map(mat.emissive_texture, mat, srgb=True)
+                if mat.occlusion_texture is not None:
+                    gm.occlusion_map = self._map(mat.occlusion_texture, mat, srgb=False)
+                    gm.occlusion_strength = float(mat.occlusion_strength)
                 # GLSL mat3 is column-major: the bytes of the transpose of the row-major matrix
                 gm.uv_transform = np.ascontiguousarray(mat.uv_transform().T, dtype=np.float32).tobytes()
                 gm.wrap = float(("repeat", "clamp", "mirror").index(mat.texture_wrap))
@@ -199,9 +206,11 @@ class GpuScene:
                 if mesh.uv_transform:
                     set_uniform(program, "u_uv_transform", mesh.uv_transform)
                     set_uniform(program, "u_wrap", mesh.wrap)
+                    set_uniform(program, "u_occlusion_strength", mesh.occlusion_strength)
                 for unit, (name, tex) in enumerate((("base_color", mesh.base_color_map),
                                                     ("metallic_roughness", mesh.metallic_roughness_map),
-                                                    ("emission", mesh.emission_map)), start=MAP_UNIT):
+                                                    ("emission", mesh.emission_map),
+                                                    ("occlusion", mesh.occlusion_map)), start=MAP_UNIT):
                     set_uniform(program, f"u_has_{name}_map", 0.0 if tex is None else 1.0)
                     if tex is not None:
                         tex.use(location=unit)

@@ -18,6 +18,9 @@
 uniform sampler2D u_position;  // G-buffer: world position, w = kind
 uniform sampler2D u_normal;    // G-buffer: shading normal, w = roughness
 uniform sampler2D u_material;  // G-buffer: base colour, a = metallic
+#if OCCLUSION
+uniform sampler2D u_emission;  // G-buffer: a = the occlusion map's factor
+#endif
 uniform sampler2D u_previous;
 uniform vec3 u_camera_position;
 uniform float u_count;
@@ -32,6 +35,9 @@ void main() {
         vec4 gn = texelFetch(u_normal, p, 0);
         vec4 gm = texelFetch(u_material, p, 0);
         c = probe_diffuse(gp.xyz, normalize(gn.xyz), normalize(u_camera_position - gp.xyz), gm.rgb, gm.a, gn.w);
+#if OCCLUSION
+        c *= texelFetch(u_emission, p, 0).a;  // the occlusion map's factor (gbuffer.glsl)
+#endif
     }
     vec3 a = u_count > 1.0 ? texelFetch(u_previous, p, 0).rgb : vec3(0.0);
     out_color = vec4(a + (c - a) / u_count, 1.0);

@@ -22,13 +22,15 @@ PROBE_FRAMES = 16
 class IndirectPass:
     """Program and running mean of the volume's indirect light."""
 
-    def __init__(self, ctx, probes, size: tuple[int, int], materials: str = "shared", frames: int = PROBE_FRAMES):
+    def __init__(self, ctx, probes, size: tuple[int, int], materials: str = "shared", frames: int = PROBE_FRAMES,
+                 occlusion: bool = False):
         if frames < 1:
             raise ValueError(f"probe frames: expected at least 1, got {frames}")
         self.ctx = ctx
         self.probes = probes
         self.frames = int(frames)
-        self.program = load_program(ctx, "indirect.glsl", probes.defines(materials))
+        self.occlusion = bool(occlusion)
+        self.program = load_program(ctx, "indirect.glsl", {**probes.defines(materials), "OCCLUSION": int(self.occlusion)})
         self.vao = ctx.vertex_array(self.program, [])
         self.acc = PingPong(ctx, size)
 
@@ -53,6 +55,9 @@ class IndirectPass:
         set_uniform(p, "u_camera_position", tuple(float(x) for x in camera_position))
         set_uniform(p, "u_count", float(self.acc.count + 1))
         self.probes.bind(p, first_unit=4)
+        if self.occlusion:  # the occlusion maps' factors (G-buffer emission.a), above the probes' units
+            gbuffer["emission"].use(location=11)
+            set_uniform(p, "u_emission", 11)
         self.vao.render(vertices=3)
         self.acc.swap()
 

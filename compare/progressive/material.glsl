@@ -21,6 +21,9 @@ uniform float u_has_base_color_map;          // 1: sample u_base_color_map, 0: u
 uniform float u_has_metallic_roughness_map;
 uniform sampler2D u_emission_map;            // linear RGB, multiplied by u_emission
 uniform float u_has_emission_map;
+uniform sampler2D u_occlusion_map;           // glTF: R, linear
+uniform float u_has_occlusion_map;
+uniform float u_occlusion_strength;
 
 // Texture coordinates wrapped here for "mirror" (the samplers repeat for "repeat" and clamp
 // otherwise, which at a mirror's seam is what mirroring gives), with the derivatives of the
@@ -46,8 +49,13 @@ float material_roughness() {
 vec3 material_emission() {
     return u_has_emission_map > 0.5 ? u_emission * sample_map(u_emission_map).rgb : u_emission;
 }
+// glTF's occlusion: 1 + strength (map - 1), the factor on ambient and indirect light (1 without a map).
+float material_occlusion() {
+    return u_has_occlusion_map > 0.5 ? 1.0 + u_occlusion_strength * (sample_map(u_occlusion_map).r - 1.0) : 1.0;
+}
 #else
 #define material_emission() u_emission
+#define material_occlusion() 1.0
 #define material_base_color() u_base_color
 #define material_metallic() u_metallic
 #define material_roughness() u_roughness

@@ -280,7 +280,8 @@ class ProgressiveRenderer:
                     ctx, scene, env_format=env_format, env_diffuse=env_diffuse, ibl_size=ibl_size,
                     ibl_levels=ibl_levels, ibl_samples=ibl_samples, cache_dir=cache_dir))
                 if self.plan.env_frames > 0:
-                    self.env_occlusion = self._keep(EnvOcclusionPass(ctx, self.environment, materials))
+                    self.env_occlusion = self._keep(EnvOcclusionPass(ctx, self.environment, materials,
+                                                                     occlusion=self.gpu_scene.occluded))
                     self.env_acc = self._keep(EnvOcclusionTargets(ctx, size))
             # No probe work unless indirect = "probes"; the bake is part of setup (timed on its own too).
             self.probes = None
@@ -289,10 +290,12 @@ class ProgressiveRenderer:
                     ctx, scene, self.gpu_scene, grid=self.probe_grid, bounces=self.probe_bounces,
                     shadow_bias=self.shadow_bias, environment=self.environment, materials=materials, seed=seed,
                     cache_dir=cache_dir))
-            self.accumulate = self._keep(AccumulatePass(ctx, self.environment, materials))
+            self.accumulate = self._keep(AccumulatePass(ctx, self.environment, materials,
+                                                        occlusion=self.gpu_scene.occluded))
             self.indirect_pass = None
             if self.probes is not None:
-                self.indirect_pass = self._keep(IndirectPass(ctx, self.probes, size, materials))
+                self.indirect_pass = self._keep(IndirectPass(ctx, self.probes, size, materials,
+                                                             occlusion=self.gpu_scene.occluded))
             self.base = self._keep(PingPong(ctx, size, attachments=self.accumulate.attachments))
             self.compose = self._keep(ComposePass(ctx, size))
             has_lights = bool(scene.lights)

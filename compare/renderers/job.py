@@ -90,6 +90,9 @@ def export_gltf(scene, path: Path) -> Path:
             pbr["metallicRoughnessTexture"] = info(m, m.metallic_roughness_texture)
         if m.emissive_texture is not None:
             w.doc["materials"][index[name]]["emissiveTexture"] = info(m, m.emissive_texture)
+        if m.occlusion_texture is not None:
+            w.doc["materials"][index[name]]["occlusionTexture"] = {**info(m, m.occlusion_texture),
+                                                                   "strength": m.occlusion_strength}
     for mesh in scene.meshes:
         tri = mesh.triangles()
         uvs = tri.uvs is not None and len(tri.uvs) == len(tri.positions)
