@@ -116,11 +116,9 @@ class GltfMaterial:
     emissive_image: int | None = None
     occlusion_image: int | None = None
     occlusion_strength: float = 1.0
-    texture_offset: tuple[float, float] = (0.0, 0.0)
-    texture_rotation: float = 0.0
-    texture_scale: tuple[float, float] = (1.0, 1.0)
-    texture_wrap: str = "repeat"
-    texture_filter: str = "linear"
+    #: The scene model's texture_offset, texture_rotation, texture_scale, texture_wrap and texture_filter
+    #: (compare.scene_model.Material), from KHR_texture_transform and the sampler; empty: the defaults.
+    texture_settings: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -468,8 +466,10 @@ class _Reader:
             metallic=clamp(pbr.get("metallicFactor", 1.0)),
             roughness=clamp(pbr.get("roughnessFactor", 1.0)),
             emission=tuple(float(max(e, 0.0)) for e in emission),  # type: ignore[arg-type]
-            texture_offset=offset, texture_rotation=rotation, texture_scale=scale, texture_wrap=wrap,
-            texture_filter=filt, **images,
+            texture_settings=({} if not sampling else
+                              dict(texture_offset=offset, texture_rotation=rotation, texture_scale=scale,
+                                   texture_wrap=wrap, texture_filter=filt)),
+            **images,
             occlusion_strength=clamp(m.get("occlusionTexture", {}).get("strength", 1.0)),
         )
 

@@ -108,9 +108,7 @@ def include(ctx, where: str, raw: Any) -> Included:
                                           emissive_texture=tex(m.emissive_image),
                                           occlusion_texture=tex(m.occlusion_image),
                                           occlusion_strength=m.occlusion_strength,
-                                          texture_offset=m.texture_offset, texture_rotation=m.texture_rotation,
-                                          texture_scale=m.texture_scale, texture_wrap=m.texture_wrap,
-                                          texture_filter=m.texture_filter)
+                                          **m.texture_settings)
         return name
 
     meshes, lights = [], []
