@@ -177,3 +177,23 @@ def test_threejs_variants(tmp_path):
     for bad in ("threejs:nope", "threejs-pathtracer:msaa", "threejs:msaa+msaa"):
         with pytest.raises(ValueError, match=r"expected threejs:<option>\[\+<option>\] with options shadows"):
             WebRenderer(bad)
+
+
+@needs_web
+def test_threejs_reads_the_maps_of_the_exported_gltf(tmp_path):
+    """An emission map under a texture transform reaches three.js through the exported glTF (textures,
+    KHR_texture_transform, sampler): each region shows the quadrant the transform says (three.js shows an
+    emission map as emission x texel, in linear light)."""
+    from compare.tonemap import srgb_decode
+    from test_blender import QUADRANT_MAPS
+    from test_textures import QUADRANTS, _regions, _scene
+
+    settings, source = QUADRANT_MAPS[1]  # a 90 degree turn
+    scene = _scene(tmp_path, 'base_color = [0.0, 0.0, 0.0]\nemission = [1.0, 1.0, 1.0]\n'
+                             f'emissive_texture = "quadrants.png"\n{settings}', light=False)
+    image = _render("threejs", scene, 2).checkpoints[-1].image
+    regions = _regions(scene)
+    for (r, c) in QUADRANTS:
+        want = srgb_decode(np.array(QUADRANTS[source(r, c)]) / 255.0)
+        np.testing.assert_allclose(image[regions[f"quadrant {r}{c}"]].mean(0), want, rtol=0.03, atol=0.003,
+                                   err_msg=f"{r}{c}")
