@@ -23,7 +23,9 @@ Materials
     ``KHR_texture_transform`` (offset, rotation, scale) and the sampler's wrapS and
     magFilter become the material's texture settings (one per material: the base
     colour map's, with a note when its maps differ).
-    ``occlusionTexture`` and its strength are the occlusion map; normal textures are left out with a note. Primitives without a material get glTF's
+    ``occlusionTexture`` and its strength are the occlusion map, ``normalTexture`` and its scale the
+    normal map; tangents are generated from the UVs (:func:`compare.geometry.vertex_tangents`), a
+    file's ``TANGENT`` attribute is not read. Primitives without a material get glTF's
     default material (white, metallic 1, roughness 1). Textures: the base
     colour and metallic-roughness images become the material's texture files
     (external images are checked to stay inside the scene's folder; images
@@ -116,6 +118,8 @@ class GltfMaterial:
     emissive_image: int | None = None
     occlusion_image: int | None = None
     occlusion_strength: float = 1.0
+    normal_image: int | None = None
+    normal_scale: float = 1.0
     #: The scene model's texture_offset, texture_rotation, texture_scale, texture_wrap and texture_filter
     #: (compare.scene_model.Material), from KHR_texture_transform and the sampler; empty: the defaults.
     texture_settings: dict = field(default_factory=dict)
@@ -415,8 +419,6 @@ class _Reader:
         emission = np.asarray(m.get("emissiveFactor", [0.0, 0.0, 0.0]), dtype=np.float64)
         strength = m.get("extensions", {}).get("KHR_materials_emissive_strength", {}).get("emissiveStrength", 1.0)
         emission = emission * float(strength)
-        if "normalTexture" in m:
-            self.notes.append(f"{w}: normal texture ignored")
 
         sampling: list[tuple[str, tuple]] = []  # (texture key, its transform and sampler) of each map
 
@@ -453,7 +455,8 @@ class _Reader:
         images = dict(base_color_image=image("baseColorTexture"),
                       metallic_roughness_image=image("metallicRoughnessTexture"),
                       emissive_image=image("emissiveTexture", m),
-                      occlusion_image=image("occlusionTexture", m))
+                      occlusion_image=image("occlusionTexture", m),
+                      normal_image=image("normalTexture", m))
         # The scene model has one transform and sampler per material: the first map's (base colour first).
         offset, rotation, scale, wrap, filt = sampling[0][1] if sampling else ((0.0, 0.0), 0.0, (1.0, 1.0),
                                                                              "repeat", "linear")
@@ -471,6 +474,7 @@ class _Reader:
                                    texture_wrap=wrap, texture_filter=filt)),
             **images,
             occlusion_strength=clamp(m.get("occlusionTexture", {}).get("strength", 1.0)),
+            normal_scale=float(m.get("normalTexture", {}).get("scale", 1.0)),
         )
 
     def image(self, index: int) -> Path | None:

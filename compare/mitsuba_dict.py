@@ -20,7 +20,8 @@ Four material modes:
     forms such as the white furnace, where any specular lobe would get in the way.
 
 Maps: base colour (sRGB), metallic-roughness (split into its B and G channels),
-emission (sRGB, times the emission), each with the material's texture transform,
+emission (sRGB, times the emission), normal (under Mitsuba's ``normalmap``, its y
+negated: :data:`NORMALMAP_FLIP_Y`), each with the material's texture transform,
 wrap and filter (:func:`bitmap_dict`). An occlusion map is left out: a path
 tracer computes the occlusion it stands for.
 
@@ -140,6 +141,23 @@ def bitmap_dict(mat: Material, filename, *, raw: bool) -> dict:
     return d
 
 
+#: Mitsuba's normalmap frame: its second axis is n × dp/du, which points down the image (towards
+#: increasing v), where glTF's normal maps have +Y up: their y is negated (tests/test_textures.py
+#: checks a tilted normal map against tilted geometry).
+NORMALMAP_FLIP_Y = True
+
+
+def _normal_mapped(mat: Material, bsdf: dict) -> dict:
+    """``bsdf`` under Mitsuba's ``normalmap`` when the material has a normal map."""
+    if mat.normal_texture is None:
+        return bsdf
+    from .textures import normal_map
+
+    return {"type": "normalmap", "bsdf": bsdf,
+            "normalmap": bitmap_dict(mat, normal_map(mat.normal_texture, mat.normal_scale, flip_y=NORMALMAP_FLIP_Y),
+                                     raw=True)}
+
+
 def material_dict(mat: Material, mode: str) -> dict:
     """BSDF dictionary for one material in ``mode`` (one of :data:`MATERIAL_MODES`)."""
     base = (bitmap_dict(mat, mat.base_color_texture, raw=False)
@@ -156,15 +174,17 @@ def material_dict(mat: Material, mode: str) -> dict:
         from .brdf.mitsuba_plugin import register
 
         register()
-        return {"type": SHARED_BSDF, "base_color": base, "metallic": metallic, "roughness": roughness}
+        return _normal_mapped(mat, {"type": SHARED_BSDF, "base_color": base, "metallic": metallic,
+                                    "roughness": roughness})
     if mode in PRINCIPLED_MODES:
         from .brdf.mitsuba_plugin import register
 
         register()
-        return {"type": SHARED_BSDF, "flavour": "cycles", "base_color": base, "metallic": metallic,
-                "roughness": roughness, "distribution": PRINCIPLED_MODES[mode] or mat.distribution}
+        return _normal_mapped(mat, {"type": SHARED_BSDF, "flavour": "cycles", "base_color": base,
+                                    "metallic": metallic, "roughness": roughness,
+                                    "distribution": PRINCIPLED_MODES[mode] or mat.distribution})
     if mode == "diffuse":
-        return {"type": "diffuse", "reflectance": base}
+        return _normal_mapped(mat, {"type": "diffuse", "reflectance": base})
     raise ValueError(f"materials: expected one of {', '.join(MATERIAL_MODES)}, got {mode!r}")
 
 

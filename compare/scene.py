@@ -69,7 +69,7 @@ def _material(ctx: _Ctx, name: str, raw: Any) -> Material:
     w = f"materials.{name}"
     t = _table(ctx, w, raw, {"base_color", "metallic", "roughness", "emission", "base_color_texture",
                              "metallic_roughness_texture", "emissive_texture", "occlusion_texture",
-                             "occlusion_strength", "distribution", "texture_offset",
+                             "occlusion_strength", "normal_texture", "normal_scale", "distribution", "texture_offset",
                              "texture_rotation", "texture_scale", "texture_wrap", "texture_filter"})
     wrap = t.get("texture_wrap", "repeat")
     if wrap not in TEXTURE_WRAPS:
@@ -100,6 +100,8 @@ def _material(ctx: _Ctx, name: str, raw: Any) -> Material:
         occlusion_texture=(_texture(ctx, f"{w}.occlusion_texture", t["occlusion_texture"])
                            if "occlusion_texture" in t else None),
         occlusion_strength=_number(ctx, f"{w}.occlusion_strength", t.get("occlusion_strength", 1.0), lo=0.0, hi=1.0),
+        normal_texture=(_texture(ctx, f"{w}.normal_texture", t["normal_texture"]) if "normal_texture" in t else None),
+        normal_scale=_number(ctx, f"{w}.normal_scale", t.get("normal_scale", 1.0)),
         texture_offset=_vector(ctx, f"{w}.texture_offset", t.get("texture_offset", [0.0, 0.0]), 2),
         texture_rotation=_number(ctx, f"{w}.texture_rotation", t.get("texture_rotation", 0.0)),
         texture_scale=scale,

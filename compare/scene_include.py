@@ -108,6 +108,7 @@ def include(ctx, where: str, raw: Any) -> Included:
                                           emissive_texture=tex(m.emissive_image),
                                           occlusion_texture=tex(m.occlusion_image),
                                           occlusion_strength=m.occlusion_strength,
+                                          normal_texture=tex(m.normal_image), normal_scale=m.normal_scale,
                                           **m.texture_settings)
         return name
 

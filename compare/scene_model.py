@@ -123,6 +123,10 @@ class Material:
     #: path tracer computes that occlusion itself and leaves the map out (the reference, Cycles).
     occlusion_texture: Path | None = None
     occlusion_strength: float = 1.0
+    #: glTF's tangent-space normal map (RGB linear, +X along increasing u, +Y up the image, +Z out of
+    #: the surface) and its scale (the map's X and Y are multiplied by it before normalising).
+    normal_texture: Path | None = None
+    normal_scale: float = 1.0
     #: The texture transform of every map of the material (glTF's KHR_texture_transform): offset,
     #: rotation (degrees here; radians in glTF) and scale, applied as offset · rotation · scale.
     texture_offset: tuple[float, float] = (0.0, 0.0)
@@ -306,7 +310,7 @@ class Scene:
             glossy=any(m.is_glossy for m in used),
             metallic=any(m.metallic > 0 for m in used),
             textures=any(m.base_color_texture or m.metallic_roughness_texture or m.emissive_texture
-                         or m.occlusion_texture for m in used),
+                         or m.occlusion_texture or m.normal_texture for m in used),
             emissive_meshes=any(m.is_emissive for m in used),
         )
 

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["emission_map", "load_texture", "split_metallic_roughness", "texture_problem"]
+__all__ = ["emission_map", "load_texture", "normal_map", "split_metallic_roughness", "texture_problem"]
 
 
 def texture_problem(path: Path) -> str | None:
@@ -101,4 +101,25 @@ def emission_map(path: Path, emission) -> Path:
     out = default_cache_dir() / "textures" / f"{key}-emission.exr"
     if not out.is_file():
         write_exr(out, load_texture(path, srgb=True) * factor, metadata={"what": "emission map x emission"})
+    return out
+
+
+def normal_map(path: Path, scale: float, *, flip_y: bool) -> Path:
+    """A glTF normal map with its ``scale`` applied (x, y × scale, normalised) as a linear EXR in the
+    cache, encoded back to [0, 1] (n + 1) / 2; ``flip_y`` negates y, for a renderer whose tangent frame's
+    second axis points down the image where glTF's points up."""
+    from .cache import default_cache_dir
+    from .exr import write_exr
+    from .fsutil import sha256_bytes
+
+    path = Path(path)
+    key = sha256_bytes(path.read_bytes(), repr((float(scale), bool(flip_y))))[:32]
+    out = default_cache_dir() / "textures" / f"{key}-normal.exr"
+    if not out.is_file():
+        n = load_texture(path, srgb=False).astype(np.float64) * 2.0 - 1.0
+        n[..., :2] *= float(scale)
+        if flip_y:
+            n[..., 1] = -n[..., 1]
+        n /= np.maximum(np.linalg.norm(n, axis=2, keepdims=True), 1e-12)
+        write_exr(out, (n + 1.0) / 2.0, metadata={"what": "normal map, scaled" + (", y flipped" if flip_y else "")})
     return out

@@ -504,3 +504,16 @@ def test_cycles_applies_the_texture_transform(tmp_path, settings, source):
     for (r, c) in QUADRANTS:
         want = srgb_decode(np.array(QUADRANTS[source(r, c)]) / 255.0)
         np.testing.assert_allclose(image[regions[f"quadrant {r}{c}"]].mean(0), want, rtol=0.01, err_msg=f"{r}{c}")
+
+
+@needs_bpy
+def test_cycles_normal_map_is_the_relief_it_stands_for(tmp_path):
+    """glTF's normal map through Blender's Normal Map node (tangent space, the UV map's tangents): the
+    flat square with a map tilted up the image shades as the square tilted that way (tests/test_textures.py)."""
+    from test_textures import _ratio, _tilt_scenes
+
+    mapped, tilted, other = _tilt_scenes(tmp_path)
+    img = {k: render_blender(s, engine="cycles", samples=64, seed=1).image
+           for k, s in (("mapped", mapped), ("tilted", tilted), ("other", other))}
+    assert _ratio(img["mapped"], img["tilted"], img["other"]) == pytest.approx(1.0, abs=0.01)
+    assert _ratio(img["mapped"], img["other"], img["tilted"]) > 1.3

@@ -351,6 +351,7 @@ def test_embedded_and_external_textures(tmp_path, monkeypatch):
     pbr["baseColorTexture"] = {"index": 0}
     pbr["metallicRoughnessTexture"] = {"index": 1}
     w.doc["materials"][0]["emissiveTexture"] = {"index": 1}
+    w.doc["materials"][0]["normalTexture"] = {"index": 1, "scale": 0.5}
     w.doc["materials"][0]["emissiveFactor"] = [0.5, 0.25, 0.0]
     (tmp_path / "tex").mkdir()
     (tmp_path / "tex" / "mr.png").write_bytes(PNG_2X2)
@@ -361,6 +362,7 @@ def test_embedded_and_external_textures(tmp_path, monkeypatch):
     assert mat.base_color_texture.is_relative_to(tmp_path / "cache")
     assert mat.metallic_roughness_texture == tmp_path / "tex" / "mr.png"
     assert mat.emissive_texture == tmp_path / "tex" / "mr.png" and mat.emission == (0.5, 0.25, 0.0)
+    assert mat.normal_texture == tmp_path / "tex" / "mr.png" and mat.normal_scale == 0.5
     assert s.features().textures
 
 

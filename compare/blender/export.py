@@ -92,7 +92,10 @@ importer wires it (and as :mod:`compare.mitsuba_dict` reads it); like the base
 colour map it replaces the factors. An ``emissive_texture`` (sRGB) multiplies the
 emission (a Mix node, Multiply), as glTF's emissiveTexture does. An
 ``occlusion_texture`` is left out: Cycles computes occlusion (as the reference does,
-and as Blender's glTF importer leaves it unconnected).
+and as Blender's glTF importer leaves it unconnected). A ``normal_texture`` goes
+through a Normal Map node in tangent space on the UV map, with ``normal_scale`` as
+its strength (Blender's strength blends towards the unperturbed normal rather
+than scaling x and y; the two agree at 1).
 Texture coordinates: Mitsuba's v runs down the image, Blender's up, so v → 1 − v.
 
 Environment
@@ -337,6 +340,8 @@ def _material(mat, mode: str, distribution: str | None = None) -> dict[str, Any]
         "metallic_roughness_texture": (str(mat.metallic_roughness_texture)
                                        if mat.metallic_roughness_texture and mode == "principled" else None),
         "emissive_texture": str(mat.emissive_texture) if mat.emissive_texture else None,
+        "normal_texture": str(mat.normal_texture) if mat.normal_texture else None,
+        "normal_scale": float(mat.normal_scale),
         "emissive_texture_colorspace": (None if not mat.emissive_texture else "Linear Rec.709"
                                         if Path(mat.emissive_texture).suffix.lower() == ".exr" else "sRGB"),
         # 8-bit images hold sRGB-encoded colour; EXR holds linear values.

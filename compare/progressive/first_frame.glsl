@@ -21,7 +21,9 @@ in vec3 in_position;
 in vec3 in_normal;
 #if TEXTURES
 in vec2 in_uv;
+in vec4 in_tangent;
 out vec2 v_uv;
+out vec4 v_tangent;
 #endif
 
 uniform mat4 u_view_proj;
@@ -37,6 +39,7 @@ void main() {
     v_normal = in_normal;
 #if TEXTURES
     v_uv = in_uv;
+    v_tangent = in_tangent;
 #endif
     if (u_background_pass > 0.5) {
         vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2));
@@ -109,6 +112,7 @@ void main() {
     vec3 direct = vec3(0.0);
     vec3 env = vec3(0.0);
     if (u_kind < 1.5) {
+        n = material_normal(n);
         vec3 base_color = material_base_color();
         float metallic = material_metallic();
         float roughness = material_roughness();

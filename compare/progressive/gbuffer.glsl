@@ -11,7 +11,9 @@ in vec3 in_position;
 in vec3 in_normal;
 #if TEXTURES
 in vec2 in_uv;
+in vec4 in_tangent;
 out vec2 v_uv;
+out vec4 v_tangent;
 #endif
 
 uniform mat4 u_view_proj;
@@ -24,6 +26,7 @@ void main() {
     v_normal = in_normal;
 #if TEXTURES
     v_uv = in_uv;
+    v_tangent = in_tangent;
 #endif
     gl_Position = u_view_proj * vec4(in_position, 1.0);
 }
@@ -47,7 +50,7 @@ void main() {
     vec3 n = normalize(v_normal);
     bool front = dot(n, u_camera_position - v_position) > 0.0;
     out_position = vec4(v_position, u_kind);
-    out_normal = vec4(n, material_roughness());
+    out_normal = vec4(material_normal(n), material_roughness());
     out_material = vec4(material_base_color(), material_metallic());
     out_emission = vec4(front ? material_emission() : vec3(0.0), material_occlusion());
 }

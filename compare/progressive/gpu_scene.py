@@ -21,8 +21,8 @@ from .shaders import set_uniform
 
 
 #: First texture unit of the material maps (above every unit a pass binds for its own textures;
-#: the four maps take 12 … 15, the last of the 16 a fragment shader is guaranteed).
-MAP_UNIT = 12
+#: the five maps take 11 … 15, the last of the 16 a fragment shader is guaranteed).
+MAP_UNIT = 11
 
 
 def mat_bytes(m: np.ndarray) -> bytes:
@@ -100,6 +100,8 @@ class GpuMesh:
     emission_map: object = None
     occlusion_map: object = None
     occlusion_strength: float = 1.0
+    normal_map: object = None
+    normal_scale: float = 1.0
     uv_transform: bytes = b""
     wrap: float = 0.0
 
@@ -129,6 +131,9 @@ class GpuScene:
                     gm.metallic_roughness_map = self._map(mat.metallic_roughness_texture, mat, srgb=False)
                 if mat.emissive_texture is not None:
                     gm.emission_map = self._map(mat.emissive_texture, mat, srgb=True)
+                if mat.normal_texture is not None:
+                    gm.normal_map = self._map(mat.normal_texture, mat, srgb=False)
+                    gm.normal_scale = float(mat.normal_scale)
                 if mat.occlusion_texture is not None:
                     gm.occlusion_map = self._map(mat.occlusion_texture, mat, srgb=False)
                     gm.occlusion_strength = float(mat.occlusion_strength)
@@ -167,9 +172,14 @@ class GpuScene:
 
     def _upload(self, name, positions, normals, indices, base, metallic, roughness, emission, kind, light=None,
                 uvs=None):
+        from ..geometry import vertex_tangents
+
         n = len(positions)
         uv = np.zeros((n, 2), dtype=np.float32) if uvs is None else np.asarray(uvs, dtype=np.float32)
-        data = np.hstack([np.asarray(positions, dtype=np.float32), np.asarray(normals, dtype=np.float32), uv])
+        tangents = (np.zeros((n, 4), dtype=np.float32) if uvs is None
+                    else vertex_tangents(positions, normals, uv, indices))
+        data = np.hstack([np.asarray(positions, dtype=np.float32), np.asarray(normals, dtype=np.float32), uv,
+                          tangents])
         vbo = self.ctx.buffer(np.ascontiguousarray(data, dtype=np.float32).tobytes())
         ibo = self.ctx.buffer(np.ascontiguousarray(indices, dtype=np.uint32).tobytes())
         return GpuMesh(name, vbo, ibo, tuple(base), float(metallic), float(roughness), tuple(emission), float(kind),
@@ -179,12 +189,14 @@ class GpuScene:
         key = (id(program), index, normals)
         vao = self._vaos.get(key)
         if vao is None:
-            if normals and program.get("in_uv", None) is not None:
-                layout = (mesh.vbo, "3f 3f 2f", "in_position", "in_normal", "in_uv")
+            if normals and program.get("in_tangent", None) is not None:
+                layout = (mesh.vbo, "3f 3f 2f 4f", "in_position", "in_normal", "in_uv", "in_tangent")
+            elif normals and program.get("in_uv", None) is not None:
+                layout = (mesh.vbo, "3f 3f 2f 16x", "in_position", "in_normal", "in_uv")
             elif normals:
-                layout = (mesh.vbo, "3f 3f 8x", "in_position", "in_normal")
+                layout = (mesh.vbo, "3f 3f 24x", "in_position", "in_normal")
             else:
-                layout = (mesh.vbo, "3f 20x", "in_position")
+                layout = (mesh.vbo, "3f 36x", "in_position")
             vao = self.ctx.vertex_array(program, [layout], index_buffer=mesh.ibo, index_element_size=4)
             self._vaos[key] = (vao, program)
             return vao
@@ -207,10 +219,12 @@ class GpuScene:
                     set_uniform(program, "u_uv_transform", mesh.uv_transform)
                     set_uniform(program, "u_wrap", mesh.wrap)
                     set_uniform(program, "u_occlusion_strength", mesh.occlusion_strength)
+                    set_uniform(program, "u_normal_scale", mesh.normal_scale)
                 for unit, (name, tex) in enumerate((("base_color", mesh.base_color_map),
                                                     ("metallic_roughness", mesh.metallic_roughness_map),
                                                     ("emission", mesh.emission_map),
-                                                    ("occlusion", mesh.occlusion_map)), start=MAP_UNIT):
+                                                    ("occlusion", mesh.occlusion_map),
+                                                    ("normal", mesh.normal_map)), start=MAP_UNIT):
                     set_uniform(program, f"u_has_{name}_map", 0.0 if tex is None else 1.0)
                     if tex is not None:
                         tex.use(location=unit)

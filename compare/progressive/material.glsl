@@ -13,6 +13,7 @@ uniform vec3 u_emission;   // radiance leaving the front side (the side the norm
 
 #if TEXTURES
 in vec2 v_uv;
+in vec4 v_tangent;                           // glTF tangent: xyz along +u, w: sign of the bitangent
 uniform mat3 u_uv_transform;                 // the material's KHR_texture_transform
 uniform float u_wrap;                        // 0 repeat, 1 clamp, 2 mirror
 uniform sampler2D u_base_color_map;
@@ -21,6 +22,9 @@ uniform float u_has_base_color_map;          // 1: sample u_base_color_map, 0: u
 uniform float u_has_metallic_roughness_map;
 uniform sampler2D u_emission_map;            // linear RGB, multiplied by u_emission
 uniform float u_has_emission_map;
+uniform sampler2D u_normal_map;              // glTF: tangent space, +Y up the image
+uniform float u_has_normal_map;
+uniform float u_normal_scale;
 uniform sampler2D u_occlusion_map;           // glTF: R, linear
 uniform float u_has_occlusion_map;
 uniform float u_occlusion_strength;
@@ -53,7 +57,19 @@ vec3 material_emission() {
 float material_occlusion() {
     return u_has_occlusion_map > 0.5 ? 1.0 + u_occlusion_strength * (sample_map(u_occlusion_map).r - 1.0) : 1.0;
 }
+// The shading normal: the normal map's in the frame (tangent, bitangent = cross(n, tangent) w, n).
+vec3 material_normal(vec3 n) {
+    if (u_has_normal_map < 0.5) {
+        return n;
+    }
+    vec3 t = normalize(v_tangent.xyz - n * dot(n, v_tangent.xyz));
+    vec3 b = cross(n, t) * (v_tangent.w < 0.0 ? -1.0 : 1.0);
+    vec3 c = sample_map(u_normal_map).xyz * 2.0 - 1.0;
+    c.xy *= u_normal_scale;
+    return normalize(t * c.x + b * c.y + n * c.z);
+}
 #else
+#define material_normal(n) (n)
 #define material_emission() u_emission
 #define material_occlusion() 1.0
 #define material_base_color() u_base_color

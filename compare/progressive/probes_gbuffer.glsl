@@ -15,7 +15,9 @@ in vec3 in_position;
 in vec3 in_normal;
 #if TEXTURES
 in vec2 in_uv;
+in vec4 in_tangent;
 out vec2 v_uv;
+out vec4 v_tangent;
 #endif
 
 uniform ivec3 u_counts;    // probes along x, y, z
@@ -52,6 +54,7 @@ void main() {
     v_normal = in_normal;
 #if TEXTURES
     v_uv = in_uv;
+    v_tangent = in_tangent;
 #endif
     v_probe = c;
 }
@@ -78,7 +81,7 @@ void main() {
     bool front = dot(n, to_probe) > 0.0;
     float m = u_lambert == 1 ? 0.0 : clamp(material_metallic(), 0.0, 1.0);
     out_position = vec4(v_position, length(to_probe));
-    out_normal = vec4(n, u_kind);
+    out_normal = vec4(front ? material_normal(n) : n, u_kind);
     out_albedo = vec4((1.0 - m) * material_base_color(), front ? 1.0 : -1.0);
     out_emission = vec4(front ? material_emission() : vec3(0.0), 1.0);
 }

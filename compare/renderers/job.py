@@ -90,6 +90,8 @@ def export_gltf(scene, path: Path) -> Path:
             pbr["metallicRoughnessTexture"] = info(m, m.metallic_roughness_texture)
         if m.emissive_texture is not None:
             w.doc["materials"][index[name]]["emissiveTexture"] = info(m, m.emissive_texture)
+        if m.normal_texture is not None:
+            w.doc["materials"][index[name]]["normalTexture"] = {**info(m, m.normal_texture), "scale": m.normal_scale}
         if m.occlusion_texture is not None:
             w.doc["materials"][index[name]]["occlusionTexture"] = {**info(m, m.occlusion_texture),
                                                                    "strength": m.occlusion_strength}
