@@ -19,12 +19,7 @@
 
 in vec3 in_position;
 in vec3 in_normal;
-#if TEXTURES
-in vec2 in_uv;
-in vec4 in_tangent;
-out vec2 v_uv;
-out vec4 v_tangent;
-#endif
+#include "material_vertex.glsl"
 
 uniform mat4 u_view_proj;
 // The first frame's depth pre-pass and shading pass must agree on depth bit for bit.
@@ -37,10 +32,7 @@ out vec3 v_normal;
 void main() {
     v_position = in_position;
     v_normal = in_normal;
-#if TEXTURES
-    v_uv = in_uv;
-    v_tangent = in_tangent;
-#endif
+    material_vertex();
     if (u_background_pass > 0.5) {
         vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2));
         gl_Position = vec4(p * 2.0 - 1.0, 1.0, 1.0);

@@ -9,12 +9,7 @@
 
 in vec3 in_position;
 in vec3 in_normal;
-#if TEXTURES
-in vec2 in_uv;
-in vec4 in_tangent;
-out vec2 v_uv;
-out vec4 v_tangent;
-#endif
+#include "material_vertex.glsl"
 
 uniform mat4 u_view_proj;
 
@@ -24,10 +19,7 @@ out vec3 v_normal;
 void main() {
     v_position = in_position;
     v_normal = in_normal;
-#if TEXTURES
-    v_uv = in_uv;
-    v_tangent = in_tangent;
-#endif
+    material_vertex();
     gl_Position = u_view_proj * vec4(in_position, 1.0);
 }
 

@@ -13,12 +13,7 @@
 
 in vec3 in_position;
 in vec3 in_normal;
-#if TEXTURES
-in vec2 in_uv;
-in vec4 in_tangent;
-out vec2 v_uv;
-out vec4 v_tangent;
-#endif
+#include "material_vertex.glsl"
 
 uniform ivec3 u_counts;    // probes along x, y, z
 uniform vec3 u_origin;     // position of probe (0, 0, 0)
@@ -52,10 +47,7 @@ void main() {
     gl_Position = vec4(clip.xy * (u_face / u_atlas) + offset * clip.w, clip.z, clip.w);
     v_position = in_position;
     v_normal = in_normal;
-#if TEXTURES
-    v_uv = in_uv;
-    v_tangent = in_tangent;
-#endif
+    material_vertex();
     v_probe = c;
 }
 
