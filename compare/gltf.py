@@ -35,7 +35,7 @@ Materials
     ``[materials."<prefix><name>"]`` of the same name replaces the imported one.
 Emissive quads
     A primitive that is a planar rectangle (two triangles, four corners, right
-    angles) with an emissive material becomes a one-sided rectangular
+    angles) with an emissive material without an emission map becomes a one-sided rectangular
     ``[[lights]]`` entry emitting along its front-face (counter-clockwise)
     normal with the material's emission as radiance, so that both renderers
     light the scene with it (the rasterizer samples only rectangle lights).

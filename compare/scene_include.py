@@ -122,7 +122,9 @@ def include(ctx, where: str, raw: Any) -> Included:
         name = base if used[base] == 1 else f"{base}#{used[base]}"
         mesh = sm.Mesh(name=name, shape="gltf", material=mat, params={"triangles": prim.mesh}, transform=matrix,
                        file=path)
-        rect = _emissive_rectangle(mesh.triangles()) if quads == "lights" and materials[mat].is_emissive else None
+        # A light has one radiance: a quad whose emission has a map stays a mesh (its map is drawn).
+        light_like = materials[mat].is_emissive and materials[mat].emissive_texture is None
+        rect = _emissive_rectangle(mesh.triangles()) if quads == "lights" and light_like else None
         if rect is None:
             meshes.append(mesh)
         else:
