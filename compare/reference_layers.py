@@ -69,12 +69,10 @@ def split_layers(channels: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray
 
 
 def mis_weight(pdf_a, pdf_b):
-    """Power-heuristic weight of strategy a against b (0 where undefined)."""
-    import drjit as dr
+    """The power heuristic, Mitsuba's own (the one its Python integrators use)."""
+    from mitsuba.python.ad.integrators.common import mis_weight as mitsuba_mis_weight
 
-    a2, b2 = dr.square(pdf_a), dr.square(pdf_b)
-    w = a2 / (a2 + b2)
-    return dr.select(dr.isfinite(w), w, 0)
+    return mitsuba_mis_weight(pdf_a, pdf_b)
 
 
 def infinite(emitter):
@@ -85,6 +83,12 @@ def infinite(emitter):
 
 
 def _make_class(mi):
+    import drjit as dr
+
+    # dr.syntax turns the path's Python loop and branches into Dr.Jit's; it rewrites a module-level
+    # function (a closure's cells do not survive the rewrite), so mi and dr travel as arguments.
+    trace = dr.syntax(_trace)
+
     class LayersIntegrator(mi.SamplingIntegrator):
         """Mitsuba's path tracer with each contribution routed to its layer (see the module notes)."""
 
@@ -100,7 +104,7 @@ def _make_class(mi):
             return [f"{name}.{c}" for name in LAYERS for c in "RGB"]
 
         def sample(self, scene, sampler, ray, medium=None, active=True):
-            return _sample(self, scene, sampler, ray, active)
+            return trace(mi, dr, self.limit, self.rr_depth, scene, sampler, ray, active)
 
         def to_string(self):
             return f"LayersIntegrator[max_depth = {self.max_depth}, rr_depth = {self.rr_depth}]"
@@ -108,15 +112,8 @@ def _make_class(mi):
     return LayersIntegrator
 
 
-def _sample(self, scene, sampler, ray, active):
-    """One path (see the module notes); returns (radiance, valid, layer channels)."""
-    import drjit as dr
-    import mitsuba as mi
-
-    return _trace(mi, dr, self.limit, self.rr_depth, scene, sampler, ray, active)
-
-
-def _trace_impl(mi, dr, limit, rr_depth, scene, sampler, ray, active):
+def _trace(mi, dr, limit, rr_depth, scene, sampler, ray, active):
+    """One path (see the module notes): (radiance, valid, the layers' channels)."""
     ctx = mi.BSDFContext()
     ray = mi.Ray3f(ray)
     depth = mi.UInt32(0)
@@ -211,12 +208,3 @@ def _trace_impl(mi, dr, limit, rr_depth, scene, sampler, ray, active):
         aovs += [layer[0], layer[1], layer[2]]
     return L, mi.Bool(True), aovs
 
-
-def _trace(mi, dr, limit, rr_depth, scene, sampler, ray, active):
-    global _TRACE
-    if _TRACE is None:
-        _TRACE = dr.syntax(_trace_impl)  # transformed once: Dr.Jit loops and ifs of the path
-    return _TRACE(mi, dr, limit, rr_depth, scene, sampler, ray, active)
-
-
-_TRACE = None

@@ -480,7 +480,7 @@ def _layers(unit: _Unit, truth: dict[str, np.ndarray], record: dict, out: Path, 
             what: str) -> dict[str, dict]:
     """Errors per kind of light of a run that gives layers, with a FLIP map per layer; {} otherwise."""
     from .layer_metrics import layer_metrics
-    from .metrics import error_maps, save_error_maps
+    from .metrics import flip, save_error_maps
 
     paths = record.get("layers") or {}
     if not truth or not paths:
@@ -490,8 +490,7 @@ def _layers(unit: _Unit, truth: dict[str, np.ndarray], record: dict, out: Path, 
         result = layer_metrics(truth, run, exposure=settings.exposure, operator=settings.tonemap)
         zero = np.zeros_like(next(iter(truth.values())))
         for name, entry in result.items():
-            fmap = error_maps(truth[name], run.get(name, zero), exposure=settings.exposure,
-                              operator=settings.tonemap)["flip"]
+            fmap = flip(truth[name], run.get(name, zero), exposure=settings.exposure, operator=settings.tonemap)[1]
             written = save_error_maps(unit.dir / "maps", {f"layer-{name}-flip": fmap})
             entry["map"] = unit.rel(next(iter(written.values())))
     except ImageError as e:

@@ -68,58 +68,47 @@ def load_texture(path: Path, *, srgb: bool) -> np.ndarray:
     return np.ascontiguousarray(srgb_decode(data) if srgb else data, dtype=np.float32)
 
 
-def split_metallic_roughness(path: Path) -> tuple[Path, Path]:
-    """A glTF metallic-roughness map (G = roughness, B = metallic) as two grey EXRs, (metallic,
-    roughness), in the cache (named by the file's content, written once): a renderer whose
-    texture lookups return one value per texel (Mitsuba's ``eval_1``) reads each from its own."""
+def _derived(path: Path, what: str, params, make) -> Path:
+    """A map derived from the texture file ``path`` as a linear EXR in the cache, named by the file's
+    content, ``what`` and ``params``, written once: ``make()`` gives its (H, W, 3) values."""
     from .cache import default_cache_dir
     from .exr import write_exr
     from .fsutil import sha256_bytes
 
-    path = Path(path)
-    key = sha256_bytes(path.read_bytes())[:32]
-    folder = default_cache_dir() / "textures"
-    out = (folder / f"{key}-metallic.exr", folder / f"{key}-roughness.exr")
-    if not all(p.is_file() for p in out):
-        mr = load_texture(path, srgb=False)
-        for p, channel in zip(out, (2, 1)):
-            write_exr(p, np.repeat(mr[..., channel:channel + 1], 3, axis=2),
-                      metadata={"what": f"channel {'RGB'[channel]} of a metallic-roughness map"})
+    key = sha256_bytes(Path(path).read_bytes(), repr(params))[:32]
+    out = default_cache_dir() / "textures" / f"{key}-{what}.exr"
+    if not out.is_file():
+        write_exr(out, make(), metadata={"what": f"{what} map of {Path(path).name}"})
     return out
+
+
+def split_metallic_roughness(path: Path) -> tuple[Path, Path]:
+    """A glTF metallic-roughness map (G = roughness, B = metallic) as two grey EXRs, (metallic,
+    roughness), in the cache: a renderer whose texture lookups return one value per texel (Mitsuba's
+    ``eval_1``) reads each from its own."""
+    def channel(c: int):
+        return lambda: np.repeat(load_texture(path, srgb=False)[..., c:c + 1], 3, axis=2)
+
+    return _derived(path, "metallic", (), channel(2)), _derived(path, "roughness", (), channel(1))
 
 
 def emission_map(path: Path, emission) -> Path:
-    """An emission map (sRGB) times the material's ``emission`` as a linear EXR in the cache (named
-    by the file's content and the factor, written once): the radiance a renderer emits per texel."""
-    from .cache import default_cache_dir
-    from .exr import write_exr
-    from .fsutil import sha256_bytes
-
-    path = Path(path)
+    """An emission map (sRGB) times the material's ``emission`` as a linear EXR in the cache: the
+    radiance a renderer emits per texel."""
     factor = np.asarray(emission, dtype=np.float64).reshape(3)
-    key = sha256_bytes(path.read_bytes(), repr(factor.tolist()))[:32]
-    out = default_cache_dir() / "textures" / f"{key}-emission.exr"
-    if not out.is_file():
-        write_exr(out, load_texture(path, srgb=True) * factor, metadata={"what": "emission map x emission"})
-    return out
+    return _derived(path, "emission", factor.tolist(), lambda: load_texture(path, srgb=True) * factor)
 
 
 def normal_map(path: Path, scale: float, *, flip_y: bool) -> Path:
     """A glTF normal map with its ``scale`` applied (x, y × scale, normalised) as a linear EXR in the
     cache, encoded back to [0, 1] (n + 1) / 2; ``flip_y`` negates y, for a renderer whose tangent frame's
     second axis points down the image where glTF's points up."""
-    from .cache import default_cache_dir
-    from .exr import write_exr
-    from .fsutil import sha256_bytes
-
-    path = Path(path)
-    key = sha256_bytes(path.read_bytes(), repr((float(scale), bool(flip_y))))[:32]
-    out = default_cache_dir() / "textures" / f"{key}-normal.exr"
-    if not out.is_file():
+    def make():
         n = load_texture(path, srgb=False).astype(np.float64) * 2.0 - 1.0
         n[..., :2] *= float(scale)
         if flip_y:
             n[..., 1] = -n[..., 1]
         n /= np.maximum(np.linalg.norm(n, axis=2, keepdims=True), 1e-12)
-        write_exr(out, (n + 1.0) / 2.0, metadata={"what": "normal map, scaled" + (", y flipped" if flip_y else "")})
-    return out
+        return (n + 1.0) / 2.0
+
+    return _derived(path, "normal", (float(scale), bool(flip_y)), make)

@@ -64,6 +64,8 @@ __all__ = [
     "ggx_eavg",
     "layer_factor",
     "lobe_scale",
+    "lookup_1d",
+    "lookup_2d",
     "multiscatter_fresnel",
 ]
 
@@ -163,20 +165,31 @@ def _axis(x, n):
     return i, np.minimum(i + 1, n - 1), x - i
 
 
-def ggx_e(roughness, mu):
-    """E(r, mu): bilinear lookup of :data:`GGX_E_TABLE` as Cycles' ``lookup_table_read_2D``."""
-    t = GGX_E_TABLE
-    i0, i1, tx = _axis(roughness, t.shape[1])
-    j0, j1, ty = _axis(mu, t.shape[0])
+def lookup_1d(table, x):
+    """Cycles' ``lookup_table_read``: linear in a table whose entry i sits at coordinate i / (n - 1)."""
+    t = np.asarray(table, dtype=np.float64)
+    i0, i1, f = _axis(x, len(t))
+    return t[i0] * (1.0 - f) + t[i1] * f
+
+
+def lookup_2d(table, x, y):
+    """Cycles' ``lookup_table_read_2D``: bilinear, column i at x = i / (nx - 1), row j at y = j / (ny - 1)."""
+    t = np.asarray(table, dtype=np.float64)
+    i0, i1, tx = _axis(x, t.shape[1])
+    j0, j1, ty = _axis(y, t.shape[0])
     a = t[j0, i0] * (1.0 - tx) + t[j0, i1] * tx
     b = t[j1, i0] * (1.0 - tx) + t[j1, i1] * tx
     return a * (1.0 - ty) + b * ty
 
 
+def ggx_e(roughness, mu):
+    """E(r, mu): :data:`GGX_E_TABLE` looked up as Cycles does."""
+    return lookup_2d(GGX_E_TABLE, roughness, mu)
+
+
 def ggx_eavg(roughness):
-    """E_avg(r): linear lookup of :data:`GGX_EAVG_TABLE` as Cycles' ``lookup_table_read``."""
-    i0, i1, t = _axis(roughness, len(GGX_EAVG_TABLE))
-    return GGX_EAVG_TABLE[i0] * (1.0 - t) + GGX_EAVG_TABLE[i1] * t
+    """E_avg(r): :data:`GGX_EAVG_TABLE` looked up as Cycles does."""
+    return lookup_1d(GGX_EAVG_TABLE, roughness)
 
 
 def fresnel_dielectric_fss(eta):
@@ -200,21 +213,23 @@ def multiscatter_fresnel(fss, roughness):
     return fss * e_avg / (1.0 - fss * (1.0 - e_avg))
 
 
-def lobe_scale(fss, roughness, mu):
-    """``1 + F_ms (1 - E) / E``: what Multiscatter GGX multiplies the single-scattering lobe by."""
+def _e_and_fms(fss, roughness, mu):
+    """E(r, mu) and F_ms, E with a channel axis when F_ss has one (metals)."""
     e = ggx_e(roughness, mu)
     f_ms = multiscatter_fresnel(fss, roughness)
-    if np.ndim(f_ms) > np.ndim(e):
-        e = np.asarray(e)[..., None]
+    return (np.asarray(e)[..., None] if np.ndim(f_ms) > np.ndim(e) else e), f_ms
+
+
+def lobe_scale(fss, roughness, mu):
+    """``1 + F_ms (1 - E) / E``: what Multiscatter GGX multiplies the single-scattering lobe by."""
+    e, f_ms = _e_and_fms(fss, roughness, mu)
     return 1.0 + f_ms * (1.0 - e) / e
 
 
 def layer_factor(fss, roughness, mu):
-    """``E + F_ms (1 - E)``: the factor on the specular layer's albedo estimate that the diffuse sees."""
-    e = ggx_e(roughness, mu)
-    f_ms = multiscatter_fresnel(fss, roughness)
-    if np.ndim(f_ms) > np.ndim(e):
-        e = np.asarray(e)[..., None]
+    """``E + F_ms (1 - E)`` (= E × :func:`lobe_scale`): the factor on the specular layer's albedo
+    estimate that the diffuse sees."""
+    e, f_ms = _e_and_fms(fss, roughness, mu)
     return e + f_ms * (1.0 - e)
 
 

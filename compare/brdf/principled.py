@@ -75,7 +75,7 @@ import numpy as np
 from . import (DIELECTRIC_F0, SPECULAR_PROB_MIN, _geometry, fresnel_schlick, ggx_d,
                sample_ggx_vndf, smith_v_height_correlated)
 from .multiscatter import (DEFAULT_DISTRIBUTION, DISTRIBUTIONS, fresnel_dielectric_fss, fresnel_f82_fss,
-                           layer_factor, lobe_scale)
+                           layer_factor, lobe_scale, lookup_2d)
 
 __all__ = [
     "FSS_DIELECTRIC",
@@ -212,21 +212,9 @@ def layer_table(samples: int = 128, eta: float = IOR) -> np.ndarray:
     return (1.0 - t) * lo + t * _s_slice((k + 1) / (n - 1), samples)
 
 
-def _axis(x, n):
-    x = np.clip(np.asarray(x, dtype=np.float64), 0.0, 1.0) * (n - 1)
-    i = np.minimum(x.astype(np.int64), n - 1)
-    return i, np.minimum(i + 1, n - 1), x - i
-
-
 def layer_s(roughness, cos_v, table=None):
-    """``S(r, n.v)``: bilinear lookup of :data:`LAYER_S_TABLE` as Cycles' ``lookup_table_read_2D``."""
-    t = LAYER_S_TABLE if table is None else np.asarray(table, dtype=np.float64)
-    n = t.shape[0]
-    i0, i1, tx = _axis(roughness, n)
-    j0, j1, ty = _axis(cos_v, n)
-    a = t[j0, i0] * (1.0 - tx) + t[j0, i1] * tx
-    b = t[j1, i0] * (1.0 - tx) + t[j1, i1] * tx
-    return a * (1.0 - ty) + b * ty
+    """``S(r, n.v)``: :data:`LAYER_S_TABLE` looked up as Cycles' ``lookup_table_read_2D`` (texel i at i/15)."""
+    return lookup_2d(LAYER_S_TABLE if table is None else table, roughness, cos_v)
 
 
 def specular_layer_albedo(roughness, cos_v):

@@ -176,8 +176,9 @@ class GpuScene:
 
         n = len(positions)
         uv = np.zeros((n, 2), dtype=np.float32) if uvs is None else np.asarray(uvs, dtype=np.float32)
-        tangents = (np.zeros((n, 4), dtype=np.float32) if uvs is None
-                    else vertex_tangents(positions, normals, uv, indices))
+        # Tangents only for normal maps: a scene without maps does no tangent work.
+        tangents = (vertex_tangents(positions, normals, uv, indices) if uvs is not None and self.textured
+                    else np.zeros((n, 4), dtype=np.float32))
         data = np.hstack([np.asarray(positions, dtype=np.float32), np.asarray(normals, dtype=np.float32), uv,
                           tangents])
         vbo = self.ctx.buffer(np.ascontiguousarray(data, dtype=np.float32).tobytes())
