@@ -17,8 +17,9 @@ Geometry
     area-weighted ones. Skins and morph targets are ignored (bind pose).
 Materials
     ``pbrMetallicRoughness`` factors map one to one (the scene model *is* glTF's
-    material model); the alpha of ``baseColorFactor`` and ``alphaMode`` are
-    ignored (opaque). ``emissiveFactor`` × ``KHR_materials_emissive_strength``
+    material model). ``alphaMode`` MASK with ``alphaCutoff`` and the alpha of
+    ``baseColorFactor`` (times the base-colour image's alpha) cut holes; BLEND is
+    rendered opaque, with a note. ``emissiveFactor`` × ``KHR_materials_emissive_strength``
     is the emission in W·sr⁻¹·m⁻², and ``emissiveTexture`` (sRGB) multiplies it.
     ``KHR_texture_transform`` (offset, rotation, scale) and the sampler's wrapS and
     magFilter become the material's texture settings (one per material: the base
@@ -120,6 +121,11 @@ class GltfMaterial:
     occlusion_strength: float = 1.0
     normal_image: int | None = None
     normal_scale: float = 1.0
+    #: alphaMode ("opaque" or "mask"; BLEND is read as opaque, with a note), baseColorFactor's alpha and
+    #: alphaCutoff.
+    alpha_mode: str = "opaque"
+    alpha: float = 1.0
+    alpha_cutoff: float = 0.5
     #: The scene model's texture_offset, texture_rotation, texture_scale, texture_wrap and texture_filter
     #: (compare.scene_model.Material), from KHR_texture_transform and the sampler; empty: the defaults.
     texture_settings: dict = field(default_factory=dict)
@@ -389,6 +395,9 @@ class _Reader:
             return None
         uv = (self.accessor(attrs["TEXCOORD_0"], f"{w}.attributes.TEXCOORD_0")
               if "TEXCOORD_0" in attrs else np.zeros((nv, 2)))
+        if "TEXCOORD_0" not in attrs and self._has_maps(prim.get("material")):
+            self.notes.append(f"{w}: its material has texture maps but the primitive has no TEXCOORD_0: "
+                              f"every map is read at texture coordinate (0, 0)")
         if "NORMAL" in attrs:
             n = self.accessor(attrs["NORMAL"], f"{w}.attributes.NORMAL")
             length = np.linalg.norm(n, axis=1)
@@ -407,6 +416,16 @@ class _Reader:
         flat = tri.ravel()
         return geometry._mesh(p[flat], np.repeat(fn, 3, axis=0), uv[flat], np.arange(len(flat)).reshape(-1, 3))
 
+    def _has_maps(self, index) -> bool:
+        """Whether material ``index`` (None: the default material) names any texture (an alpha mask too)."""
+        if index is None:
+            return False
+        m = self.item("materials", index, "material")
+        pbr = m.get("pbrMetallicRoughness", {})
+        return (any(k in pbr for k in ("baseColorTexture", "metallicRoughnessTexture"))
+                or any(k in m for k in ("normalTexture", "occlusionTexture", "emissiveTexture"))
+                or m.get("alphaMode") == "MASK")
+
     def material(self, index: int) -> GltfMaterial:
         m = self.item("materials", index, "material")
         w = f"materials[{index}]"
@@ -414,8 +433,14 @@ class _Reader:
         base = pbr.get("baseColorFactor", [1.0, 1.0, 1.0, 1.0])
         if not (isinstance(base, list) and len(base) == 4):
             raise self.err(f"{w}.pbrMetallicRoughness.baseColorFactor", f"expected four numbers, got {base!r}")
-        if base[3] < 1.0 or m.get("alphaMode", "OPAQUE") != "OPAQUE":
-            self.notes.append(f"{w}: alpha ignored (rendered opaque)")
+        mode = m.get("alphaMode", "OPAQUE")
+        if mode not in ("OPAQUE", "MASK", "BLEND"):
+            raise self.err(f"{w}.alphaMode", f'expected "OPAQUE", "MASK" or "BLEND", got {mode!r}')
+        if mode == "BLEND":
+            self.notes.append(f"{w}: alphaMode BLEND is not modelled (rendered opaque)")
+        cutoff = m.get("alphaCutoff", 0.5)
+        if isinstance(cutoff, bool) or not isinstance(cutoff, (int, float)) or not 0.0 <= cutoff <= 1.0:
+            raise self.err(f"{w}.alphaCutoff", f"expected a number in [0, 1], got {cutoff!r}")
         emission = np.asarray(m.get("emissiveFactor", [0.0, 0.0, 0.0]), dtype=np.float64)
         strength = m.get("extensions", {}).get("KHR_materials_emissive_strength", {}).get("emissiveStrength", 1.0)
         emission = emission * float(strength)
@@ -463,6 +488,9 @@ class _Reader:
         if any(s != sampling[0][1] for _, s in sampling[1:]):
             self.notes.append(f"{w}: its maps have different texture transforms or samplers; "
                               f"{sampling[0][0]}'s is used for all")
+        if mode == "MASK" and max(emission) > 0:
+            self.notes.append(f"{w}: the alpha mask of an emissive material is not modelled (rendered opaque)")
+            mode = "OPAQUE"
         return GltfMaterial(
             name=str(m.get("name") or f"material{index}"),
             base_color=tuple(clamp(c) for c in base[:3]),  # type: ignore[arg-type]
@@ -475,6 +503,9 @@ class _Reader:
             **images,
             occlusion_strength=clamp(m.get("occlusionTexture", {}).get("strength", 1.0)),
             normal_scale=float(m.get("normalTexture", {}).get("scale", 1.0)),
+            alpha_mode="mask" if mode == "MASK" else "opaque",
+            alpha=clamp(base[3]),
+            alpha_cutoff=float(cutoff),
         )
 
     def image(self, index: int) -> Path | None:

@@ -23,7 +23,8 @@ Maps: base colour (sRGB), metallic-roughness (split into its B and G channels),
 emission (sRGB, times the emission), normal (under Mitsuba's ``normalmap``, its y
 negated: :data:`NORMALMAP_FLIP_Y`), each with the material's texture transform,
 wrap and filter (:func:`bitmap_dict`). An occlusion map is left out: a path
-tracer computes the occlusion it stands for.
+tracer computes the occlusion it stands for. An alpha mask puts the BSDF under
+Mitsuba's ``mask`` (a null interaction where the surface is a hole).
 
 The ``cycles`` mapping
 ----------------------
@@ -158,8 +159,27 @@ def _normal_mapped(mat: Material, bsdf: dict) -> dict:
                                      raw=True)}
 
 
+def _masked(mat: Material, bsdf: dict) -> dict:
+    """``bsdf`` under Mitsuba's ``mask`` when the material is alpha-masked: the opacity is glTF's test,
+    coverage >= cutoff, per texel (:func:`compare.textures.opacity_map`). A hole lets camera rays, light
+    paths and shadows through: ``mask`` is a null interaction, which Mitsuba's path tracer continues."""
+    if not mat.is_masked:
+        return bsdf
+    if mat.base_color_texture is None:
+        opacity: dict | float = float(mat.alpha >= mat.alpha_cutoff)
+    else:
+        from .textures import opacity_map
+
+        opacity = bitmap_dict(mat, opacity_map(mat.base_color_texture, mat.alpha, mat.alpha_cutoff), raw=True)
+    return {"type": "mask", "opacity": opacity, "bsdf": bsdf}
+
+
 def material_dict(mat: Material, mode: str) -> dict:
     """BSDF dictionary for one material in ``mode`` (one of :data:`MATERIAL_MODES`)."""
+    return _masked(mat, _surface_dict(mat, mode))
+
+
+def _surface_dict(mat: Material, mode: str) -> dict:
     base = (bitmap_dict(mat, mat.base_color_texture, raw=False)
             if mat.base_color_texture else {"type": "rgb", "value": list(mat.base_color)})
     metallic, roughness = mat.metallic, mat.roughness
@@ -263,6 +283,18 @@ def mesh_object(name: str, scene: Scene, mesh_index: int, mode: str, scale: floa
     return m
 
 
+def _integrator(scene: Scene, depth: int) -> dict:
+    """Mitsuba's ``path``; with alpha masks the same algorithm with holes that are no bounce
+    (:mod:`compare.reference_layers`: ``path`` counts a hole as a bounce of ``max_depth``)."""
+    if scene.features().alpha_mask:
+        from . import reference_layers
+
+        reference_layers.register()
+        return {"type": reference_layers.INTEGRATOR_NAME, "max_depth": depth, "layers": False,
+                "holes": True}
+    return {"type": "path", "max_depth": depth, "hide_emitters": False}
+
+
 def scene_dict(scene: Scene, *, spp: int, materials: str = "shared", sampler: str = "independent",
                max_depth: int | None = None, scale: float | None = None) -> dict:
     """The whole Mitsuba scene dictionary for ``scene``.
@@ -276,7 +308,7 @@ def scene_dict(scene: Scene, *, spp: int, materials: str = "shared", sampler: st
     scale = world_scale(scene) if scale is None else float(scale)
     d: dict = {
         "type": "scene",
-        "integrator": {"type": "path", "max_depth": int(depth), "hide_emitters": False},
+        "integrator": _integrator(scene, int(depth)),
         "sensor": sensor_dict(scene, spp=spp, sampler=sampler, scale=scale),
     }
     for k in range(len(scene.meshes)):

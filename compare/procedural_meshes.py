@@ -23,7 +23,8 @@ import math
 
 import numpy as np
 
-from .geometry import TriangleMesh, _mesh, box, cylinder, sphere, transform_matrix, vertex_normals
+from .geometry import (TriangleMesh, _mesh, box, cylinder, quad_from_corners, sphere, transform_matrix,
+                       vertex_normals)
 
 Part = tuple[str, TriangleMesh, str]
 
@@ -230,6 +231,44 @@ def rim(radius: float, width: float, spokes: int = 6, segments: int = 56) -> Tri
     return merge([barrel, hub, *spoke_parts])
 
 
+def _down_hit(mesh: TriangleMesh, x: float, z: float) -> tuple[np.ndarray, np.ndarray]:
+    """The highest point of ``mesh`` above (x, z) and the unit face normal there (a vertical ray cast
+    down through every triangle, Möller–Trumbore)."""
+    p = mesh.positions.astype(np.float64)[mesh.indices]
+    o, d = np.array([x, 1e3, z]), np.array([0.0, -1.0, 0.0])
+    e1, e2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
+    q = np.cross(d, e2)
+    det = np.einsum("ij,ij->i", e1, q)
+    ok = np.abs(det) > 1e-12
+    inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+    s = o - p[:, 0]
+    u = np.einsum("ij,ij->i", s, q) * inv
+    r = np.cross(s, e1)
+    v = (r @ d) * inv
+    t = np.einsum("ij,ij->i", e2, r) * inv
+    hit = ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 0)
+    if not hit.any():
+        raise ValueError(f"no surface of the mesh above ({x}, {z})")
+    k = np.flatnonzero(hit)[np.argmin(t[hit])]
+    n = np.cross(e1[k], e2[k])
+    n /= np.linalg.norm(n)
+    return o + t[k] * d, n if n[1] > 0 else -n
+
+
+def hood_badge(body: TriangleMesh, x: float = 1.72, size: float = 0.16, lift: float = 0.004) -> TriangleMesh:
+    """A square ``size`` quad (UVs 0…1, the image's top towards the nose) on the body's centre line at
+    ``x``, ``lift`` above it along the body's normal there: the card of an alpha-masked round badge."""
+    c, normal = _down_hit(body, x, 0.0)
+    forward = np.array([1.0, 0.0, 0.0]) - normal * normal[0]
+    forward /= np.linalg.norm(forward)
+    side = np.cross(forward, normal)  # forward × up: +z, the car's right seen from above
+    c = c + normal * lift
+    h = size / 2
+    # counter-clockwise seen from above (the quad faces ``normal``), v = 0 at the nose (the badge is symmetric)
+    return quad_from_corners(np.array([c + forward * h + side * h, c + forward * h - side * h,
+                                       c - forward * h - side * h, c - forward * h + side * h]))
+
+
 def coupe_parts() -> list[Part]:
     """The coupé, front towards +X, wheels on y = 0, centred on the origin."""
     paint, glass = coupe_body()
@@ -272,6 +311,7 @@ def coupe_parts() -> list[Part]:
     grille = place(sphere(1.0, 32, 12), translate=(half - 0.035, float(front["mid"][0]) - 0.17, 0),
                    scale=(0.04, 0.06, 0.36))
     parts.append(("grille", grille, "trim"))
+    parts.append(("badge", hood_badge(paint), "badge"))
     exhaust = merge([place(cylinder(0.045, 0.16, 24), translate=(-half + 0.08, 0.27, s * 0.5), rotate=(0, 0, 90))
                      for s in (1,)])
     parts.append(("exhaust", exhaust, "rim"))

@@ -30,6 +30,7 @@ from .brdf.multiscatter import DEFAULT_DISTRIBUTION, DISTRIBUTIONS
 #: Texture sampling settings of a material (glTF samplers: wrapS/T and magFilter).
 TEXTURE_WRAPS = ("repeat", "clamp", "mirror")
 TEXTURE_FILTERS = ("linear", "nearest")
+ALPHA_MODES = ("opaque", "mask")
 from .errors import CompareError, MissingComponentError, SceneError
 from .fsutil import sha256_bytes
 from .scene_fields import Ctx as _Ctx, color as _color, file_field as _file, fmt as _fmt, number as _number
@@ -70,7 +71,8 @@ def _material(ctx: _Ctx, name: str, raw: Any) -> Material:
     t = _table(ctx, w, raw, {"base_color", "metallic", "roughness", "emission", "base_color_texture",
                              "metallic_roughness_texture", "emissive_texture", "occlusion_texture",
                              "occlusion_strength", "normal_texture", "normal_scale", "distribution", "texture_offset",
-                             "texture_rotation", "texture_scale", "texture_wrap", "texture_filter"})
+                             "texture_rotation", "texture_scale", "texture_wrap", "texture_filter",
+                             "alpha_mode", "alpha", "alpha_cutoff"})
     wrap = t.get("texture_wrap", "repeat")
     if wrap not in TEXTURE_WRAPS:
         raise ctx.err(f"{w}.texture_wrap", f"expected one of {', '.join(map(repr, TEXTURE_WRAPS))}, got {_fmt(wrap)}")
@@ -81,11 +83,16 @@ def _material(ctx: _Ctx, name: str, raw: Any) -> Material:
     scale = _vector(ctx, f"{w}.texture_scale", t.get("texture_scale", [1.0, 1.0]), 2)
     if 0.0 in scale:
         raise ctx.err(f"{w}.texture_scale", f"expected two non-zero numbers, got {_fmt(t.get('texture_scale'))}")
+    alpha_mode = t.get("alpha_mode", "opaque")
+    if alpha_mode not in ALPHA_MODES:
+        hint = " (blending is not modelled: use \"mask\" with an alpha_cutoff)" if alpha_mode == "blend" else ""
+        raise ctx.err(f"{w}.alpha_mode", f"expected one of {', '.join(map(repr, ALPHA_MODES))}, got {_fmt(alpha_mode)}"
+                                         + hint)
     dist = t.get("distribution", DEFAULT_DISTRIBUTION)
     if dist not in DISTRIBUTIONS:
         raise ctx.err(f"{w}.distribution", f"expected one of {', '.join(map(repr, DISTRIBUTIONS))} (Blender's "
                                            f"Principled BSDF distribution), got {_fmt(dist)}")
-    return Material(
+    mat = Material(
         name=name,
         base_color=_color(ctx, f"{w}.base_color", t.get("base_color", [0.8, 0.8, 0.8]), hi=1.0),
         metallic=_number(ctx, f"{w}.metallic", t.get("metallic", 0.0), lo=0.0, hi=1.0),
@@ -108,7 +115,14 @@ def _material(ctx: _Ctx, name: str, raw: Any) -> Material:
         texture_wrap=wrap,
         texture_filter=filt,
         distribution=dist,
+        alpha_mode=alpha_mode,
+        alpha=_number(ctx, f"{w}.alpha", t.get("alpha", 1.0), lo=0.0, hi=1.0),
+        alpha_cutoff=_number(ctx, f"{w}.alpha_cutoff", t.get("alpha_cutoff", 0.5), lo=0.0, hi=1.0),
     )
+    if mat.is_masked and mat.is_emissive:
+        raise ctx.err(f"{w}.alpha_mode", "an emissive material cannot be alpha-masked (the reference's emitters "
+                                         "have no holes); drop the emission or the mask")
+    return mat
 
 
 def _texture(ctx: _Ctx, where: str, v: Any) -> Path:

@@ -109,6 +109,7 @@ def include(ctx, where: str, raw: Any) -> Included:
                                           occlusion_texture=tex(m.occlusion_image),
                                           occlusion_strength=m.occlusion_strength,
                                           normal_texture=tex(m.normal_image), normal_scale=m.normal_scale,
+                                          alpha_mode=m.alpha_mode, alpha=m.alpha, alpha_cutoff=m.alpha_cutoff,
                                           **m.texture_settings)
         return name
 

@@ -136,6 +136,12 @@ class Material:
     #: "linear" (mipmapped where a renderer has mipmaps) or "nearest".
     texture_wrap: str = "repeat"
     texture_filter: str = "linear"
+    #: glTF's alpha mode: "opaque" (alpha ignored) or "mask": the surface exists where its coverage,
+    #: ``alpha`` (baseColorFactor's alpha) times the base-colour map's alpha channel, is at least
+    #: ``alpha_cutoff``, and is a hole elsewhere, for camera rays, shadows and light alike.
+    alpha_mode: str = "opaque"
+    alpha: float = 1.0
+    alpha_cutoff: float = 0.5
 
     def uv_transform(self) -> np.ndarray:
         """The 3 × 3 matrix glTF's KHR_texture_transform applies to texture coordinates (column vectors)."""
@@ -151,6 +157,17 @@ class Material:
     #: ``ggx``): what the Blender comparators set and the reference's ``cycles`` mode models. The
     #: glTF BRDF (the rasterizer, the ``shared`` reference) is single-scattering GGX either way.
     distribution: str = "multi_ggx"
+
+    @property
+    def is_masked(self) -> bool:
+        """Whether the material cuts holes (alpha mode "mask")."""
+        return self.alpha_mode == "mask"
+
+    @property
+    def has_maps(self) -> bool:
+        """Whether the material samples any texture (an alpha mask reads texture coordinates too)."""
+        return bool(self.base_color_texture or self.metallic_roughness_texture or self.emissive_texture
+                    or self.occlusion_texture or self.normal_texture or self.is_masked)
 
     @property
     def is_emissive(self) -> bool:
@@ -258,6 +275,7 @@ class Features:
     metallic: bool
     textures: bool
     emissive_meshes: bool
+    alpha_mask: bool = False
 
     def names(self) -> list[str]:
         """Names of the features present."""
@@ -272,6 +290,8 @@ class Features:
             out["area-light shadow maps and direct-light samples"] = "the scene has no area lights"
         if not self.textures:
             out["texture upload and sampling"] = "no material uses a texture"
+        if not self.alpha_mask:
+            out["alpha test in the geometry and shadow passes"] = "no material is alpha-masked"
         return out
 
 
@@ -309,9 +329,9 @@ class Scene:
             area_lights=bool(self.lights),
             glossy=any(m.is_glossy for m in used),
             metallic=any(m.metallic > 0 for m in used),
-            textures=any(m.base_color_texture or m.metallic_roughness_texture or m.emissive_texture
-                         or m.occlusion_texture or m.normal_texture for m in used),
+            textures=any(m.has_maps for m in used),
             emissive_meshes=any(m.is_emissive for m in used),
+            alpha_mask=any(m.is_masked for m in used),
         )
 
     @cached_property

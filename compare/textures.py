@@ -11,7 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["emission_map", "load_texture", "normal_map", "split_metallic_roughness", "texture_problem"]
+__all__ = ["coverage_map", "emission_map", "load_alpha", "load_texture", "normal_map", "opacity_map",
+           "split_metallic_roughness", "texture_problem"]
 
 
 def texture_problem(path: Path) -> str | None:
@@ -66,6 +67,45 @@ def load_texture(path: Path, *, srgb: bool) -> np.ndarray:
     with Image.open(path) as im:
         data = np.asarray(im.convert("RGB"), dtype=np.float64) / 255.0
     return np.ascontiguousarray(srgb_decode(data) if srgb else data, dtype=np.float32)
+
+
+def load_alpha(path: Path) -> np.ndarray:
+    """The alpha channel of a texture file as float32 (H, W) in [0, 1], row 0 at the top; 1 where the
+    file has none (8-bit alpha / 255, linear; an EXR's ``A`` channel)."""
+    path = Path(path)
+    if path.suffix.lower() == ".exr":
+        import OpenEXR
+
+        from .exr import read_exr
+
+        shape = read_exr(path)[0].shape[:2]
+        with OpenEXR.File(str(path)) as f:
+            channels = f.channels()
+            if "A" in channels:
+                return np.clip(np.asarray(channels["A"].pixels, dtype=np.float32).reshape(shape), 0.0, 1.0)
+        return np.ones(shape, dtype=np.float32)
+    from PIL import Image
+
+    with Image.open(path) as im:
+        if "A" not in im.getbands() and "transparency" not in im.info:
+            return np.ones((im.height, im.width), dtype=np.float32)
+        return np.asarray(im.convert("RGBA"), dtype=np.float32)[..., 3] / np.float32(255.0)
+
+
+def coverage_map(path: Path | None, alpha: float, cutoff: float) -> np.ndarray:
+    """glTF's alpha mask as 0/1 float32 (H, W): 1 where ``alpha`` × the map's alpha is at least
+    ``cutoff`` (a 1 × 1 map without ``path``)."""
+    a = np.float32(alpha) * (np.ones((1, 1), dtype=np.float32) if path is None else load_alpha(path))
+    return (a >= np.float32(cutoff)).astype(np.float32)
+
+
+def opacity_map(path: Path, alpha: float, cutoff: float) -> Path:
+    """:func:`coverage_map` of the base-colour map ``path`` as a grey linear EXR in the cache, for a
+    renderer that takes the mask as an opacity texture (Mitsuba's ``mask``). The test is applied per
+    texel, before filtering: a path tracer's opacity is a probability, so bilinear filtering then gives
+    a sub-texel soft edge where the rasterizer thresholds the filtered alpha."""
+    return _derived(path, "opacity", (float(alpha), float(cutoff)),
+                    lambda: np.repeat(coverage_map(path, alpha, cutoff)[..., None], 3, axis=2))
 
 
 def _derived(path: Path, what: str, params, make) -> Path:

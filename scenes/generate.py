@@ -13,12 +13,15 @@ Written here, never at scene load time (scene files are data):
   ``stress/scale_1e4.toml`` (one scene at two scales), ``stress/dark.toml``
   (the Cornell box at 1e-6 of its light), ``stress/degenerate.obj``,
   ``stress/long_accumulation.toml`` (edges placed between the jitter samples)
-  and ``stress/env/sun_sky.exr`` (a sky with a 1e5 sun).
+  ``stress/env/sun_sky.exr`` (a sky with a 1e5 sun) and ``stress/textures.toml`` with its maps
+  (texture extremes);
+* the kitchen's and the car's material maps (:mod:`compare.procedural_textures`).
 """
 
 from __future__ import annotations
 
 import argparse
+import functools
 import sys
 import tomllib
 from pathlib import Path
@@ -30,6 +33,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 
 from compare import procedural_meshes as pm  # noqa: E402
+from compare import procedural_textures as pt  # noqa: E402
 from compare.gltf import GltfWriter  # noqa: E402
 
 
@@ -50,7 +54,7 @@ def stand_in_glb(parts: list[pm.Part], materials: dict[str, dict], generator: st
     for name, mesh, material in parts:
         if material not in index:
             raise KeyError(f"part {name!r} uses material {material!r}, which the scene file does not define")
-        w.node(name, mesh=w.mesh(name, [(mesh, index[material])]))
+        w.node(name, mesh=w.mesh(name, [(mesh, index[material])], uvs=True))
     return w.glb()
 
 
@@ -67,7 +71,45 @@ def coupe_glb() -> bytes:
 
 def outputs() -> dict[str, Callable[[], bytes]]:
     """Relative path → function returning the file's bytes."""
-    return {"kitchen/kitchen.glb": kitchen_glb, "car/coupe.glb": coupe_glb, **STRESS_OUTPUTS}
+    return {"kitchen/kitchen.glb": kitchen_glb, "car/coupe.glb": coupe_glb, **TEXTURE_OUTPUTS, **STRESS_OUTPUTS}
+
+
+# ----------------------------------------------------------------------------- material maps
+
+
+@functools.cache
+def _wood(seed: int, tint: tuple[float, float, float]) -> dict:
+    return pt.wood(256, seed=seed, tint=tint)
+
+
+@functools.cache
+def _tiles() -> dict:
+    return pt.tiles(128)
+
+
+def _paint() -> bytes:
+    body = next(mesh for name, mesh, _ in pm.coupe_parts() if name == "body")
+    return pt.png_bytes(pt.paint_stripes(body.uvs.astype(np.float64), body.positions.astype(np.float64)))
+
+
+def _png(make: Callable[[], np.ndarray]) -> Callable[[], bytes]:
+    return lambda: pt.png_bytes(make())
+
+
+#: The built-in scenes' maps (compare.procedural_textures), named by kitchen.toml and car.toml.
+TEXTURE_OUTPUTS: dict = {
+    "kitchen/textures/wood.png": _png(lambda: _wood(1, (0.42, 0.25, 0.13))["base"]),
+    "kitchen/textures/wood_normal.png": _png(lambda: _wood(1, (0.42, 0.25, 0.13))["normal"]),
+    "kitchen/textures/wood_mr.png": _png(lambda: _wood(1, (0.42, 0.25, 0.13))["mr"]),
+    "kitchen/textures/wood_dark.png": _png(lambda: _wood(4, (0.33, 0.19, 0.095))["base"]),
+    "kitchen/textures/wood_dark_normal.png": _png(lambda: _wood(4, (0.33, 0.19, 0.095))["normal"]),
+    "kitchen/textures/tile.png": _png(lambda: _tiles()["base"]),
+    "kitchen/textures/tile_normal.png": _png(lambda: _tiles()["normal"]),
+    "kitchen/textures/stone.png": _png(lambda: pt.speckled_stone(256)),
+    "car/textures/paint.png": _paint,
+    "car/textures/tread_normal.png": _png(lambda: pt.tread(64, 64)),
+    "car/textures/badge.png": _png(lambda: pt.badge(128)),
+}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -293,6 +335,49 @@ same per-frame values. No lights, no environment: nothing but jitter and accumul
     return toml_text(header, doc).encode()
 
 
+def texture_stress() -> bytes:
+    """Texture extremes: a glossy ground with a normal map of ridges 2 texels apart seen at grazing
+    angles, crossed alpha-masked foliage cards casting shadows, a box with a 1 x 1 map and a banner
+    with a map 8192 texels wide, under one area light and a constant sky."""
+    cards = []
+    for k, x in enumerate((-1.3, 0.0, 1.3)):
+        z = -0.8 - 0.3 * k
+        cards.append({"name": f"card {k}a", "shape": "quad", "material": "leaves",
+                      "corners": [[x - 0.5, 0.0, z], [x + 0.5, 0.0, z], [x + 0.5, 1.2, z], [x - 0.5, 1.2, z]]})
+        cards.append({"name": f"card {k}b", "shape": "quad", "material": "leaves",
+                      "corners": [[x, 0.0, z + 0.5], [x, 0.0, z - 0.5], [x, 1.2, z - 0.5], [x, 1.2, z + 0.5]]})
+    doc = {
+        "name": "Texture extremes",
+        "camera": {"position": [0.0, 0.45, 4.2], "target": [0.0, 0.3, -2.0], "fov": 50.0, "resolution": [320, 240]},
+        "render": {"max_depth": 4},
+        "materials": {
+            "ridged": {"base_color": [0.5, 0.5, 0.5], "roughness": 0.3, "normal_texture": "textures/ridges.png",
+                       "texture_scale": [24.0, 24.0]},
+            "leaves": {"base_color": [0.1, 0.4, 0.1], "roughness": 0.6, "base_color_texture": "textures/leaves.png",
+                       "alpha_mode": "mask", "alpha_cutoff": 0.5},
+            "one": {"base_color_texture": "textures/one_texel.png", "roughness": 0.5},
+            "banner": {"base_color_texture": "textures/wide.png", "roughness": 0.8, "texture_wrap": "clamp"},
+        },
+        "meshes": [
+            {"name": "ground", "shape": "quad", "size": [12.0, 12.0], "material": "ridged"},
+            *cards,
+            {"name": "one-texel box", "shape": "box", "size": [0.5, 0.5, 0.5], "translate": [1.9, 0.25, 0.6],
+             "rotate": [0.0, 20.0, 0.0], "material": "one"},
+            {"name": "banner", "shape": "quad", "material": "banner",
+             "corners": [[-3.0, 0.0, -3.0], [3.0, 0.0, -3.0], [3.0, 0.6, -3.0], [-3.0, 0.6, -3.0]]},
+        ],
+        "lights": [{"name": "key", "center": [0.8, 3.0, 1.0], "size": [1.0, 1.0], "normal": [0.0, -1.0, 0.0],
+                    "tangent": [1.0, 0.0, 0.0], "radiance": [8.0, 8.0, 8.0]}],
+        "environment": {"constant": [0.30, 0.34, 0.42]},
+    }
+    header = """Texture extremes (generated by scenes/generate.py, maps in stress/textures/): a glossy ground whose normal
+map has ridges 2 texels apart (24 repeats over 12 m: far below a pixel) seen at grazing angles, where
+mipmapping averages the normals away and a path tracer does not; three pairs of crossed alpha-masked foliage
+cards that cast shadows through their holes; a box with a 1 x 1 map; a banner whose map is 8192 texels wide
+(stripes 64 texels apart, clamped)."""
+    return toml_text(header, doc).encode()
+
+
 def sun_sky_exr() -> bytes:
     """A 256 × 128 equirectangular sky: a gradient from 0.3 (horizon) to 1.0 (zenith), black below the
     horizon, and a one-pixel sun of radiance 1e5 at 45° elevation."""
@@ -321,6 +406,11 @@ STRESS_OUTPUTS: dict = {
     "stress/degenerate.obj": degenerate_obj,
     "stress/long_accumulation.toml": long_accumulation,
     "stress/env/sun_sky.exr": sun_sky_exr,
+    "stress/textures.toml": texture_stress,
+    "stress/textures/ridges.png": _png(lambda: pt.ridges(256, 2)),
+    "stress/textures/leaves.png": _png(lambda: pt.leaves(256)),
+    "stress/textures/one_texel.png": _png(lambda: np.array([[[0.9, 0.45, 0.1]]])),
+    "stress/textures/wide.png": _png(lambda: pt.wide_stripes(8192, 4, 64)),
 }
 
 if __name__ == "__main__":

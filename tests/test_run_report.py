@@ -658,7 +658,9 @@ def test_same_figures_as_before_the_renderer_protocol(tmp_path, gl_ctx):
     now = run_mod.run([CORNELL], tmp_path / "now", settings, progress=False, cache_dir=tmp_path / "cache",
                       gl_ctx=gl_ctx, report=False)
     (a,), (b,) = before.scenes, now.scenes
-    assert (a.id, a.features, a.omitted) == (b.id, b.features, b.omitted)
+    assert (a.id, a.features) == (b.id, b.features)
+    # work left out for features added since (the alpha mask) is an extra entry; the others are unchanged
+    assert a.omitted.items() <= b.omitted.items()
     assert (a.reference.spp, a.reference.seed, a.reference.variant) == (b.reference.spp, b.reference.seed,
                                                                         b.reference.variant)
     assert (a.noise_floor.spp, a.noise_floor.seeds) == (b.noise_floor.spp, b.noise_floor.seeds)

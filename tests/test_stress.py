@@ -446,3 +446,41 @@ def test_rasterizer_is_never_negative_at_any_checkpoint(gl_ctx, tmp_path):
     result = progressive(s, gl_ctx, frames=64, checkpoints=(2, 4, 8, 16, 32, 64), cache_dir=tmp_path, **FAST_IBL)
     for c in result.checkpoints:
         assert c.image.min() >= 0, f"frame {c.frame}: min {c.image.min():g}"
+
+
+# ----------------------------------------------------------------------------- texture extremes
+
+
+def test_texture_extremes_render_in_both_renderers(gl_ctx):
+    """High-frequency normal maps at grazing angles, alpha-masked cards, a 1 x 1 and an 8192-wide map:
+    both renderers give finite, non-negative images; the foliage cards cover the same pixels (their
+    green fraction within 10 %); the 1 x 1 box has its texel's colour."""
+    scene = load("textures.toml", size=(96, 72))
+    raster = progressive(scene, gl_ctx, frames=32).image
+    ref = reference(scene, 128)
+    for name, img in (("rasterizer", raster), ("reference", ref)):
+        assert np.all(np.isfinite(img)) and img.min() >= 0.0, name
+    green = [float(((img[..., 1] > 1.5 * img[..., 0]) & (img[..., 1] > 1.5 * img[..., 2])).mean())
+             for img in (raster, ref)]
+    assert green[1] > 0.005 and green[0] == pytest.approx(green[1], rel=0.1), green
+    # the one-texel box: orange, as its texel (sRGB (0.9, 0.45, 0.1)) is
+    box = (ref[..., 0] > 3 * ref[..., 1]) & (ref[..., 1] > 3 * ref[..., 2])
+    assert box.sum() > 20
+    r = raster[box].mean(0)
+    assert r[0] > 3 * r[1] > 9 * r[2]
+
+
+def test_a_map_larger_than_the_gpu_takes_is_one_clear_error(tmp_path, gl_ctx):
+    from PIL import Image
+
+    from compare.errors import ImageError
+
+    import shutil
+
+    largest = int(gl_ctx.info["GL_MAX_TEXTURE_SIZE"])
+    shutil.copytree(STRESS / "textures", tmp_path / "textures")
+    Image.new("RGB", (largest + 1, 1), (200, 100, 50)).save(tmp_path / "textures" / "huge.png")
+    (tmp_path / "t.toml").write_text((STRESS / "textures.toml").read_text().replace("one_texel.png", "huge.png"))
+    scene = load(str(tmp_path / "t.toml"), size=(16, 12))
+    with pytest.raises(ImageError, match=f"huge.png: {largest + 1} x 1 texels, more than this OpenGL's largest"):
+        progressive(scene, gl_ctx, frames=1)

@@ -173,6 +173,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from ..brdf.multiscatter import DISTRIBUTIONS
+from ..reference_layers import MAX_HOLES
 from ..scene import AreaLight, Camera, Scene
 
 #: Version of the job format shared by this module and the worker.
@@ -342,6 +343,8 @@ def _material(mat, mode: str, distribution: str | None = None) -> dict[str, Any]
         "emissive_texture": str(mat.emissive_texture) if mat.emissive_texture else None,
         "normal_texture": str(mat.normal_texture) if mat.normal_texture else None,
         "normal_scale": float(mat.normal_scale),
+        # glTF's alpha mask: coverage (alpha × the base-colour map's alpha) >= cutoff, else a hole
+        "alpha_mask": ({"alpha": float(mat.alpha), "cutoff": float(mat.alpha_cutoff)} if mat.is_masked else None),
         "emissive_texture_colorspace": (None if not mat.emissive_texture else "Linear Rec.709"
                                         if Path(mat.emissive_texture).suffix.lower() == ".exr" else "sRGB"),
         # 8-bit images hold sRGB-encoded colour; EXR holds linear values.
@@ -374,7 +377,8 @@ def _cycles_settings(scene: Scene, samples: int, seed: int) -> dict[str, Any]:
         "glossy_bounces": b,
         "transmission_bounces": b,
         "volume_bounces": b,
-        "transparent_max_bounces": b,
+        # Holes of alpha masks are transparent bounces, apart from max_bounces, as in the reference
+        "transparent_max_bounces": MAX_HOLES,
         "min_light_bounces": 0,
         "min_transparent_bounces": 0,
         "pixel_filter_type": "BOX",

@@ -47,9 +47,13 @@ def _principled(bpy, name: str, mat: dict, folder: str):
     for key in ("Coat Weight", "Sheen Weight", "Subsurface Weight", "Transmission Weight", "Anisotropic",
                 "Thin Film Thickness"):
         inp[key].default_value = 0.0
+    base_tex = None
     if mat.get("base_color_texture"):
-        tex = _image_node(bpy, nodes, links, mat, mat["base_color_texture"], mat["base_color_texture_colorspace"])
+        tex = base_tex = _image_node(bpy, nodes, links, mat, mat["base_color_texture"],
+                                     mat["base_color_texture_colorspace"])
         links.new(tex.outputs["Color"], inp["Base Color"])
+    if mat.get("alpha_mask"):
+        _alpha_mask(bpy, m, nodes, links, inp["Alpha"], mat["alpha_mask"], base_tex)
     if mat.get("metallic_roughness_texture"):
         # glTF's channels, as Blender's own glTF importer wires them: G = roughness, B = metallic.
         tex = _image_node(bpy, nodes, links, mat, mat["metallic_roughness_texture"], "Non-Color")
@@ -85,6 +89,28 @@ def _principled(bpy, name: str, mat: dict, folder: str):
             m.cycles.emission_sampling = "FRONT"
     links.new(bsdf.outputs["BSDF"], out.inputs["Surface"])
     return m
+
+
+def _alpha_mask(bpy, m, nodes, links, socket, mask: dict, base_tex) -> None:
+    """glTF's alpha mask on the Principled BSDF's Alpha: 1 where alpha × the base-colour map's alpha is
+    at least the cutoff, 0 (a hole, for camera rays, light and shadows in both engines) elsewhere."""
+    alpha, cutoff = float(mask["alpha"]), float(mask["cutoff"])
+    if base_tex is None:
+        socket.default_value = 1.0 if alpha >= cutoff else 0.0
+    else:
+        # Colour and alpha as stored: no premultiplication of the colour by a mask's alpha.
+        base_tex.image.alpha_mode = "CHANNEL_PACKED"
+        scaled = nodes.new("ShaderNodeMath")
+        scaled.operation = "MULTIPLY"
+        links.new(base_tex.outputs["Alpha"], scaled.inputs[0])
+        scaled.inputs[1].default_value = alpha
+        test = nodes.new("ShaderNodeMath")
+        test.operation = "GREATER_THAN"  # a > b: b just below the cutoff gives glTF's a >= cutoff
+        links.new(scaled.outputs["Value"], test.inputs[0])
+        test.inputs[1].default_value = cutoff - 1e-6
+        links.new(test.outputs["Value"], socket)
+    if hasattr(m, "use_transparent_shadow"):
+        m.use_transparent_shadow = True  # EEVEE: shadows see the holes
 
 
 def _image_node(bpy, nodes, links, mat: dict, path: str, colorspace: str):

@@ -15,7 +15,7 @@ class DepthOnlyPass:
         self.size = size
         self.depth = ctx.depth_texture(size)
         self.fbo = ctx.framebuffer(depth_attachment=self.depth)
-        self.program = load_program(ctx, "depth_only.glsl")
+        self.program = load_program(ctx, "depth_only.glsl", gpu_scene.occluder_defines())
 
     def render(self, view_proj) -> None:
         """Clear and draw the scene's depth with ``view_proj``."""

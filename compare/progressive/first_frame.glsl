@@ -98,6 +98,7 @@ void main() {
         return;
     }
 #endif
+    alpha_test();
     vec3 n = normalize(v_normal);
     vec3 v = normalize(u_camera_position - v_position);
     vec3 c = dot(n, v) > 0.0 ? material_emission() : vec3(0.0);

@@ -100,7 +100,7 @@ class FirstFramePass:
         self.lut_texture = lut_texture
         defines = {"LIGHTS": len(self.lights), "ENVIRONMENT": int(environment is not None),
                    "AREA_MODEL_PAPER": int(area_model == "paper"), "AREA_MODEL_LTC": int(area_model == "ltc"),
-                   "MATERIALS_DIFFUSE": int(materials == "diffuse"), "TEXTURES": int(gpu_scene.textured)}
+                   "MATERIALS_DIFFUSE": int(materials == "diffuse"), **gpu_scene.defines()}
         if area_model == "ltc" and ltc_table is None and self.lights:
             raise ValueError("area_model 'ltc' needs the LTC table (ltc_table)")
         self.ltc_table = ltc_table
@@ -128,7 +128,7 @@ class FirstFramePass:
             # Depth pre-pass: with the nearest depth known, each pixel is shaded once, however
             # much the scene overdraws (the kitchen's frame 0 cost 3x an average frame without it).
             self.depth_fbo = self._keep(ctx.framebuffer(depth_attachment=self.depth))
-            self.depth_program = self._keep(load_program(ctx, "depth_only.glsl"))
+            self.depth_program = self._keep(load_program(ctx, "depth_only.glsl", gpu_scene.occluder_defines()))
         except BaseException:
             self.release()
             raise

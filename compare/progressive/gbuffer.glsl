@@ -39,6 +39,7 @@ layout(location = 2) out vec4 out_material;  // base colour, a = metallic
 layout(location = 3) out vec4 out_emission;  // emitted radiance towards the camera, a = occlusion
 
 void main() {
+    alpha_test();
     vec3 n = normalize(v_normal);
     bool front = dot(n, u_camera_position - v_position) > 0.0;
     out_position = vec4(v_position, u_kind);

@@ -28,7 +28,7 @@ class GBuffer:
             self.textures[name] = tex
         self.depth = ctx.depth_renderbuffer(size)
         self.fbo = ctx.framebuffer([self.textures[n] for n in self.NAMES], self.depth)
-        self.program = load_program(ctx, "gbuffer.glsl", {"TEXTURES": int(gpu_scene.textured)})
+        self.program = load_program(ctx, "gbuffer.glsl", gpu_scene.defines())
 
     def __getitem__(self, name: str):
         return self.textures[name]

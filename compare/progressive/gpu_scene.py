@@ -4,7 +4,7 @@ Every mesh gets one vertex buffer (position, normal, texture coordinates; float3
 interleaved) and one index buffer, and keeps its material as uniform values set before
 its draw call, and its base-colour and metallic-roughness maps (uploaded once per file,
 linear RGBA16F with mipmaps; :mod:`compare.progressive` samples them trilinearly) where
-the material has them. Programs built without ``TEXTURES`` read no coordinates and no
+the material has them; an alpha-masked material's base-colour map carries its alpha. Programs built without ``TEXTURES`` read no coordinates and no
 maps: a scene without textures does no texture work.
 Each area light is uploaded as a quad too: the G-buffer pass shows it as an
 emitter, and shadow maps of *other* lights see it as an occluder (the reference's
@@ -104,6 +104,9 @@ class GpuMesh:
     normal_scale: float = 1.0
     uv_transform: bytes = b""
     wrap: float = 0.0
+    alpha: float = 1.0
+    alpha_cutoff: float = -1.0
+    """glTF's alpha mask: the coverage test's cutoff, negative for an opaque mesh."""
 
 
 class GpuScene:
@@ -119,6 +122,8 @@ class GpuScene:
         self.textured = bool(scene.features().textures)
         #: Whether any mesh has an occlusion map: the OCCLUSION define of the passes of ambient light.
         self.occluded = any(scene.materials[m.material].occlusion_texture is not None for m in scene.meshes)
+        #: Whether any mesh is alpha-masked: the ALPHA_MASK define, also of the passes that draw occluders.
+        self.masked = bool(scene.features().alpha_mask)
         for mesh in scene.meshes:
             tri = mesh.triangles()
             mat = scene.materials[mesh.material]
@@ -126,7 +131,9 @@ class GpuScene:
                               mat.roughness, mat.emission, 1.0, uvs=tri.uvs)
             if self.textured:
                 if mat.base_color_texture is not None:
-                    gm.base_color_map = self._map(mat.base_color_texture, mat, srgb=True)
+                    gm.base_color_map = self._map(mat.base_color_texture, mat, srgb=True, alpha=mat.is_masked)
+                if mat.is_masked:
+                    gm.alpha, gm.alpha_cutoff = float(mat.alpha), float(mat.alpha_cutoff)
                 if mat.metallic_roughness_texture is not None:
                     gm.metallic_roughness_map = self._map(mat.metallic_roughness_texture, mat, srgb=False)
                 if mat.emissive_texture is not None:
@@ -147,16 +154,48 @@ class GpuScene:
             self.light_quads.append(self._upload(light.name, light.corners(), normals, quad, (0.0, 0.0, 0.0),
                                                  0.0, 1.0, light.radiance, 2.0, light=i))
 
-    def _map(self, path, mat, *, srgb: bool):
-        """One map file as a linear RGBA16F texture, mipmapped unless the material samples it
-        ``nearest`` (uploaded once per file, kind and sampler settings)."""
-        from ..textures import load_texture
+    def defines(self) -> dict[str, int]:
+        """The material defines of a pass that shades the scene (material.glsl)."""
+        return {"TEXTURES": int(self.textured), "ALPHA_MASK": int(self.masked)}
 
-        key = (str(path), srgb, mat.texture_wrap == "repeat", mat.texture_filter)
+    def occluder_defines(self) -> dict[str, int]:
+        """The material defines of a pass that only rasterizes it (depth, shadow maps): texture
+        coordinates and the base-colour maps only for an alpha mask."""
+        return {"TEXTURES": int(self.masked), "ALPHA_MASK": int(self.masked)}
+
+    def _preserve_coverage(self, tex, rgba: np.ndarray, cutoff: float) -> None:
+        """Rewrite the alpha of ``tex``'s mip levels (built by GL) so that each keeps level 0's coverage,
+        the fraction of texels at or above ``cutoff``: Castaño's coverage-preserving mipmaps. Averaged
+        alpha drifts towards its mean, so plain mips make alpha-tested foliage thin out with distance,
+        where a path tracer (which does not mipmap) keeps it."""
+        from .mipmaps import coverage_preserving_alpha
+
+        h, w = rgba.shape[:2]
+        for level, alpha in enumerate(coverage_preserving_alpha(rgba[..., 3], cutoff), start=1):
+            lw, lh = max(w >> level, 1), max(h >> level, 1)
+            texels = np.frombuffer(tex.read(level=level, alignment=1), dtype=np.float16).reshape(lh, lw, 4).copy()
+            texels[..., 3] = alpha.reshape(lh, lw)
+            tex.write(texels.tobytes(), level=level, alignment=1)
+
+    def _map(self, path, mat, *, srgb: bool, alpha: bool = False):
+        """One map file as a linear RGBA16F texture, mipmapped unless the material samples it
+        ``nearest`` (uploaded once per file, kind and sampler settings); ``alpha``: with the file's
+        alpha channel (an alpha mask's), else alpha 1."""
+        from ..textures import load_alpha, load_texture
+
+        key = (str(path), srgb, mat.texture_wrap == "repeat", mat.texture_filter,
+               (mat.alpha_cutoff / max(mat.alpha, 1e-9)) if alpha else None)
         if key not in self._maps:
             rgb = load_texture(path, srgb=srgb)
             h, w = rgb.shape[:2]
-            rgba = np.concatenate([rgb, np.ones((h, w, 1), dtype=np.float32)], axis=2)
+            largest = int(self.ctx.info.get("GL_MAX_TEXTURE_SIZE", 16384))
+            if max(h, w) > largest:
+                from ..errors import ImageError
+
+                raise ImageError(f"{path}: {w} x {h} texels, more than this OpenGL's largest texture "
+                                 f"({largest} on a side): the rasterizer cannot upload it; scale the map down")
+            a = load_alpha(path)[..., None] if alpha else np.ones((h, w, 1), dtype=np.float32)
+            rgba = np.concatenate([rgb, a], axis=2)
             # Rows top first: texture coordinate t = 0 is the image's top row, as glTF's v = 0 (and
             # Mitsuba's bitmap lookup) is. Linear values are filtered, never encoded ones.
             tex = self.ctx.texture((w, h), 4, np.ascontiguousarray(rgba, dtype=np.float16).tobytes(), dtype="f2")
@@ -167,6 +206,8 @@ class GpuScene:
             else:
                 tex.build_mipmaps()
                 tex.filter = (self.ctx.LINEAR_MIPMAP_LINEAR, self.ctx.LINEAR)
+                if alpha and mat.alpha > 0:
+                    self._preserve_coverage(tex, rgba, mat.alpha_cutoff / mat.alpha)
             self._maps[key] = tex
         return self._maps[key]
 
@@ -186,18 +227,19 @@ class GpuScene:
         return GpuMesh(name, vbo, ibo, tuple(base), float(metallic), float(roughness), tuple(emission), float(kind),
                        light)
 
-    def _vao(self, program, index: int, mesh: GpuMesh, normals: bool):
-        key = (id(program), index, normals)
+    def _vao(self, program, index: int, mesh: GpuMesh):
+        key = (id(program), index)
         vao = self._vaos.get(key)
         if vao is None:
-            if normals and program.get("in_tangent", None) is not None:
-                layout = (mesh.vbo, "3f 3f 2f 4f", "in_position", "in_normal", "in_uv", "in_tangent")
-            elif normals and program.get("in_uv", None) is not None:
-                layout = (mesh.vbo, "3f 3f 2f 16x", "in_position", "in_normal", "in_uv")
-            elif normals:
-                layout = (mesh.vbo, "3f 3f 24x", "in_position", "in_normal")
-            else:
-                layout = (mesh.vbo, "3f 36x", "in_position")
+            # The attributes the program reads, the others skipped (the vertex buffer is interleaved).
+            fmt, names = [], []
+            for name, size in (("in_position", 3), ("in_normal", 3), ("in_uv", 2), ("in_tangent", 4)):
+                if program.get(name, None) is not None:
+                    fmt.append(f"{size}f")
+                    names.append(name)
+                else:
+                    fmt.append(f"{4 * size}x")
+            layout = (mesh.vbo, " ".join(fmt), *names)
             vao = self.ctx.vertex_array(program, [layout], index_buffer=mesh.ibo, index_element_size=4)
             self._vaos[key] = (vao, program)
             return vao
@@ -216,28 +258,36 @@ class GpuScene:
             set_uniform(program, "u_emission", mesh.emission)
             set_uniform(program, "u_kind", mesh.kind)
             if self.textured:
-                if mesh.uv_transform:
-                    set_uniform(program, "u_uv_transform", mesh.uv_transform)
-                    set_uniform(program, "u_wrap", mesh.wrap)
-                    set_uniform(program, "u_occlusion_strength", mesh.occlusion_strength)
-                    set_uniform(program, "u_normal_scale", mesh.normal_scale)
-                for unit, (name, tex) in enumerate((("base_color", mesh.base_color_map),
-                                                    ("metallic_roughness", mesh.metallic_roughness_map),
-                                                    ("emission", mesh.emission_map),
-                                                    ("occlusion", mesh.occlusion_map),
-                                                    ("normal", mesh.normal_map)), start=MAP_UNIT):
-                    set_uniform(program, f"u_has_{name}_map", 0.0 if tex is None else 1.0)
-                    if tex is not None:
-                        tex.use(location=unit)
-                        set_uniform(program, f"u_{name}_map", unit)
-            self._vao(program, index, mesh, True).render(instances=instances)
+                self._bind_maps(program, mesh, all_maps=True)
+            self._vao(program, index, mesh).render(instances=instances)
+
+    def _bind_maps(self, program, mesh: GpuMesh, *, all_maps: bool) -> None:
+        """Set ``mesh``'s texture uniforms and bind its maps (``all_maps`` False: only what the alpha
+        test reads)."""
+        if mesh.uv_transform:
+            set_uniform(program, "u_uv_transform", mesh.uv_transform)
+            set_uniform(program, "u_wrap", mesh.wrap)
+            set_uniform(program, "u_occlusion_strength", mesh.occlusion_strength)
+            set_uniform(program, "u_normal_scale", mesh.normal_scale)
+        set_uniform(program, "u_alpha", mesh.alpha)
+        set_uniform(program, "u_alpha_cutoff", mesh.alpha_cutoff)
+        maps = (("base_color", mesh.base_color_map), ("metallic_roughness", mesh.metallic_roughness_map),
+                ("emission", mesh.emission_map), ("occlusion", mesh.occlusion_map), ("normal", mesh.normal_map))
+        for unit, (name, tex) in enumerate(maps if all_maps else maps[:1], start=MAP_UNIT):
+            set_uniform(program, f"u_has_{name}_map", 0.0 if tex is None else 1.0)
+            if tex is not None:
+                tex.use(location=unit)
+                set_uniform(program, f"u_{name}_map", unit)
 
     def draw_occluders(self, program, skip_light: int | None = None) -> None:
-        """Draw positions only: every mesh and every light quad except ``skip_light``'s (shadow pass)."""
+        """Draw depth only: every mesh and every light quad except ``skip_light``'s (shadow pass); with
+        an alpha mask (the program built with :meth:`occluder_defines`), its holes are left out."""
         for index, mesh in enumerate(self.meshes + self.light_quads):
             if mesh.light is not None and mesh.light == skip_light:
                 continue
-            self._vao(program, index, mesh, False).render()
+            if self.masked:
+                self._bind_maps(program, mesh, all_maps=False)
+            self._vao(program, index, mesh).render()
 
     def forget(self, program) -> None:
         """Release the vertex arrays made for ``program`` (call before releasing a short-lived program)."""

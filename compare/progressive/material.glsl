@@ -5,6 +5,12 @@
 // too) multiplies the emission, as glTF's emissiveTexture does. Without TEXTURES the
 // three functions are the uniforms, so a scene without textures runs the code it always ran.
 // Needs v_uv (the vertex shader's in_uv) with TEXTURES.
+//
+// ALPHA_MASK (with TEXTURES; both always defined, 0 or 1): alpha_test() discards the fragments
+// where glTF's coverage, u_alpha times the base-colour map's alpha, is below u_alpha_cutoff (a
+// negative cutoff: an opaque mesh). Every pass that rasterizes the scene calls it first (G-buffer,
+// forward first frame and its depth pre-pass, probe bake, shadow maps), so a hole is one for
+// camera rays and light alike. The test is on the filtered alpha, as GPUs do it.
 
 uniform vec3 u_base_color;
 uniform float u_metallic;
@@ -68,7 +74,22 @@ vec3 material_normal(vec3 n) {
     c.xy *= u_normal_scale;
     return normalize(t * c.x + b * c.y + n * c.z);
 }
+#if ALPHA_MASK
+uniform float u_alpha;
+uniform float u_alpha_cutoff;
+void alpha_test() {
+    if (u_alpha_cutoff >= 0.0) {
+        float a = u_alpha * (u_has_base_color_map > 0.5 ? sample_map(u_base_color_map).a : 1.0);
+        if (a < u_alpha_cutoff) {
+            discard;
+        }
+    }
+}
 #else
+void alpha_test() {}
+#endif
+#else
+void alpha_test() {}
 #define material_normal(n) (n)
 #define material_emission() u_emission
 #define material_occlusion() 1.0

@@ -382,7 +382,7 @@ class ProbeVolume:
 
     def _bake_gbuffer(self, fbo, gpu_scene, size, per_row) -> None:
         ctx = self.ctx
-        program = load_program(ctx, "probes_gbuffer.glsl", {"TEXTURES": int(gpu_scene.textured)})
+        program = load_program(ctx, "probes_gbuffer.glsl", gpu_scene.defines())
         try:
             fbo.use()
             ctx.enable_only(ctx.DEPTH_TEST)

@@ -68,6 +68,7 @@ layout(location = 2) out vec4 out_albedo;    // diffuse albedo (1 - m) c, w = 1 
 layout(location = 3) out vec4 out_emission;  // emitted radiance towards the probe
 
 void main() {
+    alpha_test();
     vec3 n = normalize(v_normal);
     vec3 to_probe = v_probe - v_position;
     bool front = dot(n, to_probe) > 0.0;

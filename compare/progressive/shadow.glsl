@@ -9,10 +9,13 @@
 // Define MOMENTS (variance shadow maps, shadow.py): the pass also writes the first two
 // moments (d, d^2) of the distance d in world units to an RG32F colour attachment; the
 // depth test still keeps the nearest surface.
+//
+// With ALPHA_MASK (and TEXTURES, material.glsl) the holes of alpha-masked materials let light through.
 
 #if defined VERTEX_SHADER
 
 in vec3 in_position;
+#include "material_vertex.glsl"
 
 uniform mat4 u_view_proj;
 
@@ -20,12 +23,15 @@ out vec3 v_position;
 
 void main() {
     v_position = in_position;
+    material_vertex();
     gl_Position = u_view_proj * vec4(in_position, 1.0);
 }
 
 #elif defined FRAGMENT_SHADER
 
 in vec3 v_position;
+
+#include "material.glsl"
 
 uniform vec3 u_sample;
 uniform float u_inv_far;
@@ -35,6 +41,7 @@ out vec2 out_moments;
 #endif
 
 void main() {
+    alpha_test();
     gl_FragDepth = clamp(distance(v_position, u_sample) * u_inv_far, 0.0, 1.0);
 #if defined MOMENTS
     float d = distance(v_position, u_sample);

@@ -227,7 +227,7 @@ class ShadowAtlas:
         self.depth.compare_func = ""  # sample the stored value, no hardware comparison
         self.depth.filter = (ctx.NEAREST, ctx.NEAREST)
         self.fbo = ctx.framebuffer(depth_attachment=self.depth)
-        self.program = load_program(ctx, "shadow.glsl")
+        self.program = load_program(ctx, "shadow.glsl", gpu_scene.occluder_defines())
 
     def _init_vsm(self) -> None:
         ctx, shape = self.ctx, (3 * self.size, self.size)
@@ -239,7 +239,7 @@ class ShadowAtlas:
         self.scratch.filter = (ctx.LINEAR, ctx.LINEAR)  # the blur reads two texels per fetch
         self.fbo = ctx.framebuffer([self.moments], self.depth)
         self.scratch_fbo = ctx.framebuffer([self.scratch])
-        self.program = load_program(ctx, "shadow.glsl", {"MOMENTS": 1})
+        self.program = load_program(ctx, "shadow.glsl", {"MOMENTS": 1, **self.scene.occluder_defines()})
         self.blur = load_program(ctx, "vsm_blur.glsl")
         self.blur_vao = ctx.vertex_array(self.blur, [])
 

@@ -92,6 +92,9 @@ def export_gltf(scene, path: Path) -> Path:
             w.doc["materials"][index[name]]["emissiveTexture"] = info(m, m.emissive_texture)
         if m.normal_texture is not None:
             w.doc["materials"][index[name]]["normalTexture"] = {**info(m, m.normal_texture), "scale": m.normal_scale}
+        if m.is_masked:
+            pbr["baseColorFactor"][3] = float(m.alpha)
+            w.doc["materials"][index[name]].update(alphaMode="MASK", alphaCutoff=float(m.alpha_cutoff))
         if m.occlusion_texture is not None:
             w.doc["materials"][index[name]]["occlusionTexture"] = {**info(m, m.occlusion_texture),
                                                                    "strength": m.occlusion_strength}
