@@ -4,7 +4,7 @@ These machines are noisy, so every figure is a **ratio of medians** of runs that
 alternate between the two sides (A, B, A, B, …) so slow drift hits both alike;
 absolute times are printed for context only. Renderers are reached through the
 registry (:mod:`compare.renderers`): the items that compare renderers render through
-the protocol; ``first-frame``, ``depth-floor``, ``area-models`` (the rasterizer's) and
+the protocol; ``first-frame``, ``depth-floor``, ``area-models``, ``textures`` (the rasterizer's) and
 ``wrapper-overhead`` (Mitsuba's) time a renderer's internals and are items that
 renderer declares (:meth:`~compare.renderers.base.Renderer.benchmarks`). How to read
 each figure:
@@ -37,6 +37,10 @@ each figure:
     median of the mean frame time with the ``ltc`` (closed-form unshadowed light, shadow ratio) or
     the paper's point-light area model ÷ the same with the radiometric default, runs
     alternating. > 1 means the model costs more per frame.
+``textures``
+    median of the mean frame time of the scene with its maps and alpha masks ÷ the same scene with
+    its materials' factors only, runs alternating (the cost of texturing; the rasterizer's item). > 1
+    means texturing costs per frame.
 ``frame-budget``
     seconds to reach a target FLIP (1.1 × the fixed plan's final FLIP against
     the direct-light-only reference, which more samples converge to) with a per-frame time budget
@@ -63,7 +67,7 @@ from pathlib import Path
 from .figures import Figure, median as _median, time_to_error
 from .fsutil import write_text_atomic
 
-ITEMS = ("first-frame", "depth-floor", "area-models", "wrapper-overhead", "equal-error", "frame-budget", "peak-rss",
+ITEMS = ("first-frame", "depth-floor", "area-models", "textures", "wrapper-overhead", "equal-error", "frame-budget", "peak-rss",
          "eevee")
 #: Per-frame budgets (ms) of the frame-budget item.
 BUDGETS_MS = (16.0, 100.0)

@@ -346,6 +346,15 @@ class Scene:
         cam = dataclasses.replace(self.camera, resolution=(int(width), int(height)))
         return dataclasses.replace(self, camera=cam)
 
+    def without_maps(self) -> "Scene":
+        """The same scene with every material's factors only: no maps, opaque (the texture benchmark's
+        other side)."""
+        plain = {k: dataclasses.replace(m, base_color_texture=None, metallic_roughness_texture=None,
+                                        emissive_texture=None, occlusion_texture=None, normal_texture=None,
+                                        alpha_mode="opaque")
+                 for k, m in self.materials.items()}
+        return dataclasses.replace(self, materials=plain)
+
     def with_max_depth(self, max_depth: int) -> "Scene":
         """The same scene with another path depth for the reference (2 = direct light only)."""
         return dataclasses.replace(self, max_depth=int(max_depth))

@@ -37,3 +37,16 @@ def test_bench_reports_ratios(tmp_path, gl_ctx):
     table = format_table(result)
     assert "first-frame" in table and "A/B" in table
     assert result["environment"]["cores"] >= 1
+
+
+@pytest.mark.gl
+def test_bench_times_texturing_and_skips_a_scene_without_maps(tmp_path, gl_ctx):
+    """The textures item: the textured car against its factors only; the Cornell box has nothing to time."""
+    result = run_bench(ROOT / "scenes" / "car.toml", size=(32, 24), frames=4, spp=4, repeats=2,
+                       items=("textures",), progress=False)
+    (f,) = result["figures"]
+    assert f["name"] == "textures" and f["a_median"] > 0 and f["b_median"] > 0 and len(f["b_samples"]) == 2
+    assert "materials textured" in f["note"]
+    plain = run_bench(ROOT / "scenes" / "cornell.toml", size=(32, 24), frames=4, spp=4, repeats=1,
+                      items=("textures",), progress=False)
+    assert plain["figures"] == [] and "no material of the scene has a map" in plain["skipped"]["textures"]

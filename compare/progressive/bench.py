@@ -10,7 +10,7 @@ import numpy as np
 
 from ..figures import Figure, median as _median
 
-__all__ = ["bench_area_models", "bench_depth_floor", "bench_first_frame"]
+__all__ = ["bench_area_models", "bench_depth_floor", "bench_first_frame", "bench_textures"]
 
 
 def bench_first_frame(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
@@ -104,3 +104,31 @@ def bench_area_models(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
     return [Figure(f"area-model-{m}", f"{m} mean frame", "radiometric mean frame", _median(mean[m]),
                    _median(base), "s", repeats, f"{len(scene.lights)} light(s), {frames} frames", mean[m], base)
             for m in models[1:]]
+
+
+def bench_textures(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
+    """Mean frame time of the scene with its maps (and alpha masks) ÷ the same scene with its materials'
+    factors only (:meth:`~compare.scene_model.Scene.without_maps`), run for run alternating."""
+    from . import ProgressiveRenderer
+
+    if not scene.features().textures:
+        raise RuntimeError("no material of the scene has a map: there is no texturing to time")
+    mean: tuple[list[float], list[float]] = ([], [])
+    renderers = []
+    try:
+        for s in (scene, scene.without_maps()):
+            renderers.append(ProgressiveRenderer(s, frames=frames, ctx=ctx))
+        for _ in range(repeats):
+            for i, r in enumerate(renderers):
+                r.reset()
+                for _ in r.frames():
+                    pass
+                mean[i].append(float(np.mean(r.frame_seconds)))
+    finally:
+        for r in renderers:
+            r.release()
+    used = {scene.materials[m.material].name for m in scene.meshes}
+    textured = sum(1 for k in used if scene.materials[k].has_maps)
+    return [Figure("textures", "mean frame with maps", "mean frame with factors only", _median(mean[0]),
+                   _median(mean[1]), "s", repeats, f"{textured} of {len(used)} materials textured, {frames} frames",
+                   mean[0], mean[1])]

@@ -121,7 +121,8 @@ class ProgressiveRenderer(Renderer):
     def benchmarks(self) -> dict:
         if self.name != "progressive":
             return {}
-        return {name: functools.partial(_own_bench, name) for name in ("first-frame", "depth-floor", "area-models")}
+        return {name: functools.partial(_own_bench, name) for name in ("first-frame", "depth-floor", "area-models",
+                                                                    "textures")}
 
     def facts(self, metadata: dict) -> dict[str, str]:
         g = metadata.get("gl_renderer")
@@ -134,6 +135,6 @@ def _own_bench(name: str, scene, *, frames: int, spp: int, repeats: int, context
 
     ctx = context.resource("gl", _create_gl_context, lambda c: c.release())
     fn = {"first-frame": bench.bench_first_frame, "depth-floor": bench.bench_depth_floor,
-          "area-models": bench.bench_area_models}[name]
+          "area-models": bench.bench_area_models, "textures": bench.bench_textures}[name]
     return fn(scene, frames=frames, repeats=repeats, ctx=ctx)
 
