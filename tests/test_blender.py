@@ -521,18 +521,20 @@ def test_cycles_normal_map_is_the_relief_it_stands_for(tmp_path):
 
 
 @needs_bpy
-def test_cycles_alpha_mask_is_the_geometry_it_cuts_out(tmp_path):
-    """glTF's alpha mask on the Principled BSDF's Alpha: the masked card renders in Cycles as its solid
-    quadrants as real quads (the card, the floor seen through its holes, the shadows) within 3 %, and
-    as the reference does within 5 %."""
+@pytest.mark.parametrize("engine, samples", [("cycles", 256), ("eevee", 64)])
+def test_blender_alpha_mask_is_the_geometry_it_cuts_out(tmp_path, engine, samples):
+    """glTF's alpha mask on the Principled BSDF's Alpha: the masked card renders as its solid quadrants as
+    real quads (the card, the floor seen through its holes, the shadows) within 3 % in Cycles and in EEVEE,
+    and in Cycles as the reference does within 5 %."""
     from test_alpha_mask import GEOMETRY, MASKED, _regions, _scene
 
     masked = _scene(tmp_path, MASKED)
     (tmp_path / "geometry").mkdir()
     geometry = _scene(tmp_path / "geometry", GEOMETRY)
-    a = render_blender(masked, engine="cycles", samples=256, seed=1).image
-    b = render_blender(geometry, engine="cycles", samples=256, seed=2).image
-    ref = ReferenceRenderer(masked, cache_dir=False, progress=False).render(512).image
+    a = render_blender(masked, engine=engine, samples=samples, seed=1).image
+    b = render_blender(geometry, engine=engine, samples=samples, seed=2).image
+    ref = ReferenceRenderer(masked, cache_dir=False, progress=False).render(512).image if engine == "cycles" else None
     for name, m in _regions(masked).items():
-        np.testing.assert_allclose(a[m].mean(0), b[m].mean(0), rtol=0.03, atol=0.002, err_msg=name)
-        np.testing.assert_allclose(a[m].mean(0), ref[m].mean(0), rtol=0.05, atol=0.002, err_msg=name)
+        np.testing.assert_allclose(a[m].mean(0), b[m].mean(0), rtol=0.03, atol=0.003, err_msg=name)
+        if ref is not None:
+            np.testing.assert_allclose(a[m].mean(0), ref[m].mean(0), rtol=0.05, atol=0.002, err_msg=name)

@@ -22,7 +22,7 @@ LIGHT = """[[lights]]
 QUADRANTS = {(0, 0): (230, 40, 40), (0, 1): (40, 200, 60), (1, 0): (50, 60, 220), (1, 1): (240, 230, 60)}
 
 
-def _scene(tmp_path, material: str, *, light: bool = True, environment: bool = False):
+def _scene(tmp_path, material: str, *, light: bool = True, environment: bool = False, extra: str = ""):
     """A 2 x 2 floor quad (the map's quadrants: image top = +z, left = -x) beside a grey control quad,
     under one light, direct light only."""
     img = np.zeros((64, 64, 3), dtype=np.uint8)
@@ -58,6 +58,7 @@ def _scene(tmp_path, material: str, *, light: bool = True, environment: bool = F
         size = [0.8, 0.8]
         material = "grey"
         translate = [1.6, 0.0, 0.0]
+        {extra}
         {LIGHT if light else ""}
         {"[environment]" if environment else ""}
         {"constant = [0.6, 0.6, 0.6]" if environment else ""}
@@ -301,18 +302,65 @@ def test_normal_map_is_the_relief_it_stands_for(tmp_path, gl_ctx):
                                render_progressive(flat, frames=8, ctx=gl_ctx).image, rtol=1e-5, atol=1e-6)
 
 
+#: An alpha-masked card (alpha factor 0.9 x the map's, cutoff 0.6) over a grey patch beside the floor,
+#: where neither it nor its shadow reaches the floor's regions (the patch is what its holes show).
+CARD = """[materials.leaf]
+        base_color_texture = "card.png"
+        roughness = 1.0
+        alpha_mode = "mask"
+        alpha = 0.9
+        alpha_cutoff = 0.6
+        [[meshes]]
+        name = "card"
+        shape = "quad"
+        size = [0.8, 0.8]
+        material = "leaf"
+        translate = [-1.6, 0.3, 0.0]
+        [[meshes]]
+        name = "patch"
+        shape = "quad"
+        size = [1.2, 1.6]
+        material = "grey"
+        translate = [-1.7, 0.0, 0.0]"""
+
+
+def _card_png(path):
+    """The card's map: solid (alpha 255) in the image's top-right and bottom-left quadrants, alpha 100
+    elsewhere (0.9 x 100 / 255 is below the cutoff: holes)."""
+    img = np.zeros((64, 64, 4), dtype=np.uint8)
+    img[...] = (220, 40, 220, 100)
+    img[:32, 32:] = img[32:, :32] = (60, 200, 70, 255)
+    Image.fromarray(img, "RGBA").save(path)
+
+
+def _card_regions(scene) -> dict[str, np.ndarray]:
+    """Pixels whose ray crosses the card's plane well inside one of its solid quadrants or its holes."""
+    cam = scene.camera
+    jj, ii = np.mgrid[0:cam.height, 0:cam.width]
+    d = cam.ray_directions(ii + 0.5, jj + 0.5)
+    o = np.asarray(cam.position)
+    t = (0.3 - o[1]) / np.where(d[..., 1] < 0, d[..., 1], -1e-30)
+    p = o + d * t[..., None]
+    x, z = p[..., 0] + 1.6, p[..., 2]
+    inner = (t > 0) & (np.abs(x) > 0.06) & (np.abs(x) < 0.34) & (np.abs(z) > 0.06) & (np.abs(z) < 0.34)
+    solid = ((x > 0) & (z > 0)) | ((x < 0) & (z < 0))
+    return {"card solid": inner & solid, "card hole": inner & ~solid}
+
+
 def test_a_gltf_with_every_map_round_trips_and_renders_as_the_reference(tmp_path, gl_ctx):
     """One glTF material with every map (base colour, metallic-roughness, normal, occlusion, emission) and a
-    texture transform, written by the exporter and read back through [[include]]: the imported scene is
-    the original (the reference renders it bit for bit), and the rasterizer's textured regions are within
-    5 % of the reference's direct light; the untextured control region too."""
+    texture transform, and one alpha-masked material (factor and map alpha, cutoff), written by the exporter
+    and read back through [[include]]: the imported scene is the original (the reference renders it bit for
+    bit), and the rasterizer's textured regions (the card's solid parts and what its holes show too) are
+    within 5 % of the reference's direct light; the untextured control region too."""
     from compare.renderers.job import export_gltf
 
     Image.fromarray(np.tile(np.array([[[128, 150, 230]]], dtype=np.uint8), (8, 8, 1))).save(tmp_path / "n.png")
     material = ('base_color_texture = "quadrants.png"\nmetallic_roughness_texture = "mr.png"\n'
                 'normal_texture = "n.png"\nnormal_scale = 0.5\nocclusion_texture = "ao.png"\n'
                 'emission = [0.05, 0.05, 0.05]\nemissive_texture = "quadrants.png"\ntexture_offset = [0.5, 0.0]')
-    original = _scene(tmp_path, material)
+    _card_png(tmp_path / "card.png")
+    original = _scene(tmp_path, material, extra=CARD)
     (tmp_path / "gltf").mkdir()
     export_gltf(original, tmp_path / "gltf" / "scene.gltf")
     (tmp_path / "gltf" / "t.toml").write_text(textwrap.dedent(f'''
@@ -336,6 +384,13 @@ def test_a_gltf_with_every_map_round_trips_and_renders_as_the_reference(tmp_path
     ref = ReferenceRenderer(original, cache_dir=False, progress=False).render(256, seed=2).image
     again = ReferenceRenderer(imported, cache_dir=False, progress=False).render(256, seed=2).image
     np.testing.assert_allclose(again, ref, rtol=1e-5, atol=1e-6)
+    leaf = imported.materials["leaf"]
+    assert (leaf.alpha_mode, leaf.alpha, leaf.alpha_cutoff) == ("mask", 0.9, 0.6)
     raster = render_progressive(imported, frames=64, ctx=gl_ctx, area_model="ltc").image
-    for name, mask in _regions(imported).items():
+    regions = {**_regions(imported), **_card_regions(imported)}
+    for name, mask in regions.items():
+        assert mask.sum() > 10, name
         np.testing.assert_allclose(raster[mask].mean(0), ref[mask].mean(0), rtol=0.05, atol=0.003, err_msg=name)
+    # the holes are holes in both: the patch under the card is seen through them, lit through them
+    hole = ref[regions["card hole"]].mean(0)
+    assert abs(hole[0] - hole[1]) < 0.05 * hole.mean() and hole.mean() > 0.01

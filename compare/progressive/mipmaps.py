@@ -39,10 +39,13 @@ def coverage_preserving_alpha(alpha: np.ndarray, cutoff: float) -> list[np.ndarr
         values, counts = np.unique(level, return_counts=True)
         passing = np.cumsum(counts[::-1])[::-1] / level.size  # fraction at or above each value
         k = int(np.argmin(np.abs(passing - target)))
-        q = values[k]
-        if target == 0.0 or q <= 0.0:
-            scaled = np.minimum(level, cutoff * 0.5) if target == 0.0 else np.where(level > 0, 1.0, 0.0)
+        if target == 0.0:
+            scaled = np.minimum(level, cutoff * 0.5)  # nothing passes
         else:
-            scaled = level * (cutoff / q)
+            # the cutoff halfway between the last value that must pass and the first that must not, so that
+            # rounding to the texture's half floats cannot move a texel across it
+            below = values[k - 1] if k > 0 else 0.0
+            edge = 0.5 * (values[k] + below)
+            scaled = level * (cutoff / edge) if edge > 0 else np.where(level > 0, 1.0, 0.0)
         out.append(np.clip(scaled, 0.0, 1.0).astype(np.float32))
     return out
