@@ -31,8 +31,10 @@ Materials
     colour and metallic-roughness images become the material's texture files
     (external images are checked to stay inside the scene's folder; images
     embedded in a GLB or a data URI are written once, by content hash, to
-    ``$COMPARE_CACHE/gltf-images``). Like a TOML material, a texture replaces
-    its factor. Names are ``<prefix><material name>``, and a TOML
+    ``$COMPARE_CACHE/gltf-images``). glTF multiplies a map by its factor, where a
+    scene material's map replaces it: a base-colour or metallic-roughness factor other
+    than 1 is baked into its map (:func:`compare.textures.factor_map`, a linear EXR in
+    the cache). Names are ``<prefix><material name>``, and a TOML
     ``[materials."<prefix><name>"]`` of the same name replaces the imported one.
 Emissive quads
     A primitive that is a planar rectangle (two triangles, four corners, right

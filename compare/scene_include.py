@@ -18,7 +18,7 @@ from . import geometry
 from . import scene_fields as sf
 from . import scene_model as sm
 from .geometry import TriangleMesh
-from .textures import texture_problem
+from .textures import factor_map, texture_problem
 from .gltf import (DEFAULT_CAMERA_WIDTH, DEFAULT_PUNCTUAL_SIZE, WATTS_PER_LUMEN, GltfCamera, GltfError, GltfLight,
                    load_gltf)
 
@@ -101,10 +101,17 @@ def include(ctx, where: str, raw: Any) -> Included:
                     raise ctx.err(f"{where}.file", f"{given}: materials[{index}]: image {i}: {problem}")
                 return path
 
+            base_map, mr_map = tex(m.base_color_image), tex(m.metallic_roughness_image)
+            # glTF multiplies a map by its factor; in the scene model a map replaces it: a factor other
+            # than 1 is baked into the map
+            if base_map is not None and any(c != 1.0 for c in m.base_color):
+                base_map = factor_map(base_map, m.base_color, srgb=True)
+            if mr_map is not None and (m.metallic, m.roughness) != (1.0, 1.0):
+                mr_map = factor_map(mr_map, (1.0, m.roughness, m.metallic), srgb=False)
             materials[name] = sm.Material(name=name, base_color=m.base_color, metallic=m.metallic,
                                           roughness=m.roughness, emission=m.emission,
-                                          base_color_texture=tex(m.base_color_image),
-                                          metallic_roughness_texture=tex(m.metallic_roughness_image),
+                                          base_color_texture=base_map,
+                                          metallic_roughness_texture=mr_map,
                                           emissive_texture=tex(m.emissive_image),
                                           occlusion_texture=tex(m.occlusion_image),
                                           occlusion_strength=m.occlusion_strength,

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["coverage_map", "emission_map", "load_alpha", "load_texture", "normal_map", "opacity_map",
+__all__ = ["coverage_map", "emission_map", "factor_map", "load_alpha", "load_texture", "normal_map", "opacity_map",
            "split_metallic_roughness", "texture_problem"]
 
 
@@ -79,7 +79,7 @@ def load_alpha(path: Path) -> np.ndarray:
         from .exr import read_exr
 
         shape = read_exr(path)[0].shape[:2]
-        with OpenEXR.File(str(path)) as f:
+        with OpenEXR.File(str(path), separate_channels=True) as f:
             channels = f.channels()
             if "A" in channels:
                 return np.clip(np.asarray(channels["A"].pixels, dtype=np.float32).reshape(shape), 0.0, 1.0)
@@ -119,6 +119,31 @@ def _derived(path: Path, what: str, params, make) -> Path:
     out = default_cache_dir() / "textures" / f"{key}-{what}.exr"
     if not out.is_file():
         write_exr(out, make(), metadata={"what": f"{what} map of {Path(path).name}"})
+    return out
+
+
+def factor_map(path: Path, factor, *, srgb: bool) -> Path:
+    """The map ``path`` times a per-channel ``factor`` (linear) as a linear EXR in the cache, with the
+    file's alpha channel: what glTF's factor × texture is, for a scene model whose map replaces its
+    factor (the glTF import bakes a factor other than 1 into its map this way)."""
+    from .cache import default_cache_dir
+    from .fsutil import sha256_bytes
+
+    f = np.asarray(factor, dtype=np.float64).reshape(3)
+    key = sha256_bytes(Path(path).read_bytes(), repr((f.tolist(), srgb)))[:32]
+    out = default_cache_dir() / "textures" / f"{key}-factor.exr"
+    if not out.is_file():
+        import OpenEXR
+
+        from .fsutil import atomic_path
+
+        rgb = (load_texture(path, srgb=srgb) * f).astype(np.float32)
+        channels = {"RGB": rgb, "A": load_alpha(path).astype(np.float32)}
+        out.parent.mkdir(parents=True, exist_ok=True)
+        with atomic_path(out) as tmp:
+            header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+            with OpenEXR.File(header, channels) as exr:
+                exr.write(str(tmp))
     return out
 
 

@@ -487,3 +487,55 @@ def test_texture_transform_and_sampler_are_imported_and_exported(tmp_path, monke
     assert (t["texture_offset"], t["texture_scale"], t["texture_wrap"], t["texture_filter"]) == (
         (0.25, 0.5), (2.0, 3.0), "mirror", "nearest")
     assert t["texture_rotation"] == pytest.approx(90.0)
+
+
+def test_a_factor_beside_a_map_is_baked_into_it(tmp_path):
+    """glTF multiplies baseColorTexture by baseColorFactor and the metallic-roughness channels by their
+    factors; the import bakes the product into the map (the scene model's map replaces its factor)."""
+    import json
+
+    from PIL import Image
+
+    from compare.textures import load_alpha, load_texture
+
+    rgba = np.zeros((4, 4, 4), dtype=np.uint8)
+    rgba[...] = (200, 100, 50, 128)
+    Image.fromarray(rgba, "RGBA").save(tmp_path / "c.png")
+    Image.fromarray(np.full((4, 4, 3), (0, 200, 100), dtype=np.uint8)).save(tmp_path / "mr.png")
+    from compare.gltf import GltfWriter
+    from compare.geometry import quad
+
+    w = GltfWriter()
+    m = w.material("m", (0.5, 1.0, 0.25), 0.5, 0.8)
+    w.doc["materials"][m]["pbrMetallicRoughness"].update(baseColorTexture={"index": 0},
+                                                         metallicRoughnessTexture={"index": 1})
+    w.doc["materials"][m].update(alphaMode="MASK")
+    w.doc["textures"] = [{"source": 0}, {"source": 1}]
+    w.doc["images"] = [{"uri": "c.png"}, {"uri": "mr.png"}]
+    w.node("q", mesh=w.mesh("q", [(quad((1.0, 1.0)), m)], uvs=True))
+    w.write(tmp_path / "s.gltf")
+    (tmp_path / "t.toml").write_text(textwrap.dedent('''
+        [camera]
+        position = [0, 2, 2]
+        target = [0, 0, 0]
+        [[include]]
+        file = "s.gltf"
+        prefix = ""
+        [environment]
+        constant = [1, 1, 1]
+        '''))
+    mat = load_scene(tmp_path / "t.toml").materials["m"]
+    from compare.tonemap import srgb_decode
+
+    want = srgb_decode(np.array([200, 100, 50]) / 255.0) * [0.5, 1.0, 0.25]
+    np.testing.assert_allclose(load_texture(mat.base_color_texture, srgb=True)[0, 0], want, rtol=1e-6)
+    np.testing.assert_allclose(load_alpha(mat.base_color_texture)[0, 0], 128 / 255, rtol=1e-6)  # alpha kept
+    np.testing.assert_allclose(load_texture(mat.metallic_roughness_texture, srgb=False)[0, 0],
+                               [0.0, 200 / 255 * 0.8, 100 / 255 * 0.5], rtol=1e-6)
+    # and the export writes factor 1 beside a map, so that glTF's product is the map
+    from compare.renderers.job import export_gltf
+
+    (tmp_path / "out").mkdir()
+    export_gltf(load_scene(tmp_path / "t.toml"), tmp_path / "out" / "s.gltf")
+    pbr = json.loads((tmp_path / "out" / "s.gltf").read_text())["materials"][0]["pbrMetallicRoughness"]
+    assert pbr["baseColorFactor"][:3] == [1.0, 1.0, 1.0] and pbr["metallicFactor"] == pbr["roughnessFactor"] == 1.0

@@ -197,3 +197,20 @@ def test_threejs_reads_the_maps_of_the_exported_gltf(tmp_path):
         want = srgb_decode(np.array(QUADRANTS[source(r, c)]) / 255.0)
         np.testing.assert_allclose(image[regions[f"quadrant {r}{c}"]].mean(0), want, rtol=0.03, atol=0.003,
                                    err_msg=f"{r}{c}")
+
+
+@needs_web
+def test_threejs_cuts_the_holes_of_an_alpha_mask(tmp_path):
+    """alphaMode MASK reaches three.js through the exported glTF: the masked card renders as its solid
+    quadrants as real quads (the card, and the floor seen through its holes) within 3 %."""
+    from test_alpha_mask import GEOMETRY, MASKED, _regions, _scene
+
+    masked = _scene(tmp_path, MASKED)
+    (tmp_path / "geometry").mkdir()
+    geometry = _scene(tmp_path / "geometry", GEOMETRY)
+    a = _render("threejs", masked, 4).checkpoints[-1].image
+    b = _render("threejs", geometry, 4).checkpoints[-1].image
+    for name, m in _regions(masked).items():
+        np.testing.assert_allclose(a[m].mean(0), b[m].mean(0), rtol=0.03, atol=0.003, err_msg=name)
+    card = a[_regions(masked)["card"]].mean(0)
+    assert card[1] > 3 * card[0]  # green, the map's solid colour (the holes' magenta is never drawn)

@@ -84,10 +84,13 @@ def export_gltf(scene, path: Path) -> Path:
     for name, m in scene.materials.items():
         index[name] = w.material(name, m.base_color, m.metallic, m.roughness, m.emission)
         pbr = w.doc["materials"][index[name]]["pbrMetallicRoughness"]
+        # a map replaces its factor in the scene model; glTF multiplies them: the factor it replaces is 1
         if m.base_color_texture is not None:
             pbr["baseColorTexture"] = info(m, m.base_color_texture)
+            pbr["baseColorFactor"][:3] = [1.0, 1.0, 1.0]
         if m.metallic_roughness_texture is not None:
             pbr["metallicRoughnessTexture"] = info(m, m.metallic_roughness_texture)
+            pbr["metallicFactor"] = pbr["roughnessFactor"] = 1.0
         if m.emissive_texture is not None:
             w.doc["materials"][index[name]]["emissiveTexture"] = info(m, m.emissive_texture)
         if m.normal_texture is not None:
