@@ -81,25 +81,12 @@ def bench_depth_floor(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
 def bench_area_models(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
     """Mean frame time of the ``ltc`` and the ``paper`` area models ÷ the radiometric default,
     run for run alternating."""
-    from . import ProgressiveRenderer
-
     if not scene.lights:
         raise RuntimeError("the scene has no area lights: the area models do not differ")
     models = ("radiometric", "ltc", "paper")
-    mean: dict[str, list[float]] = {m: [] for m in models}
-    renderers = []
-    try:
-        for m in models:
-            renderers.append(ProgressiveRenderer(scene, frames=frames, ctx=ctx, area_model=m))
-        for _ in range(repeats):
-            for m, r in zip(models, renderers):
-                r.reset()
-                for _ in r.frames():
-                    pass
-                mean[m].append(float(np.mean(r.frame_seconds)))
-    finally:
-        for r in renderers:
-            r.release()
+    runs = _alternating_mean_frames([dict(area_model=m) for m in models], scene, frames=frames, repeats=repeats,
+                                    ctx=ctx)
+    mean = dict(zip(models, runs))
     base = mean["radiometric"]
     return [Figure(f"area-model-{m}", f"{m} mean frame", "radiometric mean frame", _median(mean[m]),
                    _median(base), "s", repeats, f"{len(scene.lights)} light(s), {frames} frames", mean[m], base)
@@ -109,15 +96,29 @@ def bench_area_models(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
 def bench_textures(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
     """Mean frame time of the scene with its maps (and alpha masks) ÷ the same scene with its materials'
     factors only (:meth:`~compare.scene_model.Scene.without_maps`), run for run alternating."""
-    from . import ProgressiveRenderer
-
     if not scene.features().textures:
         raise RuntimeError("no material of the scene has a map: there is no texturing to time")
-    mean: tuple[list[float], list[float]] = ([], [])
+    mean = _alternating_mean_frames([dict(), dict()], scene, frames=frames, repeats=repeats, ctx=ctx,
+                                    scenes=[scene, scene.without_maps()])
+    used = {scene.materials[m.material].name for m in scene.meshes}
+    textured = sum(1 for k in used if scene.materials[k].has_maps)
+    return [Figure("textures", "mean frame with maps", "mean frame with factors only", _median(mean[0]),
+                   _median(mean[1]), "s", repeats, f"{textured} of {len(used)} materials textured, {frames} frames",
+                   mean[0], mean[1])]
+
+
+def _alternating_mean_frames(options: list[dict], scene, *, frames: int, repeats: int, ctx,
+                             scenes=None) -> list[list[float]]:
+    """The mean frame time of one whole run per renderer (``options`` each, on ``scenes`` each or on
+    ``scene``), ``repeats`` times, the renderers alternating run for run."""
+    from . import ProgressiveRenderer
+
+    scenes = scenes or [scene] * len(options)
+    mean: list[list[float]] = [[] for _ in options]
     renderers = []
     try:
-        for s in (scene, scene.without_maps()):
-            renderers.append(ProgressiveRenderer(s, frames=frames, ctx=ctx))
+        for s, opts in zip(scenes, options):
+            renderers.append(ProgressiveRenderer(s, frames=frames, ctx=ctx, **opts))
         for _ in range(repeats):
             for i, r in enumerate(renderers):
                 r.reset()
@@ -127,8 +128,4 @@ def bench_textures(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
     finally:
         for r in renderers:
             r.release()
-    used = {scene.materials[m.material].name for m in scene.meshes}
-    textured = sum(1 for k in used if scene.materials[k].has_maps)
-    return [Figure("textures", "mean frame with maps", "mean frame with factors only", _median(mean[0]),
-                   _median(mean[1]), "s", repeats, f"{textured} of {len(used)} materials textured, {frames} frames",
-                   mean[0], mean[1])]
+    return mean
