@@ -350,6 +350,8 @@ def test_embedded_and_external_textures(tmp_path, monkeypatch):
     pbr = w.doc["materials"][0]["pbrMetallicRoughness"]
     pbr["baseColorTexture"] = {"index": 0}
     pbr["metallicRoughnessTexture"] = {"index": 1}
+    # factors of 1: the files themselves are the maps (a factor other than 1 is baked into a copy)
+    pbr.update(baseColorFactor=[1.0, 1.0, 1.0, 1.0], metallicFactor=1.0, roughnessFactor=1.0)
     w.doc["materials"][0]["emissiveTexture"] = {"index": 1}
     w.doc["materials"][0]["normalTexture"] = {"index": 1, "scale": 0.5}
     w.doc["materials"][0]["emissiveFactor"] = [0.5, 0.25, 0.0]

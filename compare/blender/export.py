@@ -95,7 +95,11 @@ emission (a Mix node, Multiply), as glTF's emissiveTexture does. An
 and as Blender's glTF importer leaves it unconnected). A ``normal_texture`` goes
 through a Normal Map node in tangent space on the UV map, with ``normal_scale`` as
 its strength (Blender's strength blends towards the unperturbed normal rather
-than scaling x and y; the two agree at 1).
+than scaling x and y; the two agree at 1). An alpha mask drives the Principled
+BSDF's Alpha with 1 where alpha × the base-colour map's alpha (the image read
+channel-packed, not premultiplied) passes the cutoff and 0 elsewhere (Math nodes),
+with EEVEE's transparent shadows on; Cycles' transparent bounces are set apart
+from the depth (``MAX_HOLES``), as the reference's integrator counts holes.
 Texture coordinates: Mitsuba's v runs down the image, Blender's up, so v → 1 − v.
 
 Environment

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from .gpu_scene import mat_bytes
-from .shaders import load_program, set_uniform
+from .shaders import set_uniform
 
 
 class DepthOnlyPass:
@@ -15,7 +15,7 @@ class DepthOnlyPass:
         self.size = size
         self.depth = ctx.depth_texture(size)
         self.fbo = ctx.framebuffer(depth_attachment=self.depth)
-        self.program = load_program(ctx, "depth_only.glsl", gpu_scene.occluder_defines())
+        self.programs = gpu_scene.occluder_programs(ctx, "depth_only.glsl")
 
     def render(self, view_proj) -> None:
         """Clear and draw the scene's depth with ``view_proj``."""
@@ -23,10 +23,13 @@ class DepthOnlyPass:
         self.ctx.viewport = (0, 0, *self.size)
         self.ctx.enable_only(self.ctx.DEPTH_TEST)
         self.fbo.clear(depth=1.0)
-        set_uniform(self.program, "u_view_proj", mat_bytes(view_proj))
-        self.scene.draw_occluders(self.program)
+        for program in self.programs.values():
+            set_uniform(program, "u_view_proj", mat_bytes(view_proj))
+        self.scene.draw_occluders(self.programs)
 
     def release(self) -> None:
         self.fbo.release()
         self.depth.release()
-        self.program.release()
+        for program in self.programs.values():
+            self.scene.forget(program)
+            program.release()

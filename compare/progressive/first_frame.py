@@ -128,7 +128,9 @@ class FirstFramePass:
             # Depth pre-pass: with the nearest depth known, each pixel is shaded once, however
             # much the scene overdraws (the kitchen's frame 0 cost 3x an average frame without it).
             self.depth_fbo = self._keep(ctx.framebuffer(depth_attachment=self.depth))
-            self.depth_program = self._keep(load_program(ctx, "depth_only.glsl", gpu_scene.occluder_defines()))
+            self.depth_programs = gpu_scene.occluder_programs(ctx, "depth_only.glsl")
+            for program in self.depth_programs.values():
+                self._keep(program)
         except BaseException:
             self.release()
             raise
@@ -169,8 +171,9 @@ class FirstFramePass:
         # Without an environment the background is black (the clear colour).
         self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         self.depth_fbo.use()
-        set_uniform(self.depth_program, "u_view_proj", mat_bytes(view_proj))
-        self.scene.draw_occluders(self.depth_program)
+        for program in self.depth_programs.values():
+            set_uniform(program, "u_view_proj", mat_bytes(view_proj))
+        self.scene.draw_occluders(self.depth_programs)
         self.fbo.use()
         if self.lut_texture is not None:
             self.lut_texture.use(location=LUT_UNIT)
@@ -192,9 +195,9 @@ class FirstFramePass:
         (self.targets if self.reduced else self.base).swap()
 
     def release(self) -> None:
-        for name in ("program", "depth_program"):
-            if getattr(self, name, None) is not None:
-                self.scene.forget(getattr(self, name))
+        for program in [getattr(self, "program", None), *getattr(self, "depth_programs", {}).values()]:
+            if program is not None:
+                self.scene.forget(program)
         for obj in reversed(self._objects):
             obj.release()
         self._objects = []

@@ -158,10 +158,43 @@ class GpuScene:
         """The material defines of a pass that shades the scene (material.glsl)."""
         return {"TEXTURES": int(self.textured), "ALPHA_MASK": int(self.masked)}
 
-    def occluder_defines(self) -> dict[str, int]:
-        """The material defines of a pass that only rasterizes it (depth, shadow maps): texture
-        coordinates and the base-colour maps only for an alpha mask."""
-        return {"TEXTURES": int(self.masked), "ALPHA_MASK": int(self.masked)}
+    def map_set(self, mesh: GpuMesh) -> tuple[bool, ...]:
+        """Which maps ``mesh`` has (base colour, metallic-roughness, emission, occlusion, normal) and
+        whether it is alpha-masked: the key of a program specialised for it (:meth:`map_set_defines`)."""
+        return (mesh.base_color_map is not None, mesh.metallic_roughness_map is not None,
+                mesh.emission_map is not None, mesh.occlusion_map is not None, mesh.normal_map is not None,
+                mesh.alpha_cutoff >= 0.0)
+
+    def map_sets(self) -> list[tuple[bool, ...]]:
+        """The distinct :meth:`map_set` of the scene's meshes and light quads, in draw order."""
+        return list(dict.fromkeys(self.map_set(m) for m in self.meshes + self.light_quads))
+
+    def map_set_defines(self, key: tuple[bool, ...]) -> dict[str, object]:
+        """:meth:`defines` for a program that draws only meshes of map set ``key``: whether each map is
+        there is a constant, so the program samples only the maps those meshes have."""
+        names = ("HAS_BASE_COLOR_MAP", "HAS_METALLIC_ROUGHNESS_MAP", "HAS_EMISSION_MAP", "HAS_OCCLUSION_MAP",
+                 "HAS_NORMAL_MAP", "IS_MASKED")
+        out: dict[str, object] = dict(self.defines())
+        if self.textured:
+            out.update({n: "true" if v else "false" for n, v in zip(names, key)})
+        return out
+
+    def occluder_programs(self, ctx, name: str, defines=None) -> dict:
+        """The programs of a pass that only rasterizes the scene (depth, shadow maps), by whether the mesh
+        they draw is alpha-masked: ``{False: positions only}``, and with alpha masks ``True``: texture
+        coordinates and the base-colour map's alpha test (:meth:`draw_occluders` picks per mesh)."""
+        from .shaders import load_program
+
+        base = dict(defines or {})
+        programs = {False: load_program(ctx, name, {**base, "TEXTURES": 0, "ALPHA_MASK": 0})}
+        if self.masked:
+            try:
+                programs[True] = load_program(ctx, name, {**base, "TEXTURES": 1, "ALPHA_MASK": 1,
+                                                          "IS_MASKED": "true"})
+            except BaseException:
+                programs[False].release()
+                raise
+        return programs
 
     def _preserve_coverage(self, tex, rgba: np.ndarray, cutoff: float) -> None:
         """Rewrite the alpha of ``tex``'s mip levels (built by GL) so that each keeps level 0's coverage,
@@ -245,13 +278,16 @@ class GpuScene:
             return vao
         return vao[0]
 
-    def draw_shaded(self, program, instances: int = 1) -> None:
+    def draw_shaded(self, program, instances: int = 1, map_set: tuple[bool, ...] | None = None) -> None:
         """Draw meshes and light quads with their material uniforms (G-buffer pass).
 
         ``instances`` > 1 draws every mesh that many times in one call (the
         irradiance volume's bake places each instance in its own cube face).
+        ``map_set``: only the meshes of that :meth:`map_set` (a program specialised for it).
         """
         for index, mesh in enumerate(self.meshes + self.light_quads):
+            if map_set is not None and self.map_set(mesh) != map_set:
+                continue
             set_uniform(program, "u_base_color", mesh.base_color)
             set_uniform(program, "u_metallic", mesh.metallic)
             set_uniform(program, "u_roughness", mesh.roughness)
@@ -279,13 +315,15 @@ class GpuScene:
                 tex.use(location=unit)
                 set_uniform(program, f"u_{name}_map", unit)
 
-    def draw_occluders(self, program, skip_light: int | None = None) -> None:
-        """Draw depth only: every mesh and every light quad except ``skip_light``'s (shadow pass); with
-        an alpha mask (the program built with :meth:`occluder_defines`), its holes are left out."""
+    def draw_occluders(self, programs: dict, skip_light: int | None = None) -> None:
+        """Draw depth only: every mesh and every light quad except ``skip_light``'s (shadow pass), each with
+        the program of :meth:`occluder_programs` for it; an alpha-masked mesh leaves out its holes."""
         for index, mesh in enumerate(self.meshes + self.light_quads):
             if mesh.light is not None and mesh.light == skip_light:
                 continue
-            if self.masked:
+            masked = mesh.alpha_cutoff >= 0.0 and True in programs
+            program = programs[masked]
+            if masked:
                 self._bind_maps(program, mesh, all_maps=False)
             self._vao(program, index, mesh).render()
 

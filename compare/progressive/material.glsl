@@ -8,7 +8,7 @@
 //
 // ALPHA_MASK (with TEXTURES; both always defined, 0 or 1): alpha_test() discards the fragments
 // where glTF's coverage, u_alpha times the base-colour map's alpha, is below u_alpha_cutoff (a
-// negative cutoff: an opaque mesh). Every pass that rasterizes the scene calls it first (G-buffer,
+// negative cutoff: an opaque mesh; the occluder passes draw opaque meshes with a program without it). Every pass that rasterizes the scene calls it first (G-buffer,
 // forward first frame and its depth pre-pass, probe bake, shadow maps), so a hole is one for
 // camera rays and light alike. The test is on the filtered alpha, as GPUs do it.
 
@@ -18,6 +18,27 @@ uniform float u_roughness;
 uniform vec3 u_emission;   // radiance leaving the front side (the side the normal faces)
 
 #if TEXTURES
+// Whether the mesh has each map: the uniforms, or, in a program specialised for one set of maps (the
+// G-buffer's, gpu_scene.map_set_defines), constants that fold the absent lookups away (a software
+// rasterizer runs both sides of a uniform branch).
+#ifndef HAS_BASE_COLOR_MAP
+#define HAS_BASE_COLOR_MAP (u_has_base_color_map > 0.5)
+#endif
+#ifndef HAS_METALLIC_ROUGHNESS_MAP
+#define HAS_METALLIC_ROUGHNESS_MAP (u_has_metallic_roughness_map > 0.5)
+#endif
+#ifndef HAS_EMISSION_MAP
+#define HAS_EMISSION_MAP (u_has_emission_map > 0.5)
+#endif
+#ifndef HAS_OCCLUSION_MAP
+#define HAS_OCCLUSION_MAP (u_has_occlusion_map > 0.5)
+#endif
+#ifndef HAS_NORMAL_MAP
+#define HAS_NORMAL_MAP (u_has_normal_map > 0.5)
+#endif
+#ifndef IS_MASKED
+#define IS_MASKED (u_alpha_cutoff >= 0.0)
+#endif
 in vec2 v_uv;
 in vec4 v_tangent;                           // glTF tangent: xyz along +u, w: sign of the bitangent
 uniform mat3 u_uv_transform;                 // the material's KHR_texture_transform
@@ -48,24 +69,24 @@ vec4 sample_map(sampler2D map) {
     return textureGrad(map, uv, dx, dy);
 }
 vec3 material_base_color() {
-    return u_has_base_color_map > 0.5 ? sample_map(u_base_color_map).rgb : u_base_color;
+    return HAS_BASE_COLOR_MAP ? sample_map(u_base_color_map).rgb : u_base_color;
 }
 float material_metallic() {
-    return u_has_metallic_roughness_map > 0.5 ? sample_map(u_metallic_roughness_map).b : u_metallic;
+    return HAS_METALLIC_ROUGHNESS_MAP ? sample_map(u_metallic_roughness_map).b : u_metallic;
 }
 float material_roughness() {
-    return u_has_metallic_roughness_map > 0.5 ? sample_map(u_metallic_roughness_map).g : u_roughness;
+    return HAS_METALLIC_ROUGHNESS_MAP ? sample_map(u_metallic_roughness_map).g : u_roughness;
 }
 vec3 material_emission() {
-    return u_has_emission_map > 0.5 ? u_emission * sample_map(u_emission_map).rgb : u_emission;
+    return HAS_EMISSION_MAP ? u_emission * sample_map(u_emission_map).rgb : u_emission;
 }
 // glTF's occlusion: 1 + strength (map - 1), the factor on ambient and indirect light (1 without a map).
 float material_occlusion() {
-    return u_has_occlusion_map > 0.5 ? 1.0 + u_occlusion_strength * (sample_map(u_occlusion_map).r - 1.0) : 1.0;
+    return HAS_OCCLUSION_MAP ? 1.0 + u_occlusion_strength * (sample_map(u_occlusion_map).r - 1.0) : 1.0;
 }
 // The shading normal: the normal map's in the frame (tangent, bitangent = cross(n, tangent) w, n).
 vec3 material_normal(vec3 n) {
-    if (u_has_normal_map < 0.5) {
+    if (!HAS_NORMAL_MAP) {
         return n;
     }
     vec3 t = normalize(v_tangent.xyz - n * dot(n, v_tangent.xyz));
@@ -78,8 +99,8 @@ vec3 material_normal(vec3 n) {
 uniform float u_alpha;
 uniform float u_alpha_cutoff;
 void alpha_test() {
-    if (u_alpha_cutoff >= 0.0) {
-        float a = u_alpha * (u_has_base_color_map > 0.5 ? sample_map(u_base_color_map).a : 1.0);
+    if (IS_MASKED) {
+        float a = u_alpha * (HAS_BASE_COLOR_MAP ? sample_map(u_base_color_map).a : 1.0);
         if (a < u_alpha_cutoff) {
             discard;
         }

@@ -227,7 +227,7 @@ class ShadowAtlas:
         self.depth.compare_func = ""  # sample the stored value, no hardware comparison
         self.depth.filter = (ctx.NEAREST, ctx.NEAREST)
         self.fbo = ctx.framebuffer(depth_attachment=self.depth)
-        self.program = load_program(ctx, "shadow.glsl", gpu_scene.occluder_defines())
+        self.programs = gpu_scene.occluder_programs(ctx, "shadow.glsl")
 
     def _init_vsm(self) -> None:
         ctx, shape = self.ctx, (3 * self.size, self.size)
@@ -239,7 +239,7 @@ class ShadowAtlas:
         self.scratch.filter = (ctx.LINEAR, ctx.LINEAR)  # the blur reads two texels per fetch
         self.fbo = ctx.framebuffer([self.moments], self.depth)
         self.scratch_fbo = ctx.framebuffer([self.scratch])
-        self.program = load_program(ctx, "shadow.glsl", {"MOMENTS": 1, **self.scene.occluder_defines()})
+        self.programs = self.scene.occluder_programs(ctx, "shadow.glsl", {"MOMENTS": 1})
         self.blur = load_program(ctx, "vsm_blur.glsl")
         self.blur_vao = ctx.vertex_array(self.blur, [])
 
@@ -271,13 +271,15 @@ class ShadowAtlas:
             self.fbo.clear(self.far, self.far * self.far, 0.0, 0.0, depth=1.0)  # nothing seen: (far, far²)
         else:
             self.fbo.clear(depth=1.0)
-        set_uniform(self.program, "u_sample", tuple(float(x) for x in point))
-        set_uniform(self.program, "u_inv_far", 1.0 / self.far)
+        for program in self.programs.values():
+            set_uniform(program, "u_sample", tuple(float(x) for x in point))
+            set_uniform(program, "u_inv_far", 1.0 / self.far)
         for k in range(5):
             x, y, w, h = (int(v) for v in self.rects[k])
             ctx.viewport = (x, y, w, h)
-            set_uniform(self.program, "u_view_proj", mat_bytes(self.face_view_proj[k]))
-            self.scene.draw_occluders(self.program, skip_light=light_index)
+            for program in self.programs.values():
+                set_uniform(program, "u_view_proj", mat_bytes(self.face_view_proj[k]))
+            self.scene.draw_occluders(self.programs, skip_light=light_index)
         if self.filter == "vsm":
             self._blur(self.filter_widths[light_index] * self.size / 2)
 
@@ -316,4 +318,7 @@ class ShadowAtlas:
                 obj.release()
         self.fbo.release()
         self.depth.release()
-        self.program.release()
+        for program in self.programs.values():
+            self.scene.forget(program)
+            program.release()
+        self.programs = {}
