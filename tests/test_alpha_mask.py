@@ -289,3 +289,14 @@ def test_mip_levels_keep_the_coverage_of_the_map():
         assert abs(coverage(level, 0.5) - want) <= best + 1e-12, level.shape
         assert level.min() >= 0.0 and level.max() <= 1.0
     assert coverage(list(box_levels(alpha))[2], 0.5) < 0.5 * want  # what it fixes: 8 x 8 plain mips thin out
+
+
+def test_variance_shadow_maps_see_the_holes_too(tmp_path, gl_ctx):
+    """The VSM shadow pass (moments) tests alpha as the hard one does: the same light through the holes."""
+    masked = _scene(tmp_path, MASKED, light=SIDE_LIGHT)
+    (tmp_path / "opaque").mkdir()
+    opaque = _scene(tmp_path / "opaque", MASKED.replace('material = "leaf"', 'material = "green"'), light=SIDE_LIGHT)
+    mean = {(name, f): render_progressive(s, frames=32, ctx=gl_ctx, shadow_filter=f).image.mean()
+            for name, s in (("masked", masked), ("opaque", opaque)) for f in ("hard", "vsm")}
+    assert mean["masked", "vsm"] == pytest.approx(mean["masked", "hard"], rel=0.02)
+    assert mean["masked", "vsm"] > 1.2 * mean["opaque", "vsm"]
