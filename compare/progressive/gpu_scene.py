@@ -4,8 +4,11 @@ Every mesh gets one vertex buffer (position, normal, texture coordinates; float3
 interleaved) and one index buffer, and keeps its material as uniform values set before
 its draw call, and its base-colour and metallic-roughness maps (uploaded once per file,
 linear RGBA16F with mipmaps; :mod:`compare.progressive` samples them trilinearly) where
-the material has them; an alpha-masked material's base-colour map carries its alpha. Programs built without ``TEXTURES`` read no coordinates and no
-maps: a scene without textures does no texture work.
+the material has them; an alpha-masked material's base-colour map carries its alpha.
+Programs built without ``TEXTURES`` read no coordinates and no maps: a scene without
+textures does no texture work; the G-buffer's programs are specialised per set of maps
+(:meth:`GpuScene.map_set_defines`) and the occluder passes' per mask
+(:meth:`GpuScene.occluder_programs`).
 Each area light is uploaded as a quad too: the G-buffer pass shows it as an
 emitter, and shadow maps of *other* lights see it as an occluder (the reference's
 light rectangles block light as well).
