@@ -673,6 +673,8 @@ def test_same_figures_as_before_the_renderer_protocol(tmp_path, gl_ctx):
                                                                          for r in b.runs]
     for ra, rb in zip(a.runs, b.runs):
         assert [p.step for p in ra.points] == [p.step for p in rb.points]
+        if ra.renderer == "progressive:ltc":
+            continue  # its model changed since: the specular shadow ratio corrects the fitted lobe's shape
         for pa, pb in zip(ra.points, rb.points):
             assert set(pb.metrics) == set(pa.metrics) | added
             for k, v in pa.metrics.items():
@@ -683,7 +685,8 @@ def test_same_figures_as_before_the_renderer_protocol(tmp_path, gl_ctx):
         {"renderer": "*", "max": {"flip": 0.3, "relmse": 0.1}, "min": {"ssim": 0.5}},
         {"renderer": "progressive", "step": 1, "max": {"flip": 0.3}, "min": {"ssim": 0.5}}]}
     verdicts = [check(r, rules) for r in (before, now)]
-    assert [str(v) for v in verdicts[0][0]] == [str(v) for v in verdicts[1][0]] and verdicts[0][1] == verdicts[1][1]
+    same = [[str(v) for v in verdict[0] if "progressive:ltc" not in str(v)] for verdict in verdicts]
+    assert same[0] == same[1] and verdicts[0][1] == verdicts[1][1]
     assert verdicts[0][0]  # the rules above cross some bounds: the messages compared carry the values
 
 

@@ -92,6 +92,8 @@ class DirectPass:
             raise ValueError(f"materials: expected one of {', '.join(map(repr, MATERIAL_MODES))}, got {materials!r}")
         self.ctx = ctx
         self.lut_texture = None
+        #: The LTC table (area model "ltc"): the specular shadow ratio's denominator reads it.
+        self.ltc_table = None
         if materials != "diffuse":
             # The split-sum table bounds the light a specular lobe can reflect (direct.glsl).
             from ..ibl import split_sum
@@ -126,6 +128,11 @@ class DirectPass:
         if self.lut_texture is not None:
             self.lut_texture.use(location=LUT_UNIT)
             set_uniform(program, "u_spec_lut", LUT_UNIT)
+        if self.ltc_table is not None:
+            from .ltc import LTC_UNIT
+
+            self.ltc_table.use(location=LTC_UNIT)
+            set_uniform(program, "u_ltc", LTC_UNIT)
 
     def preview(self, target: Target, gbuffer, lights, camera_position) -> None:
         """Unshadowed direct light from every light's centre (one sample, full area), summed into ``target``."""

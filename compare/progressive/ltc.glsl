@@ -152,10 +152,38 @@ void ltc_light_corners(vec3 x, vec3 n, vec3 v, out vec3 q[4]) {
 // The unshadowed direct light of the rectangle at x: diffuse and specular parts, each
 // in radiance units (times the light's radiance). Zero behind the one-sided emitter and
 // for a surface seen from behind.
+// The transformed cosine's density (per steradian, integrating to 1) in world direction l at a point
+// of normal n seen from v: D_o(M^-1 l / |M^-1 l|) |det M^-1| / |M^-1 l|^3 in the frame of ltc_frame.
+float ltc_density(vec3 n, vec3 v, vec3 l, float roughness) {
+    vec3 t1;
+    vec3 t2;
+    ltc_frame(n, v, t1, t2);
+    mat3 minv = ltc_minv(dot(n, v), roughness);
+    vec3 o = minv * vec3(dot(l, t1), dot(l, t2), dot(l, n));
+    float len = length(o);
+    if (len <= 0.0 || o.z <= 0.0) {
+        return 0.0;
+    }
+    float det = abs(minv[0][0] * minv[2][2] - minv[2][0] * minv[0][2]);
+    return (o.z / len) / 3.14159265358979 * det / (len * len * len);
+}
+
+void ltc_light_scaled(vec3 x, vec3 n, vec3 v, vec3 base, float metallic, float roughness, out vec3 diffuse,
+                      out vec3 specular, out vec3 spec_scale);
+
 void ltc_light(vec3 x, vec3 n, vec3 v, vec3 base, float metallic, float roughness, out vec3 diffuse,
                out vec3 specular) {
+    vec3 spec_scale;
+    ltc_light_scaled(x, n, v, base, metallic, roughness, diffuse, specular, spec_scale);
+}
+
+// ltc_light, with the scale the transformed cosine is given (Fresnel times A + B): specular is
+// spec_scale |fs.z| u_light_radiance.
+void ltc_light_scaled(vec3 x, vec3 n, vec3 v, vec3 base, float metallic, float roughness, out vec3 diffuse,
+                      out vec3 specular, out vec3 spec_scale) {
     diffuse = vec3(0.0);
     specular = vec3(0.0);
+    spec_scale = vec3(0.0);
     if (!light_reaches(x, n, v)) {
         return;
     }
@@ -204,7 +232,8 @@ void ltc_light(vec3 x, vec3 n, vec3 v, vec3 base, float metallic, float roughnes
     vec3 l_spec = normalize(vec3(minv[2][2] * o_mean.x - minv[2][0] * o_mean.z, det * o_mean.y,
                                  -minv[0][2] * o_mean.x + minv[0][0] * o_mean.z) * sign(det));
     float vh_s = clamp(dot(v_local, normalize(v_local + l_spec)), 0.0, 1.0);
-    specular = brdf_fresnel_schlick(f0, vh_s) * ((ab.x + ab.y) * abs(fs.z)) * u_light_radiance;
+    spec_scale = brdf_fresnel_schlick(f0, vh_s) * (ab.x + ab.y);
+    specular = spec_scale * abs(fs.z) * u_light_radiance;
 #endif
 }
 

@@ -11,11 +11,23 @@ the unshadowed point-sample estimate over the same samples,
 
     L_i ≈ LTC_i · Σ_k V_k g_k / Σ_k g_k,
 
-separately for the diffuse and the specular lobe, g_k being that lobe's
-point-sample estimate through sample k (its BRDF times A cos cos / d²). Where
-light i is entirely visible the ratio is exactly 1, whatever the number of
-samples, so the image is the closed-form light: exact for the diffuse lobe, as
-close as the table's fit for the specular one. In penumbrae the ratio converges
+for the diffuse lobe, g_k being its point-sample estimate through sample k (its
+BRDF times A cos cos / d²). For the specular lobe the denominator is the fitted
+lobe's own estimate through the same samples, h_k (the closed form's scale, Fresnel
+× (A + B), times the transformed cosine's density, times A cos / d²), and the
+numerator's BRDF term is bounded by 1.5 h_k:
+
+    L_s ≈ LTC_s · Σ_k V_k min(g_k, 1.5 h_k) / Σ_k h_k,
+
+which converges to the exact shadowed specular light as samples grow (to within
+the bound), correcting the fitted lobe's shape and its Fresnel where the fit is
+poor: at grazing views the clamped cosine, sheared, keeps mass near the horizon
+where BRDF × cos vanishes (``stress/grazing.toml``'s plane at N·V ≈ 0.1: 1.89× the
+reference from the closed form, 0.88× with this ratio). The bound keeps a sample
+where the fitted lobe has almost no density from making a firefly (without it the
+grazing plane reached 4× the light's radiance). Where
+light i is entirely visible the diffuse ratio is exactly 1, whatever the number of
+samples, so the diffuse light is the closed form's, exact. In penumbrae the ratio converges
 as samples grow, as the radiometric model's point-on-area estimate does, but
 without that model's discretisation error in the unshadowed part (a Lambert
 plane under a rectangle, 32 samples: −11 % … +9 % per pixel, and 0.1 … 3.2×

@@ -15,7 +15,7 @@
 
 uniform sampler2D u_diffuse;   // sum over frames of the unshadowed diffuse light
 uniform sampler2D u_specular;  // ... and specular light
-uniform sampler2D u_ratio;     // (sum V g_d, sum g_d, sum V g_s, sum g_s) over the light's samples
+uniform sampler2D u_ratio;     // (sum V g_d, sum g_d, sum V g_s, sum h_s) over the light's samples
 uniform float u_frames;        // frames in the sums of u_diffuse and u_specular
 
 out vec4 out_color;

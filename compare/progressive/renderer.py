@@ -317,6 +317,7 @@ class ProgressiveRenderer:
                 if area_model == "ltc":
                     # Per-light sums instead of one running mean (ltc.py); no partial sums.
                     self.ltc_table = self._keep(ltc_texture(ctx))
+                    self.direct.ltc_table = self.ltc_table
                     gbuffer_frames = len(self.plan) - int(forward_first)
                     self.ltc = self._keep(LtcLights(ctx, size, scene.lights, materials=materials,
                                                     lut_texture=self.direct.lut_texture, table=self.ltc_table,
