@@ -146,6 +146,7 @@ def write_exr(
     *,
     metadata: dict[str, MetadataValue] | None = None,
     half: bool = False,
+    alpha=None,
 ) -> Path:
     """Write a linear RGB image to an OpenEXR file, atomically, with metadata.
 
@@ -165,6 +166,8 @@ def write_exr(
     half : bool, optional
         Store 16-bit half floats (half the size; about 3 significant digits,
         range ±65504). Default float32, which round-trips bit-exactly.
+    alpha : array_like, shape (H, W), optional
+        An ``A`` channel beside R, G, B (a texture's alpha), stored like them.
 
     Returns
     -------
@@ -181,7 +184,7 @@ def write_exr(
 
     Notes
     -----
-    Channels are named R, G, B (readable by any EXR tool); compression is ZIP
+    Channels are named R, G, B (and A; readable by any EXR tool); compression is ZIP
     (lossless, 16 scanlines per block); storage is scanline, single part.
     """
     path = Path(path)
@@ -201,11 +204,18 @@ def write_exr(
     # ascontiguousarray is not cosmetic: OpenEXR 3.5 writes non-C-contiguous
     # arrays with scrambled pixels and no error.
     pixels = np.ascontiguousarray(a, dtype=dtype)
+    channels = {"RGB": pixels}
+    if alpha is not None:
+        alpha = np.asarray(alpha)
+        if alpha.shape != a.shape[:2]:
+            raise ImageError(f"{path}: alpha of shape {alpha.shape}, expected {a.shape[:2]}")
+        check_finite(alpha[..., None], f"alpha for {path}")
+        channels["A"] = np.ascontiguousarray(alpha, dtype=dtype)
 
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage, **attrs}
     with atomic_path(path, suffix=".exr") as tmp:
         try:
-            with OpenEXR.File(header, {"RGB": pixels}) as f:
+            with OpenEXR.File(header, channels) as f:
                 f.write(str(tmp))
         except Exception as e:  # the binding raises bare RuntimeError/ValueError
             raise ImageError(f"{path}: cannot write OpenEXR file: {e}") from e

@@ -404,3 +404,37 @@ def vertex_tangents(positions, normals, uvs, indices) -> np.ndarray:
     t /= np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-300)
     w = np.where(np.sum(np.cross(n, t) * -b, axis=1) < 0.0, -1.0, 1.0)
     return np.concatenate([t, w[:, None]], axis=1).astype(np.float32)
+
+
+def ray_cast(origins: np.ndarray, directions: np.ndarray, tris: np.ndarray, *, chunk: int = 256,
+             t_max: np.ndarray | float = np.inf) -> tuple[np.ndarray, np.ndarray]:
+    """Closest hit (Möller–Trumbore) of rays (R, 3) against triangles (T, 3, 3).
+
+    Returns the distance (inf for a miss) and the triangle index (−1) per ray.
+    Hits farther than ``t_max`` count as misses.
+    """
+    o = np.asarray(origins, dtype=np.float64)
+    d = np.asarray(directions, dtype=np.float64)
+    best_t = np.full(len(o), np.inf)
+    best_i = np.full(len(o), -1)
+    t_max = np.broadcast_to(np.asarray(t_max, dtype=np.float64), (len(o),))
+    for start in range(0, len(tris), chunk):
+        v0, v1, v2 = (tris[start:start + chunk, i][None] for i in range(3))
+        e1, e2 = v1 - v0, v2 - v0
+        p = np.cross(d[:, None], e2)
+        det = np.sum(e1 * p, axis=-1)
+        ok = np.abs(det) > 1e-14
+        inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+        s = o[:, None] - v0
+        u = np.sum(s * p, axis=-1) * inv
+        q = np.cross(s, e1)
+        v = np.sum(d[:, None] * q, axis=-1) * inv
+        t = np.sum(e2 * q, axis=-1) * inv
+        hit = ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 1e-7) & (t < t_max[:, None])
+        t = np.where(hit, t, np.inf)
+        j = np.argmin(t, axis=1)
+        tj = t[np.arange(len(o)), j]
+        closer = tj < best_t
+        best_t = np.where(closer, tj, best_t)
+        best_i = np.where(closer, start + j, best_i)
+    return best_t, best_i

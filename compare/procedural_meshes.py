@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-from .geometry import (TriangleMesh, _mesh, box, cylinder, quad_from_corners, sphere, transform_matrix,
+from .geometry import (TriangleMesh, _mesh, box, cylinder, quad_from_corners, ray_cast, sphere, transform_matrix,
                        vertex_normals)
 
 Part = tuple[str, TriangleMesh, str]
@@ -232,27 +232,17 @@ def rim(radius: float, width: float, spokes: int = 6, segments: int = 56) -> Tri
 
 
 def _down_hit(mesh: TriangleMesh, x: float, z: float) -> tuple[np.ndarray, np.ndarray]:
-    """The highest point of ``mesh`` above (x, z) and the unit face normal there (a vertical ray cast
-    down through every triangle, Möller–Trumbore)."""
-    p = mesh.positions.astype(np.float64)[mesh.indices]
+    """The highest point of ``mesh`` above (x, z) and the unit face normal there, facing up (a vertical
+    ray cast down, :func:`compare.geometry.ray_cast`)."""
+    tris = mesh.positions.astype(np.float64)[mesh.indices]
     o, d = np.array([x, 1e3, z]), np.array([0.0, -1.0, 0.0])
-    e1, e2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
-    q = np.cross(d, e2)
-    det = np.einsum("ij,ij->i", e1, q)
-    ok = np.abs(det) > 1e-12
-    inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
-    s = o - p[:, 0]
-    u = np.einsum("ij,ij->i", s, q) * inv
-    r = np.cross(s, e1)
-    v = (r @ d) * inv
-    t = np.einsum("ij,ij->i", e2, r) * inv
-    hit = ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 0)
-    if not hit.any():
+    t, k = ray_cast(o[None], d[None], tris)
+    if k[0] < 0:
         raise ValueError(f"no surface of the mesh above ({x}, {z})")
-    k = np.flatnonzero(hit)[np.argmin(t[hit])]
-    n = np.cross(e1[k], e2[k])
+    e1, e2 = tris[k[0], 1] - tris[k[0], 0], tris[k[0], 2] - tris[k[0], 0]
+    n = np.cross(e1, e2)
     n /= np.linalg.norm(n)
-    return o + t[k] * d, n if n[1] > 0 else -n
+    return o + t[0] * d, n if n[1] > 0 else -n
 
 
 def hood_badge(body: TriangleMesh, x: float = 1.72, size: float = 0.16, lift: float = 0.004) -> TriangleMesh:

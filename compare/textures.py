@@ -110,7 +110,8 @@ def opacity_map(path: Path, alpha: float, cutoff: float) -> Path:
 
 def _derived(path: Path, what: str, params, make) -> Path:
     """A map derived from the texture file ``path`` as a linear EXR in the cache, named by the file's
-    content, ``what`` and ``params``, written once: ``make()`` gives its (H, W, 3) values."""
+    content, ``what`` and ``params``, written once: ``make()`` gives its (H, W, 3) values, or those and
+    an (H, W) alpha."""
     from .cache import default_cache_dir
     from .exr import write_exr
     from .fsutil import sha256_bytes
@@ -118,7 +119,9 @@ def _derived(path: Path, what: str, params, make) -> Path:
     key = sha256_bytes(Path(path).read_bytes(), repr(params))[:32]
     out = default_cache_dir() / "textures" / f"{key}-{what}.exr"
     if not out.is_file():
-        write_exr(out, make(), metadata={"what": f"{what} map of {Path(path).name}"})
+        values = make()
+        rgb, alpha = values if isinstance(values, tuple) else (values, None)
+        write_exr(out, rgb, alpha=alpha, metadata={"what": f"{what} map of {Path(path).name}"})
     return out
 
 
@@ -126,25 +129,9 @@ def factor_map(path: Path, factor, *, srgb: bool) -> Path:
     """The map ``path`` times a per-channel ``factor`` (linear) as a linear EXR in the cache, with the
     file's alpha channel: what glTF's factor × texture is, for a scene model whose map replaces its
     factor (the glTF import bakes a factor other than 1 into its map this way)."""
-    from .cache import default_cache_dir
-    from .fsutil import sha256_bytes
-
     f = np.asarray(factor, dtype=np.float64).reshape(3)
-    key = sha256_bytes(Path(path).read_bytes(), repr((f.tolist(), srgb)))[:32]
-    out = default_cache_dir() / "textures" / f"{key}-factor.exr"
-    if not out.is_file():
-        import OpenEXR
-
-        from .fsutil import atomic_path
-
-        rgb = (load_texture(path, srgb=srgb) * f).astype(np.float32)
-        channels = {"RGB": rgb, "A": load_alpha(path).astype(np.float32)}
-        out.parent.mkdir(parents=True, exist_ok=True)
-        with atomic_path(out) as tmp:
-            header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
-            with OpenEXR.File(header, channels) as exr:
-                exr.write(str(tmp))
-    return out
+    return _derived(path, "factor", (f.tolist(), bool(srgb)),
+                    lambda: (load_texture(path, srgb=srgb) * f, load_alpha(path)))
 
 
 def split_metallic_roughness(path: Path) -> tuple[Path, Path]:

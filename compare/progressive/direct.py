@@ -64,6 +64,10 @@ AREA_MODELS = ("radiometric", "paper", "ltc")
 MATERIAL_MODES = ("shared", "diffuse")
 #: Texture unit of the split-sum table (units 0-5 hold the G-buffer, shadow atlas and running means).
 LUT_UNIT = 7
+#: Texture unit of the LTC table in the passes that evaluate it (units 0-3 hold the G-buffer and
+#: the split-sum table in ltc_light.glsl, the environment 1-4 in first_frame.glsl; here the ratio's
+#: denominator reads it).
+LTC_UNIT = 8
 
 
 def set_light(program, light) -> None:
@@ -129,8 +133,6 @@ class DirectPass:
             self.lut_texture.use(location=LUT_UNIT)
             set_uniform(program, "u_spec_lut", LUT_UNIT)
         if self.ltc_table is not None:
-            from .ltc import LTC_UNIT
-
             self.ltc_table.use(location=LTC_UNIT)
             set_uniform(program, "u_ltc", LTC_UNIT)
 

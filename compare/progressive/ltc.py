@@ -60,16 +60,13 @@ from __future__ import annotations
 import numpy as np
 
 from .accumulate import Target
-from .direct import set_light
+from .direct import LTC_UNIT, set_light
 from .shaders import load_program, set_uniform
 
 #: f_d of the ``ltc`` model: shadow samples from frame 1 on (see the module notes).
 LTC_DIRECT_FRACTION = 0.0
 #: G-buffer frames in which each light's unshadowed light is evaluated (its jitter average).
 LTC_EVALUATIONS = 32
-#: Texture unit of the LTC table in the passes that evaluate it (units 0-3 hold the
-#: G-buffer and the split-sum table in ltc_light.glsl, the environment 1-4 in first_frame.glsl).
-LTC_UNIT = 8
 
 
 def ltc_texture(ctx):
