@@ -28,7 +28,8 @@ each figure:
     the seconds Mitsuba needs to reach the progressive renderer's final FLIP
     (interpolated on the log–log spp ladder, measured against an independent
     high-spp ground truth) ÷ the progressive renderer's seconds for all its
-    frames: > 1 means the rasterizer reaches that error faster. Given against
+    frames: > 1 means the rasterizer reaches that error faster; both times are medians of
+    ``--repeats`` alternating runs. Given against
     the full reference and against the direct-light-only reference; ``equal-error-direct-ltc``
     is the same for the ``ltc`` area model (:mod:`compare.progressive.ltc`) against the
     direct-light-only reference, ``equal-error-full-ltc-probes`` for ``ltc`` with the
@@ -83,12 +84,14 @@ def _render(registry, spec: str, scene, *, steps: int, checkpoints=None, seed: i
                            scene=scene, checkpoints=cps)
 
 
-def _direct_context(context, max_depth: int | None):
-    """A context whose Mitsuba renders stop at ``max_depth`` (2: direct light only)."""
+def _direct_context(context, max_depth: int | None, *, cache: bool = True):
+    """A context whose Mitsuba renders stop at ``max_depth`` (2: direct light only); ``cache=False``
+    turns the reference cache off (a timed render must be rendered, not read back with the seconds
+    of whichever run once filled the cache)."""
     from .renderers import RenderContext
 
     options = {**context.options, **({"max_depth": max_depth} if max_depth else {})}
-    return RenderContext(context.settings, cache_dir=context.cache_dir, options=options)
+    return RenderContext(context.settings, cache_dir=context.cache_dir if cache else False, options=options)
 
 
 def _truth(registry, scene, spp: int, context, max_depth: int | None):
@@ -99,11 +102,22 @@ def _truth(registry, scene, spp: int, context, max_depth: int | None):
                        context=c).checkpoints[-1].image
 
 
-def bench_equal_error(scene, *, frames: int, spp: int, registry, context) -> list[Figure]:
-    """Mitsuba's time to reach the rasterizer's final FLIP, ÷ the rasterizer's time; against the
-    direct-light reference also for the ``ltc`` area model (one Mitsuba ladder for both)."""
-    from .metrics import flip
+def _ladder(registry, scene, spp: int, context, max_depth: int | None):
+    """Mitsuba at 1, 2, 4, … ``spp`` samples per pixel (checkpoints of one render, timed: no cache)."""
     from .renderers import doubling_steps
+
+    with _direct_context(context, max_depth, cache=False) as c:
+        return _render(registry, "mitsuba", scene, steps=spp, checkpoints=doubling_steps(spp), context=c)
+
+
+def bench_equal_error(scene, *, frames: int, spp: int, repeats: int = 1, registry, context) -> list[Figure]:
+    """Mitsuba's time to reach the rasterizer's final FLIP, ÷ the rasterizer's time; against the
+    direct-light reference also for the ``ltc`` area model (one Mitsuba ladder for both).
+
+    Times are medians of ``repeats`` runs, the renderers taking turns; the images (seeded, so the
+    same every run) and their FLIP come from the first.
+    """
+    from .metrics import flip
 
     # (figure suffix, renderer, references it is judged against): against the full reference the
     # plain technique misses the indirect light whatever its area model, so the ltc figure there
@@ -111,29 +125,43 @@ def bench_equal_error(scene, *, frames: int, spp: int, registry, context) -> lis
     runs = [("", "progressive", ("full", "direct"))]
     if scene.lights:
         runs += [("-ltc", "progressive:ltc", ("direct",)), ("-ltc-probes", "progressive:ltc+probes", ("full",))]
-    progs = {suffix: (_render(registry, spec, scene, steps=frames, context=context), refs, spec)
-             for suffix, spec, refs in runs}
+    labels = (("full", None), ("direct", 2))
+    truths = {label: _truth(registry, scene, spp, context, depth) for label, depth in labels}
+    # The first run of each renderer (its images) and every run's checkpoint seconds; later runs'
+    # images are dropped at once (a ladder at 1080p holds a gigabyte of them).
+    first: dict = {}
+    times: dict = {}
+
+    def keep(key, result) -> None:
+        first.setdefault(key, result)
+        times.setdefault(key, []).append([cp.seconds for cp in result.checkpoints])
+
+    for _ in range(max(1, repeats)):
+        for suffix, spec, _ in runs:
+            keep(suffix, _render(registry, spec, scene, steps=frames, context=context))
+        for label, depth in labels:
+            keep(label, _ladder(registry, scene, spp, context, depth))
     out = []
-    for label, depth in (("full", None), ("direct", 2)):
-        truth = _truth(registry, scene, spp, context, depth)
-        with _direct_context(context, depth) as c:
-            ladder = _render(registry, "mitsuba", scene, steps=spp, checkpoints=doubling_steps(spp), context=c)
-        errors = [flip(truth, cp.image)[0] for cp in ladder.checkpoints]
-        seconds = [cp.seconds for cp in ladder.checkpoints]
-        for suffix, (prog, refs, spec) in progs.items():
+    for label, _ in labels:
+        truth, curves = truths[label], times[label]
+        errors = [flip(truth, cp.image)[0] for cp in first[label].checkpoints]
+        for suffix, spec, refs in runs:
             if label not in refs:
                 continue
-            final = prog.checkpoints[-1]
+            final = first[suffix].checkpoints[-1]
             target = flip(truth, final.image)[0]
-            t = time_to_error(seconds, errors, target)
-            what = prog.metadata["area_model"] + (", probes" if prog.metadata.get("indirect") == "probes" else "")
+            reach = [time_to_error(c, errors, target) for c in curves]
+            meta = first[suffix].metadata
+            what = meta["area_model"] + (", probes" if meta.get("indirect") == "probes" else "")
             note = (f"vs {label} reference; {spec} FLIP {target:.4f}; Mitsuba FLIP at 1 spp "
                     f"{errors[0]:.4f}, at {spp} spp {errors[-1]:.4f}")
-            if math.isinf(t):
+            if any(math.isinf(t) for t in reach):
                 note += f"; Mitsuba did not reach it within {spp} spp (ratio is a lower bound)"
-                t = seconds[-1]
+                reach = [c[-1] for c in curves]
+            own = [c[-1] for c in times[suffix]]
             out.append(Figure(f"equal-error-{label}{suffix}", "Mitsuba to same FLIP",
-                              f"progressive ({what}) {frames} frames", t, final.seconds, "s", 1, note))
+                              f"progressive ({what}) {frames} frames", _median(reach), _median(own), "s",
+                              max(1, repeats), note, reach, own))
     return out
 
 
@@ -271,7 +299,8 @@ def run_bench(scene_path: str | Path, *, size: tuple[int, int], frames: int, spp
                 if item in own:
                     figures += own[item](scene, frames=frames, spp=spp, repeats=repeats, context=context)
                 elif item == "equal-error":
-                    figures += bench_equal_error(scene, frames=frames, spp=spp, registry=registry, context=context)
+                    figures += bench_equal_error(scene, frames=frames, spp=spp, repeats=repeats, registry=registry,
+                                                 context=context)
                 elif item == "frame-budget":
                     figures += bench_frame_budget(scene, frames=frames, spp=spp, repeats=repeats, registry=registry,
                                                   context=context)

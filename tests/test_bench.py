@@ -50,3 +50,29 @@ def test_bench_times_texturing_and_skips_a_scene_without_maps(tmp_path, gl_ctx):
     plain = run_bench(ROOT / "scenes" / "cornell.toml", size=(32, 24), frames=4, spp=4, repeats=1,
                       items=("textures",), progress=False)
     assert plain["figures"] == [] and "no material of the scene has a map" in plain["skipped"]["textures"]
+
+
+@pytest.mark.gl
+def test_bench_equal_error_times_fresh_renders(tmp_path, gl_ctx, monkeypatch):
+    """Both sides are medians of --repeats runs, and the Mitsuba ladder is rendered, not read from the
+    reference cache (whose seconds would be those of the run that filled it)."""
+    import compare.bench as bench
+
+    monkeypatch.setenv("COMPARE_CACHE", str(tmp_path / "cache"))
+    calls = []
+    real = bench._render
+
+    def recording(registry, spec, scene, *, steps, checkpoints=None, seed=0, context):
+        calls.append((spec, checkpoints, context.cache_dir))
+        return real(registry, spec, scene, steps=steps, checkpoints=checkpoints, seed=seed, context=context)
+
+    monkeypatch.setattr(bench, "_render", recording)
+    result = run_bench(ROOT / "scenes" / "cornell.toml", size=(32, 24), frames=4, spp=4, repeats=2,
+                       items=("equal-error",), progress=False)
+    names = [f["name"] for f in result["figures"]]
+    assert names == ["equal-error-full", "equal-error-full-ltc-probes", "equal-error-direct", "equal-error-direct-ltc"]
+    for f in result["figures"]:
+        assert len(f["a_samples"]) == len(f["b_samples"]) == 2 and f["ratio"] > 0
+    ladders = [c for c in calls if c[0] == "mitsuba" and c[1] is not None]  # the truths have no ladder
+    assert len(ladders) == 4 and all(cache is False for *_, cache in ladders)
+    assert any(c[0] == "mitsuba" and c[2] is not False for c in calls)  # the ground truths may come from the cache

@@ -23,11 +23,12 @@
 // With AREA_MODEL_LTC the light itself comes unshadowed and exact from linearly
 // transformed cosines (ltc.glsl, ltc_light.glsl) and this pass only estimates how much
 // of it is shadowed (Heitz, Hill & McGuire 2018): mode 0 adds, per sample y,
-//   (V g_d, g_d, V min(g_s, 1.5 h_s), h_s),  g = mean(f_lobe) A cos_s cos_l / |y - x|^2
-// (each lobe's point-sample estimate through y, averaged over RGB; h_s the fitted LTC's own,
-// see ratio_terms) to the light's ratio target: S/U = sum V g_d / sum g_d is the visibility
-// weighted by the diffuse integrand, and the specular one also corrects the fitted lobe
-// (ltc.py, ltc_compose.glsl).
+//   (V g_d, g_d, V min(g_s, 1.5 s h_s), h_s),  g = mean(f_lobe) A cos_s cos_l / |y - x|^2
+// (each lobe's point-sample estimate through y, averaged over RGB; h_s the fitted LTC's own
+// density times A cos_l / |y - x|^2, s its scale, see ratio_terms) to the light's ratio
+// target: S/U = sum V g_d / sum g_d is the visibility weighted by the diffuse integrand, and
+// the specular one, sum V min(...) / (s sum h_s), also corrects the fitted lobe (ltc.py,
+// ltc_compose.glsl).
 
 #if defined VERTEX_SHADER
 
@@ -71,6 +72,8 @@ out vec4 out_color;
 #include "ltc.glsl"
 
 #if AREA_MODEL_LTC
+uniform sampler2D u_ltc_specular;  // the light's unshadowed specular sum; a: sum of its scale s
+uniform float u_ltc_inv_frames;    // 1 / the frames in that sum
 #ifndef LTC_SHAPE_MAX
 #define LTC_SHAPE_MAX 1.5
 #endif
@@ -99,21 +102,21 @@ vec4 ratio_terms(vec3 x, vec3 n, vec3 v, vec3 y, vec3 base, float metallic, floa
     // The specular ratio's denominator is the transformed cosine's own estimate through y (the
     // closed form it scales, per sample), not the BRDF's: the ratio then corrects the fitted
     // lobe's shape and Fresnel as well as the shadows, and converges to the exact shadowed light.
-    vec3 dl;
-    vec3 sl;
-    vec3 scale;
-    ltc_light_scaled(x, n, v, base, metallic, roughness, dl, sl, scale);
-    float g_ltc = dot(scale, vec3(1.0 / 3.0)) * ltc_density(n, v, l, roughness) * point_solid_angle(d2, cos_l);
+    // The closed form's scale s (Fresnel x (A + B), a constant of the pixel) is left out here and
+    // applied by the compose pass: the light's unshadowed specular sum carries it (ltc_light.glsl).
+    // Evaluating the polygon integral again per sample, only to get s, made this pass twice as costly.
+    float h_s = ltc_density(n, v, l, roughness) * point_solid_angle(d2, cos_l);
     // Where the fitted lobe has (almost) no density the BRDF may still have some: bounded at
-    // LTC_SHAPE_MAX times the lobe's own, a sample cannot make a firefly of the ratio.
-    g_s = min(g_s, LTC_SHAPE_MAX * g_ltc);
+    // LTC_SHAPE_MAX times the lobe's own, s h_s, a sample cannot make a firefly of the ratio.
+    float scale = texelFetch(u_ltc_specular, ivec2(gl_FragCoord.xy), 0).a * u_ltc_inv_frames;
+    g_s = min(g_s, LTC_SHAPE_MAX * scale * h_s);
     // + 1e-6: a metal's diffuse lobe is zero, and its diffuse ratio (the specular one's
     // fallback) stays the geometric visibility.
     g_d *= dot(diff_lobe, vec3(1.0 / 3.0)) + 1e-6;
 #else
-    float g_ltc = 0.0;
+    float h_s = 0.0;
 #endif
-    vec4 terms = vec4(g_d, g_d, g_s, g_ltc);
+    vec4 terms = vec4(g_d, g_d, g_s, h_s);
 #if SHADOWS
     if (g_d > 0.0) {
         float vis = visibility(x, n);

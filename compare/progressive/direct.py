@@ -68,6 +68,8 @@ LUT_UNIT = 7
 #: the split-sum table in ltc_light.glsl, the environment 1-4 in first_frame.glsl; here the ratio's
 #: denominator reads it).
 LTC_UNIT = 8
+#: Texture unit of a light's unshadowed specular sum in the ``ltc`` model's sample pass (its scale).
+LTC_SUM_UNIT = 6
 
 
 def set_light(program, light) -> None:
@@ -154,11 +156,14 @@ class DirectPass:
             self._set_light(p, light, light.center, 1.0, camera_position)
             self.preview_vao.render(vertices=3)
 
-    def add(self, partial: Target, gbuffer, shadow, bias, light, point, weight, camera_position) -> None:
+    def add(self, partial: Target, gbuffer, shadow, bias, light, point, weight, camera_position, *,
+            ltc_specular=None) -> None:
         """Add ``weight``·estimate of one sample to this frame's ``partial`` sum (not the last sample).
 
         With the ``ltc`` model: add the sample's shadow-ratio terms to the light's ratio
-        target ``partial`` (:mod:`compare.progressive.ltc`; ``weight`` is not used)."""
+        target ``partial`` (:mod:`compare.progressive.ltc`; ``weight`` is not used);
+        ``ltc_specular`` is (the light's unshadowed specular sum, its frames), whose alpha
+        bounds the specular term (:meth:`~compare.progressive.ltc.LtcLights.specular_sum`)."""
         ctx = self.ctx
         partial.fbo.use()
         ctx.enable_only(ctx.BLEND)
@@ -167,6 +172,11 @@ class DirectPass:
         p = self.program
         self._bind_gbuffer(p, gbuffer)
         shadow.bind(p, 3, bias)
+        if ltc_specular is not None:
+            texture, frames = ltc_specular
+            texture.use(location=LTC_SUM_UNIT)
+            set_uniform(p, "u_ltc_specular", LTC_SUM_UNIT)
+            set_uniform(p, "u_ltc_inv_frames", 1.0 / max(frames, 1))
         set_uniform(p, "u_mode", 0)
         self._set_light(p, light, point, weight, camera_position)
         self.vao.render(vertices=3)

@@ -33,13 +33,19 @@ without that model's discretisation error in the unshadowed part (a Lambert
 plane under a rectangle, 32 samples: −11 % … +9 % per pixel, and 0.1 … 3.2×
 with the light at 0.05× its size above the plane; ``tests/test_area_models.py``).
 
+The closed form's scale is a constant of the pixel, so the sample pass leaves it out of h_k
+and the bound reads it from the specular sum's alpha (below), where the unshadowed pass has
+summed it; the compose pass divides by it (evaluating the polygon integral again in every
+sample pass, only to get it, made that pass about 1.5× as costly).
+
 Per light this keeps three RGBA32F sums over the whole image, added to with
 blending, never ping-ponged: the unshadowed diffuse and specular light of the
 G-buffer frames that evaluate it (the first and then about
 :data:`LTC_EVALUATIONS` spread over the render, whose jitter anti-aliases them as
-the other means), and the ratio's four sums, added to by each light sample
+the other means; the specular sum's alpha sums the scale), and the ratio's four sums, added to by each light sample
 (``direct.glsl``). The display (``ltc_compose.glsl``) is
-Σ_i (diffuse_i·R_d,i + specular_i·R_s,i) / frames_i.
+Σ_i (diffuse_i·R_d,i + specular_i·R_s,i) / frames_i, the specular ratio's denominator
+being Σ_k h_k times the sum's mean scale.
 Before a light has its first sample its ratio is 1: the light shows unshadowed
 and exact from the first frame on, which replaces the other models' centre-point
 preview.
@@ -174,6 +180,11 @@ class LtcLights:
             set_light(p, self.lights[i])
             self.vao.render(vertices=3)
             self.frames[i] += 1
+
+    def specular_sum(self, light: int):
+        """(texture, frames): ``light``'s unshadowed specular sum so far (alpha: the sum of its
+        scale, Fresnel × (A + B)) and the frames in it; the sample pass bounds by it."""
+        return self.unshadowed[light][0][1], self.frames[light]
 
     def compose(self):
         """The shadowed direct light of all lights so far (a texture); needs one :meth:`run` first."""

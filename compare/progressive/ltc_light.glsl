@@ -1,6 +1,8 @@
 // The unshadowed light of one rectangular light in closed form (ltc.glsl), full screen
 // over the G-buffer, added to the light's sums of this frame's jittered view: diffuse
-// into the first target, specular into the second (ltc.py divides by the frames).
+// into the first target, specular into the second (ltc.py divides by the frames), whose alpha
+// sums the specular lobe's scale (Fresnel x (A + B), averaged over RGB), the factor that the
+// shadow ratio's specular denominator (direct.glsl) leaves out.
 //
 // Defines: MATERIALS_DIFFUSE, AREA_MODEL_LTC (always 1 here), AREA_MODEL_PAPER (always 0).
 
@@ -36,14 +38,15 @@ void main() {
     vec4 gp = texelFetch(u_position, p, 0);
     vec3 diffuse = vec3(0.0);
     vec3 specular = vec3(0.0);
+    vec3 spec_scale = vec3(0.0);
     if (gp.w > 0.5 && gp.w < 1.5) {
         vec4 gn = texelFetch(u_normal, p, 0);
         vec4 gm = texelFetch(u_material, p, 0);
-        ltc_light(gp.xyz, normalize(gn.xyz), normalize(u_camera_position - gp.xyz), gm.rgb, gm.a, gn.w, diffuse,
-                  specular);
+        ltc_light_scaled(gp.xyz, normalize(gn.xyz), normalize(u_camera_position - gp.xyz), gm.rgb, gm.a, gn.w,
+                         diffuse, specular, spec_scale);
     }
     out_diffuse = vec4(diffuse, 0.0);
-    out_specular = vec4(specular, 0.0);
+    out_specular = vec4(specular, dot(spec_scale, vec3(1.0 / 3.0)));
 }
 
 #endif

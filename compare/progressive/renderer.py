@@ -456,7 +456,7 @@ class ProgressiveRenderer:
             self.shadow.render(light, s.light, s.point)
             if self.ltc is not None:
                 self.direct.add(self.ltc.ratio[s.light], self.gbuffer, self.shadow, self.shadow_bias, light, s.point,
-                                1.0, cam_pos)
+                                1.0, cam_pos, ltc_specular=self.ltc.specular_sum(s.light))
             elif j < last:
                 self.direct.add(self.partial, self.gbuffer, self.shadow, self.shadow_bias, light, s.point,
                                 s.weight, cam_pos)
