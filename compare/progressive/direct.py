@@ -172,7 +172,9 @@ class DirectPass:
         p = self.program
         self._bind_gbuffer(p, gbuffer)
         shadow.bind(p, 3, bias)
-        if ltc_specular is not None:
+        if self._defines["AREA_MODEL_LTC"]:
+            if ltc_specular is None:
+                raise ValueError("the ltc model's sample pass needs the light's unshadowed specular sum (ltc_specular)")
             texture, frames = ltc_specular
             texture.use(location=LTC_SUM_UNIT)
             set_uniform(p, "u_ltc_specular", LTC_SUM_UNIT)
