@@ -78,7 +78,7 @@ def load_alpha(path: Path) -> np.ndarray:
 
         from .exr import read_exr
 
-        shape = read_exr(path)[0].shape[:2]
+        shape = read_exr(path)[0].shape[:2]  # read_exr first: it checks the file and names what is wrong
         with OpenEXR.File(str(path), separate_channels=True) as f:
             channels = f.channels()
             if "A" in channels:

@@ -77,8 +77,13 @@ def outputs() -> dict[str, Callable[[], bytes]]:
 # ----------------------------------------------------------------------------- material maps
 
 
+#: (seed, tint) of the kitchen's two woods.
+WOOD, WOOD_DARK = (1, (0.42, 0.25, 0.13)), (4, (0.33, 0.19, 0.095))
+
+
 @functools.cache
-def _wood(seed: int, tint: tuple[float, float, float]) -> dict:
+def _wood(kind: tuple[int, tuple[float, float, float]]) -> dict:
+    seed, tint = kind
     return pt.wood(256, seed=seed, tint=tint)
 
 
@@ -98,11 +103,11 @@ def _png(make: Callable[[], np.ndarray]) -> Callable[[], bytes]:
 
 #: The built-in scenes' maps (compare.procedural_textures), named by kitchen.toml and car.toml.
 TEXTURE_OUTPUTS: dict = {
-    "kitchen/textures/wood.png": _png(lambda: _wood(1, (0.42, 0.25, 0.13))["base"]),
-    "kitchen/textures/wood_normal.png": _png(lambda: _wood(1, (0.42, 0.25, 0.13))["normal"]),
-    "kitchen/textures/wood_mr.png": _png(lambda: _wood(1, (0.42, 0.25, 0.13))["mr"]),
-    "kitchen/textures/wood_dark.png": _png(lambda: _wood(4, (0.33, 0.19, 0.095))["base"]),
-    "kitchen/textures/wood_dark_normal.png": _png(lambda: _wood(4, (0.33, 0.19, 0.095))["normal"]),
+    "kitchen/textures/wood.png": _png(lambda: _wood(WOOD)["base"]),
+    "kitchen/textures/wood_normal.png": _png(lambda: _wood(WOOD)["normal"]),
+    "kitchen/textures/wood_mr.png": _png(lambda: _wood(WOOD)["mr"]),
+    "kitchen/textures/wood_dark.png": _png(lambda: _wood(WOOD_DARK)["base"]),
+    "kitchen/textures/wood_dark_normal.png": _png(lambda: _wood(WOOD_DARK)["normal"]),
     "kitchen/textures/tile.png": _png(lambda: _tiles()["base"]),
     "kitchen/textures/tile_normal.png": _png(lambda: _tiles()["normal"]),
     "kitchen/textures/stone.png": _png(lambda: pt.speckled_stone(256)),

@@ -30,6 +30,4 @@ class DepthOnlyPass:
     def release(self) -> None:
         self.fbo.release()
         self.depth.release()
-        for program in self.programs.values():
-            self.scene.forget(program)
-            program.release()
+        self.scene.release_programs(self.programs)

@@ -57,7 +57,5 @@ class GBuffer:
         self.depth.release()
         for tex in self.textures.values():
             tex.release()
-        for program in getattr(self, "programs", {}).values():
-            self.scene.forget(program)
-            program.release()
+        self.scene.release_programs(getattr(self, "programs", {}))
         self.programs = {}

@@ -330,6 +330,13 @@ class GpuScene:
                 self._bind_maps(program, mesh, all_maps=False)
             self._vao(program, index, mesh).render()
 
+    def release_programs(self, programs: dict) -> None:
+        """Forget the vertex arrays of ``programs`` (a dict's values, as :meth:`occluder_programs` gives) and
+        release them."""
+        for program in programs.values():
+            self.forget(program)
+            program.release()
+
     def forget(self, program) -> None:
         """Release the vertex arrays made for ``program`` (call before releasing a short-lived program)."""
         for key in [k for k, (_, prog) in self._vaos.items() if prog is program]:

@@ -149,9 +149,6 @@ void ltc_light_corners(vec3 x, vec3 n, vec3 v, out vec3 q[4]) {
     }
 }
 
-// The unshadowed direct light of the rectangle at x: diffuse and specular parts, each
-// in radiance units (times the light's radiance). Zero behind the one-sided emitter and
-// for a surface seen from behind.
 // The transformed cosine's density (per steradian, integrating to 1) in world direction l at a point
 // of normal n seen from v: D_o(M^-1 l / |M^-1 l|) |det M^-1| / |M^-1 l|^3 in the frame of ltc_frame.
 float ltc_density(vec3 n, vec3 v, vec3 l, float roughness) {
@@ -171,6 +168,9 @@ float ltc_density(vec3 n, vec3 v, vec3 l, float roughness) {
 void ltc_light_scaled(vec3 x, vec3 n, vec3 v, vec3 base, float metallic, float roughness, out vec3 diffuse,
                       out vec3 specular, out vec3 spec_scale);
 
+// The unshadowed direct light of the rectangle at x: diffuse and specular parts, each
+// in radiance units (times the light's radiance). Zero behind the one-sided emitter and
+// for a surface seen from behind.
 void ltc_light(vec3 x, vec3 n, vec3 v, vec3 base, float metallic, float roughness, out vec3 diffuse,
                out vec3 specular) {
     vec3 spec_scale;

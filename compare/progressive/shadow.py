@@ -318,7 +318,5 @@ class ShadowAtlas:
                 obj.release()
         self.fbo.release()
         self.depth.release()
-        for program in self.programs.values():
-            self.scene.forget(program)
-            program.release()
+        self.scene.release_programs(self.programs)
         self.programs = {}
