@@ -33,14 +33,14 @@ QUICKSTART = [
                       "Render the Cornell box with the path-traced reference and the progressive rasterizer, "
                       "measure the rasterizer's error at every checkpoint and plot it against run time."),
     new_code_cell(SETUP),
-    new_code_cell('''from compare.scene import load_scene
+    new_code_cell('''from compare.scene.loader import load_scene
 
 scene = load_scene(ROOT / "scenes" / "cornell.toml").with_resolution(W, H)
 print(scene.name, "needs:", scene.features().names())
 print("left out:", scene.features().omitted())'''),
     new_markdown_cell("## The reference: an spp ladder\n\nIndependent passes of doubling size give checkpoints "
                       "at 1, 2, 4, … spp with their cumulative seconds. Passes are cached by content."),
-    new_code_cell('''from compare.reference import ReferenceRenderer
+    new_code_cell('''from compare.mitsuba.reference import ReferenceRenderer
 
 ref = ReferenceRenderer(scene, progress=False)
 ladder = ref.ladder(SPP, seed=1)
@@ -53,7 +53,7 @@ truth = ref.render(SPP, seed=0).image  # an independent ground truth for the lad
 steps = [2 ** k for k in range(FRAMES.bit_length()) if 2 ** k <= FRAMES]
 prog = render_progressive(scene, frames=FRAMES, checkpoints=steps)
 print(f"{FRAMES} frames in {prog.seconds:.3f} s, frame 1 {prog.frame_seconds[0] * 1e3:.2f} ms")'''),
-    new_code_cell('''from compare.metrics import compare_images
+    new_code_cell('''from compare.metrics.images import compare_images
 
 ref_err = [compare_images(truth, c.image, flip_hdr=False) for c in ladder]
 prog_err = [compare_images(truth, c.image, flip_hdr=False) for c in prog.checkpoints]
@@ -63,7 +63,7 @@ for ax, key, label in ((axes[0], "flip", "FLIP"), (axes[1], "relmse", "relMSE"))
     ax.loglog([c.seconds for c in prog.checkpoints], [e[key] for e in prog_err], "s-", label="progressive")
     ax.set_xlabel("seconds"); ax.set_ylabel(label); ax.legend(); ax.grid(True, which="both", alpha=.3)
 fig.tight_layout()'''),
-    new_code_cell('''from compare.tonemap import to_ldr
+    new_code_cell('''from compare.image.tonemap import to_ldr
 
 fig, axes = plt.subplots(1, 2, figsize=(10, 4))
 for ax, img, title in ((axes[0], truth, f"reference {SPP} spp"), (axes[1], prog.image, f"progressive {FRAMES} frames")):
@@ -79,10 +79,10 @@ ABLATIONS = [
                       "form, samples per light, the occlusion distance d_occ, SH9 against the irradiance cube, and "
                       "RGBM or octahedral storage against float."),
     new_code_cell(SETUP),
-    new_code_cell('''from compare.metrics import compare_images
+    new_code_cell('''from compare.metrics.images import compare_images
 from compare.progressive import render_progressive
-from compare.reference import ReferenceRenderer
-from compare.scene import load_scene
+from compare.mitsuba.reference import ReferenceRenderer
+from compare.scene.loader import load_scene
 
 def measure(scene, truth, **options):
     r = render_progressive(scene, frames=FRAMES, **options)
@@ -139,9 +139,9 @@ STABILITY = [
                       "specific bound of each scene, this notebook shows the images and the numbers."),
     new_code_cell(SETUP),
     new_code_cell('''from compare.progressive import render_progressive
-from compare.reference import ReferenceRenderer
-from compare.scene import load_scene
-from compare.tonemap import to_ldr
+from compare.mitsuba.reference import ReferenceRenderer
+from compare.scene.loader import load_scene
+from compare.image.tonemap import to_ldr
 
 names = ["roughness_sweep", "grazing", "dark", "scale_1e-3", "scale_1e4", "degenerate", "many_lights"]
 table, images = {}, {}

@@ -5,7 +5,7 @@
 
 Written here, never at scene load time (scene files are data):
 
-* ``kitchen/kitchen.glb`` and ``car/coupe.glb`` from :mod:`compare.procedural_meshes`,
+* ``kitchen/kitchen.glb`` and ``car/coupe.glb`` from :mod:`scenes.procedural_meshes`,
   with the materials of ``kitchen.toml`` / ``car.toml`` (the TOML is the single
   source: its materials are copied into the GLB so the file looks right in any
   glTF viewer, and replace the GLB's when the scene is loaded);
@@ -15,7 +15,7 @@ Written here, never at scene load time (scene files are data):
   ``stress/long_accumulation.toml`` (edges placed between the jitter samples)
   ``stress/env/sun_sky.exr`` (a sky with a 1e5 sun) and ``stress/textures.toml`` with its maps
   (texture extremes);
-* the kitchen's and the car's material maps (:mod:`compare.procedural_textures`).
+* the kitchen's and the car's material maps (:mod:`scenes.procedural_textures`).
 """
 
 from __future__ import annotations
@@ -32,9 +32,11 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 
-from compare import procedural_meshes as pm  # noqa: E402
-from compare import procedural_textures as pt  # noqa: E402
-from compare.gltf import GltfWriter  # noqa: E402
+sys.path.insert(0, str(HERE))
+
+import procedural_meshes as pm  # noqa: E402
+import procedural_textures as pt  # noqa: E402
+from compare.scene.gltf import GltfWriter  # noqa: E402
 
 
 # ----------------------------------------------------------------------------- GLB stand-ins
@@ -101,7 +103,7 @@ def _png(make: Callable[[], np.ndarray]) -> Callable[[], bytes]:
     return lambda: pt.png_bytes(make())
 
 
-#: The built-in scenes' maps (compare.procedural_textures), named by kitchen.toml and car.toml.
+#: The built-in scenes' maps (scenes.procedural_textures), named by kitchen.toml and car.toml.
 TEXTURE_OUTPUTS: dict = {
     "kitchen/textures/wood.png": _png(lambda: _wood(WOOD)["base"]),
     "kitchen/textures/wood_normal.png": _png(lambda: _wood(WOOD)["normal"]),
@@ -388,7 +390,7 @@ def sun_sky_exr() -> bytes:
     horizon, and a one-pixel sun of radiance 1e5 at 45° elevation."""
     import tempfile
 
-    from compare.exr import write_exr
+    from compare.image.exr import write_exr
 
     w, h = 256, 128
     theta = (np.arange(h) + 0.5) / h * np.pi  # row centre, from +Y

@@ -12,7 +12,7 @@ def gl_ctx():
     Users must not rely on GL state left by others: every pass of
     compare.progressive sets the state it needs.
     """
-    from compare.errors import MissingComponentError
+    from compare.util.errors import MissingComponentError
     from compare.progressive.context import create_context
 
     try:

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from compare.errors import SceneError
+from compare.util.errors import SceneError
 from compare.progressive import render_progressive
 from compare.progressive.gpu_scene import GpuScene
-from compare.reference import ReferenceRenderer
-from compare.scene import load_scene
+from compare.mitsuba.reference import ReferenceRenderer
+from compare.scene.loader import load_scene
 
 #: Quadrants of the card (image row, column) that are solid; the other two are holes.
 SOLID = ((0, 1), (1, 0))

@@ -4,7 +4,7 @@ Four lights over the plane y = 0: parallel to it ("flat"), tilted by 45° ("tilt
 parallel at 0.05× its side above it ("near", where a point sample stands for a
 patch of the light far larger than its distance to the plane), and upright with a
 quarter of it below the plane ("straddling": the surface's horizon clips it). The
-exact answer is Lambert's polygon formula (``compare.analytic``) over the light's part
+exact answer is Lambert's polygon formula (``compare.metrics.closed_form``) over the light's part
 above the plane.
 
 * ``ltc`` must match it within 2 % per pixel: the unshadowed light is in closed form
@@ -24,9 +24,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from compare.analytic import polygon_irradiance
+from compare.metrics.closed_form import polygon_irradiance
 from compare.progressive import render_progressive
-from compare.scene import load_scene
+from compare.scene.loader import load_scene
 
 from test_progressive import pixel_rays
 
@@ -304,7 +304,7 @@ def test_ltc_glossy_plane_matches_the_reference(gl_ctx, tmp_path, case, roughnes
     blocks and grazing views show the LTC's weak spot, the lobe's tails: a rough metal's (roughness
     0.6) back-scattered light is 0.26–0.6 of the reference in blocks with 1–5 % of the peak, and
     0.01–0.66 at N·V ≈ 0.45."""
-    from compare.reference import ReferenceRenderer
+    from compare.mitsuba.reference import ReferenceRenderer
 
     text = plane_scene(tmp_path, case).path.read_text().replace(
         "roughness = 1.0", f"roughness = {roughness}\nmetallic = {metallic}")

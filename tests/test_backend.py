@@ -7,8 +7,8 @@ import sys
 
 import pytest
 
-from compare import backend
-from compare.errors import MissingComponentError
+from compare.mitsuba import backend
+from compare.util.errors import MissingComponentError
 
 
 @pytest.mark.parametrize("name, major", [
@@ -38,7 +38,7 @@ def test_falls_back_to_scalar_with_one_warning():
     code = (
         "import os, warnings\n"
         "os.environ.pop('DRJIT_LIBLLVM_PATH', None)\n"
-        "import compare.backend as b\n"
+        "import compare.mitsuba.backend as b\n"
         "b.find_libllvm = lambda: None\n"
         "b._has_cuda = lambda: False\n"
         "with warnings.catch_warnings(record=True) as w:\n"

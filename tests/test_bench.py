@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from compare.bench import format_table, run_bench, time_to_error
+from compare.bench.suite import format_table, run_bench, time_to_error
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -56,7 +56,7 @@ def test_bench_times_texturing_and_skips_a_scene_without_maps(tmp_path, gl_ctx):
 def test_bench_equal_error_times_fresh_renders(tmp_path, gl_ctx, monkeypatch):
     """Both sides are medians of --repeats runs, and the Mitsuba ladder is rendered, not read from the
     reference cache (whose seconds would be those of the run that filled it)."""
-    import compare.bench as bench
+    import compare.bench.suite as bench
 
     monkeypatch.setenv("COMPARE_CACHE", str(tmp_path / "cache"))
     calls = []

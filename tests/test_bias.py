@@ -1,4 +1,4 @@
-"""Bias against noise (compare.bias and compare run --seeds)."""
+"""Bias against noise (compare.metrics.bias and compare run --seeds)."""
 
 from __future__ import annotations
 
@@ -7,10 +7,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from compare import run as run_mod
-from compare.bias import bias_variance
-from compare.renderers.mitsuba import MitsubaRenderer
-from compare.results import RunSettings
+from compare.run import runner as run_mod
+from compare.metrics.bias import bias_variance
+from compare.mitsuba.renderer import MitsubaRenderer
+from compare.report.results import RunSettings
 
 ROOT = Path(__file__).resolve().parent.parent
 CORNELL = ROOT / "scenes" / "cornell.toml"
@@ -75,8 +75,8 @@ def test_a_known_bias_is_found_and_mitsuba_against_itself_has_none(tmp_path):
 def test_report_shows_the_split_and_warns_within_the_noise_floor(tmp_path):
     """The report draws bias against noise for runs with seeds, states how the ground truth's noise
     compares with the smallest error it judges, and warns about a run whose error is within it."""
-    from compare.report import _noise_check
-    from compare.results import NoiseFloor, Point, Reference, RendererRun, SceneResult
+    from compare.report.html import _noise_check
+    from compare.report.results import NoiseFloor, Point, Reference, RendererRun, SceneResult
 
     def run(name, relmse, flip):
         return RendererRun(name, name.title(), "frame", 8, "", 1.0, 0.1,
@@ -92,7 +92,7 @@ def test_report_shows_the_split_and_warns_within_the_noise_floor(tmp_path):
     check = _noise_check(scene)
     assert check["ok"] and check["within"] == [] and check["fraction"] == "2.0 %"
 
-    from compare.report import build_report
+    from compare.report.html import build_report
 
     settings = RunSettings(frames=4, spp=64, sizes=[[32, 24]], renderers=["mitsuba", "mitsuba+offset"], seeds=3)
     res = run_mod.run([CORNELL], tmp_path / "out", settings, progress=False, report=False,

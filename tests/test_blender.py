@@ -16,15 +16,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from compare.analytic import polygon_irradiance
+from compare.metrics.closed_form import polygon_irradiance
 from compare.blender import export
 from compare.blender.likeness import region_masks, region_stats
 from compare.blender.render import BlenderError, blender_available, blender_python, render_blender
-from compare.environments import equirect_directions, world_to_env
-from compare.errors import MissingComponentError
-from compare.exr import write_exr
-from compare.reference import ReferenceRenderer
-from compare.scene import load_scene
+from compare.scene.environments import equirect_directions, world_to_env
+from compare.util.errors import MissingComponentError
+from compare.image.exr import write_exr
+from compare.mitsuba.reference import ReferenceRenderer
+from compare.scene.loader import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 CORNELL = ROOT / "scenes" / "cornell.toml"
@@ -244,7 +244,7 @@ def test_region_masks_of_the_cornell_box():
 @pytest.mark.parametrize("name", ["cornell.toml", "stress/scale_1e-3.toml"])
 def test_region_masks_are_the_same_in_mitsuba_and_numpy(name):
     """The Mitsuba caster traces the reference's scene, which a tiny scene has scaled up
-    (compare.mitsuba_dict.world_scale); its rays and distances are in the scene's own units."""
+    (compare.mitsuba.scene_dict.world_scale); its rays and distances are in the scene's own units."""
     import warnings
 
     with warnings.catch_warnings():
@@ -434,8 +434,8 @@ def test_eevee_renders_the_cornell_box():
 @pytest.mark.parametrize("engine, option", [("cycles", "--spp"), ("eevee", "--samples")])
 def test_compare_render_takes_the_blender_renderers(tmp_path, capsys, engine, option):
     """``compare render --renderer cycles|eevee`` through the registry, like every other renderer."""
-    from compare.cli import main
-    from compare.exr import read_exr
+    from compare.cli.main import main
+    from compare.image.exr import read_exr
 
     out = tmp_path / f"{engine}.exr"
     assert main(["render", "--scene", str(ROOT / "scenes" / "cornell.toml"), "--renderer", engine, option, "4",
@@ -478,7 +478,7 @@ QUADRANT_MAPS = [
 
 @needs_bpy
 def test_cycles_multiplies_the_emission_by_its_map(tmp_path):
-    from compare.tonemap import srgb_decode
+    from compare.image.tonemap import srgb_decode
     from test_textures import QUADRANTS, _regions, _scene
 
     scene = _scene(tmp_path, 'base_color = [0.0, 0.0, 0.0]\nemission = [2.0, 1.0, 0.5]\n'
@@ -495,7 +495,7 @@ def test_cycles_multiplies_the_emission_by_its_map(tmp_path):
 def test_cycles_applies_the_texture_transform(tmp_path, settings, source):
     """The material's texture transform through a Mapping node (Blender's v runs up): an emission map
     turned and shifted by whole quadrants shows each region the quadrant the transform says."""
-    from compare.tonemap import srgb_decode
+    from compare.image.tonemap import srgb_decode
     from test_textures import QUADRANTS, _regions, _scene
 
     scene = _scene(tmp_path, 'base_color = [0.0, 0.0, 0.0]\nemission = [1.0, 1.0, 1.0]\n'

@@ -28,7 +28,7 @@ import numpy as np
 import pytest
 
 from compare import brdf
-from compare.errors import MissingComponentError
+from compare.util.errors import MissingComponentError
 
 N_RANDOM = 4096
 PLUGIN_RTOL = 1e-5
@@ -131,7 +131,7 @@ def _use_variant(name):
     """Register the plugin in a variant (skip when unavailable), restore the previous variant after."""
     import sys
 
-    from compare.brdf.mitsuba_plugin import register
+    from compare.mitsuba.bsdf import register
 
     before = sys.modules["mitsuba"].variant() if "mitsuba" in sys.modules else None
     try:
@@ -154,7 +154,7 @@ def mi_scalar():
 
 
 def _compare_plugin(mi, name, wi, wo, c, m, r):
-    from compare.brdf.mitsuba_plugin import evaluate
+    from compare.mitsuba.bsdf import evaluate
 
     value, pdf = evaluate(wi, wo, c, m, r, variant=mi.variant())
     got = value / wo[:, 2:]
@@ -179,7 +179,7 @@ def test_plugin_matches_numpy_scalar(mi_scalar):
 
 
 def test_plugin_zero_below_horizon(mi_llvm):
-    from compare.brdf.mitsuba_plugin import evaluate
+    from compare.mitsuba.bsdf import evaluate
 
     rng = np.random.default_rng(3)
     wi, wo = _local_directions(rng, 256)
@@ -209,11 +209,11 @@ def test_plugin_traverse_and_string(mi_llvm):
     np.testing.assert_allclose(after, expect, rtol=1e-5)
 
 
-# -- the plugin's ``cycles`` flavour (Blender's Principled BSDF v2, compare.brdf.principled) --
+# -- the plugin's ``cycles`` flavour (Blender's Principled BSDF v2, compare.mitsuba.principled) --
 
 def _compare_cycles_flavour(mi, name, wi, wo, c, m, r, distribution=None):
-    from compare.brdf import principled
-    from compare.brdf.mitsuba_plugin import evaluate
+    from compare.mitsuba import principled
+    from compare.mitsuba.bsdf import evaluate
 
     value, pdf = evaluate(wi, wo, c, m, r, variant=mi.variant(), flavour="cycles", distribution=distribution)
     dist = distribution or principled.DEFAULT_DISTRIBUTION
@@ -240,7 +240,7 @@ def test_cycles_flavour_matches_numpy_scalar(mi_scalar, distribution):
 
 def test_cycles_flavour_differs_from_gltf_only_where_documented():
     """GGX: same D V; exact dielectric Fresnel (not Schlick); the diffuse weight depends on n.v only."""
-    from compare.brdf import principled
+    from compare.mitsuba import principled
 
     rng = np.random.default_rng(6)
     wi, wo = _local_directions(rng, 512)
@@ -262,7 +262,7 @@ def test_cycles_flavour_differs_from_gltf_only_where_documented():
 def test_multiscatter_differs_from_ggx_by_its_compensation():
     """Multiscatter GGX = GGX with each lobe x (1 + F_ms (1 - E)/E) and the layer albedo x (E + F_ms (1 - E))."""
     from compare.brdf import multiscatter as ms
-    from compare.brdf import principled
+    from compare.mitsuba import principled
 
     rng = np.random.default_rng(7)
     wi, wo = _local_directions(rng, 512)
@@ -290,7 +290,7 @@ def test_multiscatter_differs_from_ggx_by_its_compensation():
 
 def test_cycles_layer_table_reproduces_cycles():
     """S(r, n.v) looked up as Cycles does, against values read from Cycles' ggx_gen_schlick_ior_s at IOR 1.5."""
-    from compare.brdf import principled
+    from compare.mitsuba import principled
 
     cycles = {0.0: (0.0000, 0.0117, 0.0955, 0.5628), 0.25: (0.0001, 0.0126, 0.0927, 0.4092),
               0.5: (0.0006, 0.0138, 0.0639, 0.1705), 1.0: (0.0014, 0.0058, 0.0161, 0.0403)}
@@ -300,7 +300,7 @@ def test_cycles_layer_table_reproduces_cycles():
 
 
 def test_cycles_layer_table_is_what_layer_table_computes():
-    from compare.brdf import principled
+    from compare.mitsuba import principled
 
     np.testing.assert_allclose(principled.layer_table(), principled.LAYER_S_TABLE, atol=1e-6)
 
@@ -317,7 +317,7 @@ def test_cycles_flavour_is_checked(mi_llvm):
 
 
 def test_register_is_idempotent(mi_llvm):
-    from compare.brdf.mitsuba_plugin import register, registered_variants
+    from compare.mitsuba.bsdf import register, registered_variants
 
     register("llvm_ad_rgb")
     register("llvm_ad_rgb")

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from compare import brdf
-from compare.errors import MissingComponentError
+from compare.util.errors import MissingComponentError
 
 COSINES = (1.0, 0.5, 1e-3, 1e-6, 1e-12, 1e-30, 0.0, -1e-7, -0.5)
 ROUGH = (0.0, 1.0)
@@ -98,7 +98,7 @@ def test_numpy_helpers_extremes():
 def test_plugin_extremes_finite(extremes, variant):
     import sys
 
-    from compare.brdf.mitsuba_plugin import evaluate, register
+    from compare.mitsuba.bsdf import evaluate, register
 
     before = sys.modules["mitsuba"].variant() if "mitsuba" in sys.modules else None
     try:

@@ -32,7 +32,7 @@ import numpy as np
 import pytest
 
 from compare import brdf
-from compare.errors import MissingComponentError
+from compare.util.errors import MissingComponentError
 
 ROUGHNESS = (0.05, 0.3, 1.0)
 METALLIC = (0.0, 1.0)
@@ -55,7 +55,7 @@ def mi():
     """llvm_ad_rgb with the plugin registered (the chi2 harness needs a JIT variant)."""
     import sys
 
-    from compare.brdf.mitsuba_plugin import register
+    from compare.mitsuba.bsdf import register
 
     before = sys.modules["mitsuba"].variant() if "mitsuba" in sys.modules else None
     try:

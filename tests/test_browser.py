@@ -1,14 +1,14 @@
 """The HTML report in a real browser: Debian's headless Chromium driven by Playwright.
 
 The test opens the report from ``file://`` exactly as a person would (the same
-library and browser drive the web engines, compare.renderers.web), and checks that
+library and browser drive the web engines, compare.web.renderer), and checks that
 
 * every image loads (``naturalWidth > 0``) and nothing is fetched from outside
   the report folder;
 * the browser console has no errors;
 * moving the swipe and exposure controls (keyboard on the range inputs,
   a pointer drag on the image) changes the canvas, and the canvas pixels equal
-  :func:`compare.tonemap.to_ldr` of the embedded HDR data to within one 8-bit
+  :func:`compare.image.tonemap.to_ldr` of the embedded HDR data to within one 8-bit
   step, so the page's ACES matches the suite's;
 * a scene named ``<script>alert(1)</script>`` shows as text and runs nothing.
 
@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from compare.tonemap import to_ldr
+from compare.image.tonemap import to_ldr
 
 CHROMIUM = Path("/usr/bin/chromium")
 EVIL = "<script>alert(1)</script>"
@@ -214,7 +214,7 @@ def test_swipe_and_exposure_change_the_canvas(browser, report):
         start = _canvas(browser, sid)
         split = round(500 / 1000 * body["width"])
         # Left of the swipe line: the ground truth; right: the progressive image, each tone-mapped
-        # in the page exactly as compare.tonemap.to_ldr does (within one 8-bit step).
+        # in the page exactly as compare.image.tonemap.to_ldr does (within one 8-bit step).
         assert np.abs(start[:, :split] - ref[:, :split]).max() <= 1
         assert np.abs(start[:, split:] - prog[:, split:]).max() <= 1
 

@@ -10,7 +10,7 @@ import pytest
 
 from compare.progressive import ProgressiveRenderer, plan, render_progressive
 from compare.progressive.budget import BudgetScheduler, FrameCosts
-from compare.scene import load_scene
+from compare.scene.loader import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -9,16 +9,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from compare.check import (
+from compare.report.check import (
     ThresholdsError,
     add_check_parser,
     assert_thresholds,
     check,
     load_thresholds,
 )
-from compare.errors import CompareError
-from compare.results import Point, Reference, RendererRun, Results, RunSettings, SceneResult
-from compare.run import collect_environment
+from compare.util.errors import CompareError
+from compare.report.results import Point, Reference, RendererRun, Results, RunSettings, SceneResult
+from compare.run.runner import collect_environment
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -141,7 +141,7 @@ CORNELL_TEST_SETTINGS = dict(frames=32, spp=256, sizes=[[64, 48]], renderers=["m
 @pytest.mark.gl
 def test_cornell_box_meets_repository_thresholds(tmp_path, gl_ctx):
     """The CI gate: the built-in Cornell box at test resolution, real renderers, thresholds.toml."""
-    from compare.run import run
+    from compare.run.runner import run
 
     res = run([ROOT / "scenes" / "cornell.toml"], tmp_path / "out", RunSettings(**CORNELL_TEST_SETTINGS),
               progress=False, cache_dir=tmp_path / "cache", gl_ctx=gl_ctx, report=False)
@@ -149,9 +149,9 @@ def test_cornell_box_meets_repository_thresholds(tmp_path, gl_ctx):
 
 
 def test_a_degenerate_ground_truth_fails_the_gate_with_the_reason():
-    """A ground truth that tone-maps to a constant has no LDR metrics (compare.metrics): a bound on
+    """A ground truth that tone-maps to a constant has no LDR metrics (compare.metrics.images): a bound on
     them fails, saying why, instead of passing on SSIM 1 and FLIP 0; HDR metrics are still gated."""
-    from compare.metrics import compare_images
+    from compare.metrics.images import compare_images
 
     black = compare_images(np.zeros((16, 16, 3)), np.zeros((16, 16, 3)), flip_hdr=True)
     res = results()
@@ -169,9 +169,9 @@ def test_a_degenerate_ground_truth_fails_the_gate_with_the_reason():
 def test_gate_on_flip_pooling_and_fixed_hdr_flip(tmp_path, gl_ctx):
     """compare check bounds FLIP's weighted median and 95th percentile like any metric; compare run
     records the ground truth's HDR-FLIP exposure range and computes every HDR-FLIP with it."""
-    from compare import run as run_mod
-    from compare.exr import read_exr
-    from compare.metrics import flip, hdr_exposure_range
+    from compare.run import runner as run_mod
+    from compare.image.exr import read_exr
+    from compare.metrics.images import flip, hdr_exposure_range
 
     res = run_mod.run([ROOT / "scenes" / "cornell.toml"], tmp_path / "r",
                       RunSettings(frames=4, spp=8, sizes=[[32, 24]]), progress=False,

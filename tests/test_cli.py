@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from compare.cli import main
-from compare.exr import read_exr, write_exr
+from compare.cli.main import main
+from compare.image.exr import read_exr, write_exr
 
 ROOT = Path(__file__).resolve().parent.parent
 CORNELL = str(ROOT / "scenes" / "cornell.toml")
@@ -86,7 +86,7 @@ def test_diff_refuses_nan_and_shape_mismatch(tmp_path, capsys):
 
 def test_help_on_every_command():
     for args in ([], ["render"], ["diff"], ["bench"]):
-        out = subprocess.run([sys.executable, "-m", "compare.cli", *args, "--help"], capture_output=True, text=True)
+        out = subprocess.run([sys.executable, "-m", "compare.cli.main", *args, "--help"], capture_output=True, text=True)
         assert out.returncode == 0 and "usage: compare" in out.stdout
 
 

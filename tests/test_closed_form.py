@@ -7,9 +7,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from compare.analytic import polygon_irradiance
-from compare.reference import ReferenceRenderer
-from compare.scene import parse_scene
+from compare.metrics.closed_form import polygon_irradiance
+from compare.mitsuba.reference import ReferenceRenderer
+from compare.scene.loader import parse_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 ALBEDO = np.array([0.8, 0.6, 0.4])

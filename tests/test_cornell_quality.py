@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from compare.metrics import compare_images
-from compare.scene import load_scene
+from compare.metrics.images import compare_images
+from compare.scene.loader import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 SPP = 512
@@ -36,7 +36,7 @@ def cornell():
 
 @pytest.fixture(scope="module")
 def references(cornell):
-    from compare.reference import ReferenceRenderer
+    from compare.mitsuba.reference import ReferenceRenderer
 
     full = ReferenceRenderer(cornell, materials="shared", progress=False).render(SPP).image
     direct = ReferenceRenderer(cornell, materials="shared", max_depth=2, progress=False).render(SPP).image

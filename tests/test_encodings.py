@@ -1,14 +1,14 @@
-"""HDR encodings (compare.encodings): RGBM, RGBM sqrt/range 7, RGBE, octahedral maps with borders."""
+"""HDR encodings (compare.image.encodings): RGBM, RGBM sqrt/range 7, RGBE, octahedral maps with borders."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from compare.encodings import (decode, encode, octahedral_decode, octahedral_directions, octahedral_encode,
+from compare.image.encodings import (decode, encode, octahedral_decode, octahedral_directions, octahedral_encode,
                                octahedral_pad, rgbe_decode, rgbe_encode, rgbm_decode, rgbm_encode, rgbm_max,
                                roundtrip_stats)
-from compare.environments import blender_studio_lights, load_equirect, procedural_map
+from compare.scene.environments import blender_studio_lights, load_equirect, procedural_map
 
 
 def log_uniform(n: int, lo: float, hi: float, seed: int = 0) -> np.ndarray:

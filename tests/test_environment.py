@@ -1,4 +1,4 @@
-"""Environment maps (compare.environments): the mapping, Mitsuba's orientation, loaders, scene syntax.
+"""Environment maps (compare.scene.environments): the mapping, Mitsuba's orientation, loaders, scene syntax.
 
 The decisive tests are ``test_sample_equirect_is_mitsubas_envmap`` (the numpy
 lookup that feeds the IBL preprocessing equals Mitsuba's ``envmap.eval`` for
@@ -16,12 +16,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from compare.environments import (PROCEDURAL, blender_studio_lights, direction_to_uv, environment_image,
+from compare.scene.environments import (PROCEDURAL, blender_studio_lights, direction_to_uv, environment_image,
                                   environment_path, procedural_map, read_hdr, rotation_matrix, sample_equirect,
                                   uv_to_direction, validate_procedural, world_to_env, write_hdr)
-from compare.errors import ImageError, SceneError
-from compare.exr import write_exr
-from compare.scene import load_scene, parse_scene
+from compare.util.errors import ImageError, SceneError
+from compare.image.exr import write_exr
+from compare.scene.loader import load_scene, parse_scene
 
 AXES = {"+X": (1, 0, 0), "-X": (-1, 0, 0), "+Y": (0, 1, 0), "-Y": (0, -1, 0), "+Z": (0, 0, 1), "-Z": (0, 0, -1)}
 
@@ -33,7 +33,7 @@ def _cache(tmp_path_factory, monkeypatch):
 
 
 def mitsuba():
-    from compare.backend import load_mitsuba
+    from compare.mitsuba.backend import load_mitsuba
 
     return load_mitsuba(None)
 
@@ -103,7 +103,7 @@ def test_hdr_round_trip_and_mitsuba_reads_the_same(tmp_path):
 
 
 def test_hdr_reads_run_length_encoded_scanlines(tmp_path):
-    from compare.encodings import rgbe_encode
+    from compare.image.encodings import rgbe_encode
 
     img = procedural_map("studio", {"width": 32})
     enc = rgbe_encode(img)
@@ -249,7 +249,7 @@ def test_scene_blender_studio_light(tmp_path, monkeypatch):
     with pytest.raises(SceneError, match="environment.blender: unknown Blender studio light 'nowhere'"):
         load_scene(path)
     # Without bpy the same scene fails with the install hint.
-    monkeypatch.setattr("compare.environments.blender_studio_lights", lambda: {})
+    monkeypatch.setattr("compare.scene.environments.blender_studio_lights", lambda: {})
     path.write_text(scene_text('blender = "interior"'))
     with pytest.raises(SceneError, match="compare-pbr\\[blender\\]"):
         load_scene(path)
@@ -274,7 +274,7 @@ def test_blender_studio_lights_are_found_in_bpys_own_environment(tmp_path, monke
 
 
 def test_environment_file_is_envmap_in_mitsuba(tmp_path):
-    from compare.mitsuba_dict import environment_dict
+    from compare.mitsuba.scene_dict import environment_dict
 
     write_exr(tmp_path / "map.exr", procedural_map("axes", {"width": 16}))
     path = tmp_path / "s.toml"
@@ -290,8 +290,8 @@ def test_negative_environment_radiance_is_refused_and_noise_is_clamped_alike(tmp
     """Real negative radiance is refused with the file named, by the loader both renderers use; the tiny
     negatives of lossy compression are set to zero for the rasterizer and, through a cached copy, for
     Mitsuba too (which would read the file raw)."""
-    from compare.environments import NEGATIVE_TOLERANCE, environment_file, load_equirect
-    from compare.mitsuba_dict import environment_dict
+    from compare.scene.environments import NEGATIVE_TOLERANCE, environment_file, load_equirect
+    from compare.mitsuba.scene_dict import environment_dict
 
     monkeypatch.setenv("COMPARE_CACHE", str(tmp_path / "cache"))
     image = np.full((8, 16, 3), 0.5, np.float32)
@@ -316,7 +316,7 @@ def test_negative_environment_radiance_is_refused_and_noise_is_clamped_alike(tmp
     scene = load_scene(path)
     given = Path(environment_dict(scene)["filename"])
     assert given != tmp_path / "noisy.exr" and given.parent == tmp_path / "cache" / "environments"
-    from compare.exr import read_exr
+    from compare.image.exr import read_exr
 
     np.testing.assert_array_equal(read_exr(given)[0], load_equirect(tmp_path / "noisy.exr"))
     assert read_exr(given)[0].min() == 0.0
@@ -353,7 +353,7 @@ def test_background_orientation_both_renderers(gl_ctx, tmp_path, rotation):
     its noise, and the accumulated rasterizer image must equal Mitsuba's.
     """
     from compare.progressive import render_progressive
-    from compare.reference import ReferenceRenderer
+    from compare.mitsuba.reference import ReferenceRenderer
 
     for axis in AXES:
         scene = axis_scene(axis, rotation)

@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from compare.executor import ExecutorError, parse_executor
-from compare.results import RunSettings
-from compare.run import run
+from compare.run.executor import ExecutorError, parse_executor
+from compare.report.results import RunSettings
+from compare.run.runner import run
 
 ROOT = Path(__file__).resolve().parent.parent
 CORNELL = ROOT / "scenes" / "cornell.toml"

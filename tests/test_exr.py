@@ -1,4 +1,4 @@
-"""Tests of compare.exr: pixel and metadata round trips, failures that name the file."""
+"""Tests of compare.image.exr: pixel and metadata round trips, failures that name the file."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import OpenEXR
 import pytest
 
 import compare
-from compare.errors import ImageError
-from compare.exr import METADATA_PREFIX, read_exr, write_exr
+from compare.util.errors import ImageError
+from compare.image.exr import METADATA_PREFIX, read_exr, write_exr
 
 
 @pytest.fixture
@@ -226,8 +226,8 @@ def test_written_files_get_the_usual_permissions(tmp_path, image):
     what any new file gets (0666 less the umask), so outputs and reports can be shared."""
     import os
 
-    from compare.fsutil import write_text_atomic
-    from compare.tonemap import write_png
+    from compare.util.files import write_text_atomic
+    from compare.image.tonemap import write_png
 
     old = os.umask(0o022)
     try:

@@ -2,7 +2,7 @@
 
 Scene files, meshes (OBJ, PLY, glTF), images (EXR, HDR, PNG), thresholds, results
 files and command lines are mutated at random (hypothesis). Each must either
-load, or fail with a :class:`compare.errors.CompareError` whose message names
+load, or fail with a :class:`compare.util.errors.CompareError` whose message names
 the file it is about; no other exception, no traceback, no file half-written.
 
 Textures (PNG, EXR) are fuzzed through the scene that names them. The
@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from compare.errors import CompareError
+from compare.util.errors import CompareError
 
 ROOT = Path(__file__).resolve().parent.parent
 QUICK = settings(max_examples=30, deadline=None, suppress_health_check=list(HealthCheck), derandomize=True)
@@ -38,8 +38,8 @@ PLY = ("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty floa
 
 
 def _gltf() -> dict:
-    from compare.geometry import box
-    from compare.gltf import GltfWriter
+    from compare.scene.geometry import box
+    from compare.scene.gltf import GltfWriter
 
     w = GltfWriter()
     m = w.material("grey", (0.5, 0.5, 0.5), 0.0, 0.5)
@@ -89,7 +89,7 @@ def to_toml(d: dict) -> str:
 
 @pytest.fixture(scope="module")
 def template(tmp_path_factory) -> Path:
-    from compare.exr import write_exr
+    from compare.image.exr import write_exr
 
     folder = tmp_path_factory.mktemp("fuzz-template")
     (folder / "m.obj").write_text(OBJ)
@@ -123,7 +123,7 @@ PNG = _png()
 
 def _loads_or_names(path: Path, what: Path | None = None) -> None:
     """``load_scene(path)`` succeeds, or fails with a CompareError naming ``what`` (default: the scene)."""
-    from compare.scene import load_scene
+    from compare.scene.loader import load_scene
 
     try:
         scene = load_scene(path)
@@ -204,8 +204,8 @@ def check_gltf(template: Path, tmp: Path, doc: dict) -> None:
 
 
 def check_image_bytes(template: Path, tmp: Path, name: str, data: bytes) -> None:
-    from compare.environments import load_equirect
-    from compare.exr import read_exr
+    from compare.scene.environments import load_equirect
+    from compare.image.exr import read_exr
 
     folder = _copy(template, tmp)
     path = folder / name
@@ -220,7 +220,7 @@ def check_image_bytes(template: Path, tmp: Path, name: str, data: bytes) -> None
 
 
 def check_thresholds(tmp: Path, data: dict) -> None:
-    from compare.check import load_thresholds
+    from compare.report.check import load_thresholds
 
     path = tmp / "t.toml"
     try:
@@ -234,7 +234,7 @@ def check_thresholds(tmp: Path, data: dict) -> None:
 
 
 def check_results(tmp: Path, data) -> None:
-    from compare.results import Results
+    from compare.report.results import Results
 
     path = tmp / "results.json"
     path.write_text(json.dumps(data, allow_nan=True) if not isinstance(data, bytes) else "")
@@ -245,7 +245,7 @@ def check_results(tmp: Path, data) -> None:
 
 
 def check_cli(tmp: Path, argv: list[str], capsys) -> None:
-    from compare.cli import main
+    from compare.cli.main import main
 
     before = {p: p.stat().st_mtime_ns for p in tmp.rglob("*") if p.is_file()}
     try:
@@ -327,7 +327,7 @@ def test_fuzz_gltf_files_long(template, case_dir, doc):
 
 
 def _image_bytes():
-    from compare.exr import write_exr
+    from compare.image.exr import write_exr
 
     tmp = Path(__import__("tempfile").mkdtemp())
     write_exr(tmp / "a.exr", np.full((8, 16, 3), 0.2, np.float32))

@@ -1,4 +1,4 @@
-"""glTF 2.0 import (compare.gltf): accessors, hierarchy, materials, cameras, lights, and [[include]]."""
+"""glTF 2.0 import (compare.scene.gltf): accessors, hierarchy, materials, cameras, lights, and [[include]]."""
 
 from __future__ import annotations
 
@@ -13,10 +13,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from compare import geometry
-from compare.errors import SceneError
-from compare.gltf import GltfError, GltfWriter, load_gltf
-from compare.scene import load_scene
+from compare.scene import geometry
+from compare.util.errors import SceneError
+from compare.scene.gltf import GltfError, GltfWriter, load_gltf
+from compare.scene.loader import load_scene
 
 # A 2×2 PNG (red, green / blue, white), 8-bit RGB.
 # A valid 2x2 RGB PNG (the scene loader reads every texture it names).
@@ -430,7 +430,7 @@ def test_included_scene_renders_like_its_toml_twin_progressive(tmp_path, gl_ctx)
 
 
 def test_included_scene_renders_like_its_toml_twin_reference(tmp_path):
-    from compare.reference import ReferenceRenderer
+    from compare.mitsuba.reference import ReferenceRenderer
 
     a, b = _pair(tmp_path)
     ia = ReferenceRenderer(a, cache_dir=False, progress=False).render(16).image
@@ -442,7 +442,7 @@ def test_included_scene_renders_like_its_toml_twin_reference(tmp_path):
 def test_fields_of_the_wrong_json_type_are_one_error_naming_the_file(tmp_path):
     """Found by tests/test_fuzz.py: a string for a node's translation, a number for "asset" (before:
     ValueError and AttributeError tracebacks)."""
-    from compare.geometry import box
+    from compare.scene.geometry import box
 
     w = GltfWriter()
     w.node("b", mesh=w.mesh("b", [(box([1, 1, 1]), w.material("g"))]), translation=[0, 0, 0])
@@ -482,7 +482,7 @@ def test_texture_transform_and_sampler_are_imported_and_exported(tmp_path, monke
     np.testing.assert_allclose(mat.uv_transform() @ [1.0, 0.0, 1.0], [0.25, 0.5 - 2.0, 1.0], atol=1e-12)
     (tmp_path / "out").mkdir()
     out = export_gltf(s, tmp_path / "out" / "scene.gltf")
-    from compare.gltf import load_gltf
+    from compare.scene.gltf import load_gltf
 
     again = next(m for m in load_gltf(out).materials if m.base_color_image is not None)
     t = again.texture_settings
@@ -498,14 +498,14 @@ def test_a_factor_beside_a_map_is_baked_into_it(tmp_path):
 
     from PIL import Image
 
-    from compare.textures import load_alpha, load_texture
+    from compare.scene.textures import load_alpha, load_texture
 
     rgba = np.zeros((4, 4, 4), dtype=np.uint8)
     rgba[...] = (200, 100, 50, 128)
     Image.fromarray(rgba, "RGBA").save(tmp_path / "c.png")
     Image.fromarray(np.full((4, 4, 3), (0, 200, 100), dtype=np.uint8)).save(tmp_path / "mr.png")
-    from compare.gltf import GltfWriter
-    from compare.geometry import quad
+    from compare.scene.gltf import GltfWriter
+    from compare.scene.geometry import quad
 
     w = GltfWriter()
     m = w.material("m", (0.5, 1.0, 0.25), 0.5, 0.8)
@@ -527,7 +527,7 @@ def test_a_factor_beside_a_map_is_baked_into_it(tmp_path):
         constant = [1, 1, 1]
         '''))
     mat = load_scene(tmp_path / "t.toml").materials["m"]
-    from compare.tonemap import srgb_decode
+    from compare.image.tonemap import srgb_decode
 
     want = srgb_decode(np.array([200, 100, 50]) / 255.0) * [0.5, 1.0, 0.25]
     np.testing.assert_allclose(load_texture(mat.base_color_texture, srgb=True)[0, 0], want, rtol=1e-6)

@@ -15,14 +15,14 @@ import numpy as np
 import pytest
 
 from compare.brdf import alpha_from_roughness, directional_albedo, ggx_d
-from compare.environments import procedural_map, sample_equirect
+from compare.scene.environments import procedural_map, sample_equirect
 from compare.ibl import IBL_VERSION, preprocess, split_sum
 from compare.ibl.atlas import build_atlas, sample_levels
 from compare.ibl.cubemap import face_coordinates, padded_directions, sample_faces, texel_solid_angles
 from compare.ibl.irradiance import irradiance_at, sh9_irradiance, sh9_project
 from compare.ibl.lut import split_sum_lut
 from compare.ibl.prefilter import level_sizes, prefilter, source_chain
-from compare.scene import parse_scene
+from compare.scene.loader import parse_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -259,8 +259,8 @@ void main() {
 
 @pytest.mark.gl
 def test_glsl_mappings_equal_numpy(gl_ctx):
-    from compare.encodings import octahedral_encode
-    from compare.environments import direction_to_uv
+    from compare.image.encodings import octahedral_encode
+    from compare.scene.environments import direction_to_uv
 
     d = unit_vectors(4096, seed=7)
     d = np.concatenate([d, np.eye(3), -np.eye(3)])
@@ -318,7 +318,7 @@ def test_plan_env_samples_follow_the_paper(frames, count):
 def test_plan_without_environment_or_occlusion_has_no_env_samples(tmp_path):
     from compare.progressive import plan
 
-    cornell = __import__("compare.scene", fromlist=["load_scene"]).load_scene(ROOT / "scenes" / "cornell.toml")
+    cornell = __import__("compare.scene.loader", fromlist=["load_scene"]).load_scene(ROOT / "scenes" / "cornell.toml")
     assert cornell.environment is None
     p = plan(cornell, 32)
     assert p.env_frames == 0 and p.env_counts == (0, 0) and not any(fp.env_samples for fp in p)

@@ -1,4 +1,4 @@
-"""The accuracy benchmark (compare.ibl.accuracy): it runs, and its numbers mean what they say."""
+"""The accuracy benchmark (compare.bench.ibl_accuracy): it runs, and its numbers mean what they say."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from compare.ibl import accuracy
+from compare.bench import ibl_accuracy as accuracy
 
 
 @pytest.fixture(autouse=True)

@@ -20,10 +20,10 @@ import numpy as np
 import pytest
 
 from compare.brdf import directional_albedo
-from compare.metrics import flip
+from compare.metrics.images import flip
 from compare.progressive import ProgressiveRenderer, render_progressive
-from compare.reference import ReferenceRenderer
-from compare.scene import load_scene, parse_scene
+from compare.mitsuba.reference import ReferenceRenderer
+from compare.scene.loader import load_scene, parse_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 pytestmark = pytest.mark.gl

@@ -13,7 +13,7 @@ import pytest
 
 from compare.brdf import ALPHA_MIN, directional_albedo, eval_brdf_lobes, pdf_ggx_vndf_reflection
 from compare.brdf import ltc
-from compare.errors import MissingComponentError
+from compare.util.errors import MissingComponentError
 
 NORMAL = np.array([0.0, 0.0, 1.0])
 

@@ -1,4 +1,4 @@
-"""Tests of compare.metrics: identities, ranking of graded errors, input guards."""
+"""Tests of compare.metrics.images: identities, ranking of graded errors, input guards."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from scipy.ndimage import gaussian_filter
 
-from compare import metrics as M
-from compare.errors import ImageError
+from compare.metrics import images as M
+from compare.util.errors import ImageError
 
 H, W = 48, 64
 

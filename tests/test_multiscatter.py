@@ -59,11 +59,11 @@ def test_compensation_closes_the_white_furnace():
 
 
 def test_dielectric_fss_is_cycles_fit():
-    from compare.brdf.principled import FSS_DIELECTRIC
+    from compare.mitsuba.principled import FSS_DIELECTRIC
 
     assert FSS_DIELECTRIC == pytest.approx(0.5 / (4.08567 + 1.00071 * 1.5))
     # the fit is the hemispherical average of the exact Fresnel within a few 1e-3
-    from compare.brdf.principled import fresnel_dielectric
+    from compare.mitsuba.principled import fresnel_dielectric
 
     mu = np.linspace(0.0, 1.0, 20001)
     exact = np.trapezoid(2.0 * mu * fresnel_dielectric(mu, 1.5), mu)

@@ -15,14 +15,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from compare.errors import SceneError
+from compare.util.errors import SceneError
 from compare.ibl.cubemap import padded_directions, pad_from_interior
 from compare.ibl.irradiance import irradiance_at, sh9_irradiance
-from compare.metrics import compare_images
+from compare.metrics.images import compare_images
 from compare.progressive import ProgressiveRenderer, render_progressive
-from compare.progressive import renderer as renderer_module
+from compare.progressive import rasterizer as renderer_module
 from compare.progressive.probes import ProbeVolume, backface_fraction, distance_moments, probe_grid, project_sh9
-from compare.scene import load_scene
+from compare.scene.loader import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 CORNELL = ROOT / "scenes" / "cornell.toml"
@@ -156,7 +156,7 @@ def cornell_small():
 @pytest.mark.gl
 def test_probes_bring_cornell_closer_to_full_gi(gl_ctx, cornell_small):
     """Measured (64×48, 16 frames, reference 256 spp): FLIP 0.253 → 0.115, relMSE 0.074 → 0.011."""
-    from compare.reference import ReferenceRenderer
+    from compare.mitsuba.reference import ReferenceRenderer
 
     ref = ReferenceRenderer(cornell_small, progress=False).render(256).image
     plain = render_progressive(cornell_small, frames=16, ctx=gl_ctx, shadow_size=256)
@@ -278,7 +278,7 @@ def two_rooms(tmp_path, view: str, grid: str):
 ])
 def test_dark_room_stays_dark(gl_ctx, tmp_path, monkeypatch, grid, why):
     """Measured: dark room ≤ 1e-15 with the limits; without them 0.030 for [4, 3, 3] (4.5% of the lit room)."""
-    from compare.reference import ReferenceRenderer
+    from compare.mitsuba.reference import ReferenceRenderer
 
     dark, lit = two_rooms(tmp_path, "dark", grid), two_rooms(tmp_path, "lit", grid)
     ref = ReferenceRenderer(dark, progress=False).render(16).image
@@ -350,7 +350,7 @@ def test_environment_is_not_counted_twice(gl_ctx, tmp_path, monkeypatch):
 @pytest.mark.gl
 def test_emissive_mesh_lights_the_plane_through_the_probes(gl_ctx, tmp_path):
     """Measured (6³ probes, reference 256 spp): rows 30–39 0.0101 vs 0.0098, rows 40– 0.0029 vs 0.0036 (red)."""
-    from compare.reference import ReferenceRenderer
+    from compare.mitsuba.reference import ReferenceRenderer
 
     text = PLANE + """
 [materials.glow]

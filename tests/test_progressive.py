@@ -16,11 +16,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from compare.errors import ImageError, MissingComponentError
+from compare.util.errors import ImageError, MissingComponentError
 from compare.progressive import ProgressiveRenderer, plan, render_progressive
 from compare.progressive.distributor import default_samples_per_light, round_half_up
 from compare.progressive.sampling import light_sample_points, pixel_jitter
-from compare.scene import Camera, load_scene
+from compare.scene.loader import Camera, load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 CORNELL = ROOT / "scenes" / "cornell.toml"
@@ -608,7 +608,7 @@ def test_first_frame_scale_is_validated(gl_ctx, scale):
 def test_image_sizes_beyond_the_context_are_refused_up_front(gl_ctx, monkeypatch):
     """Before any GL object is made: a side beyond GL_MAX_TEXTURE_SIZE, or targets beyond the machine's
     memory, is one error naming the scene file and the limit (before: a moderngl traceback)."""
-    from compare.errors import SceneError
+    from compare.util.errors import SceneError
     from compare.progressive import context
 
     limit = int(gl_ctx.info["GL_MAX_TEXTURE_SIZE"])
@@ -630,7 +630,7 @@ def test_image_sizes_beyond_the_context_are_refused_up_front(gl_ctx, monkeypatch
     ("kitchen.toml", {"indirect": "probes"}),  # irradiance volume
 ])
 def test_layers_sum_to_the_displayed_image(gl_ctx, scene_file, options):
-    """The rasterizer's layers (compare.reference_layers names) are its targets, and sum to its image."""
+    """The rasterizer's layers (compare.mitsuba.layers names) are its targets, and sum to its image."""
     scene = load_scene(Path(__file__).resolve().parent.parent / "scenes" / scene_file).with_resolution(40, 30)
     res = render_progressive(scene, frames=12, ctx=gl_ctx, **options)
     layers = res.layers

@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from compare.reference import ReferenceRenderer, ladder_passes
-from compare.scene import parse_scene
+from compare.mitsuba.reference import ReferenceRenderer, ladder_passes
+from compare.scene.loader import parse_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -126,8 +126,9 @@ def test_cycles_mode_furnace_is_the_principled_albedo(materials):
     the camera show the cycles model's directional albedo at n.v = 1, diffuse (1 − E_s L_d) plus
     specular (L_d = 1 with GGX; Multiscatter GGX's layer factor otherwise)."""
     from compare import brdf
-    from compare.brdf import multiscatter, principled
-    from compare.mitsuba_dict import MATERIAL_MODELS, PRINCIPLED_MODES
+    from compare.brdf import multiscatter
+    from compare.mitsuba import principled
+    from compare.mitsuba.scene_dict import MATERIAL_MODELS, PRINCIPLED_MODES
 
     size = 24
     dist = PRINCIPLED_MODES[materials] or "multi_ggx"  # the furnace's material keeps Blender's default
@@ -157,7 +158,7 @@ def test_cycles_mode_furnace_is_the_principled_albedo(materials):
 
 
 def _spp_of(renderer, victim):
-    from compare.exr import read_exr
+    from compare.image.exr import read_exr
 
     return read_exr(victim)[1]["spp"]
 
@@ -170,7 +171,7 @@ def test_noise_floor_falls_with_spp(tmp_path):
 
 
 def test_cornell_renders_finite_and_plausible():
-    from compare.scene import load_scene
+    from compare.scene.loader import load_scene
 
     scene = load_scene(ROOT / "scenes" / "cornell.toml").with_resolution(32, 24)
     img = ReferenceRenderer(scene, materials="shared", cache_dir=False, progress=False).render(16).image
@@ -187,8 +188,8 @@ def test_a_bad_cache_entry_is_discarded_reported_and_rendered_again(tmp_path, ta
     a warning names it, the pass is rendered again, and the next run reads the good entry silently."""
     import warnings
 
-    from compare.exr import read_exr, write_exr
-    from compare.scene import load_scene
+    from compare.image.exr import read_exr, write_exr
+    from compare.scene.loader import load_scene
 
     scene = load_scene(Path(__file__).resolve().parent.parent / "scenes" / "cornell.toml").with_resolution(16, 12)
     r = ReferenceRenderer(scene, cache_dir=tmp_path, progress=False)
@@ -224,7 +225,7 @@ def test_a_bad_cache_entry_is_discarded_reported_and_rendered_again(tmp_path, ta
 
 
 def _cornell(width: int, height: int):
-    from compare.scene import load_scene
+    from compare.scene.loader import load_scene
 
     return load_scene(ROOT / "scenes" / "cornell.toml").with_resolution(width, height)
 
@@ -233,7 +234,7 @@ def test_a_pass_is_exactly_a_bare_mitsuba_render():
     """render_chunk returns, bit for bit, what a bare ``mi.render`` of the same scene dictionary,
     spp and seed returns: the wrapper adds its checks and its cache, never a change to the pixels
     (``compare bench --only wrapper-overhead`` times the same two calls)."""
-    from compare.mitsuba_dict import scene_dict
+    from compare.mitsuba.scene_dict import scene_dict
 
     scene = _cornell(16, 12)
     r = ReferenceRenderer(scene, cache_dir=False, progress=False)
@@ -248,7 +249,7 @@ def test_a_pass_is_exactly_a_bare_mitsuba_render():
 def test_a_non_finite_pass_is_refused_and_never_cached(tmp_path, value):
     """One NaN or infinite value in what Mitsuba returns is an error naming how many, where the first
     is, the spp and the seed; nothing is written to the cache."""
-    from compare.errors import ImageError
+    from compare.util.errors import ImageError
 
     r = ReferenceRenderer(_cornell(16, 12), cache_dir=tmp_path, progress=False)
     real = r.mi

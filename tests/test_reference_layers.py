@@ -1,4 +1,4 @@
-"""Per-effect ground truths (compare.reference_layers) and the per-layer measurement (compare.layer_metrics)."""
+"""Per-effect ground truths (compare.mitsuba.layers) and the per-layer measurement (compare.metrics.layers)."""
 
 from __future__ import annotations
 
@@ -7,11 +7,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from compare.layer_metrics import layer_metrics
-from compare.reference import ReferenceRenderer
-from compare.reference_layers import EXTRA_LAYERS, LAYERS, SUM_LAYERS
-from compare.scene import load_scene
-from compare.ztest import pass_statistics, z_test
+from compare.metrics.layers import layer_metrics
+from compare.mitsuba.reference import ReferenceRenderer
+from compare.metrics.layers import EXTRA_LAYERS, LAYERS, SUM_LAYERS
+from compare.scene.loader import load_scene
+from compare.metrics.ztest import pass_statistics, z_test
 from test_reference import furnace_scene, sphere_mask
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -16,13 +16,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from compare import run as run_mod
-from compare.cli import main
-from compare.exr import read_exr, write_exr
+from compare.run import runner as run_mod
+from compare.cli.main import main
+from compare.image.exr import read_exr, write_exr
 from compare.renderers import Checkpoint, Registry, Renderer, RendererError, Rendering
 from compare.renderers.job import export_gltf, read_checkpoints
-from compare.results import Results, RunSettings
-from compare.scene import load_scene
+from compare.report.results import Results, RunSettings
+from compare.scene.loader import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 CORNELL = ROOT / "scenes" / "cornell.toml"
@@ -289,7 +289,7 @@ def test_read_checkpoints_refuses_bad_timings(tmp_path):
 
 
 def test_job_gltf_holds_the_scene_in_world_space(tmp_path):
-    from compare.gltf import load_gltf
+    from compare.scene.gltf import load_gltf
 
     scene = load_scene(CORNELL)
     doc = load_gltf(export_gltf(scene, tmp_path / "scene.gltf"))
@@ -305,7 +305,7 @@ def test_example_external_renderer_beside_mitsuba_and_the_rasterizer(tmp_path, g
     """examples/renderers.toml names examples/raycaster.py (no file of compare/ knows it): measured
     beside Mitsuba, it converges, and its direct light agrees with the rasterizer's (an independent
     implementation of the same light: both leave out indirect light)."""
-    from compare.metrics import compare_images
+    from compare.metrics.images import compare_images
 
     settings = RunSettings(frames=16, spp=16, sizes=[[32, 24]], renderers=["mitsuba", "progressive", "numpy-raycaster"],
                            renderer_config=str(ROOT / "examples" / "renderers.toml"))
@@ -319,8 +319,8 @@ def test_example_external_renderer_beside_mitsuba_and_the_rasterizer(tmp_path, g
 
 
 def test_a_size_beyond_memory_is_refused_before_any_work(tmp_path, monkeypatch):
-    from compare.errors import SceneError
-    from compare.renderers import mitsuba
+    from compare.util.errors import SceneError
+    from compare.mitsuba import renderer as mitsuba
 
     monkeypatch.setattr(mitsuba, "_available_memory", lambda: 64 * 2**20)  # a machine with 64 MiB free
     settings = RunSettings(spp=4, sizes=[[1920, 1080]], renderers=["grey"])
@@ -334,7 +334,7 @@ def test_a_size_beyond_memory_is_refused_before_any_work(tmp_path, monkeypatch):
 def test_blender_distribution_options_are_variants_with_their_own_key():
     """cycles:ggx / eevee:ggx set GGX everywhere: variants of their engine, keyed apart, matched with
     the reference's cycles-ggx mode for the likeness; bad options are named."""
-    from compare.results import RunSettings
+    from compare.report.results import RunSettings
 
     reg = Registry()
     plain, ggx = reg.get("cycles"), reg.get("cycles:ggx")

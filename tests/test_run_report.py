@@ -19,12 +19,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from compare import run as run_mod
-from compare import scene_job
-from compare.renderers import progressive as progressive_adapter
-from compare.exr import read_exr
-from compare.reference import Checkpoint
-from compare.results import (
+from compare.run import runner as run_mod
+from compare.run import scene_job
+from compare.progressive import renderer as progressive_adapter
+from compare.image.exr import read_exr
+from compare.mitsuba.reference import Checkpoint
+from compare.report.results import (
     NoiseFloor,
     Point,
     Reference,
@@ -53,7 +53,7 @@ def _truth(w: int, h: int) -> np.ndarray:
 
 
 class FakeReference:
-    """Stands in for compare.reference.ReferenceRenderer: truth + noise falling as 1/sqrt(spp)."""
+    """Stands in for compare.mitsuba.reference.ReferenceRenderer: truth + noise falling as 1/sqrt(spp)."""
 
     renders: list[tuple[int, int]] = []  # (spp, seed) of every ladder actually iterated
 
@@ -67,7 +67,7 @@ class FakeReference:
         return {"scene_hash": self.scene.hash, "variant": self.variant, "resolution": list(self.scene.camera.resolution)}
 
     def iter_checkpoints(self, checkpoints, seed=0):
-        from compare.reference import pass_plan
+        from compare.mitsuba.reference import pass_plan
 
         w, h = self.scene.camera.resolution
         truth = _truth(w, h)
@@ -145,11 +145,11 @@ def synthetic_renderers(progressive=fake_progressive):
     """
     mp = pytest.MonkeyPatch()
     try:
-        mp.setattr("compare.reference.ReferenceRenderer", FakeReference)
-        mp.setattr("compare.renderers.progressive._progressive_checkpoints", progressive)
-        mp.setattr("compare.renderers.progressive._create_gl_context", lambda: None)
-        mp.setattr("compare.renderers.blender._blender_checkpoints", fake_blender)
-        mp.setattr("compare.renderers.blender._cycles_likeness", fake_likeness)
+        mp.setattr("compare.mitsuba.reference.ReferenceRenderer", FakeReference)
+        mp.setattr("compare.progressive.renderer._progressive_checkpoints", progressive)
+        mp.setattr("compare.progressive.renderer._create_gl_context", lambda: None)
+        mp.setattr("compare.blender.renderer._blender_checkpoints", fake_blender)
+        mp.setattr("compare.blender.renderer._cycles_likeness", fake_likeness)
         mp.setattr("compare.blender.blender_available", lambda: (True, "fake"))
         yield
     finally:
@@ -195,7 +195,7 @@ def test_parse_sizes_and_renderers():
 
 
 def test_scene_id_is_file_name_safe(tmp_path):
-    from compare.scene import load_scene
+    from compare.scene.loader import load_scene
 
     sid = run_mod.scene_id(load_scene(scene_file(tmp_path, EVIL)).with_resolution(48, 36))
     assert re.fullmatch(r"[a-z0-9-]+", sid) and sid.endswith("-48x36"), sid
@@ -307,7 +307,7 @@ def test_run_writes_results_images_and_report(tmp_path):
     # the paper-model variant is an ablation against the plain renderer: a row with its FLIP change
     html = (out / "index.html").read_text(encoding="utf-8")
     assert "<h3>Ablations</h3>" in html
-    from compare.report import _ablations
+    from compare.report.html import _ablations
 
     (row,) = _ablations(scene)
     assert row["label"] == paper.label and row["flip"] == f"{paper.final.metrics['flip']:.4f}"
@@ -331,7 +331,7 @@ def test_rerun_reuses_finished_units_and_redoes_changed_ones(tmp_path, monkeypat
         assert FakeReference.renders == [] and calls == []  # nothing rendered twice
         assert [s.to_json() for s in again.scenes] == [s.to_json() for s in first.scenes]
         # More frames: only the progressive unit is redone; the reference is reused.
-        from compare.errors import OutputError
+        from compare.util.errors import OutputError
 
         with pytest.raises(OutputError, match=r"holds the results of other settings \(frames 8 → 16\); use "
                                               r"--fresh to redo it with these, --update to keep what still "
@@ -425,7 +425,7 @@ def test_report_escapes_scene_strings(tmp_path):
 
 
 def test_hdr_payload_round_trips_as_float16():
-    from compare.report import hdr_payload
+    from compare.report.html import hdr_payload
 
     img = _truth(16, 12)
     img[0, 0] = [1e6, -1.0, 0.5]
@@ -440,8 +440,8 @@ def test_hdr_payload_round_trips_as_float16():
 
 
 def test_report_command_rebuilds_into_another_folder(tmp_path, capsys):
-    from compare.check import add_check_parser
-    from compare.report import add_report_parser
+    from compare.report.check import add_check_parser
+    from compare.report.html import add_report_parser
 
     out = tmp_path / "out"
     synthetic_report(out, [CORNELL])
@@ -459,7 +459,7 @@ def test_report_command_rebuilds_into_another_folder(tmp_path, capsys):
     assert (copy / "index.html").is_file() and (copy / "data" / f"{res.scenes[0].id}.js").is_file()
     assert f'src="plots/{res.scenes[0].id}-error.svg"' in (copy / "index.html").read_text()
     # A missing image is a clear error (exit status 2 through compare's CompareError handling).
-    from compare.errors import CompareError
+    from compare.util.errors import CompareError
 
     (out / res.scenes[0].runs[0].preview).unlink()
     args = parser.parse_args(["report", str(out / "results.json")])
@@ -470,7 +470,7 @@ def test_report_command_rebuilds_into_another_folder(tmp_path, capsys):
     assert args.size == [(320, 240), (64, 48)] and args.renderers == ["progressive:paper"]
     assert args.frames == 128 and args.spp == 1024 and callable(args.func)
     # an unknown renderer: one line naming it and what is known, before any work (exit status 2)
-    from compare.cli import main
+    from compare.cli.main import main
 
     assert main(["run", "--renderers", "blender", "-o", str(tmp_path / "never")]) == 2
     assert "unknown renderer 'blender'" in capsys.readouterr().err
@@ -490,7 +490,7 @@ def test_run_command_end_to_end(tmp_path, capsys):
 
 
 def test_plots_without_noise_floor_or_runs(tmp_path):
-    from compare.plots import equal_error, equal_time, make_plots
+    from compare.report.plots import equal_error, equal_time, make_plots
 
     res = _results()
     res.scenes[0].noise_floor = None
@@ -561,7 +561,7 @@ def test_no_likeness_skips_the_measurement_and_reuses_what_has_it(tmp_path):
                                materials="cycles", likeness=likeness)
         with synthetic_renderers():
             with pytest.MonkeyPatch.context() as mp:
-                mp.setattr("compare.renderers.blender._blender_checkpoints", counting_blender)
+                mp.setattr("compare.blender.renderer._blender_checkpoints", counting_blender)
                 return run_mod.run([CORNELL], out, settings, progress=False, report=False, update=True)
 
     # Without it: no likeness in the unit; asked for later, the unit is redone.
@@ -575,7 +575,7 @@ def test_no_likeness_skips_the_measurement_and_reuses_what_has_it(tmp_path):
 
 
 def test_blender_renderers_need_bpy_before_any_work(tmp_path, monkeypatch):
-    from compare.errors import MissingComponentError
+    from compare.util.errors import MissingComponentError
 
     monkeypatch.setattr("compare.blender.blender_available", lambda: (False, "bpy is not installed (test)"))
     settings = RunSettings(frames=2, spp=2, sizes=[[8, 6]], renderers=["mitsuba", "eevee"])
@@ -599,7 +599,7 @@ def test_a_ground_truth_that_tone_maps_to_black_gives_no_ldr_scores(tmp_path):
 def test_report_copy_refuses_to_replace_another_runs_results(tmp_path, capsys):
     """``compare report A -o B`` where B holds another run's results: one error line, B untouched, unless
     ``--fresh``; copying the same results again is fine (before: B's results were replaced silently)."""
-    from compare.cli import main
+    from compare.cli.main import main
 
     synthetic_report(tmp_path / "a", [CORNELL], frames=4)
     synthetic_report(tmp_path / "b", [CORNELL], frames=8)
@@ -620,7 +620,7 @@ def test_report_copy_refuses_to_replace_another_runs_results(tmp_path, capsys):
 def test_report_copy_follows_no_symlink(tmp_path, capsys):
     """An image of the results folder that links outside it is refused, not copied; a link in the
     target folder is replaced, never written through."""
-    from compare.cli import main
+    from compare.cli.main import main
 
     synthetic_report(tmp_path / "a", [CORNELL], frames=4)
     res = Results.load(tmp_path / "a" / "results.json")
@@ -650,7 +650,7 @@ def test_same_figures_as_before_the_renderer_protocol(tmp_path, gl_ctx):
     moved onto the renderer protocol (tests/data/cornell-48x36-before.json, written by the code
     before that change), timings aside: results.json's metrics, the check verdicts and the report's
     figures are made from them."""
-    from compare.check import check
+    from compare.report.check import check
 
     before = Results.load(ROOT / "tests" / "data" / "cornell-48x36-before.json")
     settings = RunSettings(frames=8, spp=16, sizes=[[48, 36]],
@@ -693,8 +693,8 @@ def test_same_figures_as_before_the_renderer_protocol(tmp_path, gl_ctx):
 def test_output_folder_is_held_while_in_use_and_killed_writes_are_swept(tmp_path):
     """A second command into a folder in use is refused; files a killed run left half-written
     (``.<name>.part-*``) are removed by the next run, with a warning."""
-    from compare.errors import OutputError
-    from compare.fsutil import folder_lock
+    from compare.util.errors import OutputError
+    from compare.util.files import folder_lock
 
     out = tmp_path / "out"
     synthetic_report(out, [CORNELL], report=False)
@@ -713,7 +713,7 @@ def test_cornell_error_by_kind_of_light(tmp_path, gl_ctx):
     """compare run measures the rasterizer layer by layer against the reference's per-effect ground
     truths: on the Cornell box most of its error is the indirect diffuse light it does not render;
     a renderer without layers (an external command) is measured on the full image only."""
-    from compare.report import build_report
+    from compare.report.html import build_report
 
     settings = RunSettings(frames=16, spp=64, sizes=[[48, 36]],
                            renderers=["mitsuba", "progressive", "numpy-raycaster"],

@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from compare.errors import SceneError
-from compare.scene import load_scene
+from compare.util.errors import SceneError
+from compare.scene.loader import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -237,7 +237,7 @@ def test_cornell_box_geometry():
 
 
 def test_primitives_are_closed_and_sized():
-    from compare import geometry
+    from compare.scene import geometry
 
     sph = geometry.sphere(2.0, 64, 32)
     assert sph.surface_area() == pytest.approx(4 * np.pi * 4, rel=0.01)
@@ -286,8 +286,8 @@ def test_textures_are_checked_when_the_scene_loads(tmp_path):
     import numpy as np
     import pytest
 
-    from compare.errors import SceneError
-    from compare.exr import write_exr
+    from compare.util.errors import SceneError
+    from compare.image.exr import write_exr
 
     base = (Path(__file__).resolve().parent.parent / "scenes" / "cornell.toml").read_text()
     white = "[materials.white]\nbase_color = [0.885809, 0.698859, 0.666422]"
@@ -316,8 +316,8 @@ def test_textures_are_checked_when_the_scene_loads(tmp_path):
 def test_reference_spp_is_the_scenes_choice_under_spp_auto(tmp_path):
     from compare.renderers import Registry
     from compare.renderers.base import RenderContext
-    from compare.results import RunSettings
-    from compare.scene_job import SceneJob
+    from compare.report.results import RunSettings
+    from compare.run.scene_job import SceneJob
 
     scene = load_scene(write(tmp_path, GOOD + "\n[render]\nreference_spp = 4096\n"))
     assert scene.reference_spp == 4096 and load_scene(write(tmp_path, GOOD)).reference_spp is None

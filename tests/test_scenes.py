@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from compare.gltf import load_gltf
-from compare.scene import load_scene
+from compare.scene.gltf import load_gltf
+from compare.scene.loader import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENES = ROOT / "scenes"
@@ -41,7 +41,7 @@ def load(path: Path, size=SIZE):
 
 def radiance_bound(scene) -> float:
     """The largest radiance any source in the scene emits: no pixel may exceed it."""
-    from compare.environments import environment_image
+    from compare.scene.environments import environment_image
 
     values = [max(light.radiance) for light in scene.lights]
     values += [max(m.emission) for m in scene.materials.values()]
@@ -65,7 +65,7 @@ def progressive(scene, ctx, cache, **kw):
 
 
 def reference(scene, spp=4, **kw):
-    from compare.reference import ReferenceRenderer
+    from compare.mitsuba.reference import ReferenceRenderer
 
     return ReferenceRenderer(scene, cache_dir=False, progress=False, **kw).render(spp)
 
@@ -165,7 +165,7 @@ def test_car_is_a_car():
 
 def test_car_shadows_fall_under_the_car():
     """95 % of the direct light the car blocks is missing within 0.5 m of its footprint (ray-cast in Mitsuba)."""
-    from compare.reference import ReferenceRenderer
+    from compare.mitsuba.reference import ReferenceRenderer
 
     s = load(SCENES / "car.toml")
     car = dataclasses.replace(s, meshes=tuple(m for m in s.meshes if m.name != "floor"), lights=(), environment=None)
@@ -217,7 +217,7 @@ def _generator():
 
 def test_generated_files_are_up_to_date(tmp_path):
     """scenes/generate.py rebuilds every generated file: text byte for byte, binary data to float precision."""
-    from compare.exr import read_exr
+    from compare.image.exr import read_exr
 
     gen = _generator()
     for rel, make in gen.outputs().items():
@@ -318,7 +318,7 @@ def test_rasterizer_skips_what_the_scene_does_not_need(tmp_path, gl_ctx, ibl_cac
 
 
 def test_reference_builds_only_what_the_scene_has(tmp_path):
-    from compare.mitsuba_dict import scene_dict
+    from compare.mitsuba.scene_dict import scene_dict
 
     bare = _scene(tmp_path, '[[meshes]]\nshape = "sphere"\nradius = 0.2\nmaterial = "glow"\n')
     d = scene_dict(bare, spp=1)

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from compare.scene import load_scene
+from compare.scene.loader import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 STRESS = ROOT / "scenes" / "stress"
@@ -35,7 +35,7 @@ def load(name: str, size=(48, 36)):
 
 
 def reference(scene, spp: int, **kw) -> np.ndarray:
-    from compare.reference import ReferenceRenderer
+    from compare.mitsuba.reference import ReferenceRenderer
 
     return ReferenceRenderer(scene, cache_dir=False, progress=False, **kw).render(spp).image
 
@@ -166,8 +166,8 @@ def test_grazing_views_rasterizer_energy(gl_ctx, area_model, what):
 
 def _sun_scene_expectation(s):
     """(floor radiance expected for a white Lambert floor, mask of floor pixels far from the sphere's influence)."""
-    from compare.environments import direction_to_uv, uv_to_direction
-    from compare.exr import read_exr
+    from compare.scene.environments import direction_to_uv, uv_to_direction
+    from compare.image.exr import read_exr
 
     env, _ = read_exr(s.environment.file)
     h, w, _ = env.shape
@@ -281,7 +281,7 @@ def test_scale_invariance_reference(unit_scale_scene, name):
     """Lengths ×1e-3 or ×1e4, radiance unchanged: the same image. Mitsuba 3 offsets secondary rays by
     (1 + max|p|)·8.9e-5 scene units, a quarter of the sphere's radius at millimetre scale (contact shadows
     shrank, light leaked: +2.4 % mean, 12 % of pixels off by > 5 %), so the reference renders tiny scenes
-    scaled up (compare.mitsuba_dict.world_scale)."""
+    scaled up (compare.mitsuba.scene_dict.world_scale)."""
     unit = reference(unit_scale_scene, 32)
     scaled = reference(load(name), 32)
     assert abs(scaled.mean() / unit.mean() - 1) < 0.005
@@ -290,7 +290,7 @@ def test_scale_invariance_reference(unit_scale_scene, name):
 
 
 def test_world_scale_only_touches_tiny_scenes(unit_scale_scene):
-    from compare.mitsuba_dict import world_scale
+    from compare.mitsuba.scene_dict import world_scale
 
     assert world_scale(load("scale_1e-3.toml")) == 1000.0
     assert world_scale(load("scale_1e4.toml")) == world_scale(unit_scale_scene) == 1.0
@@ -303,7 +303,7 @@ def test_world_scale_only_touches_tiny_scenes(unit_scale_scene):
 
 def _without_zero_area_faces(tmp_path: Path) -> Path:
     """A copy of degenerate.toml whose OBJ has the zero-area faces removed (same vertices, same order)."""
-    from compare import geometry
+    from compare.scene import geometry
 
     src = STRESS / "degenerate.obj"
     lines = src.read_text().splitlines()
@@ -324,7 +324,7 @@ def _without_zero_area_faces(tmp_path: Path) -> Path:
 
 
 def test_degenerate_mesh_loads_with_unit_normals():
-    from compare import geometry
+    from compare.scene import geometry
 
     mesh = geometry.load_obj(STRESS / "degenerate.obj")
     p = mesh.positions.astype(np.float64)
@@ -355,7 +355,7 @@ def test_zero_area_faces_change_nothing(gl_ctx, tmp_path):
 @pytest.mark.gl
 def test_64_lights_match_the_closed_form(gl_ctx):
     """An empty floor under the 64 coloured lights: every light's polygon irradiance, summed, per channel."""
-    from compare.analytic import polygon_irradiance
+    from compare.metrics.closed_form import polygon_irradiance
 
     s = load("many_lights.toml")
     assert len(s.lights) == 64
@@ -466,7 +466,7 @@ def test_texture_extremes_render_in_both_renderers(gl_ctx):
 def test_a_map_larger_than_the_gpu_takes_is_one_clear_error(tmp_path, gl_ctx):
     from PIL import Image
 
-    from compare.errors import ImageError
+    from compare.util.errors import ImageError
 
     import shutil
 

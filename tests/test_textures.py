@@ -11,8 +11,8 @@ from PIL import Image
 
 from compare.progressive import render_progressive
 from compare.progressive.gpu_scene import GpuScene
-from compare.reference import ReferenceRenderer
-from compare.scene import load_scene
+from compare.mitsuba.reference import ReferenceRenderer
+from compare.scene.loader import load_scene
 
 LIGHT = """[[lights]]
         center = [0.0, 1.4, 0.3]
@@ -143,7 +143,7 @@ def test_no_texture_work_without_textures(tmp_path, gl_ctx):
 def test_emission_map_multiplies_the_emission(tmp_path, gl_ctx):
     """An sRGB emission map times the emission: each quadrant shows emission x the decoded texel in the
     rasterizer and in the reference."""
-    from compare.tonemap import srgb_decode
+    from compare.image.tonemap import srgb_decode
 
     scene = _scene(tmp_path, 'base_color = [0.0, 0.0, 0.0]\nemission = [2.0, 1.0, 0.5]\n'
                              'emissive_texture = "quadrants.png"', light=False)
@@ -184,7 +184,7 @@ def test_texture_transform_and_sampler_agree_with_the_reference(tmp_path, gl_ctx
 def test_texture_transform_moves_whole_quadrants(tmp_path, gl_ctx, index):
     """Transforms that move whole quadrants of an emission map (tests/test_blender.py QUADRANT_MAPS): each
     region shows the quadrant glTF's KHR_texture_transform says, in the rasterizer and the reference."""
-    from compare.tonemap import srgb_decode
+    from compare.image.tonemap import srgb_decode
     from test_blender import QUADRANT_MAPS
 
     settings, source = QUADRANT_MAPS[index]

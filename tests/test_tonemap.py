@@ -1,4 +1,4 @@
-"""Tests of compare.tonemap: exposure, operators, transfers, to_ldr, write_png."""
+"""Tests of compare.image.tonemap: exposure, operators, transfers, to_ldr, write_png."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ import warnings
 import numpy as np
 import pytest
 
-from compare import tonemap as tm
-from compare.errors import ImageError
+from compare.image import tonemap as tm
+from compare.util.errors import ImageError
 
 # Values every operator must survive without NaN/Inf or a floating-point warning.
 EXTREMES = [0.0, -0.0, 1e-40, 1e-30, 1e-8, 0.5, 1.0, 1e4, 1e30, -1e-40, -1.0, -1e30]

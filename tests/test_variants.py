@@ -1,11 +1,11 @@
-"""Renderer variants of ``--renderers`` (compare.variants): parsing, messages, labels."""
+"""Renderer variants of ``--renderers`` (compare.progressive.options): parsing, messages, labels."""
 
 from __future__ import annotations
 
 import pytest
 
-from compare.run import parse_renderers
-from compare.variants import describe, renderer_options
+from compare.run.runner import parse_renderers
+from compare.progressive.options import describe, renderer_options
 
 
 def test_options_map_to_renderer_keywords():

@@ -17,7 +17,7 @@ import pytest
 from compare.progressive import ProgressiveRenderer, render_progressive
 from compare.progressive.shadow import (SHADOW_FILTERS, VSM_FILTER_TEXELS, ShadowAtlas, chebyshev_visibility,
                                         vsm_face_size, vsm_filter_width)
-from compare.scene import load_scene
+from compare.scene.loader import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 CORNELL = ROOT / "scenes" / "cornell.toml"
@@ -293,8 +293,8 @@ def test_occluder_shadow_is_still_there(renders, truth):
 @pytest.mark.gl
 def test_error_against_direct_reference_is_close_to_hard(cornell_96, renders, tmp_path_factory):
     """Against Mitsuba's direct light (max_depth = 2), VSM's error stays within a measured bound of hard's."""
-    from compare.metrics import compare_images
-    from compare.reference import ReferenceRenderer
+    from compare.metrics.images import compare_images
+    from compare.mitsuba.reference import ReferenceRenderer
 
     ref = ReferenceRenderer(cornell_96, materials="shared", max_depth=2, cache_dir=tmp_path_factory.mktemp("ref"),
                             progress=False).render(256).image

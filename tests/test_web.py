@@ -1,4 +1,4 @@
-"""Web engines in headless Chromium (compare.renderers.web): three.js and three-gpu-pathtracer.
+"""Web engines in headless Chromium (compare.web.renderer): three.js and three-gpu-pathtracer.
 
 They render the suite's scenes from the same job file as external renderers, into float
 render targets, and are measured against the same ground truth. Skips with the reason
@@ -14,13 +14,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from compare import run as run_mod
-from compare.exr import read_exr
-from compare.metrics import compare_images
+from compare.run import runner as run_mod
+from compare.image.exr import read_exr
+from compare.metrics.images import compare_images
 from compare.renderers import RenderContext, RendererError
-from compare.renderers.web import WebRenderer
-from compare.results import RunSettings
-from compare.scene import load_scene
+from compare.web.renderer import WebRenderer
+from compare.report.results import RunSettings
+from compare.scene.loader import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 CORNELL = ROOT / "scenes" / "cornell.toml"
@@ -53,7 +53,7 @@ def test_threejs_beside_mitsuba_and_the_rasterizer(tmp_path, gl_ctx):
 @needs_web
 def test_threejs_lands_on_the_same_pixels(tmp_path):
     """A small light facing the camera off the image centre: its pixels are where the camera's own
-    ray directions (compare.scene.Camera) put it, as in Mitsuba."""
+    ray directions (compare.scene.loader.Camera) put it, as in Mitsuba."""
     path = tmp_path / "marker.toml"
     path.write_text(textwrap.dedent("""
         name = "marker"
@@ -113,7 +113,7 @@ def test_threejs_environment_has_the_suites_orientation(tmp_path):
         material = "m"
         corners = [[-50.0, -50.0, -50.0], [-50.0, -50.01, -50.0], [-50.01, -50.01, -50.0], [-50.01, -50.0, -50.0]]
     """))
-    from compare.reference import ReferenceRenderer
+    from compare.mitsuba.reference import ReferenceRenderer
 
     scene = load_scene(path)
     ours = _render("threejs", scene, 4).checkpoints[-1].image
@@ -127,7 +127,7 @@ def test_browser_path_tracer_converges_towards_mitsuba(tmp_path):
     scene = load_scene(CORNELL).with_resolution(32, 24)
     res = _render("threejs-pathtracer", scene, 8, [1, 2, 4, 8])
     assert [c.step for c in res.checkpoints] == [1, 2, 4, 8] and res.setup_seconds > res.checkpoints[-1].seconds
-    from compare.reference import ReferenceRenderer
+    from compare.mitsuba.reference import ReferenceRenderer
 
     truth = ReferenceRenderer(scene, cache_dir=tmp_path / "cache", progress=False).render(256).image
     errors = [compare_images(truth, c.image)["relmse"] for c in res.checkpoints]
@@ -137,7 +137,7 @@ def test_browser_path_tracer_converges_towards_mitsuba(tmp_path):
 
 
 def test_missing_pieces_are_named(monkeypatch, tmp_path):
-    from compare.renderers import web
+    from compare.web import renderer as web
 
     monkeypatch.setenv("COMPARE_CHROMIUM", str(tmp_path / "no-chromium"))
     ok, why = WebRenderer("threejs").available()
@@ -162,7 +162,7 @@ def test_no_webgl_is_one_clear_error(monkeypatch):
 def test_threejs_variants(tmp_path):
     """threejs:shadows puts shadow-mapped spot lights where RectAreaLight casts none: the pixels the
     direct-light ground truth has in shadow get darker; threejs:msaa renders; bad options are named."""
-    from compare.reference import ReferenceRenderer
+    from compare.mitsuba.reference import ReferenceRenderer
 
     scene = load_scene(CORNELL).with_resolution(32, 24)
     plain = _render("threejs", scene, 4).checkpoints[-1].image
@@ -184,7 +184,7 @@ def test_threejs_reads_the_maps_of_the_exported_gltf(tmp_path):
     """An emission map under a texture transform reaches three.js through the exported glTF (textures,
     KHR_texture_transform, sampler): each region shows the quadrant the transform says (three.js shows an
     emission map as emission x texel, in linear light)."""
-    from compare.tonemap import srgb_decode
+    from compare.image.tonemap import srgb_decode
     from test_blender import QUADRANT_MAPS
     from test_textures import QUADRANTS, _regions, _scene
 

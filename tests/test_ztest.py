@@ -1,4 +1,4 @@
-"""The per-pixel z-test (compare.ztest, compare diff --ztest)."""
+"""The per-pixel z-test (compare.metrics.ztest, compare diff --ztest)."""
 
 from __future__ import annotations
 
@@ -7,11 +7,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from compare.cli import main
-from compare.exr import write_exr
-from compare.reference import ReferenceRenderer
-from compare.scene import load_scene
-from compare.ztest import pass_statistics, z_test
+from compare.cli.main import main
+from compare.image.exr import write_exr
+from compare.mitsuba.reference import ReferenceRenderer
+from compare.scene.loader import load_scene
+from compare.metrics.ztest import pass_statistics, z_test
 
 ROOT = Path(__file__).resolve().parent.parent
 CORNELL = ROOT / "scenes" / "cornell.toml"

@@ -13,8 +13,8 @@ Importing this package never imports bpy; :func:`blender_available` says
 whether renders can run.
 """
 
-from .export import CYCLES_PAPER_SAMPLES, EEVEE_PAPER_SAMPLES, ENGINES
-from .render import BlenderError, BlenderResult, blender_available, blender_python, render_blender
+from compare.blender.export import CYCLES_PAPER_SAMPLES, EEVEE_PAPER_SAMPLES, ENGINES
+from compare.blender.render import BlenderError, BlenderResult, blender_available, blender_python, render_blender
 
 __all__ = [
     "CYCLES_PAPER_SAMPLES",

@@ -1,6 +1,6 @@
 """The neutral scene as the job a Blender worker builds its scene from (numpy only, no bpy).
 
-Everything that decides how a :class:`compare.scene.Scene` maps onto Blender's
+Everything that decides how a :class:`compare.scene.loader.Scene` maps onto Blender's
 data model is computed here, in the caller's process, so that it can be
 tested without bpy and so that the worker (:mod:`compare.blender.worker`) only
 copies numbers into Blender. The job is a folder with ``job.json`` (settings,
@@ -18,7 +18,7 @@ Camera
 ------
 Blender cameras look along their local −Z with +Y up, so the camera object's
 matrix has the columns (right, up, −forward, position) of
-:meth:`compare.scene.Camera.basis`. The vertical field of view is set through
+:meth:`compare.scene.loader.Camera.basis`. The vertical field of view is set through
 ``sensor_fit = 'VERTICAL'``: ``lens = (sensor_height / 2) / tan(fov / 2)``.
 
 Area lights and their radiometry
@@ -37,7 +37,7 @@ default): a smaller spread narrows the emission lobe and renormalises it, which
 is no longer Lambertian. So each light gets ``energy = π · A · max(L)`` and
 ``color = L / max(L)`` (:func:`light_power`), which keeps the colour in [0, 1].
 ``tests/test_blender.py`` checks this convention by rendering a diffuse plane
-under one light against Lambert's closed form (:func:`compare.analytic.polygon_irradiance`).
+under one light against Lambert's closed form (:func:`compare.metrics.closed_form.polygon_irradiance`).
 
 Differences a Blender area light has from Mitsuba's ``rectangle`` + ``area``
 emitter, and what is done about them:
@@ -72,7 +72,7 @@ suite's glTF BSDF (the reference's ``shared`` mode) in two ways: the exact
 dielectric Fresnel for IOR 1.5 in place of Schlick, and a Lambert lobe
 scaled by one minus Cycles' estimate of the specular layer's albedo at the view
 direction, in place of glTF's per-direction ``1 − F(v·h)``. The reference's
-``cycles`` mode models exactly this (:mod:`compare.brdf.principled`, the
+``cycles`` mode models exactly this (:mod:`compare.mitsuba.principled`, the
 plugin's ``cycles`` flavour). Measured (:mod:`compare.blender.likeness`; Cornell
 box 64×48, kitchen and car 96×72, 64 spp): with ``shared`` the Cornell box
 (rough white walls) agrees within 2 % on every region's brightest channel, but
@@ -88,7 +88,7 @@ Emission = ``Emission Color`` with strength 1, made one-sided (as Mitsuba's
 ``area`` emitter on a mesh) by zeroing it on back faces. A
 ``metallic_roughness_texture`` drives Roughness (its G channel) and Metallic (B)
 through a Separate Color node, the image read as Non-Color, as Blender's glTF
-importer wires it (and as :mod:`compare.mitsuba_dict` reads it); like the base
+importer wires it (and as :mod:`compare.mitsuba.scene_dict` reads it); like the base
 colour map it replaces the factors. An ``emissive_texture`` (sRGB) multiplies the
 emission (a Mix node, Multiply), as glTF's emissiveTexture does. An
 ``occlusion_texture`` is left out: Cycles computes occlusion (as the reference does,
@@ -105,7 +105,7 @@ Texture coordinates: Mitsuba's v runs down the image, Blender's up, so v → 1 �
 Environment
 -----------
 A constant environment is the world's Background colour × intensity. A map is
-looked up, in Mitsuba's convention (:mod:`compare.environments`), through the
+looked up, in Mitsuba's convention (:mod:`compare.scene.environments`), through the
 fixed rotation :data:`ENV_TO_BLENDER` applied to the world direction (after the
 scene's ``rotation``), because Blender's equirectangular lookup puts +Z at the
 top row and +X at the centre column, where Mitsuba has +Y and +Z. The rotation
@@ -176,9 +176,9 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from ..brdf.multiscatter import DISTRIBUTIONS
-from ..reference_layers import MAX_HOLES
-from ..scene import AreaLight, Camera, Scene
+from compare.brdf.multiscatter import DISTRIBUTIONS
+from compare.mitsuba.layers import MAX_HOLES
+from compare.scene.loader import AreaLight, Camera, Scene
 
 #: Version of the job format shared by this module and the worker.
 JOB_VERSION = 1
@@ -285,7 +285,7 @@ def environment_lookup_matrix(rotation_deg: float) -> np.ndarray:
     World → map frame (undo the scene's rotation about +Y, as Mitsuba's
     ``to_world``), then map frame → Blender's lookup frame (:data:`ENV_TO_BLENDER`).
     """
-    from ..environments import rotation_matrix
+    from compare.scene.environments import rotation_matrix
 
     return ENV_TO_BLENDER @ rotation_matrix(rotation_deg).T
 
@@ -296,7 +296,7 @@ def blender_environment_map(image: np.ndarray) -> np.ndarray:
     Row j of the result holds Mitsuba's interpolated radiance at v = (j + ½)/H,
     column i at u = (i + ½)/W (the same in both).
     """
-    from ..environments import sample_equirect, uv_to_direction
+    from compare.scene.environments import sample_equirect, uv_to_direction
 
     h, w = image.shape[:2]
     u = (np.arange(w) + 0.5) / w
@@ -473,8 +473,8 @@ def build_job(scene: Scene, *, engine: str, samples: int, seed: int, folder: Pat
     if env is not None and env.constant is not None:
         environment = {"constant": [c * env.intensity for c in env.constant]}
     elif env is not None:
-        from ..environments import environment_image
-        from ..exr import write_exr
+        from compare.scene.environments import environment_image
+        from compare.image.exr import write_exr
 
         write_exr(folder / "environment.exr", blender_environment_map(environment_image(env)),
                   metadata={"renderer": "blender-environment"})

@@ -36,7 +36,7 @@ than Cycles' Sobol sequence. Two ways to account for it, both reported:
   ``flip_mitsuba_seed``²)/2).
 
 relMSE here is symmetric in its two images (denominator: the square of their
-mean, plus :data:`compare.metrics.RELMSE_EPS`), so that neither renderer's
+mean, plus :data:`compare.metrics.images.RELMSE_EPS`), so that neither renderer's
 noise sits in the denominator alone.
 """
 
@@ -49,8 +49,8 @@ from typing import Any
 
 import numpy as np
 
-from ..geometry import ray_cast
-from ..scene import Scene
+from compare.scene.geometry import ray_cast
+from compare.scene.loader import Scene
 
 #: Standard errors within which two region means count as agreeing (3: p ≈ 0.003 per test).
 Z_SCORE = 3.0
@@ -99,14 +99,14 @@ class _NumpyCaster:
 class _MitsubaCaster:
     """Rays against the reference's own Mitsuba scene (its BVH; vectorised variants only).
 
-    That scene is in the reference's world units (:func:`compare.mitsuba_dict.world_scale`):
+    That scene is in the reference's world units (:func:`compare.mitsuba.scene_dict.world_scale`):
     rays go in and distances come out in the scene's own.
     """
 
     def __init__(self, scene: Scene, mi):
         import drjit as dr
 
-        from ..mitsuba_dict import scene_dict, world_scale
+        from compare.mitsuba.scene_dict import scene_dict, world_scale
 
         self.mi, self.dr = mi, dr
         self.scale = world_scale(scene)
@@ -144,7 +144,7 @@ _MISS = -10**6
 
 
 def _caster(scene: Scene):
-    from ..backend import load_mitsuba
+    from compare.mitsuba.backend import load_mitsuba
 
     mi = load_mitsuba(None)
     return _NumpyCaster(scene) if mi.variant().startswith("scalar") else _MitsubaCaster(scene, mi)
@@ -282,7 +282,7 @@ def region_stats(masks: dict[str, np.ndarray], a: np.ndarray, b: np.ndarray, m1:
 
 def relmse_symmetric(a: np.ndarray, b: np.ndarray) -> float:
     """``mean((a - b)² / (((a + b)/2)² + eps))``: relMSE with neither image as the reference."""
-    from ..metrics import RELMSE_EPS
+    from compare.metrics.images import RELMSE_EPS
 
     a = np.asarray(a, dtype=np.float64)
     b = np.asarray(b, dtype=np.float64)
@@ -356,21 +356,21 @@ def cycles_likeness(scene: Scene, *, spp: int, materials: str = "cycles", seeds:
     ``materials`` is the reference's material mode (``"cycles"``: the plugin's
     model of Blender's Principled BSDF v2 with each material's distribution;
     ``"cycles-ggx"``: the same with GGX everywhere; ``"shared"``: the suite's
-    glTF BSDF; ``"diffuse"``: Lambert; see :mod:`compare.mitsuba_dict`).
+    glTF BSDF; ``"diffuse"``: Lambert; see :mod:`compare.mitsuba.scene_dict`).
     Cycles uses the Principled mapping of :mod:`compare.blender.export` with the
     distribution the mode models (``cycles-ggx``: GGX; otherwise each
     material's), or Lambert for ``"diffuse"`` (which isolates geometry, camera,
     lights and bounces from the BSDF models). FLIP is LDR-FLIP after
-    ``exposure`` and ``operator`` (:func:`compare.metrics.flip`). ``cycles``:
+    ``exposure`` and ``operator`` (:func:`compare.metrics.images.flip`). ``cycles``:
     two finished Cycles renders (:class:`~compare.blender.render.BlenderResult`)
     of ``spp`` samples, seeds A and B, with that distribution, to reuse instead
     of rendering them again. ``match_noise``: render Mitsuba with as many more
     samples as its noise needs to equal Cycles' (at most ``max_noise_factor`` ×).
     """
-    from ..metrics import flip
-    from ..mitsuba_dict import PRINCIPLED_MODES
-    from ..reference import ReferenceRenderer
-    from .render import render_blender
+    from compare.metrics.images import flip
+    from compare.mitsuba.scene_dict import PRINCIPLED_MODES
+    from compare.mitsuba.reference import ReferenceRenderer
+    from compare.blender.render import render_blender
 
     bm = "diffuse" if materials == "diffuse" else "principled"
     forced = PRINCIPLED_MODES.get(materials)

@@ -25,12 +25,12 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from .. import __version__
-from ..errors import CompareError, MissingComponentError
-from ..exr import read_exr
-from ..reference import Checkpoint
-from ..scene import Scene
-from .export import ENGINES, build_job, cycles_bounces
+from compare import __version__
+from compare.util.errors import CompareError, MissingComponentError
+from compare.image.exr import read_exr
+from compare.mitsuba.reference import Checkpoint
+from compare.scene.loader import Scene
+from compare.blender.export import ENGINES, build_job, cycles_bounces
 
 #: Environment variable naming a Python interpreter that has bpy.
 PYTHON_ENV = "COMPARE_BLENDER_PYTHON"
@@ -62,7 +62,7 @@ class BlenderResult:
         time of the render, all threads; unlike wall time it does not grow when
         other processes share the cores).
     checkpoints
-        With ``ladder=``: one :class:`compare.reference.Checkpoint` (spp,
+        With ``ladder=``: one :class:`compare.mitsuba.reference.Checkpoint` (spp,
         seconds, image) per sample count, the full render last. Each is a
         separate render with the same seed, which for Cycles' and EEVEE's
         deterministic sample sequences is the first n samples of the full

@@ -2,7 +2,7 @@
 
 This module is the float64 reference of the material model that the rasterizer's
 GLSL (:mod:`compare.brdf.glsl`, file ``brdf.glsl``) and the Mitsuba BSDF plugin
-(:mod:`compare.brdf.mitsuba_plugin`) implement in float32. The three forms are
+(:mod:`compare.mitsuba.bsdf`) implement in float32. The three forms are
 tested against each other (``tests/test_brdf_agreement.py``), so that a
 reference-versus-rasterizer difference measures lighting approximations, not a
 material mismatch.
@@ -247,7 +247,7 @@ class _Geometry(NamedTuple):
 def _geometry(n, v, l, base_color, metallic, roughness) -> _Geometry:  # noqa: E741
     """Validate and convert the arguments of a BRDF evaluation; the half vector's cosines.
 
-    Shared by the glTF model here and the Principled v2 model of :mod:`compare.brdf.principled`.
+    Shared by the glTF model here and the Principled v2 model of :mod:`compare.mitsuba.principled`.
     """
     n = np.asarray(n, dtype=np.float64)
     v = np.asarray(v, dtype=np.float64)

@@ -61,8 +61,8 @@ import numpy as np
 from scipy.optimize import minimize
 from tqdm import tqdm
 
-from ..errors import MissingComponentError
-from . import (ALPHA_MIN, COS_MIN, H_LEN2_MIN, alpha_from_roughness, ggx_d, sample_ggx_vndf, smith_g1,
+from compare.util.errors import MissingComponentError
+from compare.brdf import (ALPHA_MIN, COS_MIN, H_LEN2_MIN, alpha_from_roughness, ggx_d, sample_ggx_vndf, smith_g1,
                smith_v_height_correlated)
 
 __all__ = [

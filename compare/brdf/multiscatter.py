@@ -23,7 +23,7 @@ The layer under the specular (the diffuse) is weighted by
 ``1 - E_s * (E + F_ms (1 - E))`` (:func:`layer_factor`): Cycles' compensation
 multiplies the closure's weight by ``E + F_ms (1 - E)`` and its energy scale by
 ``1/E``, and ``closure_layering_weight`` reads the albedo estimate ``E_s``
-(:mod:`compare.brdf.principled`) times that weight. With GGX (single
+(:mod:`compare.mitsuba.principled`) times that weight. With GGX (single
 scattering) both factors are 1. Because ``E < 1`` at any roughness above ~0.2,
 the multiscatter diffuse is *brighter* than the single-scattering one (at
 roughness 1 and normal incidence, weight 1 - 0.045 against 1 - 0.090 for
@@ -86,7 +86,7 @@ def _lambda(cos_theta, alpha):
 
 def _albedo(rough: float, mu, u: np.ndarray) -> np.ndarray:
     """E(rough, mu) for each mu, averaged over the visible-normal samples ``u`` (S, 2)."""
-    from . import sample_ggx_vndf
+    from compare.brdf import sample_ggx_vndf
 
     mu = np.atleast_1d(np.asarray(mu, dtype=np.float64))
     alpha = rough * rough

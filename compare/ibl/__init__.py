@@ -14,17 +14,17 @@ rasterizer's environment lighting reads (Otto et al. 2020, §3.1; Karis 2013):
 
 The GLSL that reads all of it lives here too: ``mapping.glsl`` (the
 equirectangular, cube-face and octahedral mappings, mirroring
-:mod:`compare.environments`, :mod:`compare.ibl.cubemap` and
-:mod:`compare.encodings`) and ``ibl.glsl`` (background, prefiltered lookup,
+:mod:`compare.scene.environments`, :mod:`compare.ibl.cubemap` and
+:mod:`compare.image.encodings`) and ``ibl.glsl`` (background, prefiltered lookup,
 irradiance, split sum). :mod:`compare.ibl.groundtruth` is the brute-force
-reference of the same integral and :mod:`compare.ibl.accuracy` the benchmark
-(``python -m compare.ibl.accuracy``).
+reference of the same integral and :mod:`compare.bench.ibl_accuracy` the benchmark
+(``python -m compare.bench.ibl_accuracy``).
 
 Results are cached as ``.npz`` files under ``<cache>/ibl/`` (cache:
-:func:`compare.reference.default_cache_dir`, i.e. ``$COMPARE_CACHE`` or
+:func:`compare.mitsuba.reference.default_cache_dir`, i.e. ``$COMPARE_CACHE`` or
 ``~/.cache/compare``), keyed by the SHA-256 of the map's pixels and shape, every
 setting, and :data:`IBL_VERSION`; written atomically
-(:func:`compare.fsutil.atomic_path`). The seconds each stage took are stored
+(:func:`compare.util.files.atomic_path`). The seconds each stage took are stored
 with the result and returned from the cache too (``IBL.timings``,
 ``IBL.cached``).
 """
@@ -38,12 +38,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..fsutil import atomic_path, sha256_bytes
-from .atlas import ENV_FORMATS, Atlas, build_atlas
-from .cubemap import padded_directions
-from .irradiance import convolve_irradiance, sh9_project
-from .lut import split_sum_lut
-from .prefilter import level_roughness, level_sizes, prefilter as _prefilter, source_chain
+from compare.util.files import atomic_path, sha256_bytes
+from compare.ibl.atlas import ENV_FORMATS, Atlas, build_atlas
+from compare.ibl.cubemap import padded_directions
+from compare.ibl.irradiance import convolve_irradiance, sh9_project
+from compare.ibl.lut import split_sum_lut
+from compare.ibl.prefilter import level_roughness, level_sizes, prefilter as _prefilter, source_chain
 
 __all__ = ["DEFAULT_LEVELS", "DEFAULT_SAMPLES", "DEFAULT_SIZE", "ENV_FORMATS", "IBL", "IBL_VERSION", "Atlas",
            "build_atlas", "preprocess", "split_sum"]
@@ -92,7 +92,7 @@ def _cache_root(cache_dir, folder: str = "ibl") -> Path | None:
     if cache_dir is False:
         return None
     if cache_dir is None:
-        from ..cache import default_cache_dir
+        from compare.util.cache import default_cache_dir
 
         return default_cache_dir() / folder
     return Path(cache_dir) / folder
@@ -122,7 +122,7 @@ def preprocess(equirect: np.ndarray, *, size: int = DEFAULT_SIZE, levels: int = 
     Parameters
     ----------
     equirect : ndarray (H, W, 3)
-        Linear radiance in :mod:`compare.environments`' mapping.
+        Linear radiance in :mod:`compare.scene.environments`' mapping.
     size : int, keyword-only
         Face size of the cube (a power of two); prefiltered level 0 has it.
     levels : int, keyword-only
@@ -187,14 +187,14 @@ def preprocess(equirect: np.ndarray, *, size: int = DEFAULT_SIZE, levels: int = 
 
     octa = None
     if octahedral:
-        from ..encodings import octahedral_directions, octahedral_pad
+        from compare.image.encodings import octahedral_directions, octahedral_pad
 
         t0 = time.perf_counter()
         octa = []
         for i in range(levels):
             d = octahedral_directions(2 * sizes[i])
             if i == 0:
-                from .prefilter import sample_chain
+                from compare.ibl.prefilter import sample_chain
 
                 values = sample_chain(chain, d, 0.0)
             else:

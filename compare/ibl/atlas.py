@@ -28,8 +28,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..encodings import RGBM_SQRT7, octahedral_encode, rgbm_decode, rgbm_encode
-from .cubemap import sample_faces
+from compare.image.encodings import RGBM_SQRT7, octahedral_encode, rgbm_decode, rgbm_encode
+from compare.ibl.cubemap import sample_faces
 
 __all__ = ["ENV_FORMATS", "Atlas", "build_atlas", "sample_levels", "sample_octahedral"]
 

@@ -11,7 +11,7 @@ SH9 (Ramamoorthi & Hanrahan 2001)
     ``E(n) = Σ_lm Â_l L_lm Y_lm(n)``. Exact for radiance that is a quadratic
     polynomial of the direction; for a small bright source (a sun) the
     truncation rings (the paper's "~3 % average error" holds only for smooth
-    environments; see :mod:`compare.ibl.accuracy`).
+    environments; see :mod:`compare.bench.ibl_accuracy`).
 Convolved cube
     ``E(n)`` evaluated at every texel direction of a small padded cube
     (default 16×16 faces) by a sum over every texel of a source level of at
@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .cubemap import padded_directions, texel_solid_angles
+from compare.ibl.cubemap import padded_directions, texel_solid_angles
 
 __all__ = ["SH_BAND_FACTORS", "convolve_irradiance", "sh9_basis", "sh9_irradiance", "sh9_project"]
 

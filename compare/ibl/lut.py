@@ -26,8 +26,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..brdf import alpha_from_roughness, eval_brdf_lobes, pdf_ggx_vndf_reflection, sample_ggx_vndf
-from .prefilter import hammersley
+from compare.brdf import alpha_from_roughness, eval_brdf_lobes, pdf_ggx_vndf_reflection, sample_ggx_vndf
+from compare.ibl.prefilter import hammersley
 
 __all__ = ["split_sum_lut"]
 

@@ -1,7 +1,7 @@
 // Direction mappings of the environment: the GLSL form of
-//   compare/environments.py   direction_to_uv (equirectangular, Mitsuba's envmap convention)
+//   compare/scene/environments.py   direction_to_uv (equirectangular, Mitsuba's envmap convention)
 //   compare/ibl/cubemap.py    face_coordinates (cube faces, OpenGL's table)
-//   compare/encodings.py      octahedral_encode
+//   compare/image/encodings.py      octahedral_encode
 // Functions only, GLSL 3.30; tests/test_ibl.py renders them and compares with numpy.
 
 #ifndef COMPARE_IBL_MAPPING_GLSL

@@ -4,7 +4,7 @@ Source chain
 ------------
 Level 0 of the source is the equirectangular map resampled onto cube faces
 (``sub × sub`` supersampled bilinear lookups per texel with
-:func:`compare.environments.sample_equirect`, so that the rasterizer sees the
+:func:`compare.scene.environments.sample_equirect`, so that the rasterizer sees the
 map exactly as Mitsuba interpolates it); every further source level halves the
 faces by solid-angle-weighted 2×2 means, down to 1×1.
 
@@ -40,8 +40,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..brdf import alpha_from_roughness, ggx_d, sample_ggx_vndf
-from .cubemap import bilinear_faces, downsample, face_coordinates, pad_from_interior, padded_directions
+from compare.brdf import alpha_from_roughness, ggx_d, sample_ggx_vndf
+from compare.ibl.cubemap import bilinear_faces, downsample, face_coordinates, pad_from_interior, padded_directions
 
 __all__ = ["MIN_LEVEL_SIZE", "SOURCE_LOD_K", "hammersley", "level_roughness", "level_sizes", "prefilter",
            "sample_chain", "source_chain"]
@@ -84,7 +84,7 @@ def source_chain(equirect: np.ndarray, size: int, *, sub: int | None = None) -> 
     ``sub`` × ``sub`` lookups per texel of level 0; default ``clamp(ceil(W / (4 size)), 2, 8)``
     (about one lookup per map texel).
     """
-    from ..environments import sample_equirect
+    from compare.scene.environments import sample_equirect
 
     if size < 1 or size & (size - 1):
         raise ValueError(f"size: expected a power of two, got {size}")

@@ -15,7 +15,7 @@ Public API
 :func:`plan`
     the sample distributor (which frame evaluates which sample), inspectable without a GL context.
 :func:`create_context`
-    a headless EGL context, or :class:`~compare.errors.MissingComponentError` saying what to install.
+    a headless EGL context, or :class:`~compare.util.errors.MissingComponentError` saying what to install.
 
 Module map (each pass with its shader): ``distributor`` + ``sampling`` (Algorithm 1,
 R2 points), ``budget`` (the adaptive frame budget), ``gpu_scene`` (upload, camera),
@@ -28,9 +28,9 @@ IBL GLSL is ``compare/ibl/ibl.glsl``), ``accumulate`` (``accumulate.glsl``,
 diffuse light, ``probes*.glsl``, ``indirect.glsl``; optional), ``readback``, ``renderer``.
 """
 
-from .context import create_context
-from .distributor import EnvSample, FramePlan, LightSample, Plan, plan
-from .renderer import Checkpoint, ProgressiveRenderer, ProgressiveResult, render_progressive
+from compare.progressive.context import create_context
+from compare.progressive.distributor import EnvSample, FramePlan, LightSample, Plan, plan
+from compare.progressive.rasterizer import Checkpoint, ProgressiveRenderer, ProgressiveResult, render_progressive
 
 __all__ = [
     "Checkpoint",

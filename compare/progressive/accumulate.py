@@ -8,7 +8,7 @@ read the texture it writes.
 
 from __future__ import annotations
 
-from .shaders import load_program, set_uniform
+from compare.progressive.shaders import load_program, set_uniform
 
 
 class PingPong:

@@ -8,7 +8,7 @@ import time
 
 import numpy as np
 
-from ..figures import Figure, median as _median
+from compare.util.figures import Figure, median as _median
 
 __all__ = ["bench_area_models", "bench_depth_floor", "bench_first_frame", "bench_textures"]
 
@@ -16,8 +16,8 @@ __all__ = ["bench_area_models", "bench_depth_floor", "bench_first_frame", "bench
 def bench_first_frame(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
     """Frame 1 against the mean frame and the total of a whole progressive run; the same with frame 0
     drawn at full size, alternating with the default (half size) run for run."""
-    from . import ProgressiveRenderer
-    from .first_frame import auto_scale
+    from compare.progressive import ProgressiveRenderer
+    from compare.progressive.first_frame import auto_scale
 
     scales = (auto_scale((scene.camera.width, scene.camera.height)), 1.0)  # the default, then full size
     first, mean, total = ([], []), ([], []), []
@@ -50,8 +50,8 @@ def bench_first_frame(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
 
 def bench_depth_floor(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
     """Mean frame time against a depth-only pass of the same geometry and size."""
-    from . import ProgressiveRenderer
-    from .depth_only import DepthOnlyPass
+    from compare.progressive import ProgressiveRenderer
+    from compare.progressive.depth_only import DepthOnlyPass
 
     frame_t, floor_t = [], []
     with ProgressiveRenderer(scene, frames=frames, ctx=ctx) as r:
@@ -95,7 +95,7 @@ def bench_area_models(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
 
 def bench_textures(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
     """Mean frame time of the scene with its maps (and alpha masks) ÷ the same scene with its materials'
-    factors only (:meth:`~compare.scene_model.Scene.without_maps`), run for run alternating."""
+    factors only (:meth:`~compare.scene.model.Scene.without_maps`), run for run alternating."""
     if not scene.features().textures:
         raise RuntimeError("no material of the scene has a map: there is no texturing to time")
     mean = _alternating_mean_frames([dict(), dict()], scene, frames=frames, repeats=repeats, ctx=ctx,
@@ -111,7 +111,7 @@ def _alternating_mean_frames(options: list[dict], scene, *, frames: int, repeats
                              scenes=None) -> list[list[float]]:
     """The mean frame time of one whole run per renderer (``options`` each, on ``scenes`` each or on
     ``scene``), ``repeats`` times, the renderers alternating run for run."""
-    from . import ProgressiveRenderer
+    from compare.progressive import ProgressiveRenderer
 
     scenes = scenes or [scene] * len(options)
     mean: list[list[float]] = [[] for _ in options]

@@ -39,8 +39,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
-from .distributor import FramePlan, Plan
-from .sampling import pixel_jitter
+from compare.progressive.distributor import FramePlan, Plan
+from compare.progressive.sampling import pixel_jitter
 
 #: Weight of the newest observation in the moving average of observed ÷ predicted frame time.
 SMOOTHING = 0.3

@@ -7,7 +7,7 @@ enough for tests), on a GPU machine from the vendor driver, with the same code.
 
 from __future__ import annotations
 
-from ..errors import MissingComponentError
+from compare.util.errors import MissingComponentError
 
 #: The oldest OpenGL version the shaders need (``#version 330``).
 MIN_GL_VERSION = 330
@@ -77,7 +77,7 @@ def check_image_size(ctx, size: tuple[int, int], what: str) -> None:
     beyond the machine's memory (a software rasterizer's GPU memory is the system's)."""
     import os
 
-    from ..errors import SceneError
+    from compare.util.errors import SceneError
 
     w, h = size
     limit = int(ctx.info.get("GL_MAX_TEXTURE_SIZE", 0) or 0)

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from .gpu_scene import mat_bytes
-from .shaders import set_uniform
+from compare.progressive.gpu_scene import mat_bytes
+from compare.progressive.shaders import set_uniform
 
 
 class DepthOnlyPass:

@@ -55,12 +55,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from .accumulate import PingPong, Target
-from .shaders import load_program, set_uniform
-from .shadow import SHADOW_FILTERS
+from compare.progressive.accumulate import PingPong, Target
+from compare.progressive.shaders import load_program, set_uniform
+from compare.progressive.shadow import SHADOW_FILTERS
 
 AREA_MODELS = ("radiometric", "paper", "ltc")
-#: Material modes as in compare.mitsuba_dict: the shared BRDF, or Lambert only for closed forms.
+#: Material modes as in compare.mitsuba.scene_dict: the shared BRDF, or Lambert only for closed forms.
 MATERIAL_MODES = ("shared", "diffuse")
 #: Texture unit of the split-sum table (units 0-5 hold the G-buffer, shadow atlas and running means).
 LUT_UNIT = 7
@@ -102,7 +102,7 @@ class DirectPass:
         self.ltc_table = None
         if materials != "diffuse":
             # The split-sum table bounds the light a specular lobe can reflect (direct.glsl).
-            from ..ibl import split_sum
+            from compare.ibl import split_sum
 
             lut = np.ascontiguousarray(split_sum(cache_dir=cache_dir)[0], dtype=np.float32)
             self.lut_texture = ctx.texture((lut.shape[1], lut.shape[0]), lut.shape[2], lut.tobytes(), dtype="f4")

@@ -57,7 +57,7 @@ from typing import Iterator, Sequence
 
 import numpy as np
 
-from .sampling import env_sample_points, light_sample_points, pixel_jitter
+from compare.progressive.sampling import env_sample_points, light_sample_points, pixel_jitter
 
 #: Paper default: direct-light samples start at 30 % of the frames.
 DEFAULT_DIRECT_FRACTION = 0.3
@@ -176,7 +176,7 @@ def plan(scene, frames: int = DEFAULT_FRAMES, *, seed: int = 0, direct_fraction:
 
     Parameters
     ----------
-    scene : compare.scene.Scene
+    scene : compare.scene.loader.Scene
     frames : int
         Number of frames m (≥ 1).
     seed : int, keyword-only

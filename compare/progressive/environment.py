@@ -26,10 +26,10 @@ import time
 
 import numpy as np
 
-from ..environments import environment_image, rotation_matrix
-from ..ibl import DEFAULT_LEVELS, DEFAULT_SAMPLES, DEFAULT_SIZE, ENV_FORMATS, build_atlas, preprocess, split_sum
-from ..ibl.irradiance import SH_BAND_FACTORS
-from .shaders import load_program, set_uniform
+from compare.scene.environments import environment_image, rotation_matrix
+from compare.ibl import DEFAULT_LEVELS, DEFAULT_SAMPLES, DEFAULT_SIZE, ENV_FORMATS, build_atlas, preprocess, split_sum
+from compare.ibl.irradiance import SH_BAND_FACTORS
+from compare.progressive.shaders import load_program, set_uniform
 
 #: How the diffuse irradiance is stored.
 ENV_DIFFUSE = ("cube", "sh9")
@@ -59,7 +59,7 @@ class EnvironmentLighting:
     Parameters
     ----------
     ctx : moderngl.Context
-    scene : compare.scene.Scene
+    scene : compare.scene.loader.Scene
         Must have an environment.
     env_format : {"float", "rgbm", "octahedral"}
     env_diffuse : {"cube", "sh9"}

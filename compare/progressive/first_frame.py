@@ -36,10 +36,10 @@ import numbers
 
 import numpy as np
 
-from .accumulate import PingPong
-from .gpu_scene import mat_bytes
-from .ltc import LTC_UNIT
-from .shaders import load_program, set_uniform
+from compare.progressive.accumulate import PingPong
+from compare.progressive.gpu_scene import mat_bytes
+from compare.progressive.ltc import LTC_UNIT
+from compare.progressive.shaders import load_program, set_uniform
 
 #: How frame 0 is drawn (ProgressiveRenderer's ``first_frame``).
 FIRST_FRAME_MODES = ("forward", "gbuffer")

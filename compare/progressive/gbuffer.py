@@ -8,8 +8,8 @@ frame however many light samples the frame evaluates.
 
 from __future__ import annotations
 
-from .gpu_scene import mat_bytes
-from .shaders import load_program, set_uniform
+from compare.progressive.gpu_scene import mat_bytes
+from compare.progressive.shaders import load_program, set_uniform
 
 
 class GBuffer:

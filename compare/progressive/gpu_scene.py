@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .shaders import set_uniform
+from compare.progressive.shaders import set_uniform
 
 
 #: First texture unit of the material maps (above every unit a pass binds for its own textures;
@@ -186,7 +186,7 @@ class GpuScene:
         """The programs of a pass that only rasterizes the scene (depth, shadow maps), by whether the mesh
         they draw is alpha-masked: ``{False: positions only}``, and with alpha masks ``True``: texture
         coordinates and the base-colour map's alpha test (:meth:`draw_occluders` picks per mesh)."""
-        from .shaders import load_program
+        from compare.progressive.shaders import load_program
 
         base = dict(defines or {})
         programs = {False: load_program(ctx, name, {**base, "TEXTURES": 0, "ALPHA_MASK": 0})}
@@ -204,7 +204,7 @@ class GpuScene:
         the fraction of texels at or above ``cutoff``: Castaño's coverage-preserving mipmaps. Averaged
         alpha drifts towards its mean, so plain mips make alpha-tested foliage thin out with distance,
         where a path tracer (which does not mipmap) keeps it."""
-        from .mipmaps import coverage_preserving_alpha
+        from compare.progressive.mipmaps import coverage_preserving_alpha
 
         h, w = rgba.shape[:2]
         for level, alpha in enumerate(coverage_preserving_alpha(rgba[..., 3], cutoff), start=1):
@@ -217,7 +217,7 @@ class GpuScene:
         """One map file as a linear RGBA16F texture, mipmapped unless the material samples it
         ``nearest`` (uploaded once per file, kind and sampler settings); ``alpha``: with the file's
         alpha channel (an alpha mask's), else alpha 1."""
-        from ..textures import load_alpha, load_texture
+        from compare.scene.textures import load_alpha, load_texture
 
         key = (str(path), srgb, mat.texture_wrap == "repeat", mat.texture_filter,
                (mat.alpha_cutoff / max(mat.alpha, 1e-9)) if alpha else None)
@@ -226,7 +226,7 @@ class GpuScene:
             h, w = rgb.shape[:2]
             largest = int(self.ctx.info.get("GL_MAX_TEXTURE_SIZE", 16384))
             if max(h, w) > largest:
-                from ..errors import ImageError
+                from compare.util.errors import ImageError
 
                 raise ImageError(f"{path}: {w} x {h} texels, more than this OpenGL's largest texture "
                                  f"({largest} on a side): the rasterizer cannot upload it; scale the map down")
@@ -249,7 +249,7 @@ class GpuScene:
 
     def _upload(self, name, positions, normals, indices, base, metallic, roughness, emission, kind, light=None,
                 uvs=None):
-        from ..geometry import vertex_tangents
+        from compare.scene.geometry import vertex_tangents
 
         n = len(positions)
         uv = np.zeros((n, 2), dtype=np.float32) if uvs is None else np.asarray(uvs, dtype=np.float32)

@@ -12,8 +12,8 @@ every later image does.
 
 from __future__ import annotations
 
-from .accumulate import PingPong
-from .shaders import load_program, set_uniform
+from compare.progressive.accumulate import PingPong
+from compare.progressive.shaders import load_program, set_uniform
 
 #: Frames whose jitter anti-aliases the indirect light (then its mean is kept).
 PROBE_FRAMES = 16

@@ -65,9 +65,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .accumulate import Target
-from .direct import LTC_UNIT, set_light
-from .shaders import load_program, set_uniform
+from compare.progressive.accumulate import Target
+from compare.progressive.direct import LTC_UNIT, set_light
+from compare.progressive.shaders import load_program, set_uniform
 
 #: f_d of the ``ltc`` model: shadow samples from frame 1 on (see the module notes).
 LTC_DIRECT_FRACTION = 0.0
@@ -77,7 +77,7 @@ LTC_EVALUATIONS = 32
 
 def ltc_texture(ctx):
     """The fitted LTC table (:func:`compare.brdf.ltc.load_table`) as a 64×64 RGBA32F texture, bilinear."""
-    from ..brdf.ltc import load_table
+    from compare.brdf.ltc import load_table
 
     table = np.ascontiguousarray(load_table(), dtype=np.float32)
     tex = ctx.texture((table.shape[1], table.shape[0]), 4, table.tobytes(), dtype="f4")

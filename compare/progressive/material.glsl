@@ -1,5 +1,5 @@
 // The shaded surface's material: the mesh's factors, or, with TEXTURES, its maps where it has
-// them. A map replaces its factor, as in the scene model (compare/mitsuba_dict.py does the same):
+// them. A map replaces its factor, as in the scene model (compare/mitsuba/scene_dict.py does the same):
 // the base-colour map holds linear RGB (sRGB decoded when uploaded, then mipmapped), the
 // metallic-roughness map glTF's channels (G = roughness, B = metallic); the emission map (sRGB
 // too) multiplies the emission, as glTF's emissiveTexture does. Without TEXTURES the

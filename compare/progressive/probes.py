@@ -6,7 +6,7 @@ walls and blocks too dark). An irradiance volume restores its diffuse part.
 
 Grid
     ``nx × ny × nz`` probes over the scene's bounds (meshes and light rectangles,
-    :meth:`~compare.scene.Scene.extent`), each at the centre of
+    :meth:`~compare.scene.loader.Scene.extent`), each at the centre of
     its cell (inset by half a cell), so no probe sits on the bounding walls.
 
 Bake (setup time, :class:`ProbeVolume`)
@@ -90,14 +90,14 @@ import time
 
 import numpy as np
 
-from ..ibl import split_sum
-from ..ibl.cubemap import FACE_AXES, padded_directions, texel_solid_angles
-from ..ibl.irradiance import SH_BAND_FACTORS, sh9_basis
-from ..encodings import octahedral_directions, octahedral_pad
-from ..scene import DEFAULT_PROBE_BOUNCES, DEFAULT_PROBE_GRID, INDIRECT_MODES, MAX_PROBES_PER_AXIS
-from .sampling import light_sample_points
-from .shaders import load_program, set_uniform
-from .shadow import DEFAULT_BIAS, ShadowAtlas
+from compare.ibl import split_sum
+from compare.ibl.cubemap import FACE_AXES, padded_directions, texel_solid_angles
+from compare.ibl.irradiance import SH_BAND_FACTORS, sh9_basis
+from compare.image.encodings import octahedral_directions, octahedral_pad
+from compare.scene.loader import DEFAULT_PROBE_BOUNCES, DEFAULT_PROBE_GRID, INDIRECT_MODES, MAX_PROBES_PER_AXIS
+from compare.progressive.sampling import light_sample_points
+from compare.progressive.shaders import load_program, set_uniform
+from compare.progressive.shadow import DEFAULT_BIAS, ShadowAtlas
 
 #: Face size S of each probe's cube map in the bake.
 DEFAULT_FACE_SIZE = 16
@@ -226,7 +226,7 @@ class ProbeVolume:
     Parameters
     ----------
     ctx : moderngl.Context
-    scene : compare.scene.Scene
+    scene : compare.scene.loader.Scene
     gpu_scene : compare.progressive.gpu_scene.GpuScene
         The uploaded scene (the bake draws it).
     grid : (int, int, int), keyword-only
@@ -236,7 +236,7 @@ class ProbeVolume:
     shadow_size : int, keyword-only
         Face size of the bake's own hard shadow atlas (made and freed by the bake).
     shadow_bias : (float, float, float), keyword-only
-        Shadow bias in texels, as :class:`~compare.progressive.renderer.ProgressiveRenderer`'s.
+        Shadow bias in texels, as :class:`~compare.progressive.rasterizer.ProgressiveRenderer`'s.
     environment : EnvironmentLighting or None, keyword-only
         The scene's environment (what the probes see where no surface is), or None.
     materials : {"shared", "diffuse"}, keyword-only

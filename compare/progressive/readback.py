@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import ImageError
+from compare.util.errors import ImageError
 
 
 def read_rgb(ctx, fbo, *, check_finite: bool = True, what: str = "progressive render") -> np.ndarray:

@@ -66,7 +66,7 @@ def light_sample_points(light, count: int, seed: int = 0, light_index: int = 0) 
 
     Parameters
     ----------
-    light : compare.scene.AreaLight
+    light : compare.scene.loader.AreaLight
     count : int
         Number of samples n_i.
     seed, light_index : int

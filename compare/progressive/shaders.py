@@ -26,7 +26,7 @@ _SHARED = {"mapping.glsl": _IBL / "mapping.glsl", "ibl.glsl": _IBL / "ibl.glsl"}
 
 def _include(name: str) -> str:
     if name == "brdf.glsl":
-        from ..brdf.glsl import glsl_source
+        from compare.brdf.glsl import glsl_source
 
         return glsl_source()
     path = _SHARED.get(name, _HERE / name)

@@ -134,8 +134,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .gpu_scene import frustum, look_at, mat_bytes
-from .shaders import load_program, set_uniform
+from compare.progressive.gpu_scene import frustum, look_at, mat_bytes
+from compare.progressive.shaders import load_program, set_uniform
 
 #: Face order, as in direct.glsl.
 FACES = ("+n", "+t", "-t", "+b", "-b")

@@ -6,9 +6,9 @@ through :class:`~compare.renderers.registry.Registry` and the protocol of
 for renderer authors.
 """
 
-from .base import (Checkpoint, RenderContext, Renderer, RendererError, Rendering, check_layers, check_rendering,
+from compare.renderers.base import (Checkpoint, RenderContext, Renderer, RendererError, Rendering, check_layers, check_rendering,
                    doubling_steps)
-from .registry import ENTRY_POINT_GROUP, TABLE_1, Registry
+from compare.renderers.registry import ENTRY_POINT_GROUP, TABLE_1, Registry
 
 __all__ = [
     "ENTRY_POINT_GROUP",

@@ -14,7 +14,7 @@ A renderer of the suite, built in or plugged in, is an object with
 :meth:`Renderer.available`
     ``(True, "")``, or ``(False, why)`` saying what is missing and how to install it;
 :meth:`Renderer.steps` and :meth:`Renderer.checkpoints`
-    the budget of a run with given :class:`~compare.results.RunSettings`, and
+    the budget of a run with given :class:`~compare.report.results.RunSettings`, and
     the steps to keep an image at (1, 2, 4, …, budget unless it says otherwise);
 :meth:`Renderer.key`
     every setting that changes the renderer's pixels (JSON data; with the scene's
@@ -25,7 +25,7 @@ A renderer of the suite, built in or plugged in, is an object with
     :class:`Rendering`: :class:`Checkpoint` s (step, cumulative seconds, linear
     float32 H×W×3 image), set-up seconds outside those and flat metadata, and
     optionally the final image split by kind of light (``layers``, the names of
-    :mod:`compare.reference_layers`), which the report measures layer by layer;
+    :mod:`compare.mitsuba.layers`), which the report measures layer by layer;
 :meth:`Renderer.render_layers`
     optional: those layers as a render of their own, made when the renderer is the
     ground truth (the Mitsuba reference's per-effect ground truths).
@@ -42,7 +42,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..errors import CompareError
+from compare.util.errors import CompareError
 
 __all__ = ["UNITS", "Checkpoint", "RenderContext", "Renderer", "RendererError", "Rendering", "check_layers",
            "check_rendering", "doubling_steps"]
@@ -71,7 +71,7 @@ class Rendering:
     checkpoints: list[Checkpoint]
     setup_seconds: float = 0.0
     metadata: dict[str, Any] = field(default_factory=dict)
-    #: The last checkpoint's image split by kind of light: layer name (compare.reference_layers.LAYERS)
+    #: The last checkpoint's image split by kind of light: layer name (compare.metrics.layers.LAYERS)
     #: → H×W×3 image. A layer left out is light the renderer does not render (zero).
     layers: dict[str, np.ndarray] = field(default_factory=dict)
     #: Per-pixel variance of the last checkpoint's image (H×W×3) and its degrees of freedom, where
@@ -187,7 +187,7 @@ class Renderer:
 
     def benchmarks(self) -> dict[str, Any]:
         """``compare bench`` items about this renderer's own internals: name → a function
-        ``(scene, *, frames, spp, repeats, context) -> list[compare.figures.Figure]``."""
+        ``(scene, *, frames, spp, repeats, context) -> list[compare.util.figures.Figure]``."""
         return {}
 
     def facts(self, metadata: dict) -> dict[str, str]:
@@ -259,7 +259,7 @@ def check_rendering(renderer: Renderer, rendering: Any, *, scene, checkpoints: l
 
 def check_layers(name: str, layers: Any, scene) -> dict[str, np.ndarray]:
     """A renderer's layers as float32 images, each named, of the scene's size and finite."""
-    from ..reference_layers import LAYERS
+    from compare.metrics.layers import LAYERS
 
     if not layers:
         return {}

@@ -29,9 +29,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from ..fsutil import sha256_bytes
-from .base import RenderContext, Renderer, RendererError, Rendering, UNITS
-from .job import read_checkpoints, write_job
+from compare.util.files import sha256_bytes
+from compare.renderers.base import RenderContext, Renderer, RendererError, Rendering, UNITS
+from compare.renderers.job import read_checkpoints, write_job
 
 __all__ = ["ExternalRenderer", "external_from_table"]
 

@@ -23,8 +23,8 @@ from typing import Any
 
 import numpy as np
 
-from ..fsutil import write_text_atomic
-from .base import Checkpoint, RendererError, Rendering
+from compare.util.files import write_text_atomic
+from compare.renderers.base import Checkpoint, RendererError, Rendering
 
 __all__ = ["JOB_SCHEMA", "export_gltf", "read_checkpoints", "step_files", "write_job"]
 
@@ -48,7 +48,7 @@ def export_gltf(scene, path: Path) -> Path:
     perspective camera node looking down its −Z. Area lights are not meshes of
     the file: the job lists them (glTF has no rectangular light).
     """
-    from ..gltf import GltfWriter
+    from compare.scene.gltf import GltfWriter
 
     path = Path(path)
     w = GltfWriter(generator="compare job")
@@ -114,8 +114,8 @@ def export_gltf(scene, path: Path) -> Path:
 def write_job(scene, folder: Path, *, renderer: str, unit: str, checkpoints: list[int], seed: int,
               output_dir: Path, cache_dir=None) -> Path:
     """Write ``job.json``, ``scene.gltf`` and the environment into ``folder``; returns the job's path."""
-    from ..environments import environment_image
-    from ..exr import write_exr
+    from compare.scene.environments import environment_image
+    from compare.image.exr import write_exr
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
@@ -188,8 +188,8 @@ def read_checkpoints(folder: Path, *, who: str, size: tuple[int, int], checkpoin
         A missing or malformed ``timings.json``, a missing checkpoint, an
         unreadable image, one of the wrong size, NaN or infinite pixels.
     """
-    from ..errors import ImageError
-    from ..exr import read_exr
+    from compare.util.errors import ImageError
+    from compare.image.exr import read_exr
 
     folder = Path(folder)
     tpath = folder / "timings.json"

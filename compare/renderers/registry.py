@@ -13,7 +13,7 @@ A renderer spec (``--renderers``, ``--renderer``) is looked up, in this order, a
        [project.entry-points."compare.renderers"]
        mine = "my_package.compare_plugin:MyRenderer"
 
-4. the built-ins: ``mitsuba``, ``progressive[:<option>[+<option>]]`` (:mod:`compare.variants`),
+4. the built-ins: ``mitsuba``, ``progressive[:<option>[+<option>]]`` (:mod:`compare.progressive.options`),
    ``cycles`` and ``eevee``, and the web engines ``threejs`` and ``threejs-pathtracer``
    (``web`` names both).
 
@@ -27,15 +27,15 @@ from importlib import metadata
 from pathlib import Path
 from typing import Iterable
 
-from .base import UNITS, Renderer, RendererError
-from .external import ConfigError, external_from_table
+from compare.renderers.base import UNITS, Renderer, RendererError
+from compare.renderers.external import ConfigError, external_from_table
 
 __all__ = ["BUILTIN", "ENTRY_POINT_GROUP", "TABLE_1", "Registry", "builtin"]
 
 ENTRY_POINT_GROUP = "compare.renderers"
 #: The built-in renderers' names (``progressive`` takes ``:<option>`` variants).
 BUILTIN = ("mitsuba", "progressive", "cycles", "eevee", "threejs", "threejs-pathtracer")
-#: ``--renderers web``: every web engine (compare.renderers.web).
+#: ``--renderers web``: every web engine (compare.web.renderer).
 WEB = ("threejs", "threejs-pathtracer")
 #: What ``--renderers all`` means: the paper's Table 1 (and the three area models).
 TABLE_1 = ("mitsuba", "progressive", "progressive:paper", "progressive:ltc", "cycles", "eevee")
@@ -45,19 +45,19 @@ def builtin(spec: str) -> Renderer | None:
     """The built-in renderer of ``spec``, or None if it names none (ValueError for a bad variant)."""
     base = spec.partition(":")[0]
     if spec == "mitsuba":
-        from .mitsuba import MitsubaRenderer
+        from compare.mitsuba.renderer import MitsubaRenderer
 
         return MitsubaRenderer()
     if base == "progressive":
-        from .progressive import ProgressiveRenderer
+        from compare.progressive.renderer import ProgressiveRenderer
 
         return ProgressiveRenderer(spec)
     if base in ("cycles", "eevee"):
-        from .blender import BlenderRenderer
+        from compare.blender.renderer import BlenderRenderer
 
         return BlenderRenderer(spec)  # ValueError for a bad option
     if base in WEB:
-        from .web import WebRenderer
+        from compare.web.renderer import WebRenderer
 
         return WebRenderer(spec)  # ValueError for a bad option
     return None
@@ -171,7 +171,7 @@ class Registry:
         elif spec in self._plugins():
             r = self._plugin(spec)
         else:
-            from ..variants import OPTIONS
+            from compare.progressive.options import OPTIONS
 
             more = [n for n in self.names() if n not in BUILTIN]
             raise ValueError(f"unknown renderer {spec!r}; expected mitsuba, progressive, progressive:<option> "

@@ -1,19 +1,19 @@
 /* compare report: the interactive HDR viewer (swipe comparison + exposure slider).
  *
  * Data: each scene's data/<id>.js registers window.COMPARE_HDR[id] with linear
- * RGB images as little-endian float16, base64 (see compare/report/__init__.py).
+ * RGB images as little-endian float16, base64 (see compare/report/html.py).
  * They come in through <script src> because a page opened from file:// may not
  * fetch files and a canvas showing an <img> from disk cannot be read back.
  *
- * Tone mapping mirrors compare.tonemap.to_ldr(image, exposure, operator="aces"):
+ * Tone mapping mirrors compare.image.tonemap.to_ldr(image, exposure, operator="aces"):
  * clamp negatives, Stephen Hill's ACES fit (RRT+ODT, same matrices and curve as
- * compare.tonemap.aces), clamp to [0, 1], sRGB transfer, 8-bit rounding.
+ * compare.image.tonemap.aces), clamp to [0, 1], sRGB transfer, 8-bit rounding.
  * Keep the two in step: tests/test_browser.py compares them pixel by pixel.
  */
 "use strict";
 
 (function () {
-  // compare.tonemap._ACES_IN / _ACES_OUT, row-major.
+  // compare.image.tonemap._ACES_IN / _ACES_OUT, row-major.
   const ACES_IN = [0.59719, 0.35458, 0.04823, 0.07600, 0.90834, 0.01566, 0.02840, 0.13383, 0.83777];
   const ACES_OUT = [1.60475, -0.53108, -0.07367, -0.10208, 1.10813, -0.00605, -0.00327, -0.07276, 1.07602];
   const F32_MAX = 3.4028234663852886e38;
@@ -28,7 +28,7 @@
     return (v * (v + 0.0245786) - 0.000090537) / (v * (0.983729 * v + 0.4329510) + 0.238081);
   }
 
-  /** Linear RGB × exposure → 8-bit sRGB [r, g, b], as compare.tonemap.write_png does. */
+  /** Linear RGB × exposure → 8-bit sRGB [r, g, b], as compare.image.tonemap.write_png does. */
   function tonemap(r, g, b, exposure) {
     // _prep: clamp to [0, float32 max] after the exposure multiply.
     r = Math.min(Math.max(r * exposure, 0), F32_MAX);

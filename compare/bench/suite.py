@@ -1,0 +1,373 @@
+"""``compare bench``: speed and memory figures, measured side by side in one run.
+
+These machines are noisy, so every figure is a **ratio of medians** of runs that
+alternate between the two sides (A, B, A, B, …) so slow drift hits both alike;
+absolute times are printed for context only. Renderers are reached through the
+registry (:mod:`compare.renderers`): the items that compare renderers render through
+the protocol; ``first-frame``, ``depth-floor``, ``area-models``, ``textures`` (the rasterizer's) and
+``wrapper-overhead`` (Mitsuba's) time a renderer's internals and are items that
+renderer declares (:meth:`~compare.renderers.base.Renderer.benchmarks`). How to read
+each figure:
+
+``first-frame``
+    median wall time of frame 1 ÷ median of the mean frame time of a whole
+    run. Frame 1 is the cheap preview (environment only, or the unshadowed
+    direct estimate without an environment), forward-shaded in one pass, at half
+    size from 320×240 up (:mod:`compare.progressive.first_frame`). The paper reports 0.98 ms against
+    a 6.4 ms average (≈ 0.15). Lower is better. ``first-frame-total`` divides
+    by the whole run instead; ``first-frame-full-size`` is the same ratio with
+    frame 0 drawn at full size (``first_frame_scale=1``), in the same run.
+``depth-floor``
+    median frame time ÷ median time of a depth-only pass of the same geometry
+    at the same size: how far a frame is above the cost a rasterizer cannot
+    avoid. 1 would mean shading is free.
+``wrapper-overhead``
+    the reference wrapper's render of one pass ÷ a bare ``mi.render`` of the
+    same Mitsuba scene dictionary with the same spp; 1.00 means no overhead.
+``equal-error``
+    the seconds Mitsuba needs to reach the progressive renderer's final FLIP
+    (interpolated on the log–log spp ladder, measured against an independent
+    high-spp ground truth) ÷ the progressive renderer's seconds for all its
+    frames: > 1 means the rasterizer reaches that error faster; both times are medians of
+    ``--repeats`` alternating runs. Given against
+    the full reference and against the direct-light-only reference; ``equal-error-direct-ltc``
+    is the same for the ``ltc`` area model (:mod:`compare.progressive.ltc`) against the
+    direct-light-only reference, ``equal-error-full-ltc-probes`` for ``ltc`` with the
+    irradiance probes against the full reference.
+``area-model-ltc``, ``area-model-paper``
+    median of the mean frame time with the ``ltc`` (closed-form unshadowed light, shadow ratio) or
+    the paper's point-light area model ÷ the same with the radiometric default, runs
+    alternating. > 1 means the model costs more per frame.
+``textures``
+    median of the mean frame time of the scene with its maps and alpha masks ÷ the same scene with
+    its materials' factors only, runs alternating (the cost of texturing; the rasterizer's item). > 1
+    means texturing costs per frame.
+``frame-budget``
+    seconds to reach a target FLIP (1.1 × the fixed plan's final FLIP against
+    the direct-light-only reference, which more samples converge to) with a per-frame time budget
+    (:mod:`compare.progressive.budget`; 16 ms and 100 ms) ÷ the same with the
+    paper's fixed plan of ``--frames`` frames. < 1 means the budget gets there
+    sooner. Medians of ``--repeats`` alternating runs.
+``peak-rss``
+    peak resident memory (MiB) of a separate process doing a 1080p progressive
+    run and one doing a 1080p Mitsuba render of up to 64 spp; their ratio is progressive ÷ Mitsuba.
+``eevee``
+    progressive (all frames) ÷ EEVEE (64 samples) render seconds, when the
+    ``blender`` extra is installed (the paper's Table 1 comparison).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import platform
+import subprocess
+import sys
+from pathlib import Path
+
+from compare.util.figures import Figure, median as _median, time_to_error
+from compare.util.files import write_text_atomic
+
+ITEMS = ("first-frame", "depth-floor", "area-models", "textures", "wrapper-overhead", "equal-error", "frame-budget", "peak-rss",
+         "eevee")
+#: Per-frame budgets (ms) of the frame-budget item.
+BUDGETS_MS = (16.0, 100.0)
+
+
+def _render(registry, spec: str, scene, *, steps: int, checkpoints=None, seed: int = 0, context):
+    """A render through the protocol (checked as ``compare run`` checks it)."""
+    from compare.renderers import check_rendering
+
+    r = registry.get(spec)
+    cps = list(checkpoints or [steps])
+    return check_rendering(r, r.render(scene, steps=steps, checkpoints=cps, seed=seed, context=context),
+                           scene=scene, checkpoints=cps)
+
+
+def _direct_context(context, max_depth: int | None, *, cache: bool = True):
+    """A context whose Mitsuba renders stop at ``max_depth`` (2: direct light only); ``cache=False``
+    turns the reference cache off (a timed render must be rendered, not read back with the seconds
+    of whichever run once filled the cache)."""
+    from compare.renderers import RenderContext
+
+    options = {**context.options, **({"max_depth": max_depth} if max_depth else {})}
+    return RenderContext(context.settings, cache_dir=context.cache_dir if cache else False, options=options)
+
+
+def _truth(registry, scene, spp: int, context, max_depth: int | None):
+    from compare.mitsuba.reference import derive_seed
+
+    with _direct_context(context, max_depth) as c:
+        return _render(registry, "mitsuba", scene, steps=4 * spp, seed=derive_seed("bench-ground-truth"),
+                       context=c).checkpoints[-1].image
+
+
+def _ladder(registry, scene, spp: int, context, max_depth: int | None):
+    """Mitsuba at 1, 2, 4, … ``spp`` samples per pixel (checkpoints of one render, timed: no cache)."""
+    from compare.renderers import doubling_steps
+
+    with _direct_context(context, max_depth, cache=False) as c:
+        return _render(registry, "mitsuba", scene, steps=spp, checkpoints=doubling_steps(spp), context=c)
+
+
+def bench_equal_error(scene, *, frames: int, spp: int, repeats: int = 1, registry, context) -> list[Figure]:
+    """Mitsuba's time to reach the rasterizer's final FLIP, ÷ the rasterizer's time; against the
+    direct-light reference also for the ``ltc`` area model (one Mitsuba ladder for both).
+
+    Times are medians of ``repeats`` runs, the renderers taking turns; the images (seeded, so the
+    same every run) and their FLIP come from the first.
+    """
+    from compare.metrics.images import flip
+
+    # (figure suffix, renderer, references it is judged against): against the full reference the
+    # plain technique misses the indirect light whatever its area model, so the ltc figure there
+    # is given with the irradiance probes on.
+    runs = [("", "progressive", ("full", "direct"))]
+    if scene.lights:
+        runs += [("-ltc", "progressive:ltc", ("direct",)), ("-ltc-probes", "progressive:ltc+probes", ("full",))]
+    labels = (("full", None), ("direct", 2))
+    truths = {label: _truth(registry, scene, spp, context, depth) for label, depth in labels}
+    # The first run of each renderer (its images) and every run's checkpoint seconds; later runs'
+    # images are dropped at once (a ladder at 1080p holds a gigabyte of them).
+    first: dict = {}
+    times: dict = {}
+
+    def keep(key, result) -> None:
+        first.setdefault(key, result)
+        times.setdefault(key, []).append([cp.seconds for cp in result.checkpoints])
+
+    for _ in range(max(1, repeats)):
+        for suffix, spec, _ in runs:
+            keep(suffix, _render(registry, spec, scene, steps=frames, context=context))
+        for label, depth in labels:
+            keep(label, _ladder(registry, scene, spp, context, depth))
+    out = []
+    for label, _ in labels:
+        truth, curves = truths[label], times[label]
+        errors = [flip(truth, cp.image)[0] for cp in first[label].checkpoints]
+        for suffix, spec, refs in runs:
+            if label not in refs:
+                continue
+            final = first[suffix].checkpoints[-1]
+            target = flip(truth, final.image)[0]
+            reach = [time_to_error(c, errors, target) for c in curves]
+            meta = first[suffix].metadata
+            what = meta["area_model"] + (", probes" if meta.get("indirect") == "probes" else "")
+            note = (f"vs {label} reference; {spec} FLIP {target:.4f}; Mitsuba FLIP at 1 spp "
+                    f"{errors[0]:.4f}, at {spp} spp {errors[-1]:.4f}")
+            if any(math.isinf(t) for t in reach):
+                note += f"; Mitsuba did not reach it within {spp} spp (ratio is a lower bound)"
+                reach = [c[-1] for c in curves]
+            own = [c[-1] for c in times[suffix]]
+            out.append(Figure(f"equal-error-{label}{suffix}", "Mitsuba to same FLIP",
+                              f"progressive ({what}) {frames} frames", _median(reach), _median(own), "s",
+                              max(1, repeats), note, reach, own))
+    return out
+
+
+def bench_frame_budget(scene, *, frames: int, spp: int, repeats: int, registry, context) -> list[Figure]:
+    """Time to a target FLIP with a frame budget ÷ with the fixed plan (checkpoints at every frame)."""
+    from compare.metrics.images import flip
+
+    # Against the direct-light-only reference: that is what more samples converge to (the full
+    # reference's error is dominated by the missing indirect light at every frame count).
+    truth = _truth(registry, scene, spp, context, 2)
+
+    def curve(budget):
+        spec = "progressive" if budget is None else f"progressive:budget{budget:g}"
+        res = _render(registry, spec, scene, steps=frames, checkpoints=list(range(1, frames + 1)), context=context)
+        cps = res.checkpoints
+        return [c.seconds for c in cps], [flip(truth, c.image)[0] for c in cps], cps[-1].step
+
+    runs: dict = {None: [], **{b: [] for b in BUDGETS_MS}}
+    for _ in range(repeats):
+        for budget in runs:
+            runs[budget].append(curve(budget))
+    target = 1.1 * _median([errors[-1] for _, errors, _ in runs[None]])
+    fixed = [time_to_error(t, e, target) for t, e, _ in runs[None]]
+    out = []
+    for budget in BUDGETS_MS:
+        times = [time_to_error(t, e, target) for t, e, _ in runs[budget]]
+        n = _median([k for _, _, k in runs[budget]])
+        final = _median([e[-1] for _, e, _ in runs[budget]])
+        out.append(Figure(f"frame-budget-{budget:g}ms", f"budget {budget:g} ms to FLIP {target:.4f}",
+                          f"fixed {frames} frames to it", _median(times), _median(fixed), "s", repeats,
+                          f"{n:g} frames with the budget, final FLIP {final:.4f}", times, fixed))
+    return out
+
+
+_RSS_SCRIPT = """
+import resource, sys
+from compare.renderers import RenderContext, Registry
+from compare.report.results import RunSettings
+from compare.scene.loader import load_scene
+scene = load_scene(sys.argv[2]).with_resolution(1920, 1080)
+steps = int(sys.argv[3])
+if sys.argv[1] != "imports":
+    with RenderContext(RunSettings(), cache_dir=False) as context:
+        Registry().get(sys.argv[1]).render(scene, steps=steps, checkpoints=[steps], seed=0, context=context)
+else:
+    import compare.progressive, compare.mitsuba.reference, mitsuba, moderngl
+print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)
+"""
+
+
+def _peak_rss_mib(kind: str, scene_path: str, count: int) -> float:
+    out = subprocess.run([sys.executable, "-c", _RSS_SCRIPT, kind, scene_path, str(count)], check=True,
+                         capture_output=True, text=True)
+    return int(out.stdout.strip().splitlines()[-1]) / 1024.0  # ru_maxrss is KiB on Linux
+
+
+def bench_peak_rss(scene_path: str, *, frames: int, spp: int) -> list[Figure]:
+    """Peak RSS of a 1080p progressive run and of a 1080p Mitsuba render, each in its own process."""
+    base = _peak_rss_mib("imports", scene_path, 0)
+    prog = _peak_rss_mib("progressive", scene_path, frames)
+    n = min(spp, 64)
+    ref = _peak_rss_mib("mitsuba", scene_path, n)
+    return [Figure("peak-rss", "progressive 1080p", "mitsuba 1080p render", prog, ref, "MiB", 1,
+                   f"imports alone: {base:.0f} MiB; a Mitsuba render of {n} spp (passes of 1, 1, 2, ..., {n // 2} spp)")]
+
+
+def bench_eevee(scene, *, frames: int, repeats: int, registry, context) -> list[Figure]:
+    """Progressive (all frames) against EEVEE at 64 samples, both through the registry; needs the
+    ``blender`` extra."""
+    ok, why = registry.get("eevee").available()
+    if not ok:
+        raise RuntimeError(f"eevee is not available: {why}")
+    prog, eevee = [], []
+    for k in range(repeats):
+        prog.append(_render(registry, "progressive", scene, steps=frames, seed=k, context=context)
+                    .checkpoints[-1].seconds)
+        eevee.append(_render(registry, "eevee", scene, steps=64, seed=k, context=context).checkpoints[-1].seconds)
+    return [Figure("eevee", f"progressive {frames} frames", "EEVEE 64 samples", _median(prog), _median(eevee), "s",
+                   repeats, "the paper's Table 1 ratio", prog, eevee)]
+
+
+def environment_info(ctx=None) -> dict:
+    """CPU, core count, GL renderer and versions, for the record."""
+    import os
+
+    cpu = platform.processor() or ""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    info = {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version()}
+    if ctx is not None:
+        info["gl_renderer"] = ctx.info.get("GL_RENDERER", "")
+    for mod in ("mitsuba", "drjit", "moderngl", "numpy"):
+        try:
+            info[mod] = __import__(mod).__version__
+        except Exception:  # noqa: BLE001 - a version string is optional information
+            info[mod] = "unavailable"
+    return info
+
+
+def _renderer_items(registry) -> dict:
+    """The benchmark items renderers declare (:meth:`Renderer.benchmarks`), by name."""
+    items = {}
+    for name in ("progressive", "mitsuba"):
+        for item, fn in registry.get(name).benchmarks().items():
+            items.setdefault(item, fn)
+    return items
+
+
+def run_bench(scene_path: str | Path, *, size: tuple[int, int], frames: int, spp: int, repeats: int,
+              items: tuple[str, ...] = ITEMS, progress: bool = True) -> dict:
+    """Run the chosen benchmark items; returns a JSON-ready dict (figures, skipped items, environment).
+
+    Every renderer is reached through the registry: the items that compare renderers render through
+    the protocol; the items about one renderer's internals are the ones that renderer declares.
+    """
+    from tqdm.auto import tqdm
+
+    from compare.renderers import RenderContext, Registry
+    from compare.report.results import RunSettings
+    from compare.scene.loader import load_scene
+
+    scene = load_scene(scene_path).with_resolution(*size)
+    registry = Registry()
+    own = _renderer_items(registry)
+    figures: list[Figure] = []
+    skipped: dict[str, str] = {}
+    with RenderContext(RunSettings(frames=frames, spp=spp), progress=False) as context:
+        for item in tqdm(items, desc="bench", disable=not progress):
+            try:
+                if item in own:
+                    figures += own[item](scene, frames=frames, spp=spp, repeats=repeats, context=context)
+                elif item == "equal-error":
+                    figures += bench_equal_error(scene, frames=frames, spp=spp, repeats=repeats, registry=registry,
+                                                 context=context)
+                elif item == "frame-budget":
+                    figures += bench_frame_budget(scene, frames=frames, spp=spp, repeats=repeats, registry=registry,
+                                                  context=context)
+                elif item == "peak-rss":
+                    figures += bench_peak_rss(str(scene_path), frames=frames, spp=spp)
+                elif item == "eevee":
+                    figures += bench_eevee(scene, frames=frames, repeats=repeats, registry=registry, context=context)
+                else:
+                    raise ValueError(f"unknown benchmark item {item!r} (known: {', '.join(ITEMS)})")
+            except RuntimeError as exc:
+                skipped[item] = str(exc)
+        from compare.progressive.renderer import _create_gl_context  # noqa: PLC2701 - the context the items used
+
+        env = environment_info(context.resource("gl", _create_gl_context, lambda c: c.release()))
+    return {"schema": 1, "scene": str(scene_path), "size": list(size), "frames": frames, "spp": spp,
+            "repeats": repeats, "figures": [f.to_json() for f in figures], "skipped": skipped, "environment": env}
+
+
+def format_table(result: dict) -> str:
+    """The figures as a plain-text table."""
+    rows = [("figure", "A", "B", "A median", "B median", "A/B")]
+    for f in result["figures"]:
+        unit = f["unit"]
+        fmt = (lambda v: f"{v * 1e3:.2f} ms") if unit == "s" else (lambda v: f"{v:.1f} {unit}")
+        ratio = "inf" if f["ratio"] is None else f"{f['ratio']:.3f}"
+        rows.append((f["name"], f["a"], f["b"], fmt(f["a_median"]), fmt(f["b_median"]), ratio))
+    widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
+    lines = ["  ".join(c.ljust(w) for c, w in zip(r, widths)) for r in rows]
+    lines.insert(1, "  ".join("-" * w for w in widths))
+    for f in result["figures"]:
+        if f["note"]:
+            lines.append(f"  {f['name']}: {f['note']}")
+    for item, why in result["skipped"].items():
+        lines.append(f"  skipped {item}: {why}")
+    return "\n".join(lines)
+
+
+def add_bench_parser(subparsers) -> None:
+    """Register ``compare bench``."""
+    import argparse
+
+    from compare.cli.argtypes import parse_size
+
+    p = subparsers.add_parser("bench", help="speed and memory ratios measured side by side (medians)",
+                              description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--scene", type=Path, default=Path("scenes/cornell.toml"), help="scene file")
+    p.add_argument("--size", type=parse_size, default=(320, 240), help="WIDTHxHEIGHT")
+    p.add_argument("--frames", type=int, default=128, help="progressive frames")
+    p.add_argument("--spp", type=int, default=256, help="reference samples per pixel (equal-error ladder)")
+    p.add_argument("--repeats", type=int, default=5, help="repeated runs per side (medians)")
+    p.add_argument("--only", default=",".join(ITEMS), help=f"comma-separated items of: {', '.join(ITEMS)}")
+    p.add_argument("-o", "--output", type=Path, default=Path("reports/bench.json"), help="JSON output")
+    p.set_defaults(func=_cmd_bench)
+
+
+def _cmd_bench(args) -> int:
+    items = tuple(x.strip() for x in args.only.split(",") if x.strip())
+    bad = [x for x in items if x not in ITEMS]
+    if bad:
+        print(f"compare: error: --only: unknown item(s) {', '.join(bad)}; known: {', '.join(ITEMS)}", file=sys.stderr)
+        return 2
+    from compare.util.files import check_outputs
+
+    check_outputs({"-o": args.output}, inputs=(args.scene,), suffixes={"-o": ".json"})
+    result = run_bench(args.scene, size=args.size, frames=args.frames, spp=args.spp, repeats=args.repeats,
+                       items=items)
+    write_text_atomic(args.output, json.dumps(result, indent=2))
+    print(format_table(result))
+    print(f"written {args.output}")
+    return 0

@@ -1,0 +1,457 @@
+"""The shared glTF 2.0 BRDF as a Mitsuba 3 BSDF plugin (``gltf_pbr``).
+
+Same model, clamps and constants as :mod:`compare.brdf` (read its docstring),
+written with Dr.Jit so that it runs in JIT variants (``llvm_ad_rgb``,
+``cuda_ad_rgb``) and in ``scalar_rgb``. Usage::
+
+    from compare.mitsuba.bsdf import register
+    mi = register()                      # the active variant, or the best one
+    bsdf = mi.load_dict({"type": "gltf_pbr", "base_color": {"type": "rgb", "value": [0.8, 0.1, 0.1]},
+                         "metallic": 0.0, "roughness": 0.5})
+
+Properties (each a float/rgb or a nested texture; defaults are glTF's):
+
+``base_color``  linear base colour, default 1.0
+``metallic``    default 1.0
+``roughness``   perceptual roughness, default 1.0
+``flavour``     string, ``"gltf"`` (default) or ``"cycles"``
+``distribution`` string, flavour ``"cycles"`` only: ``"multi_ggx"`` (default, Blender's
+                Multiscatter GGX) or ``"ggx"`` (single scattering)
+
+Flavours. ``"gltf"`` is the shared BRDF of :mod:`compare.brdf`, the same
+definition as the rasterizer's GLSL. ``"cycles"`` is Blender's Principled BSDF
+v2 as :mod:`compare.blender.export` configures it, the model of
+:mod:`compare.mitsuba.principled` (read its docstring): the same GGX D and
+height-correlated Smith V, but the exact dielectric Fresnel for IOR 1.5 in
+place of Schlick with F0 = 0.04 (metals keep Schlick: Cycles' F82-tint with a
+white tint), and the Lambert lobe weighted by the view-only
+``(1 - m)(1 - E_s(r, cos_i))`` (Cycles' albedo scaling under the specular layer,
+``E_s`` read from :data:`compare.mitsuba.principled.LAYER_S_TABLE`, held in a
+Dr.Jit ``Texture2f`` with Cycles' grid and bilinear interpolation) in place of
+the per-direction ``(1 - m)(1 - F_d(v.h))``; with ``distribution = "multi_ggx"``
+each specular lobe times Multiscatter GGX's view-dependent energy compensation
+and the diffuse's layering albedo times its factor
+(:mod:`compare.brdf.multiscatter`, tables ``ggx_E`` and ``ggx_Eavg`` as
+Dr.Jit textures on Cycles' grid). The ``"gltf"`` flavour traces
+exactly the code it always has, so its results are bit-identical to the
+plugin without the option.
+
+Conventions (Mitsuba's): directions in the local shading frame (z = normal),
+``si.wi`` towards the viewer; ``eval`` returns ``f * cos(theta_o)``. One-sided,
+like Mitsuba's ``diffuse`` and ``roughconductor``: zero when ``wi`` or ``wo`` is
+below the horizon. Components: 0 = diffuse (``DiffuseReflection``), 1 = specular
+(``GlossyReflection``); a ``BSDFContext`` may select either.
+
+Sampling: with probability ``p_spec`` (:func:`compare.brdf.specular_sampling_probability`:
+the Fresnel-weighted specular versus the diffuse albedo estimate at
+``cos(theta_i)``, floored at 0.1 while a diffuse lobe exists; the ``cycles``
+flavour uses its own Fresnel and diffuse weight in the same estimate,
+:func:`compare.mitsuba.principled.specular_sampling_probability`) a GGX visible
+normal is drawn (Dupuy & Benyoub 2023, spherical caps; the distribution of Heitz
+2018) and ``wi`` reflected about it; otherwise a cosine-weighted direction.
+``pdf`` is the mixture ``p_spec pdf_spec + (1 - p_spec) cos/pi`` whichever lobe
+produced the direction (one-sample MIS), and ``sample``'s weight is
+``eval / pdf`` of the returned direction.
+
+Registration is per variant (``mi.register_bsdf`` registers with the variant
+active at the call); :func:`register` is idempotent per variant and builds the
+class from that variant's module, so an instance keeps working after
+``mi.set_variant`` switches to another variant.
+"""
+
+from __future__ import annotations
+
+import sys
+
+from compare.brdf import ALPHA_MIN, COS_MIN, DIELECTRIC_F0, H_LEN2_MIN, SPECULAR_PROB_MIN, multiscatter
+from compare.mitsuba import principled
+
+__all__ = ["FLAVOURS", "PLUGIN_NAME", "evaluate", "register", "registered_variants"]
+
+#: Name under which the plugin is registered (``{"type": PLUGIN_NAME, ...}``).
+PLUGIN_NAME = "gltf_pbr"
+#: Values of the ``flavour`` property: the shared glTF BRDF, Blender's Principled BSDF v2.
+FLAVOURS = ("gltf", "cycles")
+
+_CLASSES: dict[str, type] = {}
+_DENOM_MIN = 1e-30
+
+
+def registered_variants() -> tuple[str, ...]:
+    """Variants in which :data:`PLUGIN_NAME` has been registered by this process."""
+    return tuple(_CLASSES)
+
+
+def register(variant: str | None = None):
+    """Register ``gltf_pbr`` with Mitsuba for a variant and return the ``mitsuba`` module.
+
+    Parameters
+    ----------
+    variant : str, optional
+        Variant to register with (and make active). Default: the variant that
+        is active now, or, when Mitsuba has not been loaded yet, the one
+        :func:`compare.mitsuba.backend.load_mitsuba` picks.
+
+    Returns
+    -------
+    module
+        ``mitsuba``, with the variant active. Calling again is cheap and does
+        not register twice.
+    """
+    from compare.mitsuba.backend import load_mitsuba  # noqa: PLC0415 - Mitsuba is loaded lazily
+
+    if variant is None:
+        loaded = sys.modules.get("mitsuba")
+        current = loaded.variant() if loaded is not None else None
+        variant = current or None
+    mi = load_mitsuba(variant)
+    name = mi.variant()
+    if name not in _CLASSES:
+        import mitsuba  # noqa: PLC0415 - already imported by load_mitsuba
+
+        cls = _make_class(getattr(mitsuba, name), mitsuba)
+        mi.register_bsdf(PLUGIN_NAME, lambda props, _cls=cls: _cls(props))
+        _CLASSES[name] = cls
+    return mi
+
+
+def _make_class(mv, mitsuba):
+    """Build the BSDF class against one variant module ``mv`` (e.g. ``mitsuba.llvm_ad_rgb``).
+
+    Variant-independent enums (``BSDFFlags``, ``ParamFlags``) come from ``mitsuba``.
+    """
+    import drjit as dr  # noqa: PLC0415
+
+    Float = mv.Float
+    UInt32 = mv.UInt32
+    Color3f = mv.Color3f
+    Vector3f = mv.Vector3f
+    Flags = mitsuba.BSDFFlags
+    ParamFlags = mitsuba.ParamFlags
+    diffuse_flags = Flags.DiffuseReflection | Flags.FrontSide
+    glossy_flags = Flags.GlossyReflection | Flags.FrontSide
+
+    def schlick_weight(v_dot_h):
+        x = dr.clip(1.0 - v_dot_h, 0.0, 1.0)
+        x2 = x * x
+        return x2 * x2 * x
+
+    def mean3(c):
+        return (c[0] + c[1] + c[2]) * (1.0 / 3.0)
+
+    eta = principled.IOR
+
+    def fresnel_dielectric(c):
+        """Exact dielectric Fresnel at IOR 1.5 for c = cos in [0, 1] (no total internal reflection)."""
+        g = dr.sqrt(eta * eta - 1.0 + c * c)
+        a = (g - c) / (g + c)
+        b = (c * (g + c) - 1.0) / (c * (g - c) + 1.0)
+        return 0.5 * a * a * (1.0 + b * b)
+
+    layer = {}
+
+    def make_layer_texture():
+        """The S table as a Texture2f (row = cos_i, column = roughness), once per variant, at load
+        time (never while a kernel is being traced)."""
+        if "texture" not in layer:
+            table = principled.LAYER_S_TABLE.astype("float32")[..., None]
+            # use_accel=False: CUDA's texture units interpolate with 8-bit weights; the software
+            # path is float32 on every backend.
+            layer["texture"] = mv.Texture2f(mv.TensorXf(table), use_accel=False,
+                                            filter_mode=dr.FilterMode.Linear, wrap_mode=dr.WrapMode.Clamp)
+
+    def make_energy_textures():
+        """Cycles' ggx_E (2D: row = cos_i, column = roughness) and ggx_Eavg (1D) as textures."""
+        if "e" not in layer:
+            kw = dict(use_accel=False, filter_mode=dr.FilterMode.Linear, wrap_mode=dr.WrapMode.Clamp)
+            layer["e"] = mv.Texture2f(mv.TensorXf(multiscatter.GGX_E_TABLE.astype("float32")[..., None]), **kw)
+            layer["e_avg"] = mv.Texture1f(mv.TensorXf(multiscatter.GGX_EAVG_TABLE.astype("float32")[..., None]),
+                                          **kw)
+
+    fss_dielectric = principled.FSS_DIELECTRIC
+
+    def compensation(c, r, cos_i):
+        """(K_m, K_d, L_d) of compare.mitsuba.principled: Multiscatter GGX's lobe scales and layer factor."""
+        n = multiscatter.ENERGY_TABLE_SIZE
+        u = (dr.clip(r, 0.0, 1.0) * (n - 1) + 0.5) * (1.0 / n)
+        e = layer["e"].eval(mv.Point2f(u, (dr.clip(cos_i, 0.0, 1.0) * (n - 1) + 0.5) * (1.0 / n)))[0]
+        e_avg = layer["e_avg"].eval(mv.Point1f(u))[0]
+        missing = (1.0 - e) / e
+
+        def f_ms(fss):
+            return fss * e_avg / (1.0 - fss * (1.0 - e_avg))
+
+        cc = dr.clip(c, 0.0, 1.0)
+        fms_d = f_ms(fss_dielectric)
+        return 1.0 + f_ms(cc + (1.0 - cc) * (1.0 / 21.0)) * missing, 1.0 + fms_d * missing, e + fms_d * (1.0 - e)
+
+    def layer_albedo(r, cos_i):
+        """E_s(r, cos_i) = F0 + (1 - F0) S: bilinear in Cycles' grid (texel i at coordinate i/15)."""
+        n = principled.LAYER_TABLE_SIZE
+        pos = mv.Point2f((dr.clip(r, 0.0, 1.0) * (n - 1) + 0.5) * (1.0 / n),
+                         (dr.clip(cos_i, 0.0, 1.0) * (n - 1) + 0.5) * (1.0 / n))
+        s = layer["texture"].eval(pos)[0]
+        return DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * s
+
+    class GltfPbrBSDF(mv.BSDF):
+        """glTF 2.0 metallic-roughness BSDF (see :mod:`compare.mitsuba.bsdf`)."""
+
+        def __init__(self, props):
+            mv.BSDF.__init__(self, props)
+            self.base_color = props.get_texture("base_color", 1.0)
+            self.metallic = props.get_texture("metallic", 1.0)
+            self.roughness = props.get_texture("roughness", 1.0)
+            self.flavour = props.get("flavour", "gltf")
+            if self.flavour not in FLAVOURS:
+                raise ValueError(f"{PLUGIN_NAME}: flavour must be one of {', '.join(FLAVOURS)}, "
+                                 f"got {self.flavour!r}")
+            self.distribution = props.get("distribution", multiscatter.DEFAULT_DISTRIBUTION)
+            if self.flavour != "cycles" and "distribution" in props:
+                raise ValueError(f"{PLUGIN_NAME}: distribution applies to flavour 'cycles' only "
+                                 f"(flavour {self.flavour!r} is glTF's single-scattering GGX)")
+            if self.distribution not in multiscatter.DISTRIBUTIONS:
+                raise ValueError(f"{PLUGIN_NAME}: distribution must be one of "
+                                 f"{', '.join(multiscatter.DISTRIBUTIONS)}, got {self.distribution!r}")
+            self.multiscatter = self.flavour == "cycles" and self.distribution == "multi_ggx"
+            if self.flavour == "cycles":
+                make_layer_texture()
+            if self.multiscatter:
+                make_energy_textures()
+            self.m_components = [diffuse_flags, glossy_flags]
+            self.m_flags = diffuse_flags | glossy_flags
+
+        # -- material parameters at a surface point --------------------------------
+        def _params(self, si, active):
+            c = self.base_color.eval(si, active)
+            m = dr.clip(self.metallic.eval_1(si, active), 0.0, 1.0)
+            r = dr.clip(self.roughness.eval_1(si, active), 0.0, 1.0)
+            alpha = dr.maximum(r * r, ALPHA_MIN)
+            return c, m, alpha, r
+
+        @staticmethod
+        def _lobes_enabled(ctx):
+            return (ctx.is_enabled(Flags.DiffuseReflection, 0),
+                    ctx.is_enabled(Flags.GlossyReflection, 1))
+
+        def _lobe_probabilities(self, cos_i, c, m, r, has_diffuse, has_specular):
+            """(p_spec, p_diff) of compare.brdf.specular_sampling_probability (flavour ``cycles``:
+            compare.mitsuba.principled.specular_sampling_probability); p_diff is computed directly
+            (not as 1 - p_spec), which keeps it accurate in float32."""
+            if not has_specular:
+                return Float(0.0), Float(1.0)
+            if not has_diffuse:
+                return Float(1.0), Float(0.0)
+            ci = dr.clip(cos_i, 0.0, 1.0)
+            w = schlick_weight(ci)
+            if self.flavour == "cycles":
+                cc = dr.clip(c, 0.0, 1.0)
+                if self.multiscatter:
+                    k_m, k_d, l_d = compensation(c, r, ci)
+                    w_s = mean3((cc + (1.0 - cc) * w) * k_m) * m + fresnel_dielectric(ci) * k_d * (1.0 - m)
+                    w_d = (1.0 - m) * dr.clip(1.0 - layer_albedo(r, ci) * l_d, 0.0, 1.0) * mean3(c)
+                else:
+                    w_s = mean3(cc + (1.0 - cc) * w) * m + fresnel_dielectric(ci) * (1.0 - m)
+                    w_d = (1.0 - m) * dr.clip(1.0 - layer_albedo(r, ci), 0.0, 1.0) * mean3(c)
+            else:
+                f0 = DIELECTRIC_F0 + (c - DIELECTRIC_F0) * m
+                w_s = mean3(f0 + (1.0 - f0) * w)
+                w_d = (1.0 - m) * (1.0 - (DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * w)) * mean3(c)
+            inv_total = 1.0 / dr.select(w_s + w_d > 0.0, w_s + w_d, 1.0)
+            has_d = w_d > 0.0
+            p_spec = dr.select(has_d, dr.maximum(w_s * inv_total, SPECULAR_PROB_MIN), 1.0)
+            p_diff = dr.select(has_d, dr.minimum(w_d * inv_total, 1.0 - SPECULAR_PROB_MIN), 0.0)
+            return p_spec, p_diff
+
+        # -- the model: value (times cos_o) and pdf of one direction ------------------
+        def _eval_pdf(self, ctx, si, wo, active):
+            has_d, has_s = self._lobes_enabled(ctx)
+            wi = si.wi
+            cos_i = wi.z
+            cos_o = wo.z
+            hu = wi + wo
+            len2 = dr.dot(hu, hu)
+            valid = active & (cos_i > 0.0) & (cos_o > 0.0) & (len2 > H_LEN2_MIN)
+            c, m, alpha, r = self._params(si, valid)
+
+            h = hu * dr.rsqrt(dr.maximum(len2, H_LEN2_MIN))
+            nh = dr.clip(h.z, 0.0, 1.0)
+            vh = dr.clip(dr.dot(wi, h), 0.0, 1.0)
+            sin2 = dr.fma(h.x, h.x, h.y * h.y)
+            a = nh * alpha
+            k = alpha / dr.maximum(sin2 + a * a, _DENOM_MIN)
+            d = k * k * (1.0 / dr.pi)
+
+            a2 = alpha * alpha
+            nv = dr.maximum(cos_i, COS_MIN)
+            nl = dr.maximum(cos_o, COS_MIN)
+            vis = 0.5 / (nl * dr.sqrt(nv * nv * (1.0 - a2) + a2)
+                         + nv * dr.sqrt(nl * nl * (1.0 - a2) + a2))
+
+            w = schlick_weight(vh)
+            if self.flavour == "cycles" and self.multiscatter:
+                cc = dr.clip(c, 0.0, 1.0)
+                k_m, k_d, l_d = compensation(c, r, cos_i)
+                f = (cc + (1.0 - cc) * w) * k_m * m + fresnel_dielectric(vh) * k_d * (1.0 - m)
+                w_diff = (1.0 - m) * dr.clip(1.0 - layer_albedo(r, cos_i) * l_d, 0.0, 1.0)
+            elif self.flavour == "cycles":
+                cc = dr.clip(c, 0.0, 1.0)
+                f = (cc + (1.0 - cc) * w) * m + fresnel_dielectric(vh) * (1.0 - m)
+                w_diff = (1.0 - m) * dr.clip(1.0 - layer_albedo(r, cos_i), 0.0, 1.0)
+            else:
+                f0 = DIELECTRIC_F0 + (c - DIELECTRIC_F0) * m
+                f = f0 + (1.0 - f0) * w
+                fd = DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * w
+                w_diff = (1.0 - m) * (1.0 - fd)
+
+            value = Color3f(0.0)
+            if has_s:
+                value += f * (d * vis)
+            if has_d:
+                value += c * (w_diff * (1.0 / dr.pi))
+            value = value * dr.maximum(cos_o, 0.0)
+
+            ci = dr.maximum(cos_i, 0.0)
+            pdf_spec = d / (2.0 * (ci + dr.sqrt(ci * ci * (1.0 - a2) + a2)))
+            pdf_diff = dr.maximum(cos_o, 0.0) * (1.0 / dr.pi)
+            p_spec, p_diff = self._lobe_probabilities(cos_i, c, m, r, has_d, has_s)
+            pdf = p_spec * pdf_spec + p_diff * pdf_diff
+
+            value = dr.select(valid, value, Color3f(0.0))
+            pdf = dr.select(valid, pdf, 0.0)
+            return value, pdf
+
+        def eval(self, ctx, si, wo, active=True):
+            value, _ = self._eval_pdf(ctx, si, wo, active)
+            return value
+
+        def pdf(self, ctx, si, wo, active=True):
+            _, pdf = self._eval_pdf(ctx, si, wo, active)
+            return pdf
+
+        def eval_pdf(self, ctx, si, wo, active=True):
+            return self._eval_pdf(ctx, si, wo, active)
+
+        def sample(self, ctx, si, sample1, sample2, active=True):
+            has_d, has_s = self._lobes_enabled(ctx)
+            wi = si.wi
+            cos_i = wi.z
+            active = active & (cos_i > 0.0)
+            bs = dr.zeros(mv.BSDFSample3f)
+            if not (has_d or has_s):
+                return bs, Color3f(0.0)
+            c, m, alpha, r = self._params(si, active)
+            p_spec, _ = self._lobe_probabilities(cos_i, c, m, r, has_d, has_s)
+            pick_spec = sample1 < p_spec
+
+            # specular: reflect wi about a GGX visible normal (spherical caps)
+            ws = dr.normalize(Vector3f(wi.x * alpha, wi.y * alpha, wi.z))
+            sin_phi, cos_phi = dr.sincos(2.0 * dr.pi * sample2.x)
+            z = dr.fma(1.0 - sample2.y, 1.0 + ws.z, -ws.z)
+            sin_t = dr.sqrt(dr.clip(1.0 - z * z, 0.0, 1.0))
+            hs = Vector3f(sin_t * cos_phi + ws.x, sin_t * sin_phi + ws.y, z + ws.z)
+            hv = Vector3f(hs.x * alpha, hs.y * alpha, hs.z)
+            hv = hv * dr.rsqrt(dr.maximum(dr.dot(hv, hv), _DENOM_MIN))
+            wo_spec = 2.0 * dr.dot(wi, hv) * hv - wi
+            # diffuse: cosine-weighted hemisphere
+            wo_diff = mv.warp.square_to_cosine_hemisphere(sample2)
+
+            wo = dr.select(pick_spec, wo_spec, wo_diff)
+            value, pdf = self._eval_pdf(ctx, si, wo, active)
+            ok = active & (wo.z > 0.0) & (pdf > 0.0)
+
+            bs.wo = wo
+            bs.pdf = dr.select(ok, pdf, 0.0)
+            bs.eta = 1.0
+            bs.sampled_component = dr.select(pick_spec, UInt32(1), UInt32(0))
+            bs.sampled_type = dr.select(pick_spec, UInt32(+Flags.GlossyReflection),
+                                        UInt32(+Flags.DiffuseReflection))
+            weight = dr.select(ok, value / dr.select(ok, pdf, 1.0), Color3f(0.0))
+            return bs, weight
+
+        def eval_diffuse_reflectance(self, si, active=True):
+            c, m, _, _ = self._params(si, active)
+            return c * (1.0 - m)
+
+        def traverse(self, callback):
+            callback.put("base_color", self.base_color, ParamFlags.Differentiable)
+            callback.put("metallic", self.metallic, ParamFlags.Differentiable)
+            callback.put("roughness", self.roughness,
+                         ParamFlags.Differentiable | ParamFlags.Discontinuous)
+
+        def parameters_changed(self, keys=()):
+            pass  # nothing is precomputed from the textures
+
+        def to_string(self):
+            dist = f"  distribution = {self.distribution},\n" if self.flavour == "cycles" else ""
+            return (f"GltfPbrBSDF[\n  flavour = {self.flavour},\n{dist}  base_color = {self.base_color},\n"
+                    f"  metallic = {self.metallic},\n  roughness = {self.roughness}\n]")
+
+    return GltfPbrBSDF
+
+
+def evaluate(wi, wo, base_color, metallic, roughness, *, variant: str | None = None, flavour: str = "gltf",
+             distribution: str | None = None):
+    """Evaluate the plugin's ``eval_pdf`` for per-direction materials; numpy in, numpy out.
+
+    The materials vary per row: they are passed as N x 1 ``bitmap`` textures
+    (nearest filtering, raw values) and each row's ``si.uv`` points at its texel,
+    so a JIT variant evaluates all rows in one call. ``scalar_rgb`` loops.
+
+    Parameters
+    ----------
+    wi, wo : array_like, shape (N, 3)
+        Local-frame directions (z = normal); ``wi`` towards the viewer.
+    base_color : array_like, shape (N, 3)
+    metallic, roughness : array_like, shape (N,)
+    variant : str, optional
+        Passed to :func:`register`.
+    flavour : str
+        The plugin's ``flavour`` (:data:`FLAVOURS`).
+    distribution : str, optional
+        The plugin's ``distribution`` (flavour ``cycles``); None leaves it unset (the default).
+
+    Returns
+    -------
+    value : ndarray, shape (N, 3)
+        ``f * cos(theta_o)`` as Mitsuba returns it (float32 values, as float64).
+    pdf : ndarray, shape (N,)
+    """
+    import numpy as np  # noqa: PLC0415
+
+    mi = register(variant)
+    import drjit as dr  # noqa: PLC0415
+
+    wi = np.asarray(wi, dtype=np.float32).reshape(-1, 3)
+    wo = np.asarray(wo, dtype=np.float32).reshape(-1, 3)
+    count = len(wi)
+    base = np.broadcast_to(np.asarray(base_color, dtype=np.float32), (count, 3))
+    met = np.broadcast_to(np.asarray(metallic, dtype=np.float32), (count,))
+    rough = np.broadcast_to(np.asarray(roughness, dtype=np.float32), (count,))
+
+    def bitmap(data):
+        return {"type": "bitmap", "data": mi.TensorXf(np.ascontiguousarray(data.reshape(1, count, -1))),
+                "raw": True, "filter_type": "nearest", "wrap_mode": "clamp"}
+
+    props = {"type": PLUGIN_NAME, "base_color": bitmap(base), "flavour": flavour,
+             "metallic": bitmap(met), "roughness": bitmap(rough)}
+    if distribution is not None:
+        props["distribution"] = distribution
+    bsdf = mi.load_dict(props)
+    ctx = mi.BSDFContext()
+    u = (np.arange(count, dtype=np.float64) + 0.5) / count
+    if dr.is_jit_v(mi.Float):
+        si = dr.zeros(mi.SurfaceInteraction3f, count)
+        si.wi = mi.Vector3f(wi.T)
+        si.uv = mi.Point2f(mi.Float(u), mi.Float(np.full(count, 0.5)))
+        value, pdf = bsdf.eval_pdf(ctx, si, mi.Vector3f(wo.T))
+        return np.array(value, dtype=np.float64).T.copy(), np.array(pdf, dtype=np.float64)
+    values = np.zeros((count, 3))
+    pdfs = np.zeros(count)
+    si = dr.zeros(mi.SurfaceInteraction3f)
+    for i in range(count):
+        si.wi = mi.Vector3f(*map(float, wi[i]))
+        si.uv = mi.Point2f(float(u[i]), 0.5)
+        value, pdf = bsdf.eval_pdf(ctx, si, mi.Vector3f(*map(float, wo[i])))
+        values[i] = [value[0], value[1], value[2]]
+        pdfs[i] = pdf
+    return values, pdfs

@@ -1,0 +1,137 @@
+"""The Mitsuba 3 path tracer (:mod:`compare.mitsuba.reference`) as a renderer of the registry: ``mitsuba``.
+
+Checkpoints may be any ascending spp ladder
+(:meth:`compare.mitsuba.reference.ReferenceRenderer.iter_checkpoints`: a ground truth rendered
+with one checkpoint reuses the passes of a convergence ladder and the reference cache).
+"""
+
+from __future__ import annotations
+
+from compare.renderers.base import Checkpoint, RenderContext, Renderer, Rendering
+
+__all__ = ["MitsubaRenderer", "bench_wrapper_overhead"]
+
+
+#: Bytes per pixel a Mitsuba render holds at once: its film (RGBA and weight, float32, and the
+#: developed copy), the float64 accumulation of passes, and the float32 images handed on.
+FILM_BYTES_PER_PIXEL = 96
+
+
+def _available_memory() -> int:
+    """Bytes this machine can still give (MemAvailable), or 0 if unknown."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return 0
+
+
+def check_film_memory(scene) -> None:
+    """Refuse a resolution whose film and accumulation do not fit in the memory available."""
+    from compare.util.errors import SceneError
+
+    w, h = scene.camera.resolution
+    need, have = w * h * FILM_BYTES_PER_PIXEL, _available_memory()
+    if have and need > 0.9 * have:
+        raise SceneError(f"{scene.path}: camera.resolution: {w}x{h} needs about {need / 2**30:.1f} GiB for "
+                         f"Mitsuba's film and the accumulation of its passes; {have / 2**30:.1f} GiB of memory "
+                         "is available here")
+
+
+class MitsubaRenderer(Renderer):
+    """Mitsuba 3 (the best available variant), the suite's reference path tracer."""
+
+    name = "mitsuba"
+    unit = "spp"
+
+    @property
+    def label(self) -> str:
+        from compare.mitsuba.backend import load_mitsuba
+        from compare.util.errors import MissingComponentError
+
+        try:
+            return f"Mitsuba path tracer ({load_mitsuba(None).variant()})"
+        except MissingComponentError:
+            return "Mitsuba path tracer"
+
+    def available(self) -> tuple[bool, str]:
+        from compare.mitsuba.backend import load_mitsuba
+        from compare.util.errors import MissingComponentError
+
+        try:
+            load_mitsuba(None)
+        except MissingComponentError as exc:
+            return False, str(exc)
+        return True, ""
+
+    def steps(self, settings) -> int:
+        return int(settings.spp)
+
+    def _reference(self, scene, context: RenderContext):
+        from compare.mitsuba.reference import ReferenceRenderer
+
+        opts = context.options
+        return ReferenceRenderer(scene, materials=context.settings.materials, variant=opts.get("variant"),
+                                 max_depth=opts.get("max_depth"), cache_dir=context.cache_dir,
+                                 progress=context.progress)
+
+    def preflight(self, scene, context: RenderContext) -> None:
+        check_film_memory(scene)
+
+    def key(self, scene, settings) -> dict:
+        from compare.mitsuba.reference import ReferenceRenderer
+
+        # ReferenceRenderer.settings() is the reference cache's key: every setting that changes pixels.
+        return ReferenceRenderer(scene, materials=settings.materials, cache_dir=False, progress=False).settings()
+
+    def render(self, scene, *, steps: int, checkpoints: list[int], seed: int, context: RenderContext) -> Rendering:
+        rr = self._reference(scene, context)
+        out = [Checkpoint(c.spp, c.seconds, c.image) for c in rr.iter_checkpoints(checkpoints, seed)]
+        meta = {"variant": rr.variant, "seed": seed, **rr.settings()}
+        return Rendering(out, float(rr.load_seconds), meta, variance=rr.variance)
+
+    def render_layers(self, scene, *, steps: int, seed: int, context: RenderContext) -> dict:
+        """The per-effect ground truths (compare.mitsuba.layers) at the ground truth's spp."""
+        _, layers, _ = self._reference(scene, context).render_layers(steps, seed)
+        return layers
+
+    def facts(self, metadata: dict) -> dict[str, str]:
+        v = metadata.get("variant")
+        return {"mitsuba_variant": v} if isinstance(v, str) else {}
+
+    def benchmarks(self) -> dict:
+        return {"wrapper-overhead": _bench_wrapper_overhead}
+
+
+def _bench_wrapper_overhead(scene, *, frames: int, spp: int, repeats: int, context) -> list:
+    return bench_wrapper_overhead(scene, spp=min(spp, 64), repeats=repeats)
+
+
+def bench_wrapper_overhead(scene, *, spp: int, repeats: int) -> list:
+    """ReferenceRenderer.render_chunk against a bare mi.render of the same dictionary."""
+    import time
+
+    import numpy as np
+
+    from compare.util.figures import Figure, median as _median
+    from compare.mitsuba.scene_dict import scene_dict
+    from compare.mitsuba.reference import ReferenceRenderer
+
+    r = ReferenceRenderer(scene, cache_dir=False, progress=False)
+    mi = r.mi
+    bare_scene = mi.load_dict(scene_dict(scene, spp=1))
+    r.render_chunk(spp, 0)  # JIT both once
+    np.array(mi.render(bare_scene, spp=spp, seed=0))
+    wrapped, bare = [], []
+    for k in range(repeats):
+        t0 = time.perf_counter()
+        r.render_chunk(spp, 1000 + k)
+        wrapped.append(time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        np.array(mi.render(bare_scene, spp=spp, seed=2000 + k))
+        bare.append(time.perf_counter() - t0)
+    return [Figure("wrapper-overhead", "ReferenceRenderer pass", "bare mi.render", _median(wrapped), _median(bare),
+                   "s", repeats, f"{spp} spp, cache off", wrapped, bare)]

@@ -1,0 +1,322 @@
+"""Translate a :class:`compare.scene.loader.Scene` into a Mitsuba 3 scene dictionary.
+
+Four material modes:
+
+``shared``
+    the suite's own glTF metallic-roughness BSDF plugin (:mod:`compare.brdf`),
+    the same definition the rasterizer evaluates in GLSL, so that
+    reference-versus-rasterizer error measures lighting, not materials.
+``cycles``
+    the same plugin with ``flavour = "cycles"``: Blender's Principled BSDF v2
+    as :mod:`compare.blender.export` sets it up (:mod:`compare.mitsuba.principled`),
+    for references meant to look like Blender Cycles, with each material's
+    ``distribution`` (Blender's default Multiscatter GGX unless the scene
+    says ``ggx``; :mod:`compare.brdf.multiscatter`).
+``cycles-ggx``
+    ``cycles`` with every material's distribution GGX (single scattering): the
+    counterpart of Blender renders with ``distribution = 'GGX'`` (``cycles:ggx``).
+``diffuse``
+    Lambert only (reflectance = base colour), for validation against closed
+    forms such as the white furnace, where any specular lobe would get in the way.
+
+Maps: base colour (sRGB), metallic-roughness (split into its B and G channels),
+emission (sRGB, times the emission), normal (under Mitsuba's ``normalmap``, its y
+negated: :data:`NORMALMAP_FLIP_Y`), each with the material's texture transform,
+wrap and filter (:func:`bitmap_dict`). An occlusion map is left out: a path
+tracer computes the occlusion it stands for. An alpha mask puts the BSDF under
+Mitsuba's ``mask`` (a null interaction where the surface is a hole).
+
+The ``cycles`` mapping
+----------------------
+Base colour, metallic and roughness go in unchanged (Blender squares the
+roughness like glTF). The model is what Cycles evaluates for the exporter's
+Principled node (IOR 1.5, Specular IOR Level 0.5, white Specular Tint, Diffuse
+Roughness 0, ``distribution`` GGX or Multiscatter GGX): GGX with height-correlated Smith
+masking (as ``shared``); the exact dielectric Fresnel of IOR 1.5 on the
+dielectric specular layer (``shared``: Schlick, F0 = 0.04), Schlick with
+F0 = base colour on the metal layer (Cycles' F82-tint with a white tint); and
+a Lambert lobe ``(1 - m)(1 - E_s(r, n.v)) c / pi`` under the specular layer,
+where ``E_s`` is Cycles' own albedo estimate of that layer, tabulated as
+Cycles tabulates it (``ggx_gen_schlick_ior_s``) and depending on the view
+direction only (``shared``: ``(1 - m)(1 - F_d(v.h))`` per light direction);
+with Multiscatter GGX, each specular lobe and that layer albedo are scaled by
+Cycles' energy compensation (:mod:`compare.brdf.multiscatter`).
+Until this mode used the plugin it was Mitsuba's ``principled`` BSDF (Disney
+2015: Disney diffuse with retro-reflection, Schlick Fresnel, no layering), which
+made the Cornell box 18-47 % brighter per region than Cycles.
+
+What remains different from Cycles: the roughness floor (alpha >= 0.002025,
+roughness 0.045; Cycles keeps roughness down to ~0.004 glossy, below that a
+mirror), the float32 guards of V, Cycles' bending of shading normals for
+specular reflection on smooth-shaded meshes (``ensure_valid_specular_reflection``),
+Monte Carlo noise in the two tabulations of ``E_s`` (~3e-4), and sampling
+(lobe choice, light sampling, Sobol versus Mitsuba's samplers), which changes
+noise, not the expectation. Measured with :func:`compare.blender.likeness.cycles_likeness`
+against Cycles with the same distribution: see ``docs/cycles-likeness.md``.
+(The single-scattering model alone, against Blender renders that set GGX:
+Cornell box 64x48 at 64 spp 1.06, kitchen and car at 96x72 1.11 and 1.39; at
+1024/512 spp noise-matched 1.00, 1.02 and 1.06. Variants measured and dropped
+then: Schlick in place of the exact Fresnel, the specular lobe's true
+directional albedo in place of Cycles' table, glTF's per-direction
+``1 - F(v.h)``, each 1-8 % off in region means.)
+
+:data:`MATERIAL_MODELS` names the model behind a mode whose meaning changed
+after it was introduced; the reference's cache key includes it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from compare.scene.loader import AreaLight, Material, Scene
+
+MATERIAL_MODES = ("shared", "cycles", "cycles-ggx", "diffuse")
+#: BSDF plugin name of the shared BRDF (registered by compare.mitsuba.bsdf).
+SHARED_BSDF = "gltf_pbr"
+#: Model identifiers of modes whose model changed (part of the reference's cache key).
+MATERIAL_MODELS = {"cycles": "gltf_pbr:cycles:per-material-distribution", "cycles-ggx": "gltf_pbr:cycles"}
+#: Modes that model Blender's Principled BSDF, with the distribution they force (None: each material's).
+PRINCIPLED_MODES = {"cycles": None, "cycles-ggx": "ggx"}
+
+
+#: Scenes whose extent (the diagonal of everything the camera, lights and meshes span) is below
+#: this are rendered scaled up by a power of ten (:func:`world_scale`).
+MIN_EXTENT = 0.1
+
+
+def world_scale(scene: Scene) -> float:
+    """The factor by which the reference renders ``scene``'s world (1 for most scenes).
+
+    Mitsuba 3 offsets secondary rays by about (1 + max|p|)·8.9e-5 scene units, a
+    fixed floor that at millimetre scale is a fair part of the geometry (contact
+    shadows shrink, light leaks: +2.4 % mean on ``scenes/stress/scale_1e-3.toml``).
+    Radiance does not change when a whole scene (camera, lights, meshes) is scaled,
+    so a scene smaller than :data:`MIN_EXTENT` is rendered scaled by the power of
+    ten that brings its extent to [1, 10).
+    """
+    pts = np.array([*scene.extent(), scene.camera.position, scene.camera.target], dtype=np.float64)
+    pts = pts[np.isfinite(pts).all(axis=1)]  # a scene without meshes has infinite mesh bounds
+    extent = float(np.linalg.norm(pts.max(0) - pts.min(0)))
+    if not (np.isfinite(extent) and 0 < extent < MIN_EXTENT):
+        return 1.0
+    return float(10.0 ** math.ceil(-math.log10(extent)))
+
+
+def sensor_dict(scene: Scene, *, spp: int, sampler: str = "independent", scale: float = 1.0) -> dict:
+    """Pinhole sensor with a box pixel filter (pixel (i, j) covers [i, i+1)×[j, j+1)); positions × ``scale``."""
+    import mitsuba as mi
+
+    cam = scene.camera
+    origin = [scale * x for x in cam.position]
+    target = [scale * x for x in cam.target]
+    return {
+        "type": "perspective",
+        "fov": cam.fov,
+        "fov_axis": "y",
+        "near_clip": 1e-4,
+        "far_clip": 1e6,
+        "to_world": mi.ScalarTransform4f().look_at(origin=origin, target=target, up=list(cam.up)),
+        "film": {
+            "type": "hdrfilm",
+            "width": cam.width,
+            "height": cam.height,
+            "pixel_format": "rgb",
+            "component_format": "float32",
+            # A box filter is what averaging uniformly jittered frames gives the rasterizer.
+            "rfilter": {"type": "box"},
+        },
+        "sampler": {"type": sampler, "sample_count": int(spp)},
+    }
+
+
+def bitmap_dict(mat: Material, filename, *, raw: bool) -> dict:
+    """A Mitsuba ``bitmap`` of one of ``mat``'s maps, with its texture transform and sampler settings."""
+    import mitsuba as mi
+
+    d = {"type": "bitmap", "filename": str(filename), "raw": raw, "wrap_mode": mat.texture_wrap,
+         "filter_type": "nearest" if mat.texture_filter == "nearest" else "bilinear"}
+    if mat.has_uv_transform:
+        d["to_uv"] = mi.ScalarTransform3f(mat.uv_transform().tolist())
+    return d
+
+
+#: Mitsuba's normalmap frame: its second axis is n × dp/du, which points down the image (towards
+#: increasing v), where glTF's normal maps have +Y up: their y is negated (tests/test_textures.py
+#: checks a tilted normal map against tilted geometry).
+NORMALMAP_FLIP_Y = True
+
+
+def _normal_mapped(mat: Material, bsdf: dict) -> dict:
+    """``bsdf`` under Mitsuba's ``normalmap`` when the material has a normal map."""
+    if mat.normal_texture is None:
+        return bsdf
+    from compare.scene.textures import normal_map
+
+    return {"type": "normalmap", "bsdf": bsdf,
+            "normalmap": bitmap_dict(mat, normal_map(mat.normal_texture, mat.normal_scale, flip_y=NORMALMAP_FLIP_Y),
+                                     raw=True)}
+
+
+def _masked(mat: Material, bsdf: dict) -> dict:
+    """``bsdf`` under Mitsuba's ``mask`` when the material is alpha-masked: the opacity is glTF's test,
+    coverage >= cutoff, per texel (:func:`compare.scene.textures.opacity_map`). A hole lets camera rays, light
+    paths and shadows through: ``mask`` is a null interaction, which Mitsuba's path tracer continues."""
+    if not mat.is_masked:
+        return bsdf
+    if mat.base_color_texture is None:
+        opacity: dict | float = float(mat.alpha >= mat.alpha_cutoff)
+    else:
+        from compare.scene.textures import opacity_map
+
+        opacity = bitmap_dict(mat, opacity_map(mat.base_color_texture, mat.alpha, mat.alpha_cutoff), raw=True)
+    return {"type": "mask", "opacity": opacity, "bsdf": bsdf}
+
+
+def material_dict(mat: Material, mode: str) -> dict:
+    """BSDF dictionary for one material in ``mode`` (one of :data:`MATERIAL_MODES`)."""
+    return _masked(mat, _surface_dict(mat, mode))
+
+
+def _surface_dict(mat: Material, mode: str) -> dict:
+    base = (bitmap_dict(mat, mat.base_color_texture, raw=False)
+            if mat.base_color_texture else {"type": "rgb", "value": list(mat.base_color)})
+    metallic, roughness = mat.metallic, mat.roughness
+    if mat.metallic_roughness_texture is not None and mode != "diffuse":
+        from compare.scene.textures import split_metallic_roughness
+
+        # glTF's channels (B = metallic, G = roughness) as two maps; like every map, they replace the factors.
+        m_file, r_file = split_metallic_roughness(mat.metallic_roughness_texture)
+        metallic = bitmap_dict(mat, m_file, raw=True)
+        roughness = bitmap_dict(mat, r_file, raw=True)
+    if mode == "shared":
+        from compare.mitsuba.bsdf import register
+
+        register()
+        return _normal_mapped(mat, {"type": SHARED_BSDF, "base_color": base, "metallic": metallic,
+                                    "roughness": roughness})
+    if mode in PRINCIPLED_MODES:
+        from compare.mitsuba.bsdf import register
+
+        register()
+        return _normal_mapped(mat, {"type": SHARED_BSDF, "flavour": "cycles", "base_color": base,
+                                    "metallic": metallic, "roughness": roughness,
+                                    "distribution": PRINCIPLED_MODES[mode] or mat.distribution})
+    if mode == "diffuse":
+        return _normal_mapped(mat, {"type": "diffuse", "reflectance": base})
+    raise ValueError(f"materials: expected one of {', '.join(MATERIAL_MODES)}, got {mode!r}")
+
+
+def light_dict(light: AreaLight, scale: float = 1.0) -> dict:
+    """A one-sided rectangle emitter; Mitsuba's rectangle is [-1, 1]² at z = 0 with normal +Z.
+    Positions and sizes × ``scale`` (its radiance does not change)."""
+    import mitsuba as mi
+
+    u = np.asarray(light.tangent) * light.size[0] / 2 * scale
+    v = light.bitangent * light.size[1] / 2 * scale
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = u, v, light.normal, np.asarray(light.center) * scale
+    return {
+        "type": "rectangle",
+        "to_world": mi.ScalarTransform4f(m.tolist()),
+        "emitter": {"type": "area", "radiance": {"type": "rgb", "value": list(light.radiance)}},
+        # The emitter itself reflects nothing: the rasterizer shows lights as pure emission too.
+        "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0.0, 0.0, 0.0]}},
+    }
+
+
+def environment_dict(scene: Scene) -> dict | None:
+    """Mitsuba emitter for the scene's environment, or None.
+
+    A constant environment is Mitsuba's ``constant`` emitter; every map (a file,
+    a procedural map generated into the cache, a Blender studio light; see
+    :func:`compare.scene.environments.environment_path`) is an ``envmap`` with
+    ``scale = intensity`` and ``to_world`` = rotation about +Y. The
+    orientation convention of :mod:`compare.scene.environments` *is* the envmap's,
+    so the file is passed unchanged, but for the compression noise below zero that
+    the rasterizer sets to zero (:func:`compare.scene.environments.environment_file`): both
+    renderers see the same radiance, and a map with real negative radiance is refused.
+    """
+    env = scene.environment
+    if env is None:
+        return None
+    if env.constant is not None:
+        return {"type": "constant", "radiance": {"type": "rgb", "value": [c * env.intensity for c in env.constant]}}
+    import mitsuba as mi
+
+    from compare.scene.environments import environment_file
+
+    return {
+        "type": "envmap",
+        "filename": str(environment_file(env)),
+        "scale": env.intensity,
+        "to_world": mi.ScalarTransform4f().rotate(axis=[0, 1, 0], angle=env.rotation),
+    }
+
+
+def mesh_object(name: str, scene: Scene, mesh_index: int, mode: str, scale: float = 1.0):
+    """A ``mi.Mesh`` filled from the shared triangle data (positions × ``scale``), with its BSDF
+    (and emitter) attached."""
+    import mitsuba as mi
+
+    mesh = scene.meshes[mesh_index]
+    tri = mesh.triangles()
+    mat = scene.materials[mesh.material]
+    props = mi.Properties()
+    props["bsdf"] = mi.load_dict(material_dict(mat, mode))
+    if mat.is_emissive:
+        radiance = {"type": "rgb", "value": list(mat.emission)}
+        if mat.emissive_texture is not None:
+            from compare.scene.textures import emission_map
+
+            radiance = bitmap_dict(mat, emission_map(mat.emissive_texture, mat.emission), raw=True)
+        props["emitter"] = mi.load_dict({"type": "area", "radiance": radiance})
+    m = mi.Mesh(name, len(tri.positions), tri.triangle_count, props, has_vertex_normals=True,
+                has_vertex_texcoords=True)
+    params = mi.traverse(m)
+    params["vertex_positions"] = (tri.positions * scale).ravel()
+    params["vertex_normals"] = tri.normals.ravel()
+    params["vertex_texcoords"] = tri.uvs.ravel()
+    params["faces"] = tri.indices.ravel()
+    params.update()
+    return m
+
+
+def _integrator(scene: Scene, depth: int) -> dict:
+    """Mitsuba's ``path``; with alpha masks the same algorithm with holes that are no bounce
+    (:mod:`compare.mitsuba.layers`: ``path`` counts a hole as a bounce of ``max_depth``)."""
+    if scene.features().alpha_mask:
+        from compare.mitsuba import layers as reference_layers
+
+        reference_layers.register()
+        return {"type": reference_layers.INTEGRATOR_NAME, "max_depth": depth, "layers": False,
+                "holes": True}
+    return {"type": "path", "max_depth": depth, "hide_emitters": False}
+
+
+def scene_dict(scene: Scene, *, spp: int, materials: str = "shared", sampler: str = "independent",
+               max_depth: int | None = None, scale: float | None = None) -> dict:
+    """The whole Mitsuba scene dictionary for ``scene``.
+
+    ``max_depth`` overrides the scene's path depth (2 = direct light only). Its world is
+    scaled by ``scale``, by default :func:`world_scale` (1 unless the scene is tiny).
+    """
+    if materials not in MATERIAL_MODES:
+        raise ValueError(f"materials: expected one of {', '.join(MATERIAL_MODES)}, got {materials!r}")
+    depth = scene.max_depth if max_depth is None else max_depth
+    scale = world_scale(scene) if scale is None else float(scale)
+    d: dict = {
+        "type": "scene",
+        "integrator": _integrator(scene, int(depth)),
+        "sensor": sensor_dict(scene, spp=spp, sampler=sampler, scale=scale),
+    }
+    for k in range(len(scene.meshes)):
+        d[f"mesh{k:03d}"] = mesh_object(f"mesh{k:03d}", scene, k, materials, scale)
+    for k, light in enumerate(scene.lights):
+        d[f"light{k:03d}"] = light_dict(light, scale)
+    env = environment_dict(scene)
+    if env is not None:
+        d["environment"] = env
+    return d
+

@@ -1,0 +1,741 @@
+"""The progressive renderer: frames, accumulation, timing, checkpoints.
+
+One frame f of the :class:`~compare.progressive.distributor.Plan`:
+
+1. G-buffer pass with frame f's sub-pixel jitter (``gbuffer.glsl``);
+2. the every-frame running mean over all frames (``accumulate.glsl``):
+   emission and the background, and — with an environment, in a second
+   target — the unoccluded environment light (split-sum specular + diffuse
+   irradiance, ``compare/ibl/ibl.glsl``; :mod:`compare.progressive.environment`);
+   with ``indirect="probes"``, in the first frames only, the running mean of the
+   indirect diffuse light of an irradiance volume baked at setup
+   (:mod:`compare.progressive.probes`, ``probe_bake_seconds``;
+   :mod:`compare.progressive.indirect` says why only the first frames);
+3. frame 0 only (frame 1 after a reduced frame 0, see below): the unshadowed
+   preview of the direct light from each light's centre (``direct.glsl``
+   without shadows), shown until every light has a sample;
+4. for each light sample of the frame: its shadow atlas (``shadow.glsl``, five
+   faces) and its direct-light pass (``direct.glsl``); the last one folds the
+   frame's sum into the direct-light running mean over light frames;
+5. frames with environment samples (1 … m−1, never frame 0): the screen-space
+   occlusion of the environment light (``env_occlusion.glsl``): the visible
+   light, folded into one running mean per kind (diffuse, specular) over that
+   kind's samples.
+
+With ``area_model="ltc"`` (:mod:`compare.progressive.ltc`) step 3 goes: the
+lights' unshadowed light in closed form is added to per-light sums in the first
+G-buffer frame and about 32 more, and each light sample of step 4 adds to its
+light's shadow-ratio sums instead of a running mean.
+
+Frame 0 carries no samples and is drawn differently (``first_frame="forward"``,
+:mod:`compare.progressive.first_frame`): a depth pre-pass and one forward-shaded
+pass write its every-frame terms straight into the running mean and the
+unshadowed preview into its own target, without the G-buffer and its
+full-screen passes: the cheap first frame of the paper. From 320×240 up it is drawn
+at half size by default (``first_frame_scale``) as a preview outside the running means;
+frame 1 then draws the full-size unshadowed preview from its G-buffer.
+
+The displayed image (``compose.glsl``) is the every-frame mean plus the
+direct-light mean (or the preview until every light has a sample) plus the
+environment light: the unoccluded mean until both kinds of occlusion samples
+have run, then the two means of visible light. After the last frame it is the full estimate; see
+``distributor.py`` for why the weights make intermediate images nearly
+unbiased too and keep the preview out of the result. Frame 0 is the
+environment-only split-sum image: no occlusion, no shadow maps.
+
+A scene without an environment gets none of this: no preprocessing, no
+environment textures or programs, no environment samples.
+
+Timing: each frame's wall time runs from its first GL call to ``ctx.finish()``
+(as a real-time renderer presents each frame), and a GL timer query measures its
+GPU time. Scene upload, shader compilation and one warm-up of frame 0 (and of frame
+1 after a reduced frame 0) and of a light frame (drivers compile shaders at their
+first draw) are counted separately
+(``setup_seconds``), and so is readback: it happens only when an image is asked
+for (:meth:`ProgressiveRenderer.image`).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import warnings
+from dataclasses import dataclass, field
+from typing import Iterator, NamedTuple, Sequence
+
+import numpy as np
+
+from compare import __version__
+from compare.progressive.accumulate import AccumulatePass, ComposePass, PingPong, Target
+from compare.progressive.context import check_image_size, create_context, gl_renderer_name
+from compare.progressive.direct import AREA_MODELS, MATERIAL_MODES, DirectPass
+from compare.progressive.environment import (ENV_DIFFUSE, MAX_SAMPLES_PER_FRAME, EnvironmentLighting, EnvOcclusionPass,
+                          EnvOcclusionTargets)
+from compare.ibl import DEFAULT_LEVELS, DEFAULT_SAMPLES, DEFAULT_SIZE
+from compare.progressive.budget import BudgetScheduler, FrameCosts
+from compare.progressive.distributor import DEFAULT_DIRECT_FRACTION, DEFAULT_FRAMES, FramePlan, Plan, plan
+from compare.progressive.first_frame import FIRST_FRAME_MODES, FirstFramePass, auto_scale, check_scale
+from compare.progressive.gbuffer import GBuffer
+from compare.progressive.indirect import IndirectPass
+from compare.progressive.ltc import LTC_DIRECT_FRACTION, LtcLights, ltc_texture
+from compare.progressive.gpu_scene import CameraSetup, GpuScene, mat_bytes
+from compare.progressive.probes import ProbeVolume, indirect_options
+from compare.progressive.readback import read_rgb
+from compare.progressive.shadow import DEFAULT_BIAS, DEFAULT_SHADOW_SIZE, SHADOW_FILTERS, ShadowAtlas
+
+
+#: Default occlusion distance d_occ as a fraction of the diagonal of the scene's bounds.
+DEFAULT_D_OCC_FRACTION = 0.1
+#: Default depth bias of the occlusion test, as a fraction of d_occ.
+DEFAULT_OCCLUSION_BIAS = 0.01
+
+
+class Checkpoint(NamedTuple):
+    """The accumulated image after ``frame`` frames (1-based count) and the seconds they took."""
+
+    frame: int
+    seconds: float
+    image: np.ndarray
+
+
+@dataclass
+class ProgressiveResult:
+    """A finished progressive render."""
+
+    image: np.ndarray
+    """Linear radiance (H, W, 3) float32 after all frames."""
+    seconds: float
+    """Wall seconds of all frames (without setup and readback)."""
+    frame_seconds: list[float]
+    """Wall seconds of each frame."""
+    gpu_frame_seconds: list[float]
+    """GL timer-query seconds of each frame (NaN where the driver gave no answer)."""
+    metadata: dict
+    """str/int/float only: renderer, frames, seed, seconds, gl_renderer, area_model, ..."""
+    checkpoints: list[Checkpoint] = field(default_factory=list)
+    plan: Plan | None = None
+    layers: dict[str, np.ndarray] = field(default_factory=dict)
+    """The final image split by kind of light (:meth:`ProgressiveRenderer.layers`)."""
+
+
+class ProgressiveRenderer:
+    """Otto et al.'s progressive rasterizer (environment and area lights) for one scene.
+
+    Parameters
+    ----------
+    scene : compare.scene.loader.Scene
+        The scene; its camera resolution is the image size.
+    frames : int, keyword-only
+        Frames m to accumulate (paper default 128).
+    seed : int, keyword-only
+        Selects the jitter and light-sample offsets; a fixed seed gives the same image.
+    area_model : {"radiometric", "paper", "ltc"}, keyword-only
+        Light-sample contribution; see :mod:`compare.progressive.direct`; ``"ltc"``:
+        the closed-form unshadowed light times a shadow ratio (:mod:`compare.progressive.ltc`).
+    materials : {"shared", "diffuse"}, keyword-only
+        The shared glTF BRDF, or Lambert only (for closed-form validation; same
+        meaning as in :mod:`compare.mitsuba.scene_dict`).
+    direct_fraction : float or None, keyword-only
+        f_d: light samples start at frame round(f_d·m); None uses the paper's 0.3, or 0 with
+        ``area_model="ltc"`` (:data:`compare.progressive.ltc.LTC_DIRECT_FRACTION`: its light
+        is exact from the first frame, and only its shadows wait for samples).
+    samples_per_light : int or sequence of int, keyword-only
+        n_i; None uses the paper's round(m / lights / 4).
+    shadow_size : int, keyword-only
+        Face resolution S of the shadow atlas (3S × S texels).
+    shadow_bias : (float, float, float), keyword-only
+        (normal offset, constant, slope-scaled) in shadow texels; see :mod:`.shadow`.
+    shadow_filter : {"hard", "vsm"}, keyword-only
+        Visibility of a light sample: a hard depth test, or variance shadow maps
+        filtered to about the penumbra of the sample's share of the light (the
+        atlas then has at most ``shadow_size`` texels a side); see :mod:`.shadow`.
+    d_occ : float, keyword-only
+        Occlusion distance of the environment's screen-space occlusion, in
+        world units; 0 turns occlusion off (no samples, no pass); None uses
+        :data:`DEFAULT_D_OCC_FRACTION` × the diagonal of the scene's bounds.
+    env_samples : int, keyword-only
+        N environment occlusion samples (half diffuse, half specular); None
+        uses the paper's N = frames.
+    occlusion_bias : float, keyword-only
+        Depth bias of the occlusion test as a fraction of d_occ.
+    env_format : {"float", "rgbm", "octahedral"}, keyword-only
+        Storage of the prefiltered environment (:mod:`compare.ibl.atlas`).
+    env_diffuse : {"cube", "sh9"}, keyword-only
+        Diffuse irradiance from the convolved cube or from 9 SH coefficients.
+    ibl_size, ibl_levels, ibl_samples : int, keyword-only
+        Cube face size, prefiltered levels and GGX samples per texel of the
+        environment preprocessing (:func:`compare.ibl.preprocess`).
+    cache_dir : path, None or False, keyword-only
+        Cache root of the environment preprocessing (None: the default cache; False: none).
+    warm_up : bool, keyword-only
+        Draw frame 0 and the first light frame once before timing starts, so
+        that lazy shader compilation is not counted in frame 1 (default True).
+    indirect : {"none", "probes"} or None, keyword-only
+        Indirect diffuse light: none (the paper's technique) or an irradiance
+        volume (:mod:`compare.progressive.probes`); None uses the scene's
+        ``[render] indirect``.
+    probe_grid : (int, int, int) or None, keyword-only
+        Probes along x, y, z; None uses the scene's ``probe_grid``.
+    probe_bounces : int or None, keyword-only
+        Diffuse bounces baked into the probes; None uses the scene's ``probe_bounces``.
+    first_frame : {"forward", "gbuffer"}, keyword-only
+        How frame 0 (display only) is drawn: one forward-shaded pass
+        (:mod:`compare.progressive.first_frame`, the cheap first frame) or the
+        G-buffer and full-screen passes of every other frame. The forward pass
+        is used when frame 0 carries no samples (its preview then has no
+        indirect light of probes: that needs the G-buffer).
+    first_frame_scale : float or None, keyword-only
+        Fraction of each axis at which the forward frame 0 is drawn; None (default)
+        picks it (:func:`compare.progressive.first_frame.auto_scale`: 0.5, a quarter
+        of the pixels, from 320×240 up, else 1). Below 1 frame 0 is a preview only,
+        upsampled for display, and frame 1 draws the full-size unshadowed preview;
+        1 draws it at full size as the first value of the every-frame mean.
+    frame_budget_ms : float or None, keyword-only
+        A per-frame time budget: each frame evaluates as many of the plan's
+        samples as a measured cost model says fit (:mod:`compare.progressive.budget`),
+        at least one, so the render takes as many frames as it needs; None
+        keeps the paper's fixed plan of ``frames`` frames.
+    ctx : moderngl.Context, keyword-only
+        A context to use (not released here); None creates a headless one.
+    """
+
+    def __init__(self, scene, *, frames: int = DEFAULT_FRAMES, seed: int = 0, area_model: str = "radiometric",
+                 materials: str = "shared", direct_fraction: float | None = None,
+                 samples_per_light: int | Sequence[int] | None = None, shadow_size: int = DEFAULT_SHADOW_SIZE,
+                 shadow_bias: tuple[float, float, float] = DEFAULT_BIAS, shadow_filter: str = "hard",
+                 d_occ: float | None = None, env_samples: int | None = None,
+                 occlusion_bias: float = DEFAULT_OCCLUSION_BIAS,
+                 env_format: str = "float", env_diffuse: str = "cube", ibl_size: int = DEFAULT_SIZE,
+                 ibl_levels: int = DEFAULT_LEVELS, ibl_samples: int = DEFAULT_SAMPLES, cache_dir=None,
+                 warm_up: bool = True, indirect: str | None = None, probe_grid: Sequence[int] | None = None,
+                 probe_bounces: int | None = None, first_frame: str = "forward",
+                 first_frame_scale: float | None = None,
+                 frame_budget_ms: float | None = None, ctx=None):
+        if area_model not in AREA_MODELS:
+            raise ValueError(f"area_model: expected one of {', '.join(map(repr, AREA_MODELS))}, got {area_model!r}")
+        if materials not in MATERIAL_MODES:
+            raise ValueError(f"materials: expected one of {', '.join(map(repr, MATERIAL_MODES))}, got {materials!r}")
+        if len(tuple(shadow_bias)) != 3 or not all(np.isfinite(b) and b >= 0 for b in shadow_bias):
+            raise ValueError(f"shadow_bias: expected three non-negative numbers, got {shadow_bias!r}")
+        if first_frame_scale is not None:
+            check_scale(first_frame_scale)
+        if first_frame not in FIRST_FRAME_MODES:
+            raise ValueError(f"first_frame: expected one of {', '.join(map(repr, FIRST_FRAME_MODES))}, "
+                             f"got {first_frame!r}")
+        if shadow_filter not in SHADOW_FILTERS:
+            raise ValueError(f"shadow_filter: expected one of {', '.join(map(repr, SHADOW_FILTERS))}, "
+                             f"got {shadow_filter!r}")
+        if env_diffuse not in ENV_DIFFUSE:
+            raise ValueError(f"env_diffuse: expected one of {', '.join(map(repr, ENV_DIFFUSE))}, got {env_diffuse!r}")
+        if d_occ is not None and not (np.isfinite(d_occ) and d_occ >= 0):
+            raise ValueError(f"d_occ: expected a non-negative distance (0 turns occlusion off), got {d_occ!r}")
+        if not (np.isfinite(occlusion_bias) and 0 <= occlusion_bias < 1):
+            raise ValueError(f"occlusion_bias: expected a fraction of d_occ in [0, 1), got {occlusion_bias!r}")
+        self.indirect, self.probe_grid, self.probe_bounces = indirect_options(scene, indirect, probe_grid,
+                                                                              probe_bounces)
+        self.scene = scene
+        self.area_model = area_model
+        self.materials = materials
+        self.seed = int(seed)
+        self.shadow_bias = tuple(float(b) for b in shadow_bias)
+        self.shadow_filter = shadow_filter
+        has_env = scene.features().environment
+        if d_occ is None:
+            lo, hi = scene.extent()
+            d_occ = DEFAULT_D_OCC_FRACTION * float(np.linalg.norm(hi - lo))
+        self.d_occ = float(d_occ) if has_env else 0.0
+        self.occlusion_bias = float(occlusion_bias)
+        if direct_fraction is None:
+            direct_fraction = LTC_DIRECT_FRACTION if area_model == "ltc" else DEFAULT_DIRECT_FRACTION
+        self.plan = plan(scene, frames, seed=seed, direct_fraction=direct_fraction,
+                         samples_per_light=samples_per_light,
+                         env_samples=env_samples if self.d_occ > 0 else 0)
+        self.notes: list[str] = list(self.plan.notes)
+        self.scheduler = None
+        if frame_budget_ms is not None:
+            if isinstance(frame_budget_ms, bool) or not (isinstance(frame_budget_ms, (int, float))
+                                                          and np.isfinite(frame_budget_ms) and frame_budget_ms > 0):
+                raise ValueError(f"frame_budget_ms: expected a positive number of milliseconds, "
+                                 f"got {frame_budget_ms!r}")
+            self.scheduler = BudgetScheduler(self.plan, frame_budget_ms / 1000.0,
+                                             max_env_per_frame=MAX_SAMPLES_PER_FRAME)
+        self._check_features()
+
+        t0 = time.perf_counter()
+        self._own_ctx = ctx is None
+        self.ctx = create_context() if ctx is None else ctx
+        ctx = self.ctx
+        size = (scene.camera.width, scene.camera.height)
+        self.size = size
+        self._objects: list = []
+        try:
+            check_image_size(ctx, size, str(scene.path))
+            self.camera = CameraSetup(scene)
+            self.gpu_scene = self._keep(GpuScene(ctx, scene))
+            self.gbuffer = self._keep(GBuffer(ctx, self.gpu_scene, size))
+            # Leave out what the scene does not need: no environment work without an environment.
+            self.environment = self.env_occlusion = self.env_acc = None
+            if has_env:
+                self.environment = self._keep(EnvironmentLighting(
+                    ctx, scene, env_format=env_format, env_diffuse=env_diffuse, ibl_size=ibl_size,
+                    ibl_levels=ibl_levels, ibl_samples=ibl_samples, cache_dir=cache_dir))
+                if self.plan.env_frames > 0:
+                    self.env_occlusion = self._keep(EnvOcclusionPass(ctx, self.environment, materials,
+                                                                     occlusion=self.gpu_scene.occluded))
+                    self.env_acc = self._keep(EnvOcclusionTargets(ctx, size))
+            # No probe work unless indirect = "probes"; the bake is part of setup (timed on its own too).
+            self.probes = None
+            if self.indirect == "probes":
+                self.probes = self._keep(ProbeVolume(
+                    ctx, scene, self.gpu_scene, grid=self.probe_grid, bounces=self.probe_bounces,
+                    shadow_bias=self.shadow_bias, environment=self.environment, materials=materials, seed=seed,
+                    cache_dir=cache_dir))
+            self.accumulate = self._keep(AccumulatePass(ctx, self.environment, materials,
+                                                        occlusion=self.gpu_scene.occluded))
+            self.indirect_pass = None
+            if self.probes is not None:
+                self.indirect_pass = self._keep(IndirectPass(ctx, self.probes, size, materials,
+                                                             occlusion=self.gpu_scene.occluded))
+            self.base = self._keep(PingPong(ctx, size, attachments=self.accumulate.attachments))
+            self.compose = self._keep(ComposePass(ctx, size))
+            has_lights = bool(scene.lights)
+            # Frame 0 is forward-shaded when it carries no samples (first_frame.py).
+            fp0 = self.plan[0]
+            forward_first = first_frame == "forward" and not fp0.light_samples and not fp0.env_samples
+            # Leave out what the scene does not need: no shadow or direct-light work without area lights.
+            self.shadow = self.direct = self.direct_acc = self.partial = self.preview = None
+            self.ltc = self.ltc_table = None
+            if has_lights:
+                lo, hi = scene.extent()
+                self.shadow = self._keep(ShadowAtlas(ctx, self.gpu_scene, size=shadow_size,
+                                                     extent=float(np.linalg.norm(hi - lo)), filter=shadow_filter,
+                                                     lights=scene.lights,
+                                                     samples_per_light=self.plan.samples_per_light))
+                self.direct = self._keep(DirectPass(ctx, area_model=area_model, materials=materials,
+                                                    shadows=self.plan.light_frames > 0,
+                                                    shadow_filter=shadow_filter, cache_dir=cache_dir))
+                if area_model == "ltc":
+                    # Per-light sums instead of one running mean (ltc.py); no partial sums.
+                    self.ltc_table = self._keep(ltc_texture(ctx))
+                    self.direct.ltc_table = self.ltc_table
+                    gbuffer_frames = len(self.plan) - int(forward_first)
+                    self.ltc = self._keep(LtcLights(ctx, size, scene.lights, materials=materials,
+                                                    lut_texture=self.direct.lut_texture, table=self.ltc_table,
+                                                    gbuffer_frames=max(gbuffer_frames, 1)))
+                else:
+                    self.direct_acc = self._keep(PingPong(ctx, size))
+                    if self.scheduler is not None or any(fp.shadow_passes > 1 for fp in self.plan):
+                        self.partial = self._keep(Target(ctx, size))
+            self.first = None
+            if forward_first:
+                scale = first_frame_scale
+                if scale is None:
+                    # A reduced frame 0 is only a preview: without a later frame it would be the result.
+                    later = (len(self.plan) > 1 if self.scheduler is None
+                             else bool(self.scheduler.lights or self.scheduler.envs))
+                    scale = auto_scale(size) if later else 1.0
+                self.first = self._keep(FirstFramePass(
+                    ctx, self.gpu_scene, self.base, scene.lights, environment=self.environment, area_model=area_model,
+                    materials=materials, lut_texture=self.direct.lut_texture if self.direct is not None else None,
+                    ltc_table=self.ltc_table, scale=float(scale)))
+            # A reduced frame 0 is a preview only: frame 1 draws the full-size one from its G-buffer
+            # (with ltc every G-buffer frame has the closed-form unshadowed light: no preview).
+            if (has_lights and self.ltc is None and (self.first is None or self._reduced_first)
+                    and any(fp.preview for fp in self.plan)):
+                self.preview = self._keep(Target(ctx, size))
+            self.query = ctx.query(time=True)  # moderngl queries have no release(); freed with the context
+        except BaseException:
+            self.release()
+            raise
+        self.background = self._background()
+        self.frame = 0
+        """Frames rendered so far."""
+        self.frame_seconds: list[float] = []
+        self.gpu_frame_seconds: list[float] = []
+        self.shadow_passes: list[int] = []
+        """Shadow atlases rendered in each frame."""
+        self._preview_valid = False
+        self._lights_sampled: set[int] = set()
+        for fp in self.plan:
+            self._matrices(fp.jitter)
+        if self.scheduler is not None:
+            for jitter in self.scheduler.jitter:
+                self._matrices((float(jitter[0]), float(jitter[1])))
+        if warm_up or self.scheduler is not None:
+            try:
+                self._warm_up()
+                if self.scheduler is not None:
+                    self._calibrate()
+            except BaseException:
+                self.release()
+                raise
+        self.setup_seconds = time.perf_counter() - t0
+        """Seconds for context, upload, shader compilation and warm-up (not in :attr:`seconds`)."""
+
+    # ------------------------------------------------------------------ setup helpers
+
+    def _keep(self, obj):
+        self._objects.append(obj)
+        return obj
+
+    @property
+    def _reduced_first(self) -> bool:
+        """Frame 0 is drawn at reduced size, as a preview outside the running means."""
+        return self.first is not None and self.first.reduced
+
+    def _check_features(self) -> None:
+        feats = self.scene.features()
+        if feats.emissive_meshes:
+            msg = ("emissive meshes are shown with their emission but do not light other surfaces in "
+                   "compare.progressive (only [[lights]] rectangles are sampled)")
+            if self.indirect == "probes":
+                msg = ("emissive meshes light other surfaces only through the irradiance volume in "
+                       "compare.progressive (baked diffuse light; only [[lights]] rectangles are sampled)")
+            warnings.warn(msg, stacklevel=3)
+            self.notes.append(msg)
+
+    def _background(self) -> tuple[float, float, float]:
+        env = self.scene.environment
+        if env is not None and env.constant is not None:
+            return tuple(float(c) * env.intensity for c in env.constant)
+        return (0.0, 0.0, 0.0)
+
+    # ------------------------------------------------------------------ rendering
+
+    @property
+    def frames_total(self) -> int:
+        return len(self.plan)
+
+    @property
+    def seconds(self) -> float:
+        """Cumulative wall seconds of the frames rendered so far."""
+        return float(sum(self.frame_seconds))
+
+    def _matrices(self, jitter: tuple[float, float]) -> tuple[np.ndarray, bytes]:
+        """The view-projection of a sub-pixel ``jitter`` and its inverse, computed once per jitter.
+
+        The inverse is computed outside the timed frames: numpy's linear algebra
+        can wake a BLAS thread pool, whose start-up is no part of a frame's cost.
+        """
+        cache = self.__dict__.setdefault("_matrix_cache", {})
+        if jitter not in cache:
+            view_proj = self.camera.view_proj(jitter)
+            cache[jitter] = (view_proj, mat_bytes(np.linalg.inv(view_proj)))
+        return cache[jitter]
+
+    def _draw(self, fp, index: int) -> None:
+        """Issue the GL work of one frame plan ``fp``, the ``index``-th frame drawn since reset()
+        (-1: a frame outside the sequence, as the budget's calibration draws)."""
+        cam_pos = self.camera.position
+        view_proj, inv_view_proj = self._matrices(fp.jitter)
+        if index == 0 and self.first is not None:
+            self.first.render(view_proj, inv_view_proj, cam_pos)
+            self._preview_valid = bool(self.scene.lights)
+            return
+        self.gbuffer.render(view_proj, cam_pos)
+        self.accumulate.run(self.base, self.gbuffer, self.background,
+                            inv_view_proj=inv_view_proj, camera_position=cam_pos)
+        if self.indirect_pass is not None:
+            self.indirect_pass.run(self.gbuffer, cam_pos)
+        if self.ltc is not None:
+            self.ltc.run(self.gbuffer, cam_pos)
+        if fp.env_samples and self.env_occlusion is not None:
+            self.env_occlusion.run(self.env_acc, self.gbuffer, mat_bytes(view_proj), cam_pos,
+                                   self.camera.camera.basis()[2], fp.env_samples, self.d_occ,
+                                   self.occlusion_bias * self.d_occ)
+        if self.preview is not None and (fp.preview or (index == 1 and self._reduced_first)):
+            self.direct.preview(self.preview, self.gbuffer, self.scene.lights, cam_pos)
+            self._preview_valid = True
+        last = len(fp.light_samples) - 1
+        if last > 0 and self.partial is not None:
+            self.partial.fbo.use()
+            self.partial.fbo.clear(0.0, 0.0, 0.0, 0.0)
+        for j, s in enumerate(fp.light_samples):
+            light = self.scene.lights[s.light]
+            self._lights_sampled.add(s.light)
+            self.shadow.render(light, s.light, s.point)
+            if self.ltc is not None:
+                self.direct.add(self.ltc.ratio[s.light], self.gbuffer, self.shadow, self.shadow_bias, light, s.point,
+                                1.0, cam_pos, ltc_specular=self.ltc.specular_sum(s.light))
+            elif j < last:
+                self.direct.add(self.partial, self.gbuffer, self.shadow, self.shadow_bias, light, s.point,
+                                s.weight, cam_pos)
+            else:
+                # With a budget the direct mean runs over samples (budget.py), else over light frames.
+                self.direct.accumulate(self.direct_acc, self.partial if last > 0 else None, self.gbuffer,
+                                       self.shadow, self.shadow_bias, light, s.point, s.weight, cam_pos,
+                                       units=len(fp.light_samples) if self.scheduler is not None else 1)
+
+    def _warm_up(self) -> None:
+        """Run frame 0 and the first light frame once, then forget them.
+
+        Drivers compile shaders lazily at their first draw (llvmpipe JIT-compiles
+        them; GPU drivers finish compiling and validate state), which would
+        otherwise land in frame 1's time and the first checkpoints of an
+        error-against-time curve.
+        """
+        self._draw(self.plan[0], 0)
+        done = {0}
+        if self._reduced_first and len(self.plan) > 1:
+            self._draw(self.plan[1], 1)  # with the full-size preview's program
+            done.add(1)
+        light_frames = [fp for fp in self.plan if fp.light_samples]
+        if light_frames and light_frames[0].frame not in done:
+            self._draw(light_frames[0], -1)
+        env_frames = [fp for fp in self.plan if fp.env_samples]
+        if env_frames and env_frames[0].frame not in done and not env_frames[0].light_samples:
+            self._draw(env_frames[0], -1)
+        self.ctx.finish()
+        self.reset()
+
+    def _calibrate(self, repeats: int = 3) -> None:
+        """Measure the cost model of the frame budget (:mod:`.budget`): a frame without samples,
+        with one light sample, with one environment sample (medians of ``repeats``, after warm-up)."""
+        def timed(fp) -> float:
+            xs = []
+            for _ in range(repeats):
+                self.ctx.finish()
+                t0 = time.perf_counter()
+                self._draw(fp, -1)
+                self.ctx.finish()
+                xs.append(time.perf_counter() - t0)
+            return float(np.median(xs))
+
+        jitter = self.plan[min(1, len(self.plan) - 1)].jitter
+        base = timed(FramePlan(1, jitter))
+        light = env = 0.0
+        if self.scheduler.lights:
+            light = max(timed(FramePlan(1, jitter, light_samples=self.scheduler.lights[:1])) - base, 1e-6)
+        if self.scheduler.envs:
+            env = max(timed(FramePlan(1, jitter, env_samples=self.scheduler.envs[:1])) - base, 1e-6)
+        self.scheduler.costs = FrameCosts(base, light, env)
+        self.reset()
+
+    def render_frame(self) -> float:
+        """Render the next frame of the plan; returns its wall seconds."""
+        if self.finished:
+            raise RuntimeError(f"all {self.frame} frames of the plan are rendered; call reset() to start again")
+        fp = self.scheduler.next() if self.scheduler is not None else self.plan[self.frame]
+        t0 = time.perf_counter()
+        with self.query:
+            self._draw(fp, self.frame)
+        self.ctx.finish()
+        seconds = time.perf_counter() - t0
+        self.frame_seconds.append(seconds)
+        elapsed = self.query.elapsed
+        # Some drivers answer the first query with an all-ones error value: record it as unknown.
+        self.gpu_frame_seconds.append(elapsed * 1e-9 if 0 <= elapsed < 0xFFFFFFFF else float("nan"))
+        self.shadow_passes.append(len(fp.light_samples))
+        self.frame += 1
+        # Frame 1 after a reduced frame 0 also draws the full-size preview, which the cost model
+        # does not know: it would read as the model's error.
+        if self.scheduler is not None and not (self.frame == 2 and self._reduced_first):
+            self.scheduler.observe(fp, seconds)
+        return seconds
+
+    @property
+    def finished(self) -> bool:
+        """Every frame of the plan (every sample, with a frame budget) is rendered."""
+        if self.scheduler is not None:
+            return self.scheduler.done
+        return self.frame >= len(self.plan)
+
+    def frames(self) -> Iterator[tuple[int, float]]:
+        """Render the remaining frames; after each yield (frames done, cumulative wall seconds).
+
+        The accumulated image is read only when asked for, with :meth:`image`.
+        """
+        while not self.finished:
+            self.render_frame()
+            yield self.frame, self.seconds
+
+    def image(self) -> np.ndarray:
+        """The displayed image after the frames so far: linear (H, W, 3) float32."""
+        if self.frame == 0:
+            raise RuntimeError("no frame rendered yet; iterate frames() or call render_frame() first")
+        what = f"progressive render of {self.scene.path} (frame {self.frame})"
+        if self.frame == 1 and self._reduced_first:
+            first = self.first
+            fbo = self.compose.run(first.targets, first.direct if self._preview_valid else None, upsample=True)
+            return read_rgb(self.ctx, fbo, what=what)
+        fbo = self.compose.run(self.base, self._direct_texture(), self.env_acc,
+                               self.indirect_pass.texture if self.indirect_pass is not None else None)
+        return read_rgb(self.ctx, fbo, what=what)
+
+    def _direct_texture(self):
+        """The direct light the display shows now (a texture), or None."""
+        # The preview (every light, unshadowed) stays until every light has a sample: before that
+        # the direct mean would show a few lights scaled up to stand for all of them.
+        if self.ltc is not None and self.ltc.gbuffer_frames > 0:
+            return self.ltc.compose()
+        if (self.direct_acc is not None and self.direct_acc.count > 0
+                and (len(self._lights_sampled) == len(self.scene.lights) or not self._preview_valid)):
+            return self.direct_acc.current
+        if self._preview_valid:
+            return self.preview.texture if self.preview is not None else self.first.direct
+        return None
+
+    def layers(self) -> dict[str, np.ndarray]:
+        """The displayed image split by kind of light (:mod:`compare.mitsuba.layers`), from the
+        targets the renderer keeps: ``emission`` (the every-frame mean: emission and background),
+        ``direct_area`` (the direct light shown), ``direct_env`` (the environment light shown) and
+        ``indirect_diffuse`` (the irradiance volume's, with probes). Light it does not render
+        (indirect specular; indirect diffuse without probes) has no layer: it is zero. The
+        layers sum to :meth:`image`. Empty after a reduced frame 0 alone (a preview, no means yet).
+        """
+        if self.frame == 0:
+            raise RuntimeError("no frame rendered yet; iterate frames() or call render_frame() first")
+        if self.frame == 1 and self._reduced_first:
+            return {}
+        from compare.progressive.readback import read_texture_rgb
+
+        what = f"progressive render of {self.scene.path} (frame {self.frame})"
+        out = {"emission": read_texture_rgb(self.ctx, self.base.current, what=what)}
+        direct = self._direct_texture()
+        if direct is not None:
+            out["direct_area"] = read_texture_rgb(self.ctx, direct, what=what)
+        if len(self.base.textures[0]) > 1:
+            acc = self.env_acc
+            if acc is not None and min(acc.counts) > 0:
+                out["direct_env"] = (read_texture_rgb(self.ctx, acc.current(0), what=what)
+                                     + read_texture_rgb(self.ctx, acc.current(1), what=what))
+            else:
+                out["direct_env"] = read_texture_rgb(self.ctx, self.base.current_of(1), what=what)
+        if self.indirect_pass is not None:
+            out["indirect_diffuse"] = read_texture_rgb(self.ctx, self.indirect_pass.texture, what=what)
+        return out
+
+    def reset(self) -> None:
+        """Start the plan again (same seed, same image)."""
+        self.base.reset()
+        if self.indirect_pass is not None:
+            self.indirect_pass.reset()
+        if self.direct_acc is not None:
+            self.direct_acc.reset()
+        if self.ltc is not None:
+            self.ltc.reset()
+        if self.env_acc is not None:
+            self.env_acc.reset()
+        self._preview_valid = False
+        self._lights_sampled: set[int] = set()
+        self.frame = 0
+        self.frame_seconds, self.gpu_frame_seconds, self.shadow_passes = [], [], []
+        if self.scheduler is not None:
+            self.scheduler.reset()
+
+    def metadata(self) -> dict:
+        """str/int/float description of the render so far (for EXR headers and reports)."""
+        p = self.plan
+        meta = {
+            "renderer": "progressive",
+            "package_version": __version__,
+            "frames": int(self.frame),
+            "frames_planned": len(p),
+            "seed": self.seed,
+            "seconds": self.seconds,
+            "setup_seconds": float(self.setup_seconds),
+            "gpu_seconds": float(np.nansum(self.gpu_frame_seconds)),
+            "gl_renderer": gl_renderer_name(self.ctx),
+            "area_model": self.area_model,
+            "materials": self.materials,
+            "jitter": "R2",
+            "first_frame": "forward" if self.first is not None else "gbuffer",
+            "first_frame_scale": self.first.scale if self.first is not None else 1.0,
+            "distributor": "fixed plan" if self.scheduler is None else "frame budget",
+            "direct_fraction": p.direct_fraction,
+            "direct_start_frame": p.direct_start,
+            "light_frames": p.light_frames,
+            "samples_per_light": ",".join(str(n) for n in p.samples_per_light),
+            "environment": "none",
+        }
+        if self.environment is not None:
+            meta.update(self.environment.describe())
+            meta.update({"d_occ": self.d_occ, "occlusion_bias": self.occlusion_bias,
+                         "env_samples": int(sum(p.env_counts)), "env_samples_diffuse": int(p.env_counts[0]),
+                         "env_samples_specular": int(p.env_counts[1]), "env_frames": int(p.env_frames),
+                         "occlusion": "screen-space, progressive" if p.env_frames else "off"})
+        if self.shadow is not None:
+            meta.update({"shadow_projection": "half-cube (5 faces)", "shadow_size": int(self.shadow.size),
+                         "shadow_bias": ",".join(f"{b:g}" for b in self.shadow_bias),
+                         "shadow_filter": self.shadow_filter})
+        if self.ltc is not None:
+            meta.update({"ltc_table": f"{self.ltc_table.size[0]}x{self.ltc_table.size[1]} (compare/brdf/ltc_table.npz)",
+                         "ltc_stride": int(self.ltc.stride), "shadow_ratio": "per light, diffuse and specular"})
+        meta["indirect"] = self.indirect
+        if self.probes is not None:
+            meta.update(self.probes.describe())
+        if self.scheduler is not None:
+            c = self.scheduler.costs
+            meta.update({"frame_budget_ms": self.scheduler.budget * 1e3, "cost_base_ms": c.base * 1e3,
+                         "cost_light_sample_ms": c.light * 1e3, "cost_env_sample_ms": c.env * 1e3})
+        if self.notes:
+            meta["notes"] = "; ".join(self.notes)
+        return meta
+
+    def release(self) -> None:
+        """Free every GL object (and the context when this renderer created it)."""
+        for obj in reversed(self._objects):
+            obj.release()
+        self._objects = []
+        if self._own_ctx and self.ctx is not None:
+            self.ctx.release()
+            self.ctx = None
+
+    def __enter__(self) -> "ProgressiveRenderer":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.release()
+
+
+def render_progressive(scene, *, frames: int = DEFAULT_FRAMES, seed: int = 0, area_model: str = "radiometric",
+                       ctx=None, checkpoints: Sequence[int] | str = (), **options) -> ProgressiveResult:
+    """Render ``scene`` progressively for ``frames`` frames.
+
+    Parameters
+    ----------
+    scene : compare.scene.loader.Scene
+    frames, seed, area_model, ctx : keyword-only
+        See :class:`ProgressiveRenderer`.
+    checkpoints : sequence of int or "every", keyword-only
+        Frame counts (1 … frames) after which the accumulated image is read
+        back, e.g. ``(1, 2, 4, …, 128)``, or ``"every"`` frame; readback is not
+        counted in the seconds. With ``frame_budget_ms`` the render may end
+        before ``frames`` (or after: each frame then evaluates at least one
+        sample); counts it does not reach are not taken.
+    **options
+        Further :class:`ProgressiveRenderer` options (materials, direct_fraction,
+        samples_per_light, shadow_size, shadow_bias, shadow_filter, d_occ, env_samples,
+        occlusion_bias, env_format, env_diffuse, ibl_size, ibl_levels,
+        ibl_samples, cache_dir).
+
+    Returns
+    -------
+    ProgressiveResult
+        ``.image`` (H, W, 3) float32 linear radiance, ``.seconds``,
+        ``.frame_seconds``, ``.metadata``, ``.checkpoints`` (frame, seconds, image).
+    """
+    every = isinstance(checkpoints, str)
+    if every and checkpoints != "every":
+        raise ValueError(f'checkpoints: expected frame counts or "every", got {checkpoints!r}')
+    wanted = set() if every else {int(c) for c in checkpoints}
+    limit = math.inf if options.get("frame_budget_ms") is not None else frames
+    bad = sorted(c for c in wanted if not 1 <= c <= limit)
+    if bad:
+        raise ValueError(f"checkpoints: frame counts must lie in 1 … {frames} (frames), got {bad}")
+    with ProgressiveRenderer(scene, frames=frames, seed=seed, area_model=area_model, ctx=ctx, **options) as r:
+        taken = []
+        for n, seconds in r.frames():
+            if every or n in wanted:
+                taken.append(Checkpoint(n, seconds, r.image()))
+        image = taken[-1].image if taken and taken[-1].frame == r.frame else r.image()
+        return ProgressiveResult(
+            image=image,
+            seconds=r.seconds,
+            frame_seconds=list(r.frame_seconds),
+            gpu_frame_seconds=list(r.gpu_frame_seconds),
+            metadata=r.metadata(),
+            checkpoints=taken,
+            plan=r.plan,
+            layers=r.layers(),
+        )

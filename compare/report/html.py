@@ -1,0 +1,595 @@
+"""The HTML report: a self-contained folder that opens from disk (``file://``).
+
+:func:`build_report` turns a :class:`compare.report.results.Results` into::
+
+    index.html            the report (jinja2, autoescape on)
+    static/report.css     layout
+    static/report.js      the interactive viewer (swipe + exposure)
+    static/magma.png      colour bar of the error maps
+    data/<scene id>.js    linear HDR images for the viewer (see below)
+    plots/<scene id>-*.png   error-vs-time and equal-time/equal-error figures
+    runs/...              EXR/PNG images and error maps written by ``compare run``
+
+No network: no CDN, no web fonts, no ``fetch``; a Content-Security-Policy
+meta tag allows only scripts, styles and images from the page's own origin or
+from local files (``'self' file:``: browsers differ in whether ``'self'``
+covers other ``file://`` paths), never inline script or the network, so even
+a scene name that slipped past escaping could not run script.
+Every scene-provided string reaches the page through jinja2's autoescaping
+(and through JSON with ``<``, ``>`` and ``&`` escaped in the data files).
+
+HDR data for the exposure slider
+--------------------------------
+A page opened from ``file://`` may not ``fetch`` files beside it, and pixels
+of an ``<img>`` loaded from disk taint a canvas (``getImageData`` throws), so
+the linear images cannot be read from the EXR or PNG files. Instead each
+scene's ``data/<id>.js`` is a plain script, included with ``<script src>``,
+that registers::
+
+    window.COMPARE_HDR["<id>"] = {
+      "width": W, "height": H, "exposure": 1.0, "operator": "aces",
+      "encoding": "float16le-base64",
+      "images": [{"key": "reference", "label": "...", "data": "<base64>"}, ...]
+    }
+
+``data`` is the linear RGB image, rows top to bottom, as little-endian IEEE
+half floats (3 per pixel), base64-encoded: 3 significant digits, which is
+below what an 8-bit display can show after tone mapping. Values are clamped
+to [0, 65504] (half's range; negatives display as black anyway, since every
+operator clamps them). ``report.js`` decodes them, multiplies by the exposure
+(``exposure × 2^EV`` from the slider) and applies the same curve as
+:func:`compare.image.tonemap.to_ldr`'s default: Stephen Hill's ACES fit
+(:func:`compare.image.tonemap.aces`) followed by the sRGB transfer function, then
+rounds to 8 bits like :func:`compare.image.tonemap.write_png`. The browser test
+checks the page's pixels against ``to_ldr`` to within one 8-bit step.
+"""
+
+from __future__ import annotations
+
+import argparse
+import base64
+import json
+import math
+import os
+import shutil
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from compare.util.errors import CompareError, OutputError
+from compare.util.files import write_text_atomic
+from compare.report.results import Results, SceneResult, metric_value
+
+__all__ = ["ReportError", "add_report_parser", "build_report", "hdr_payload"]
+
+_HERE = Path(__file__).parent
+# Beside the template in the package (pyproject's package-data globs "*.css",
+# "*.js", "*.j2" match files of the package folder itself); copied to static/.
+_STATIC = ("report.css", "report.js")
+_HALF_MAX = 65504.0
+
+#: Metrics shown in tables, in order: (key for metric_value, heading, digits).
+TABLE_METRICS = (
+    ("flip", "FLIP", 4),
+    ("flip_median", "FLIP w. median", 4),
+    ("flip_p95", "FLIP p95", 4),
+    ("flip_hdr", "HDR-FLIP", 4),
+    ("ssim", "SSIM", 4),
+    ("psnr", "PSNR (dB)", 2),
+    ("relmse", "relMSE", 4),
+    ("mse", "MSE", 4),
+)
+
+_MAP_TITLES = {"flip": "FLIP (LDR)", "one_minus_ssim": "1 − SSIM", "relmse": "relMSE"}
+
+
+class ReportError(CompareError, ValueError):
+    """The report cannot be built (e.g. an image named in results.json is missing)."""
+
+
+# --------------------------------------------------------------------------- formatting
+
+
+def fmt_num(v: float | None, digits: int = 3) -> str:
+    """Compact number for tables: significant digits, '—' for missing."""
+    if v is None:
+        return "—"
+    v = float(v)
+    if v != 0 and (abs(v) < 1e-3 or abs(v) >= 1e5):
+        return f"{v:.{max(1, digits - 1)}e}"
+    return f"{v:.{digits}g}"
+
+
+def fmt_seconds(v: float | None) -> str:
+    """Seconds with a unit that keeps 3 significant digits readable (ms below 1 s)."""
+    if v is None:
+        return "—"
+    v = float(v)
+    if v < 1.0:
+        return f"{v * 1000:.3g} ms"
+    if v < 600:
+        return f"{v:.3g} s"
+    return f"{v / 60:.3g} min"
+
+
+# --------------------------------------------------------------------------- HDR data
+
+
+def _js_json(obj: Any) -> str:
+    """JSON safe to embed in a script: no '<', '>' or '&' can close a tag or open a comment."""
+    text = json.dumps(obj, ensure_ascii=True, allow_nan=False, separators=(",", ":"))
+    return text.replace("<", "\\u003c").replace(">", "\\u003e").replace("&", "\\u0026")
+
+
+def _encode_half(image: np.ndarray) -> str:
+    a = np.clip(np.asarray(image, dtype=np.float32), 0.0, _HALF_MAX)
+    return base64.b64encode(np.ascontiguousarray(a, dtype="<f2").tobytes()).decode("ascii")
+
+
+def hdr_payload(scene_id: str, images: list[tuple[str, str, np.ndarray]], *, exposure: float = 1.0,
+                operator: str = "aces") -> str:
+    """The text of a ``data/<id>.js`` file (format in the module docstring).
+
+    Parameters
+    ----------
+    scene_id : str
+        Key under ``window.COMPARE_HDR``.
+    images : list of (key, label, image)
+        Linear (H, W, 3) images, all the same size.
+    exposure : float, optional
+        Base exposure the slider starts from.
+    operator : str, optional
+        Tone-mapping operator name (the page implements ``"aces"``).
+    """
+    if not images:
+        raise ValueError("hdr_payload: no images")
+    h, w = images[0][2].shape[:2]
+    for key, _, img in images:
+        if img.shape != (h, w, 3):
+            raise ValueError(f"hdr_payload: image {key!r} has shape {img.shape}, expected {(h, w, 3)}")
+    payload = {
+        "width": int(w), "height": int(h), "exposure": float(exposure), "operator": operator,
+        "encoding": "float16le-base64",
+        "images": [{"key": k, "label": label, "data": _encode_half(img)} for k, label, img in images],
+    }
+    return ("/* compare report: linear HDR images of one scene for the interactive viewer\n"
+            "   (little-endian float16 RGB, rows top to bottom, base64; see compare/report/html.py). */\n"
+            f"(window.COMPARE_HDR = window.COMPARE_HDR || {{}})[{_js_json(scene_id)}] = {_js_json(payload)};\n")
+
+
+# --------------------------------------------------------------------------- view model
+
+
+def _metrics_row(metrics: dict) -> list[str]:
+    return [fmt_num(metric_value(metrics, k), d) for k, _, d in TABLE_METRICS]
+
+
+def _gt_label(ref) -> str:
+    """``Mitsuba path tracer (llvm_ad_rgb), 1024 spp``: the ground truth's renderer and budget."""
+    unit = ref.unit + ("s" if ref.unit in ("frame", "sample") and ref.spp != 1 else "")
+    return f"{ref.label or ref.renderer}, {ref.spp} {unit}"
+
+
+def _scene_view(scene: SceneResult, plots: dict[str, Path], out: Path, exposure: float,
+                baseline: str = "progressive") -> dict:
+    from compare.report.plots import PLOT_METRICS, equal_error, equal_time
+
+    def rel(p: Path) -> str:
+        return Path(os.path.relpath(p, out)).as_posix()
+
+    runs = []
+    for run in scene.runs:
+        f = run.final.metrics if run.points else {}
+        runs.append({
+            "renderer": run.renderer,
+            "label": run.label,
+            "unit": run.unit,
+            "steps": run.steps,
+            "seconds": fmt_seconds(run.seconds),
+            "first": fmt_seconds(run.first_frame_seconds),
+            "setup": fmt_seconds(run.setup_seconds),
+            "preview": run.preview,
+            "flip": fmt_num(f.get("flip"), 3),
+            "ssim": fmt_num(f.get("ssim"), 4),
+            "maps": [{"title": _MAP_TITLES.get(k, k), "src": v} for k, v in run.maps.items()],
+            "strip": [{"step": p.step, "seconds": fmt_seconds(p.seconds), "flip": fmt_num(p.metrics.get("flip"), 3),
+                       "src": p.preview} for p in run.points if p.preview],
+            "points": [{"step": p.step, "seconds": fmt_seconds(p.seconds), "vals": _metrics_row(p.metrics)}
+                       for p in run.points],
+            "metadata": sorted((str(k), str(v)) for k, v in run.metadata.items()),
+        })
+    labels = {r.renderer: r.label for r in scene.runs}
+    equal = []
+    for metric, title in PLOT_METRICS:
+        et = equal_time(scene, metric)
+        ee = equal_error(scene, metric)
+        equal.append({
+            "title": title,
+            "time_rows": [{"target": fmt_seconds(c.target), "source": labels.get(c.source, c.source),
+                           "vals": [fmt_num(c.values.get(r.renderer), 3) + (" †" if r.renderer in c.finished else "")
+                                    for r in scene.runs]} for c in et],
+            "error_rows": [{"target": fmt_num(c.target, 3), "source": labels.get(c.source, c.source),
+                            "vals": [fmt_seconds(c.values.get(r.renderer)) for r in scene.runs]} for c in ee],
+        })
+    nf = scene.noise_floor
+    viewer = [{"key": "reference", "label": f"Ground truth ({_gt_label(scene.reference)})"}]
+    viewer += [{"key": r.renderer, "label": f"{r.label} ({r.steps} {r.unit}{'s' if r.unit == 'frame' else ''})"}
+               for r in scene.runs if r.image]
+    # The swipe starts on ground truth vs the first real-time renderer (the comparison the report is for).
+    # (not the ground-truth renderer's own independent run)
+    right = next((i for i, v in enumerate(viewer) if i and v["key"] != scene.reference.renderer),
+                 min(1, len(viewer) - 1))
+    return {
+        "id": scene.id, "name": scene.name, "size": scene.size, "width": scene.width, "height": scene.height,
+        "path": scene.path, "hash": scene.hash[:16],
+        "features": scene.features, "omitted": sorted(scene.omitted.items()),
+        "reference": {"spp": scene.reference.spp, "seed": scene.reference.seed,
+                      "seconds": fmt_seconds(scene.reference.seconds),
+                      "load": fmt_seconds(scene.reference.load_seconds),
+                      "variant": scene.reference.variant, "preview": scene.reference.preview,
+                      "what": _gt_label(scene.reference), "renderer": scene.reference.renderer,
+                      "variance": scene.reference.variance, "variance_dof": scene.reference.variance_dof,
+                      "hdr_range": (None if scene.reference.flip_hdr_exposure is None else
+                                    [fmt_num(x, 3) for x in scene.reference.flip_hdr_exposure])},
+        "noise_floor": None if nf is None else {"spp": nf.spp, "seeds": nf.seeds, "vals": _metrics_row(nf.metrics)},
+        "runs": runs,
+        "equal": equal,
+        "ablations": _ablations(scene, baseline),
+        "likeness": _likeness(scene),
+        "layers": _layers(scene),
+        "noise_check": _noise_check(scene),
+        "bias": _bias(scene),
+        "plots": {k: rel(v) for k, v in plots.items()},
+        "viewer": viewer,
+        "viewer_right": right,
+        "exposure": exposure,
+    }
+
+
+#: What the reference's material mode models, in words (compare.mitsuba.scene_dict).
+MATERIALS_NOTES = {
+    "shared": "the glTF BRDF the rasterizer evaluates (GGX single scattering, Schlick Fresnel)",
+    "cycles": "Blender's Principled BSDF v2 with each material's distribution, by default Blender's Multiscatter GGX",
+    "cycles-ggx": "Blender's Principled BSDF v2 with GGX (single scattering) everywhere",
+    "diffuse": "Lambert only",
+}
+
+
+#: Layer headings of the per-effect table (compare.mitsuba.layers).
+LAYER_TITLES = {"emission": "emission", "direct_area": "direct, area lights", "direct_env": "direct, environment",
+                "indirect_diffuse": "indirect diffuse", "indirect_specular": "indirect specular",
+                "direct_area_unshadowed": "direct, area lights, unshadowed"}
+
+
+def _layers(scene: SceneResult) -> dict | None:
+    """The per-effect table: each run with layers × each layer (share of the error, FLIP, relMSE, mean
+    ratio, FLIP map); the runs measured on the full image only; None when the ground truth has no layers."""
+    names = next((list(r.layers) for r in scene.runs if r.layers), None)
+    if names is None:
+        return None
+    rows = []
+    for run in scene.runs:
+        if not run.layers:
+            continue
+        cells = []
+        for name in names:
+            e = run.layers.get(name, {})
+            share = e.get("share")
+            cells.append({"share": "—" if share is None else f"{100 * share:.1f} %",
+                          "flip": fmt_num(e.get("flip"), 3), "relmse": fmt_num(e.get("relmse"), 3),
+                          "ratio": fmt_num(e.get("mean_ratio"), 3), "rendered": bool(e.get("rendered")),
+                          "map": e.get("map")})
+        top = max((n for n in names if run.layers.get(n, {}).get("share") is not None),
+                  key=lambda n: run.layers[n]["share"], default=None)
+        rows.append({"label": run.label, "cells": cells, "top": LAYER_TITLES.get(top, top) if top else None,
+                     "top_share": (f"{100 * run.layers[top]['share']:.0f} %" if top else None)})
+    return {"names": [LAYER_TITLES.get(n, n) for n in names], "rows": rows,
+            "full_only": [r.label for r in scene.runs if not r.layers and r.renderer != scene.reference.renderer]}
+
+
+#: The ground truth is converged enough to judge a run when its noise floor's relMSE is at most this
+#: fraction of the smallest relMSE it judges.
+NOISE_FRACTION = 0.1
+
+
+def _noise_check(scene: SceneResult) -> dict | None:
+    """How the ground truth's own noise compares with the errors it judges (relMSE, additive in noise):
+    the fraction of the smallest, the spp that would bring it to :data:`NOISE_FRACTION`, and the runs
+    whose error is within the noise floor (which then cannot tell them from the ground truth)."""
+    nf = scene.noise_floor
+    if nf is None:
+        return None
+    floor = nf.metrics.get("relmse")
+    judged = [r for r in scene.runs if r.renderer != scene.reference.renderer and r.points
+              and r.final.metrics.get("relmse") is not None]
+    if floor is None or not judged:
+        return None
+    smallest = min(judged, key=lambda r: r.final.metrics["relmse"])
+    err = smallest.final.metrics["relmse"]
+    fraction = floor / err if err > 0 else float("inf")
+    within = []
+    for r in judged:
+        m, f = r.final.metrics, nf.metrics
+        if m["relmse"] <= floor or (m.get("flip") is not None and f.get("flip") is not None and m["flip"] <= f["flip"]):
+            within.append(r.label)
+    need = None
+    if fraction > NOISE_FRACTION and scene.reference.unit == "spp" and math.isfinite(fraction):
+        need = int(math.ceil(scene.reference.spp * fraction / NOISE_FRACTION))
+    return {"fraction": f"{100 * fraction:.1f} %" if math.isfinite(fraction) else "∞",
+            "ok": fraction <= NOISE_FRACTION, "target": f"{100 * NOISE_FRACTION:.0f} %",
+            "smallest": smallest.label, "smallest_relmse": fmt_num(err, 3), "floor": fmt_num(floor, 3),
+            "need_spp": need, "within": within}
+
+
+def _bias(scene: SceneResult) -> list[dict]:
+    """The bias/variance split at each run's final checkpoint (settings.seeds >= 2)."""
+    rows = []
+    for r in scene.runs:
+        m = r.final.metrics if r.points else {}
+        if "rel_bias2" not in m:
+            continue
+        b, ci = m["rel_bias2"], m["rel_bias2_ci"]
+        verdict = ("interval unknown (too few pixels)" if ci is None else
+                   "biased" if b - ci > 0 else "no bias found (within its interval of 0)")
+        rows.append({"label": r.label, "seeds": m.get("seeds"), "mse": fmt_num(m["relmse_mean"], 3),
+                     "variance": fmt_num(m["rel_variance"], 3), "bias2": fmt_num(b, 3), "ci": fmt_num(ci, 2),
+                     "share": f"{100 * max(b, 0.0) / m['relmse_mean']:.0f} %" if m["relmse_mean"] > 0 else "—",
+                     "verdict": verdict})
+    return rows
+
+
+def _likeness(scene: SceneResult) -> dict | None:
+    """The Cycles-likeness a run measured (``cycles`` with ``--materials cycles``), formatted, or None."""
+    run = next((r for r in scene.runs if "likeness_ratio" in r.metadata), None)
+    if run is None:
+        return None
+    m = run.metadata
+    return {"spp": m.get("likeness_spp"), "cross": fmt_num(m.get("likeness_flip_cross"), 4),
+            "seed": fmt_num(m.get("likeness_flip_seed"), 4), "ratio": fmt_num(m.get("likeness_ratio"), 3),
+            "matched": fmt_num(m.get("likeness_ratio_noise_matched"), 3),
+            "mitsuba": fmt_num(m.get("likeness_flip_mitsuba_seed"), 4), "regions": m.get("likeness_regions"),
+            "mitsuba_spp": m.get("likeness_mitsuba_spp"), "relmse_ratio": fmt_num(m.get("likeness_relmse_ratio"), 3),
+            "relmse_matched": fmt_num(m.get("likeness_relmse_ratio_noise_matched"), 3),
+            "distribution": m.get("distribution"), "materials": m.get("likeness_materials")}
+
+
+def _ablations(scene: SceneResult, baseline: str = "progressive") -> list[dict]:
+    """Each run of the baseline's family (e.g. ``progressive:<option>``, compare.progressive.options) against the
+    baseline run (the plain ``progressive`` by default).
+
+    Final FLIP and relMSE of both, the time ratio, and the equal-time view: the
+    variant's FLIP when the paper's technique has spent its whole time, and the
+    paper's FLIP at the variant's total time (log–log interpolated, final image held).
+    """
+    base = scene.run(baseline)
+    if base is None or not base.points:
+        return []
+    rows = []
+    for run in scene.runs:
+        if run is base or run.family != base.family or not run.points:
+            continue
+        what = run.variant_note or run.renderer
+        f, b = run.final.metrics, base.final.metrics
+
+        def delta(key: str) -> str:
+            v, w = metric_value(f, key), metric_value(b, key)
+            if v is None or w is None or not w:
+                return "—"
+            return f"{(v / w - 1) * 100:+.1f} %"
+
+        rows.append({
+            "label": run.label, "what": what,
+            "flip": fmt_num(metric_value(f, "flip"), 4), "flip_delta": delta("flip"),
+            "relmse": fmt_num(metric_value(f, "relmse"), 4), "relmse_delta": delta("relmse"),
+            "seconds": fmt_seconds(run.seconds),
+            "time_ratio": fmt_num(run.seconds / base.seconds if base.seconds else None, 3),
+            "setup": fmt_seconds(run.setup_seconds),
+            "steps": run.steps,
+            "at_base_time": fmt_num(run.error_at(base.seconds, "flip", hold=True), 4),
+            "base_at_time": fmt_num(base.error_at(run.seconds, "flip", hold=True), 4),
+        })
+    return rows
+
+
+def _table1(results: Results) -> dict:
+    """Paper's Table 1 layout: renderer rows × (scene, resolution) columns, seconds with errors."""
+    cols = [{"name": s.name, "size": s.size, "id": s.id} for s in results.scenes]
+    specs: list[tuple[str, str]] = []
+    for s in results.scenes:
+        for r in s.runs:
+            if r.renderer not in [k for k, _ in specs]:
+                specs.append((r.renderer, r.label))
+    first = results.scenes[0].reference if results.scenes else None
+    rows = [{"label": f"Ground truth ({first.label or first.renderer if first else '—'})", "cells": [
+        {"seconds": fmt_seconds(s.reference.seconds), "detail": f"{s.reference.spp} {s.reference.unit}",
+         "flip": None, "ssim": None}
+        for s in results.scenes]}]
+    first_rows = []
+    for spec, label in specs:
+        cells, firsts = [], []
+        for s in results.scenes:
+            r = s.run(spec)
+            if r is None:
+                cells.append(None)
+                firsts.append(None)
+                continue
+            m = r.final.metrics
+            cells.append({"seconds": fmt_seconds(r.seconds),
+                          "detail": f"{r.steps} {r.unit}{'s' if r.unit == 'frame' else ''}",
+                          "flip": fmt_num(m.get("flip"), 3), "ssim": fmt_num(m.get("ssim"), 4)})
+            scale = r.metadata.get("first_frame_scale")
+            firsts.append({"first": fmt_seconds(r.first_frame_seconds), "setup": fmt_seconds(r.setup_seconds),
+                           "flip": fmt_num(r.points[0].metrics.get("flip"), 3),
+                           "scale": (f"drawn at {float(scale):g}× size" if isinstance(scale, (int, float))
+                                     and 0 < scale < 1 else "")})
+        rows.append({"label": label, "cells": cells})
+        first_rows.append({"label": label, "cells": firsts})
+    return {"cols": cols, "rows": rows, "first_rows": first_rows}
+
+
+# --------------------------------------------------------------------------- building
+
+
+def _referenced(results: Results) -> list[str]:
+    paths = []
+    for s in results.scenes:
+        for p in (s.reference.image, s.reference.preview, s.reference.variance):
+            if p:
+                paths.append(p)
+        for r in s.runs:
+            paths += [p for p in (r.image, r.preview) if p]
+            paths += list(r.maps.values())
+            paths += [e["map"] for e in r.layers.values() if isinstance(e.get("map"), str)]
+            for pt in r.points:
+                paths += [p for p in (pt.image, pt.preview) if p]
+    return paths
+
+
+def _safe_rel(rel: str) -> Path:
+    p = Path(rel)
+    if p.is_absolute() or ".." in p.parts:
+        raise ReportError(f"results.json names {rel!r}: image paths must stay inside the results folder")
+    return p
+
+
+def _colorbar(path: Path) -> None:
+    import imageio.v3 as iio
+    import matplotlib
+
+    ramp = matplotlib.colormaps["magma"](np.linspace(0.0, 1.0, 256))[:, :3]
+    img = np.round(np.repeat(ramp[None], 12, axis=0) * 255).astype(np.uint8)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    iio.imwrite(path, img, extension=".png")
+
+
+def build_report(results: Results, out_dir: str | os.PathLike, *, source_dir: str | os.PathLike | None = None,
+                 plot_format: str = "png") -> Path:
+    """Write the HTML report of ``results`` into ``out_dir``.
+
+    Parameters
+    ----------
+    results : Results
+        What ``compare run`` measured.
+    out_dir : path
+        The report folder. Usually the folder of ``results.json`` itself.
+    source_dir : path, optional
+        The folder ``results.json``'s relative image paths are relative to;
+        default ``out_dir``. When it differs, the images are copied over so
+        the report folder stands alone.
+    plot_format : {"png", "svg"}, optional
+        Format of the figures.
+
+    Returns
+    -------
+    pathlib.Path
+        ``out_dir / "index.html"``.
+
+    Raises
+    ------
+    ReportError
+        If an image named in the results is missing.
+    """
+    from jinja2 import Environment, FileSystemLoader, StrictUndefined
+
+    from compare import __version__
+    from compare.image.exr import read_exr
+    from compare.report.plots import make_plots
+
+    out = Path(out_dir)
+    src = Path(source_dir) if source_dir is not None else out
+    out.mkdir(parents=True, exist_ok=True)
+    root = src.resolve()
+    for rel in _referenced(results):
+        a, b = src / _safe_rel(rel), out / _safe_rel(rel)
+        if not a.is_file():
+            raise ReportError(f"{a}: named in results.json but missing; rerun `compare run` to recreate it")
+        if not a.resolve().is_relative_to(root):
+            raise ReportError(f"{a}: links to {a.resolve()}, outside the results folder {src}: a report copies "
+                              "only what its run wrote")
+        if a.resolve() != b.resolve():
+            b.parent.mkdir(parents=True, exist_ok=True)
+            if b.is_symlink():  # replace a link in the report folder, never write through it
+                b.unlink()
+            shutil.copy2(a, b)
+
+    static = out / "static"
+    static.mkdir(exist_ok=True)
+    for name in _STATIC:
+        shutil.copyfile(_HERE / name, static / name)
+    _colorbar(static / "magma.png")
+
+    plots = make_plots(results, out / "plots", fmt=plot_format)
+    for scene in results.scenes:
+        images = [("reference", "ground truth", read_exr(out / scene.reference.image)[0])]
+        images += [(r.renderer, r.label, read_exr(out / r.image)[0]) for r in scene.runs if r.image]
+        write_text_atomic(out / "data" / f"{scene.id}.js",
+                          hdr_payload(scene.id, images, exposure=results.settings.exposure,
+                                      operator=results.settings.tonemap))
+
+    env = Environment(loader=FileSystemLoader(_HERE), autoescape=True, undefined=StrictUndefined,
+                      trim_blocks=True, lstrip_blocks=True)
+    template = env.get_template("report.html.j2")
+    html = template.render(
+        title="Renderer comparison",
+        results=results,
+        settings=results.settings,
+        env=results.environment,
+        table1=_table1(results),
+        materials_note=MATERIALS_NOTES.get(results.settings.materials, results.settings.materials),
+        scenes=[_scene_view(s, plots[s.id], out, results.settings.exposure, results.settings.baseline)
+                for s in results.scenes],
+        metric_headings=[h for _, h, _ in TABLE_METRICS],
+        version=__version__,
+    )
+    index = out / "index.html"
+    write_text_atomic(index, html)
+    if src.resolve() != out.resolve():
+        results.save(out / "results.json")  # the copied report folder stands alone
+    return index
+
+
+# --------------------------------------------------------------------------- CLI
+
+
+def add_report_parser(subparsers) -> argparse.ArgumentParser:
+    """Add ``compare report`` to an argparse subparsers object; returns the new parser."""
+    p = subparsers.add_parser(
+        "report", help="(re)build the HTML report of a results.json",
+        description="Rebuild index.html, plots and viewer data from results.json and the images beside it.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    p.add_argument("results", type=Path, help="results.json written by `compare run`")
+    p.add_argument("-o", "--output", type=Path, default=None,
+                   help="report folder; default: the folder of results.json (images are copied when different)")
+    p.add_argument("--plot-format", choices=["png", "svg"], default="png", help="figure format")
+    p.add_argument("--fresh", action="store_true",
+                   help="replace the results of another run that the -o folder holds (refused otherwise)")
+    p.set_defaults(func=cmd_report)
+    return p
+
+
+def _same_results(path: Path, results: Results) -> bool:
+    """Whether ``path`` holds ``results`` (as a report copy writes them); unreadable counts as other."""
+    try:
+        return Results.load(path).to_json() == results.to_json()
+    except (CompareError, ValueError, OSError):
+        return False
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    """``compare report``; returns the exit status."""
+    from compare.util.files import check_output_folder, folder_lock
+
+    src = args.results.parent
+    out = args.output or src
+    check_output_folder("-o", out)
+    results = Results.load(args.results)
+    with folder_lock(out, "compare report"):
+        held = Path(out) / "results.json"
+        if (not args.fresh and held.is_file() and Path(out).resolve() != src.resolve()
+                and not _same_results(held, results)):
+            raise OutputError(f"-o {out}: holds the results of another run ({held}); choose another folder, or "
+                              "--fresh to replace them")
+        index = build_report(results, out, source_dir=src, plot_format=args.plot_format)
+    print(f"{index}")
+    return 0

@@ -1,0 +1,805 @@
+"""glTF 2.0 import (``.gltf`` and ``.glb``) into the scene model, and a small GLB writer.
+
+Only ``json``, ``struct`` and numpy: the reader decodes accessors (strided,
+normalized, sparse), walks the node hierarchy of the default scene, and returns
+world-space parts that :func:`include` maps onto :mod:`compare.scene.loader` objects.
+A TOML scene pulls a file in with ``[[include]]`` (see ``scenes/README.md``)
+and may add lights, an environment and a camera around it.
+
+Mapping decisions
+-----------------
+Geometry
+    Every triangle primitive (modes 4, 5 and 6; points and lines are skipped
+    with a warning) of every mesh node of the default scene becomes one
+    :class:`~compare.scene.loader.Mesh` with ``shape = "gltf"``, its node's world
+    matrix times the include's own transform. Missing normals get flat face
+    normals (the glTF rule); zero or non-finite normals are replaced by
+    area-weighted ones. Skins and morph targets are ignored (bind pose).
+Materials
+    ``pbrMetallicRoughness`` factors map one to one (the scene model *is* glTF's
+    material model). ``alphaMode`` MASK with ``alphaCutoff`` and the alpha of
+    ``baseColorFactor`` (times the base-colour image's alpha) cut holes; BLEND is
+    rendered opaque, with a note. ``emissiveFactor`` × ``KHR_materials_emissive_strength``
+    is the emission in W·sr⁻¹·m⁻², and ``emissiveTexture`` (sRGB) multiplies it.
+    ``KHR_texture_transform`` (offset, rotation, scale) and the sampler's wrapS and
+    magFilter become the material's texture settings (one per material: the base
+    colour map's, with a note when its maps differ).
+    ``occlusionTexture`` and its strength are the occlusion map, ``normalTexture`` and its scale the
+    normal map; tangents are generated from the UVs (:func:`compare.scene.geometry.vertex_tangents`), a
+    file's ``TANGENT`` attribute is not read. Primitives without a material get glTF's
+    default material (white, metallic 1, roughness 1). Textures: the base
+    colour and metallic-roughness images become the material's texture files
+    (external images are checked to stay inside the scene's folder; images
+    embedded in a GLB or a data URI are written once, by content hash, to
+    ``$COMPARE_CACHE/gltf-images``). glTF multiplies a map by its factor, where a
+    scene material's map replaces it: a base-colour or metallic-roughness factor other
+    than 1 is baked into its map (:func:`compare.scene.textures.factor_map`, a linear EXR in
+    the cache). Names are ``<prefix><material name>``, and a TOML
+    ``[materials."<prefix><name>"]`` of the same name replaces the imported one.
+Emissive quads
+    A primitive that is a planar rectangle (two triangles, four corners, right
+    angles) with an emissive material without an emission map becomes a one-sided rectangular
+    ``[[lights]]`` entry emitting along its front-face (counter-clockwise)
+    normal with the material's emission as radiance, so that both renderers
+    light the scene with it (the rasterizer samples only rectangle lights).
+    ``emissive_quads = "meshes"`` keeps it an emissive mesh instead.
+``KHR_lights_punctual``
+    The scene model has no delta lights, so each punctual light becomes small
+    rectangle lights of side ``punctual_size`` (default 5 cm): a spot light
+    one square facing along its direction (−Z of its node) with L = I / s², so
+    that its on-axis intensity is I (the cone is not reproduced: the square
+    falls off with the cosine); a point light a closed cube of six outward
+    squares with L = 2I / (3s²), so that it emits the point light's power
+    4πI. Intensities in candela are converted to W/sr with ``light_scale``,
+    default 1/683 W/lm (the candela's definition at 555 nm). Directional
+    lights have no rectangle equivalent: they are skipped with a warning (put
+    a sun into the ``[environment]``). ``punctual = "ignore"`` skips all.
+Cameras
+    A perspective camera (``yfov``, node −Z forward, +Y up) fills whatever the
+    TOML ``[camera]`` table leaves out (position, target, up, fov, and a
+    resolution of 320 pixels wide at its ``aspectRatio``). Orthographic
+    cameras are skipped with a warning.
+
+Units: glTF is in metres with +Y up, as the scene model is.
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+import math
+import os
+import struct
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from compare.scene import geometry
+from compare.util.files import sha256_bytes, write_bytes_atomic
+from compare.scene.geometry import MeshFileError, TriangleMesh
+
+GLB_MAGIC = 0x46546C67  # "glTF"
+CHUNK_JSON = 0x4E4F534A
+CHUNK_BIN = 0x004E4942
+COMPONENT_TYPES = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32,
+                   5126: np.float32}
+TYPE_SIZES = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
+#: Extensions that are read. A file that *requires* any other (Draco, meshopt, BasisU, WebP, ...) is
+#: refused; others it merely uses are ignored with one warning.
+SUPPORTED_EXTENSIONS = ("KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_mesh_quantization",
+                        "KHR_texture_transform")
+#: glTF sampler codes → the scene model's texture_wrap and texture_filter.
+GL_WRAPS = {10497: "repeat", 33071: "clamp", 33648: "mirror"}
+GL_FILTERS = {9728: "nearest", 9729: "linear"}
+#: Watts per lumen at 555 nm: candela → W/sr for KHR_lights_punctual.
+WATTS_PER_LUMEN = 1.0 / 683.0
+DEFAULT_PUNCTUAL_SIZE = 0.05
+#: Default width in pixels when a glTF camera supplies the aspect ratio.
+DEFAULT_CAMERA_WIDTH = 320
+
+
+class GltfError(MeshFileError):
+    """A glTF file is unreadable or uses something unsupported; names the file and the JSON path."""
+
+
+# ----------------------------------------------------------------------------- parsed document
+
+
+@dataclass(frozen=True)
+class GltfMaterial:
+    """A glTF material's metallic-roughness factors, emission and texture image indices."""
+
+    name: str
+    base_color: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    metallic: float = 1.0
+    roughness: float = 1.0
+    emission: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    base_color_image: int | None = None
+    metallic_roughness_image: int | None = None
+    emissive_image: int | None = None
+    occlusion_image: int | None = None
+    occlusion_strength: float = 1.0
+    normal_image: int | None = None
+    normal_scale: float = 1.0
+    #: alphaMode ("opaque" or "mask"; BLEND is read as opaque, with a note), baseColorFactor's alpha and
+    #: alphaCutoff.
+    alpha_mode: str = "opaque"
+    alpha: float = 1.0
+    alpha_cutoff: float = 0.5
+    #: The scene model's texture_offset, texture_rotation, texture_scale, texture_wrap and texture_filter
+    #: (compare.scene.model.Material), from KHR_texture_transform and the sampler; empty: the defaults.
+    texture_settings: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class GltfPrimitive:
+    """One triangle primitive in its node's coordinates, with the node's world matrix."""
+
+    name: str
+    mesh: TriangleMesh
+    matrix: np.ndarray
+    material: int | None
+
+
+@dataclass(frozen=True)
+class GltfCamera:
+    name: str
+    matrix: np.ndarray
+    yfov: float
+    """Vertical field of view in radians."""
+    aspect: float | None
+
+
+@dataclass(frozen=True)
+class GltfLight:
+    name: str
+    kind: str
+    """``"point"``, ``"spot"`` or ``"directional"``."""
+    color: tuple[float, float, float]
+    intensity: float
+    matrix: np.ndarray
+
+
+@dataclass
+class GltfDocument:
+    """What :func:`load_gltf` read: world-space parts of the default scene."""
+
+    path: Path
+    primitives: list[GltfPrimitive]
+    materials: list[GltfMaterial]
+    images: list[Path | None]
+    """Per glTF image: a readable file (external, or extracted to the cache), None if unusable."""
+    cameras: list[GltfCamera]
+    lights: list[GltfLight]
+    files: list[Path] = field(default_factory=list)
+    """External files the document references (buffers, images), for the scene hash."""
+    warnings: list[str] = field(default_factory=list)
+
+
+# ----------------------------------------------------------------------------- reading
+
+
+class _Reader:
+    def __init__(self, path: Path, root: Path):
+        self.path = path
+        self.root = root
+        self.files: list[Path] = []
+        self.notes: list[str] = []
+        raw = self._read(path)
+        self.bin: bytes | None = None
+        if raw[:4] == b"glTF":
+            self.doc = self._parse_glb(raw)
+        else:
+            try:
+                self.doc = json.loads(raw.decode("utf-8"))
+            except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+                raise self.err("", f"not a glTF JSON document nor a GLB container: {exc}") from exc
+        if not isinstance(self.doc, dict):
+            raise self.err("", "the JSON document is not an object")
+        version = str(self.doc.get("asset", {}).get("version", ""))
+        if not version.startswith("2."):
+            raise self.err("asset.version", f"only glTF 2.x is supported, got {version or 'none'!r}")
+        required = [e for e in self.doc.get("extensionsRequired", []) if e not in SUPPORTED_EXTENSIONS]
+        if required:
+            raise self.err("extensionsRequired", f"unsupported required extension(s): {', '.join(required)}")
+        ignored = sorted(set(self.doc.get("extensionsUsed", [])) - set(SUPPORTED_EXTENSIONS))
+        if ignored:
+            self.notes.append(f"ignored extension(s): {', '.join(ignored)}")
+        self._buffers: dict[int, bytes] = {}
+
+    def err(self, where: str, msg: str) -> GltfError:
+        return GltfError(f"{self.path}: {where + ': ' if where else ''}{msg}")
+
+    def _read(self, path: Path) -> bytes:
+        try:
+            return path.read_bytes()
+        except OSError as exc:
+            raise GltfError(f"{path}: cannot read glTF file: {exc}") from exc
+
+    def _parse_glb(self, raw: bytes) -> dict:
+        if len(raw) < 20:
+            raise self.err("", "truncated GLB header")
+        magic, version, length = struct.unpack_from("<III", raw, 0)
+        if magic != GLB_MAGIC or version != 2:
+            raise self.err("", f"GLB version {version} is not supported (expected 2)")
+        if length > len(raw):
+            raise self.err("", f"GLB header says {length} bytes, the file has {len(raw)}")
+        off, doc = 12, None
+        while off + 8 <= length:
+            size, kind = struct.unpack_from("<II", raw, off)
+            body = raw[off + 8: off + 8 + size]
+            if len(body) != size:
+                raise self.err("", f"truncated GLB chunk at byte {off}")
+            if kind == CHUNK_JSON and doc is None:
+                try:
+                    doc = json.loads(body.decode("utf-8"))
+                except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+                    raise self.err("", f"GLB JSON chunk is malformed: {exc}") from exc
+            elif kind == CHUNK_BIN and self.bin is None:
+                self.bin = body
+            off += 8 + size + (-size % 4)
+        if doc is None:
+            raise self.err("", "GLB file has no JSON chunk")
+        return doc
+
+    # -- helpers over the JSON --------------------------------------------------------------
+
+    def item(self, kind: str, index: Any, where: str) -> dict:
+        items = self.doc.get(kind, [])
+        if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index < len(items):
+            raise self.err(where, f"{kind} index {index!r} out of range (the file has {len(items)})")
+        value = items[index]
+        if not isinstance(value, dict):
+            raise self.err(f"{kind}[{index}]", "expected an object")
+        return value
+
+    def external(self, uri: str, where: str) -> Path:
+        if "://" in uri or uri.startswith("/"):
+            raise self.err(where, f"uri {uri!r} is not a relative file path")
+        from urllib.parse import unquote
+
+        full = (self.path.parent / unquote(uri)).resolve()
+        if not full.is_relative_to(self.root):
+            raise self.err(where, f"uri {uri!r} leaves the scene file's folder {self.root}")
+        if not full.is_file():
+            raise self.err(where, f"file {uri!r} not found (looked for {full})")
+        if full not in self.files:
+            self.files.append(full)
+        return full
+
+    @staticmethod
+    def data_uri(uri: str) -> tuple[str, bytes] | None:
+        if not uri.startswith("data:"):
+            return None
+        head, _, payload = uri.partition(",")
+        mime = head[5:].split(";")[0]
+        if head.endswith(";base64"):
+            return mime, base64.b64decode(payload)
+        from urllib.parse import unquote_to_bytes
+
+        return mime, unquote_to_bytes(payload)
+
+    def buffer(self, index: int, where: str) -> bytes:
+        if index in self._buffers:
+            return self._buffers[index]
+        b = self.item("buffers", index, where)
+        uri = b.get("uri")
+        if uri is None:
+            if self.bin is None or index != 0:
+                raise self.err(f"buffers[{index}]", "has no uri and there is no GLB binary chunk for it")
+            data = self.bin
+        else:
+            decoded = self.data_uri(uri)
+            data = decoded[1] if decoded else self._read(self.external(uri, f"buffers[{index}].uri"))
+        length = b.get("byteLength", len(data))
+        if len(data) < length:
+            raise self.err(f"buffers[{index}]", f"byteLength {length} but only {len(data)} bytes available")
+        self._buffers[index] = data
+        return data
+
+    def view_bytes(self, index: int, where: str) -> tuple[bytes, int, int, int | None]:
+        """(buffer, start, length, byteStride) of a bufferView."""
+        v = self.item("bufferViews", index, where)
+        data = self.buffer(v.get("buffer", -1), f"bufferViews[{index}].buffer")
+        start, length = int(v.get("byteOffset", 0)), int(v.get("byteLength", 0))
+        if start < 0 or start + length > len(data):
+            raise self.err(f"bufferViews[{index}]", f"bytes {start}…{start + length} exceed the buffer ({len(data)})")
+        return data, start, length, v.get("byteStride")
+
+    def accessor(self, index: int, where: str) -> np.ndarray:
+        """An accessor's elements as (count, components) float64 (normalized integers scaled)."""
+        a = self.item("accessors", index, where)
+        w = f"accessors[{index}]"
+        ctype, atype = a.get("componentType"), a.get("type")
+        if ctype not in COMPONENT_TYPES or atype not in TYPE_SIZES:
+            raise self.err(w, f"unsupported componentType {ctype!r} or type {atype!r}")
+        dtype = np.dtype(COMPONENT_TYPES[ctype]).newbyteorder("<")
+        n, count = TYPE_SIZES[atype], int(a.get("count", 0))
+        if count < 0:
+            raise self.err(w, f"negative count {count}")
+        if "bufferView" in a:
+            out = self._strided(a["bufferView"], int(a.get("byteOffset", 0)), dtype, n, count, w)
+        else:
+            out = np.zeros((count, n), dtype=dtype)
+        out = out.astype(np.float64)
+        sparse = a.get("sparse")
+        if sparse:
+            k = int(sparse.get("count", 0))
+            si, sv = sparse.get("indices", {}), sparse.get("values", {})
+            it = COMPONENT_TYPES.get(si.get("componentType"))
+            if it is None:
+                raise self.err(f"{w}.sparse.indices", f"unsupported componentType {si.get('componentType')!r}")
+            idx = self._strided(si.get("bufferView", -1), int(si.get("byteOffset", 0)), np.dtype(it), 1, k,
+                                f"{w}.sparse.indices")[:, 0].astype(np.int64)
+            vals = self._strided(sv.get("bufferView", -1), int(sv.get("byteOffset", 0)), dtype, n, k,
+                                 f"{w}.sparse.values").astype(np.float64)
+            if k and (idx.min() < 0 or idx.max() >= count):
+                raise self.err(f"{w}.sparse.indices", f"index out of range 0…{count - 1}")
+            out[idx] = vals
+        if a.get("normalized"):
+            if dtype.kind == "f":
+                raise self.err(w, "normalized is only valid for integer components")
+            info = np.iinfo(dtype)
+            out = np.maximum(out / info.max, -1.0)
+        return out
+
+    def _strided(self, view: int, offset: int, dtype: np.dtype, n: int, count: int, where: str) -> np.ndarray:
+        data, start, length, stride = self.view_bytes(view, where)
+        elem = dtype.itemsize * n
+        stride = int(stride or elem)
+        if stride < elem:
+            raise self.err(where, f"byteStride {stride} is smaller than one element ({elem} bytes)")
+        need = offset + (count - 1) * stride + elem if count else 0
+        if offset < 0 or need > length:
+            raise self.err(where, f"{count} elements need {need} bytes, the bufferView has {length}")
+        if count == 0:
+            return np.zeros((0, n), dtype=dtype)
+        arr = np.ndarray((count, n), dtype=dtype, buffer=data, offset=start + offset, strides=(stride, dtype.itemsize))
+        return arr.copy()
+
+    # -- parts ----------------------------------------------------------------------------
+
+    def primitive(self, mesh_index: int, k: int, prim: dict) -> TriangleMesh | None:
+        w = f"meshes[{mesh_index}].primitives[{k}]"
+        mode = prim.get("mode", 4)
+        if mode not in (4, 5, 6):
+            self.notes.append(f"{w}: mode {mode} (points or lines) skipped")
+            return None
+        attrs = prim.get("attributes", {})
+        if "POSITION" not in attrs:
+            raise self.err(f"{w}.attributes", "no POSITION attribute")
+        p = self.accessor(attrs["POSITION"], f"{w}.attributes.POSITION")
+        if p.shape[1] != 3:
+            raise self.err(f"{w}.attributes.POSITION", "expected VEC3 positions")
+        if not np.all(np.isfinite(p)):
+            raise self.err(f"{w}.attributes.POSITION", "non-finite vertex positions")
+        nv = len(p)
+        if "indices" in prim:
+            idx = self.accessor(prim["indices"], f"{w}.indices")[:, 0]
+            if len(idx) and (idx.min() < 0 or idx.max() >= nv):
+                raise self.err(f"{w}.indices", f"index out of range 0…{nv - 1}")
+            idx = idx.astype(np.int64)
+        else:
+            idx = np.arange(nv, dtype=np.int64)
+        if mode == 4:
+            tri = idx[: len(idx) // 3 * 3].reshape(-1, 3)
+        elif mode == 5:
+            i = np.arange(max(len(idx) - 2, 0))
+            odd = i % 2
+            tri = np.stack([idx[i], idx[i + 1 + odd], idx[i + 2 - odd]], 1)
+        else:
+            i = np.arange(max(len(idx) - 2, 0))
+            tri = np.stack([idx[i + 1], idx[i + 2], np.full_like(i, idx[0] if len(idx) else 0)], 1)
+        if len(tri) == 0:
+            self.notes.append(f"{w}: no triangles")
+            return None
+        uv = (self.accessor(attrs["TEXCOORD_0"], f"{w}.attributes.TEXCOORD_0")
+              if "TEXCOORD_0" in attrs else np.zeros((nv, 2)))
+        if "TEXCOORD_0" not in attrs and self._has_maps(prim.get("material")):
+            self.notes.append(f"{w}: its material has texture maps but the primitive has no TEXCOORD_0: "
+                              f"every map is read at texture coordinate (0, 0)")
+        if "NORMAL" in attrs:
+            n = self.accessor(attrs["NORMAL"], f"{w}.attributes.NORMAL")
+            length = np.linalg.norm(n, axis=1)
+            bad = ~(np.isfinite(length) & (length > 1e-12))
+            if bad.any():
+                self.notes.append(f"{w}: {int(bad.sum())} zero or non-finite normals replaced by face normals")
+                n[bad] = geometry.vertex_normals(p, tri)[bad]
+                length = np.linalg.norm(n, axis=1)
+            n = n / length[:, None]
+            return geometry._mesh(p, n, uv, tri)
+        # glTF: without normals, flat shading. Unweld so every triangle has its own face normal.
+        pa, pb, pc = p[tri[:, 0]], p[tri[:, 1]], p[tri[:, 2]]
+        fn = np.cross(pb - pa, pc - pa)
+        length = np.linalg.norm(fn, axis=1, keepdims=True)
+        fn = np.where(length > 1e-30, fn / np.maximum(length, 1e-30), np.array([0.0, 1.0, 0.0]))
+        flat = tri.ravel()
+        return geometry._mesh(p[flat], np.repeat(fn, 3, axis=0), uv[flat], np.arange(len(flat)).reshape(-1, 3))
+
+    def _has_maps(self, index) -> bool:
+        """Whether material ``index`` (None: the default material) names any texture (an alpha mask too)."""
+        if index is None:
+            return False
+        m = self.item("materials", index, "material")
+        pbr = m.get("pbrMetallicRoughness", {})
+        return (any(k in pbr for k in ("baseColorTexture", "metallicRoughnessTexture"))
+                or any(k in m for k in ("normalTexture", "occlusionTexture", "emissiveTexture"))
+                or m.get("alphaMode") == "MASK")
+
+    def material(self, index: int) -> GltfMaterial:
+        m = self.item("materials", index, "material")
+        w = f"materials[{index}]"
+        pbr = m.get("pbrMetallicRoughness", {})
+        base = pbr.get("baseColorFactor", [1.0, 1.0, 1.0, 1.0])
+        if not (isinstance(base, list) and len(base) == 4):
+            raise self.err(f"{w}.pbrMetallicRoughness.baseColorFactor", f"expected four numbers, got {base!r}")
+        mode = m.get("alphaMode", "OPAQUE")
+        if mode not in ("OPAQUE", "MASK", "BLEND"):
+            raise self.err(f"{w}.alphaMode", f'expected "OPAQUE", "MASK" or "BLEND", got {mode!r}')
+        if mode == "BLEND":
+            self.notes.append(f"{w}: alphaMode BLEND is not modelled (rendered opaque)")
+        cutoff = m.get("alphaCutoff", 0.5)
+        if isinstance(cutoff, bool) or not isinstance(cutoff, (int, float)) or not 0.0 <= cutoff <= 1.0:
+            raise self.err(f"{w}.alphaCutoff", f"expected a number in [0, 1], got {cutoff!r}")
+        emission = np.asarray(m.get("emissiveFactor", [0.0, 0.0, 0.0]), dtype=np.float64)
+        strength = m.get("extensions", {}).get("KHR_materials_emissive_strength", {}).get("emissiveStrength", 1.0)
+        emission = emission * float(strength)
+
+        sampling: list[tuple[str, tuple]] = []  # (texture key, its transform and sampler) of each map
+
+        def image(key: str, table: dict | None = None) -> int | None:
+            info = (pbr if table is None else table).get(key)
+            if info is None:
+                return None
+            xf = info.get("extensions", {}).get("KHR_texture_transform", {})
+            if info.get("texCoord", 0) != 0 or xf.get("texCoord", 0) != 0:
+                self.notes.append(f"{w}.{key}: only TEXCOORD_0 is supported")
+            where = f"{w}.pbrMetallicRoughness.{key}" if table is None else f"{w}.{key}"
+            tex = self.item("textures", info.get("index", -1), f"{where}.index")
+            sampler = self.item("samplers", tex["sampler"], f"{where}: texture sampler") if "sampler" in tex else {}
+            wrap_s, wrap_t = sampler.get("wrapS", 10497), sampler.get("wrapT", 10497)
+            if wrap_s != wrap_t:
+                self.notes.append(f"{w}.{key}: wrapT differs from wrapS; wrapS is used for both")
+            try:
+                offset = tuple(float(x) for x in xf.get("offset", [0.0, 0.0]))
+                scale = tuple(float(x) for x in xf.get("scale", [1.0, 1.0]))
+                rotation = math.degrees(float(xf.get("rotation", 0.0)))
+            except (TypeError, ValueError):
+                raise self.err(f"{where}.extensions.KHR_texture_transform", f"expected numbers, got {xf!r}") from None
+            if len(offset) != 2 or len(scale) != 2 or not all(map(math.isfinite, offset + scale + (rotation,))):
+                raise self.err(f"{where}.extensions.KHR_texture_transform", f"expected finite offset, rotation and "
+                                                                            f"scale, got {xf!r}")
+            sampling.append((key, (offset, rotation, scale, GL_WRAPS.get(wrap_s, "repeat"),
+                                   GL_FILTERS.get(sampler.get("magFilter", 9729), "linear"))))
+            src = tex.get("source")
+            if src is None:
+                self.notes.append(f"{w}.{key}: texture has no PNG/JPEG source; ignored")
+            return src
+
+        clamp = lambda v: min(max(float(v), 0.0), 1.0)  # noqa: E731
+        images = dict(base_color_image=image("baseColorTexture"),
+                      metallic_roughness_image=image("metallicRoughnessTexture"),
+                      emissive_image=image("emissiveTexture", m),
+                      occlusion_image=image("occlusionTexture", m),
+                      normal_image=image("normalTexture", m))
+        # The scene model has one transform and sampler per material: the first map's (base colour first).
+        offset, rotation, scale, wrap, filt = sampling[0][1] if sampling else ((0.0, 0.0), 0.0, (1.0, 1.0),
+                                                                             "repeat", "linear")
+        if any(s != sampling[0][1] for _, s in sampling[1:]):
+            self.notes.append(f"{w}: its maps have different texture transforms or samplers; "
+                              f"{sampling[0][0]}'s is used for all")
+        if mode == "MASK" and max(emission) > 0:
+            self.notes.append(f"{w}: the alpha mask of an emissive material is not modelled (rendered opaque)")
+            mode = "OPAQUE"
+        return GltfMaterial(
+            name=str(m.get("name") or f"material{index}"),
+            base_color=tuple(clamp(c) for c in base[:3]),  # type: ignore[arg-type]
+            metallic=clamp(pbr.get("metallicFactor", 1.0)),
+            roughness=clamp(pbr.get("roughnessFactor", 1.0)),
+            emission=tuple(float(max(e, 0.0)) for e in emission),  # type: ignore[arg-type]
+            texture_settings=({} if not sampling else
+                              dict(texture_offset=offset, texture_rotation=rotation, texture_scale=scale,
+                                   texture_wrap=wrap, texture_filter=filt)),
+            **images,
+            occlusion_strength=clamp(m.get("occlusionTexture", {}).get("strength", 1.0)),
+            normal_scale=float(m.get("normalTexture", {}).get("scale", 1.0)),
+            alpha_mode="mask" if mode == "MASK" else "opaque",
+            alpha=clamp(base[3]),
+            alpha_cutoff=float(cutoff),
+        )
+
+    def image(self, index: int) -> Path | None:
+        img = self.item("images", index, "image")
+        w = f"images[{index}]"
+        mime = img.get("mimeType", "")
+        if "uri" in img:
+            decoded = self.data_uri(img["uri"])
+            if decoded is None:
+                path = self.external(img["uri"], f"{w}.uri")
+                if path.suffix.lower() not in (".png", ".jpg", ".jpeg"):
+                    self.notes.append(f"{w}: {path.name} is not PNG or JPEG; ignored")
+                    return None
+                return path
+            mime, data = decoded[0] or mime, decoded[1]
+        elif "bufferView" in img:
+            buf, start, length, _ = self.view_bytes(img["bufferView"], f"{w}.bufferView")
+            data = buf[start:start + length]
+        else:
+            raise self.err(w, "needs a uri or a bufferView")
+        suffix = {"image/png": ".png", "image/jpeg": ".jpg"}.get(mime)
+        if suffix is None:
+            self.notes.append(f"{w}: mime type {mime!r} is not PNG or JPEG; ignored")
+            return None
+        return _cache_image(data, suffix)
+
+
+def _cache_image(data: bytes, suffix: str) -> Path:
+    """Write an embedded image once, named by its content hash, where Mitsuba can read it."""
+    from compare.util.cache import default_cache_dir
+
+    path = default_cache_dir() / "gltf-images" / f"{sha256_bytes(data)[:32]}{suffix}"
+    if not path.is_file() or path.stat().st_size != len(data):
+        write_bytes_atomic(path, data)
+    return path
+
+
+def _node_matrix(node: dict) -> np.ndarray:
+    if "matrix" in node:
+        return np.asarray(node["matrix"], dtype=np.float64).reshape(4, 4).T  # column-major
+    m = np.eye(4)
+    x, y, z, w = (float(v) for v in node.get("rotation", [0, 0, 0, 1]))
+    norm = math.sqrt(x * x + y * y + z * z + w * w) or 1.0
+    x, y, z, w = x / norm, y / norm, z / norm, w / norm
+    r = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                  [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                  [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+    m[:3, :3] = r @ np.diag(np.asarray(node.get("scale", [1, 1, 1]), dtype=np.float64))
+    m[:3, 3] = node.get("translation", [0, 0, 0])
+    return m
+
+
+def load_gltf(path: str | os.PathLike, *, root: str | os.PathLike | None = None) -> GltfDocument:
+    """Read a ``.gltf`` or ``.glb`` file: primitives, materials, images, cameras, lights.
+
+    Parameters
+    ----------
+    path
+        The file. External buffers and images are resolved relative to it.
+    root
+        Folder that external files must stay inside (the scene file's folder);
+        default: the glTF file's folder.
+
+    Raises
+    ------
+    GltfError
+        Naming the file and the JSON path, for anything malformed or unsupported.
+    """
+    path = Path(path)
+    try:
+        r = _Reader(path, Path(root).resolve() if root is not None else path.parent.resolve())
+        return _read_document(path, r)
+    except GltfError:
+        raise
+    except (AttributeError, TypeError, KeyError, IndexError, ValueError, OverflowError) as exc:
+        # The reader checks the fields it knows to go wrong by name; any other field of the wrong
+        # JSON type (an object where a list belongs, a string for an index) ends here, as one
+        # error naming the file, instead of a check per field of the glTF schema.
+        raise GltfError(f"{path}: malformed glTF ({type(exc).__name__}: {exc}); check it with the Khronos "
+                        "glTF validator") from None
+
+
+def _read_document(path: Path, r: "_Reader") -> GltfDocument:
+    doc = r.doc
+    nodes = doc.get("nodes", [])
+    scenes = doc.get("scenes")
+    if scenes:
+        s = r.item("scenes", doc.get("scene", 0), "scene")
+        roots = list(s.get("nodes", []))
+    else:  # no scenes: every node that is nobody's child
+        children = {c for n in nodes for c in n.get("children", [])}
+        roots = [i for i in range(len(nodes)) if i not in children]
+    light_defs = doc.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", [])
+
+    primitives: list[GltfPrimitive] = []
+    cameras: list[GltfCamera] = []
+    lights: list[GltfLight] = []
+    mesh_cache: dict[int, list[tuple[int, TriangleMesh | None, int | None]]] = {}
+
+    def visit(index: int, parent: np.ndarray, stack: tuple[int, ...]) -> None:
+        if index in stack:
+            raise r.err(f"nodes[{index}]", "the node hierarchy has a cycle")
+        node = r.item("nodes", index, f"nodes[{stack[-1]}].children" if stack else "scene.nodes")
+        world = parent @ _node_matrix(node)
+        name = str(node.get("name") or f"node{index}")
+        if "mesh" in node:
+            mi = node["mesh"]
+            if mi not in mesh_cache:
+                mesh = r.item("meshes", mi, f"nodes[{index}].mesh")
+                mesh_cache[mi] = [(k, r.primitive(mi, k, p), p.get("material"))
+                                  for k, p in enumerate(mesh.get("primitives", []))]
+                if mesh.get("weights") or any(p.get("targets") for p in mesh.get("primitives", [])):
+                    r.notes.append(f"meshes[{mi}]: morph targets ignored")
+            if "skin" in node:
+                r.notes.append(f"nodes[{index}]: skin ignored (bind pose)")
+            prims = mesh_cache[mi]
+            for k, tri, mat in prims:
+                if tri is not None:
+                    primitives.append(GltfPrimitive(name if len(prims) == 1 else f"{name}.{k}", tri, world, mat))
+        if "camera" in node:
+            cam = r.item("cameras", node["camera"], f"nodes[{index}].camera")
+            if cam.get("type") == "perspective" and "perspective" in cam:
+                pp = cam["perspective"]
+                cameras.append(GltfCamera(str(cam.get("name") or name), world, float(pp.get("yfov", 0.8)),
+                                          float(pp["aspectRatio"]) if pp.get("aspectRatio") else None))
+            else:
+                r.notes.append(f"cameras[{node['camera']}]: only perspective cameras are supported; skipped")
+        ext = node.get("extensions", {}).get("KHR_lights_punctual")
+        if ext is not None:
+            li = ext.get("light", -1)
+            if isinstance(li, bool) or not isinstance(li, int) or not 0 <= li < len(light_defs):
+                raise r.err(f"nodes[{index}].extensions.KHR_lights_punctual.light", f"index {li!r} out of range")
+            d = light_defs[li]
+            lights.append(GltfLight(str(d.get("name") or f"light{li}"), str(d.get("type", "point")),
+                                    tuple(float(c) for c in d.get("color", [1, 1, 1])),  # type: ignore[arg-type]
+                                    float(d.get("intensity", 1.0)), world))
+        for child in node.get("children", []):
+            visit(child, world, stack + (index,))
+
+    for root_index in roots:
+        visit(root_index, np.eye(4), ())
+    materials = [r.material(i) for i in range(len(doc.get("materials", [])))]
+    images = [r.image(i) for i in range(len(doc.get("images", [])))]
+    return GltfDocument(path, primitives, materials, images, cameras, lights, r.files, r.notes)
+
+
+# ----------------------------------------------------------------------------- writing
+
+
+class GltfWriter:
+    """Builds a small glTF 2.0 document and writes it as GLB (or .gltf with an embedded buffer).
+
+    Enough for the suite's generated scene data and for tests: triangle meshes
+    with normals and optional UVs, metallic-roughness materials, nodes with
+    transforms, perspective cameras and ``KHR_lights_punctual`` lights. Output
+    is deterministic (insertion order, float32 data).
+    """
+
+    def __init__(self, generator: str = "compare.scene.gltf"):
+        self.doc: dict[str, Any] = {"asset": {"version": "2.0", "generator": generator}}
+        self.bin = bytearray()
+        self._children: set[int] = set()
+
+    def _add(self, kind: str, value: dict) -> int:
+        self.doc.setdefault(kind, []).append(value)
+        return len(self.doc[kind]) - 1
+
+    def view(self, data: bytes, target: int | None = None) -> int:
+        """Append bytes (4-byte aligned) as a bufferView; returns its index."""
+        self.bin.extend(b"\0" * (-len(self.bin) % 4))
+        v = {"buffer": 0, "byteOffset": len(self.bin), "byteLength": len(data)}
+        if target is not None:
+            v["target"] = target
+        self.bin.extend(data)
+        return self._add("bufferViews", v)
+
+    def accessor(self, array: np.ndarray, *, indices: bool = False, bounds: bool = False) -> int:
+        a = np.asarray(array)
+        if indices:
+            a = a.astype(np.uint16 if a.size == 0 or a.max() < 65535 else np.uint32).ravel()
+            ctype = 5123 if a.dtype == np.uint16 else 5125
+            kind = "SCALAR"
+        else:
+            a = a.astype(np.float32)
+            ctype = 5126
+            kind = {1: "SCALAR", 2: "VEC2", 3: "VEC3", 4: "VEC4"}[a.shape[1] if a.ndim == 2 else 1]
+        view = self.view(np.ascontiguousarray(a).tobytes(), 34963 if indices else 34962)
+        acc = {"bufferView": view, "componentType": ctype, "count": int(a.shape[0]), "type": kind}
+        if bounds and a.ndim == 2 and len(a):
+            acc["min"] = [float(x) for x in a.min(0)]
+            acc["max"] = [float(x) for x in a.max(0)]
+        return self._add("accessors", acc)
+
+    def material(self, name: str, base_color=(0.8, 0.8, 0.8), metallic: float = 0.0, roughness: float = 0.5,
+                 emission=(0.0, 0.0, 0.0)) -> int:
+        m: dict[str, Any] = {"name": name, "pbrMetallicRoughness": {
+            "baseColorFactor": [float(c) for c in base_color] + [1.0],
+            "metallicFactor": float(metallic), "roughnessFactor": float(roughness)}}
+        e = [float(c) for c in emission]
+        if max(e) > 0:
+            peak = max(e)
+            if peak > 1.0:
+                m["emissiveFactor"] = [c / peak for c in e]
+                m["extensions"] = {"KHR_materials_emissive_strength": {"emissiveStrength": peak}}
+                self._use("KHR_materials_emissive_strength")
+            else:
+                m["emissiveFactor"] = e
+        return self._add("materials", m)
+
+    def _use(self, ext: str) -> None:
+        used = self.doc.setdefault("extensionsUsed", [])
+        if ext not in used:
+            used.append(ext)
+
+    def mesh(self, name: str, parts: list[tuple[TriangleMesh, int | None]], *, normals: bool = True,
+             uvs: bool = False) -> int:
+        """A mesh of one primitive per (triangles, material index) part."""
+        prims = []
+        for tri, material in parts:
+            attrs = {"POSITION": self.accessor(tri.positions, bounds=True)}
+            if normals:
+                attrs["NORMAL"] = self.accessor(tri.normals)
+            if uvs:
+                attrs["TEXCOORD_0"] = self.accessor(tri.uvs)
+            prim: dict[str, Any] = {"attributes": attrs, "indices": self.accessor(tri.indices, indices=True)}
+            if material is not None:
+                prim["material"] = material
+            prims.append(prim)
+        return self._add("meshes", {"name": name, "primitives": prims})
+
+    def camera(self, name: str, yfov_degrees: float, aspect: float | None = None, znear: float = 0.01) -> int:
+        p: dict[str, Any] = {"yfov": math.radians(yfov_degrees), "znear": znear}
+        if aspect:
+            p["aspectRatio"] = aspect
+        return self._add("cameras", {"name": name, "type": "perspective", "perspective": p})
+
+    def light(self, name: str, kind: str, intensity: float, color=(1.0, 1.0, 1.0)) -> int:
+        self._use("KHR_lights_punctual")
+        ext = self.doc.setdefault("extensions", {}).setdefault("KHR_lights_punctual", {"lights": []})
+        d: dict[str, Any] = {"name": name, "type": kind, "intensity": float(intensity), "color": list(color)}
+        if kind == "spot":
+            d["spot"] = {"innerConeAngle": 0.0, "outerConeAngle": math.pi / 4}
+        ext["lights"].append(d)
+        return len(ext["lights"]) - 1
+
+    def node(self, name: str | None = None, *, mesh: int | None = None, camera: int | None = None,
+             light: int | None = None, translation=None, rotation=None, scale=None, matrix=None,
+             children: tuple[int, ...] = ()) -> int:
+        n: dict[str, Any] = {}
+        if name:
+            n["name"] = name
+        for key, value in (("mesh", mesh), ("camera", camera)):
+            if value is not None:
+                n[key] = value
+        if light is not None:
+            n["extensions"] = {"KHR_lights_punctual": {"light": light}}
+        if matrix is not None:
+            n["matrix"] = [float(x) for x in np.asarray(matrix, dtype=np.float64).T.ravel()]
+        for key, value in (("translation", translation), ("rotation", rotation), ("scale", scale)):
+            if value is not None:
+                n[key] = [float(x) for x in value]
+        if children:
+            n["children"] = list(children)
+            self._children.update(children)
+        return self._add("nodes", n)
+
+    def document(self, *, embed_buffer: bool = False) -> dict:
+        doc = json.loads(json.dumps(self.doc))
+        roots = [i for i in range(len(doc.get("nodes", []))) if i not in self._children]
+        doc["scenes"] = [{"nodes": roots}]
+        doc["scene"] = 0
+        if self.bin:
+            buf: dict[str, Any] = {"byteLength": len(self.bin)}
+            if embed_buffer:
+                buf["uri"] = "data:application/octet-stream;base64," + base64.b64encode(bytes(self.bin)).decode()
+            doc["buffers"] = [buf]
+        return doc
+
+    def glb(self) -> bytes:
+        js = json.dumps(self.document(), separators=(",", ":")).encode("utf-8")
+        js += b" " * (-len(js) % 4)
+        body = bytes(self.bin) + b"\0" * (-len(self.bin) % 4)
+        out = struct.pack("<II", len(js), CHUNK_JSON) + js
+        if body:
+            out += struct.pack("<II", len(body), CHUNK_BIN) + body
+        return struct.pack("<III", GLB_MAGIC, 2, 12 + len(out)) + out
+
+    def write(self, path: str | os.PathLike) -> Path:
+        """Write ``.glb`` (binary) or ``.gltf`` (JSON with the buffer as a data URI), atomically."""
+        path = Path(path)
+        if path.suffix.lower() == ".glb":
+            write_bytes_atomic(path, self.glb())
+        else:
+            write_bytes_atomic(path, json.dumps(self.document(embed_buffer=True), indent=1).encode("utf-8"))
+        return path

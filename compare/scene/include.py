@@ -1,0 +1,247 @@
+"""``[[include]]`` of a scene file: a glTF file's meshes, materials, lights and camera as scene objects.
+
+The reader is :mod:`compare.scene.gltf`; the objects are :mod:`compare.scene.model`'s;
+every error names the scene file and the field (:mod:`compare.scene.fields`).
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from compare.scene import geometry
+from compare.scene import fields as sf
+from compare.scene import model as sm
+from compare.scene.geometry import TriangleMesh
+from compare.scene.textures import factor_map, texture_problem
+from compare.scene.gltf import (DEFAULT_CAMERA_WIDTH, DEFAULT_PUNCTUAL_SIZE, WATTS_PER_LUMEN, GltfCamera, GltfError, GltfLight,
+                   load_gltf)
+
+
+
+@dataclass
+class Included:
+    """Scene objects made from one ``[[include]]``."""
+
+    materials: dict
+    meshes: list
+    lights: list
+    camera: dict | None
+    """Camera fields (position, target, up, fov, resolution) for the TOML ``[camera]`` to fill in from."""
+    files: list[Path]
+    notes: list[str]
+
+
+INCLUDE_FIELDS = {"file", "translate", "rotate", "scale", "prefix", "emissive_quads", "punctual", "punctual_size",
+                  "light_scale", "camera"}
+
+
+def include(ctx, where: str, raw: Any) -> Included:
+    """Validate one ``[[include]]`` table of a scene file and map its glTF file onto scene objects.
+
+    ``ctx`` is :mod:`compare.scene.loader`'s loading context (file name for messages,
+    scene folder for paths); errors name ``where`` and the field.
+    """
+    t = sf.table(ctx, where, raw, INCLUDE_FIELDS)
+    given = sf.require(ctx, where, t, "file")
+    path = sf.file_field(ctx, f"{where}.file", given, (".gltf", ".glb"))
+    prefix = t.get("prefix", f"{path.stem}/")
+    if not isinstance(prefix, str):
+        raise ctx.err(f"{where}.prefix", f"expected a string, got {sf.fmt(prefix)}")
+    quads = t.get("emissive_quads", "lights")
+    if quads not in ("lights", "meshes"):
+        raise ctx.err(f"{where}.emissive_quads", f"expected 'lights' or 'meshes', got {sf.fmt(quads)}")
+    punctual = t.get("punctual", "area")
+    if punctual not in ("area", "ignore"):
+        raise ctx.err(f"{where}.punctual", f"expected 'area' or 'ignore', got {sf.fmt(punctual)}")
+    size = sf.number(ctx, f"{where}.punctual_size", t.get("punctual_size", DEFAULT_PUNCTUAL_SIZE), positive=True)
+    light_scale = sf.number(ctx, f"{where}.light_scale", t.get("light_scale", WATTS_PER_LUMEN), positive=True)
+    cam_sel = t.get("camera", 0)
+    if isinstance(cam_sel, bool) and cam_sel:
+        cam_sel = 0
+    if not (cam_sel is False or isinstance(cam_sel, str) or (isinstance(cam_sel, int) and cam_sel >= 0)):
+        raise ctx.err(f"{where}.camera", f"expected a camera name, an index or false, got {sf.fmt(cam_sel)}")
+    scale = t.get("scale", [1, 1, 1])
+    if isinstance(scale, (int, float)) and not isinstance(scale, bool):
+        scale = [scale] * 3
+    sv = sf.vector(ctx, f"{where}.scale", scale, 3)
+    if any(abs(s) < 1e-12 for s in sv):
+        raise ctx.err(f"{where}.scale", f"expected non-zero scale factors, got {sf.fmt(scale)}")
+    xf = geometry.transform_matrix(sf.vector(ctx, f"{where}.translate", t.get("translate", [0, 0, 0]), 3),
+                                   sf.vector(ctx, f"{where}.rotate", t.get("rotate", [0, 0, 0]), 3), sv)
+    try:
+        doc = load_gltf(path, root=ctx.root)
+    except GltfError as exc:  # name the file as the scene does, relative to its folder
+        raise ctx.err(f"{where}.file", str(exc).replace(str(path), given, 1)) from exc
+
+    notes = list(doc.warnings)
+    materials: dict[str, Any] = {}
+
+    def material_name(index: int | None) -> str:
+        if index is None:
+            name = f"{prefix}default"
+            materials.setdefault(name, sm.Material(name=name, base_color=(1.0, 1.0, 1.0), metallic=1.0,
+                                                   roughness=1.0))
+            return name
+        if not 0 <= index < len(doc.materials):
+            raise ctx.err(f"{where}.file", f"{given}: primitive material index {index} out of range")
+        m = doc.materials[index]
+        same = [i for i, o in enumerate(doc.materials) if o.name == m.name]
+        name = f"{prefix}{m.name}" + (f"#{index}" if len(same) > 1 else "")
+        if name not in materials:
+            def tex(i):
+                path = doc.images[i] if i is not None and 0 <= i < len(doc.images) else None
+                problem = texture_problem(path) if path is not None else None
+                if problem:
+                    raise ctx.err(f"{where}.file", f"{given}: materials[{index}]: image {i}: {problem}")
+                return path
+
+            base_map, mr_map = tex(m.base_color_image), tex(m.metallic_roughness_image)
+            # glTF multiplies a map by its factor; in the scene model a map replaces it: a factor other
+            # than 1 is baked into the map
+            if base_map is not None and any(c != 1.0 for c in m.base_color):
+                base_map = factor_map(base_map, m.base_color, srgb=True)
+            if mr_map is not None and (m.metallic, m.roughness) != (1.0, 1.0):
+                mr_map = factor_map(mr_map, (1.0, m.roughness, m.metallic), srgb=False)
+            materials[name] = sm.Material(name=name, base_color=m.base_color, metallic=m.metallic,
+                                          roughness=m.roughness, emission=m.emission,
+                                          base_color_texture=base_map,
+                                          metallic_roughness_texture=mr_map,
+                                          emissive_texture=tex(m.emissive_image),
+                                          occlusion_texture=tex(m.occlusion_image),
+                                          occlusion_strength=m.occlusion_strength,
+                                          normal_texture=tex(m.normal_image), normal_scale=m.normal_scale,
+                                          alpha_mode=m.alpha_mode, alpha=m.alpha, alpha_cutoff=m.alpha_cutoff,
+                                          **m.texture_settings)
+        return name
+
+    meshes, lights = [], []
+    used: dict[str, int] = {}
+    for prim in doc.primitives:
+        mat = material_name(prim.material)
+        matrix = xf @ prim.matrix
+        base = f"{prefix}{prim.name}"
+        used[base] = used.get(base, 0) + 1
+        name = base if used[base] == 1 else f"{base}#{used[base]}"
+        mesh = sm.Mesh(name=name, shape="gltf", material=mat, params={"triangles": prim.mesh}, transform=matrix,
+                       file=path)
+        # A light has one radiance: a quad whose emission has a map stays a mesh (its map is drawn).
+        light_like = materials[mat].is_emissive and materials[mat].emissive_texture is None
+        rect = _emissive_rectangle(mesh.triangles()) if quads == "lights" and light_like else None
+        if rect is None:
+            meshes.append(mesh)
+        else:
+            center, rsize, normal, tangent = rect
+            lights.append(sm.AreaLight(name, center, rsize, normal, tangent, materials[mat].emission))
+    if punctual == "area":
+        world_scale = abs(np.linalg.det(xf[:3, :3])) ** (1.0 / 3.0)
+        for light in doc.lights:
+            lights.extend(_punctual_lights(sm, light, xf, size * world_scale, light_scale, prefix, notes))
+    elif doc.lights:
+        notes.append(f"{len(doc.lights)} KHR_lights_punctual light(s) ignored (punctual = 'ignore')")
+    camera = None
+    if cam_sel is not False and doc.cameras:
+        if isinstance(cam_sel, str):
+            found = [c for c in doc.cameras if c.name == cam_sel]
+            if not found:
+                raise ctx.err(f"{where}.camera", f"no camera named {cam_sel!r} in {path.name} "
+                                                 f"(cameras: {', '.join(c.name for c in doc.cameras)})")
+            cam = found[0]
+        elif cam_sel < len(doc.cameras):
+            cam = doc.cameras[cam_sel]
+        else:
+            raise ctx.err(f"{where}.camera", f"index {cam_sel} out of range ({len(doc.cameras)} camera(s))")
+        camera = _camera_fields(cam, xf)
+    for note in notes:
+        warnings.warn(f"{ctx.path}: {where}: {path.name}: {note}", stacklevel=4)
+    return Included(materials, meshes, lights, camera, [*doc.files], notes)
+
+
+def _camera_fields(cam: GltfCamera, xf: np.ndarray) -> dict:
+    m = xf @ cam.matrix
+    pos = m[:3, 3]
+    fwd = m[:3, :3] @ np.array([0.0, 0.0, -1.0])
+    up = m[:3, :3] @ np.array([0.0, 1.0, 0.0])
+    fwd /= np.linalg.norm(fwd)
+    up /= np.linalg.norm(up)
+    width = DEFAULT_CAMERA_WIDTH
+    height = max(1, round(width / cam.aspect)) if cam.aspect else 240
+    return {"position": [float(x) for x in pos], "target": [float(x) for x in pos + fwd],
+            "up": [float(x) for x in up], "fov": math.degrees(cam.yfov), "resolution": [width, height]}
+
+
+def _emissive_rectangle(tri: TriangleMesh):
+    """(center, size, normal, tangent) if the two triangles form one planar rectangle, else None.
+
+    The normal follows the first triangle's winding (its front face); the tangent is the first side of
+    the first triangle in vertex order (for a quad drawn as (0, 1, 2), (0, 2, 3) that is corner 0 → 1).
+    """
+    if tri.triangle_count != 2:
+        return None
+    p = tri.positions.astype(np.float64)
+    (ia, ib, ic), second = tri.indices[0], tri.indices[1]
+    a, b, c = p[ia], p[ib], p[ic]
+    edges = [b - a, c - b, a - c]
+    lengths = [float(np.linalg.norm(e)) for e in edges]
+    k = int(np.argmax(lengths))  # the hypotenuse
+    e0, e1 = edges[(k + 1) % 3], edges[(k + 2) % 3]
+    l0, l1 = lengths[(k + 1) % 3], lengths[(k + 2) % 3]
+    scale = lengths[k]
+    if min(l0, l1) < 1e-9 * max(scale, 1e-300) or abs(e0 @ e1) > 1e-5 * l0 * l1:
+        return None
+    n = np.cross(b - a, c - a)
+    n /= np.linalg.norm(n)
+    ends = [(a, b), (b, c), (c, a)][k]
+    right = [c, a, b][k]
+    d = ends[0] + ends[1] - right
+    q = p[second]
+    known = np.array([a, b, c, d])
+    dist = np.linalg.norm(q[:, None, :] - known[None, :, :], axis=-1).min(1)
+    if dist.max() > 1e-5 * scale or not np.any(np.linalg.norm(q - d, axis=1) < 1e-5 * scale):
+        return None
+    if np.cross(q[1] - q[0], q[2] - q[0]) @ n <= 0:  # the second triangle must face the same way
+        return None
+    center = 0.5 * (ends[0] + ends[1])
+    return (tuple(float(x) for x in center), (l0, l1), tuple(float(x) for x in n),
+            tuple(float(x) for x in e0 / l0))
+
+
+def _punctual_lights(sc, light: GltfLight, xf: np.ndarray, side: float, light_scale: float, prefix: str,
+                     notes: list[str]) -> list:
+    m = xf @ light.matrix
+    pos = m[:3, 3]
+    intensity = np.asarray(light.color) * light.intensity * light_scale  # W/sr
+    name = f"{prefix}{light.name}"
+    if light.kind == "directional":
+        notes.append(f"directional light {light.name!r} skipped: add a sun to the [environment] instead")
+        return []
+    if max(intensity) <= 0:
+        notes.append(f"light {light.name!r} emits nothing; skipped")
+        return []
+
+    def frame(direction):
+        d = direction / np.linalg.norm(direction)
+        helper = np.array([0.0, 1.0, 0.0]) if abs(d[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
+        t = np.cross(helper, d)
+        return d, t / np.linalg.norm(t)
+
+    out = []
+    if light.kind == "spot":
+        n, t = frame(m[:3, :3] @ np.array([0.0, 0.0, -1.0]))
+        radiance = intensity / side**2
+        out.append(sm.AreaLight(name, tuple(pos), (side, side), tuple(n), tuple(t), tuple(radiance)))
+        notes.append(f"spot light {light.name!r}: a {side:g} m square facing its direction (cone not reproduced)")
+    else:
+        radiance = 2.0 * intensity / (3.0 * side**2)
+        for axis, label in zip(np.vstack([np.eye(3), -np.eye(3)]), ("+x", "+y", "+z", "-x", "-y", "-z")):
+            n, t = frame(axis)
+            out.append(sm.AreaLight(f"{name}{label}", tuple(pos + n * side / 2), (side, side), tuple(n), tuple(t),
+                                    tuple(radiance)))
+    return out
+
+

@@ -1,0 +1,409 @@
+"""The neutral scene model every renderer reads, loaded from TOML.
+
+A scene file is data: nothing in it is executed, every path in it is resolved
+relative to the file and refused if it leaves the file's folder, and every
+error names the file and the field, e.g.::
+
+    scenes/x.toml: lights[2].size: expected two positive numbers, got [0.5, -1]
+
+Units are metres; the world is right-handed with +Y up. Area lights are
+one-sided rectangles that emit along their normal, given as radiance
+(W·sr⁻¹·m⁻²) or as power (W; radiance = Φ / (π·A) for a Lambertian emitter).
+Materials follow glTF 2.0 metallic-roughness (α = roughness²).
+
+See ``scenes/README.md`` for the file format with an example of every field.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from compare.scene import geometry
+from compare.brdf.multiscatter import DEFAULT_DISTRIBUTION, DISTRIBUTIONS
+
+#: Texture sampling settings of a material (glTF samplers: wrapS/T and magFilter).
+TEXTURE_WRAPS = ("repeat", "clamp", "mirror")
+TEXTURE_FILTERS = ("linear", "nearest")
+ALPHA_MODES = ("opaque", "mask")
+from compare.util.errors import CompareError, MissingComponentError, SceneError
+from compare.util.files import sha256_bytes
+from compare.scene.fields import Ctx as _Ctx, color as _color, file_field as _file, fmt as _fmt, number as _number
+from compare.scene.fields import float32_problem as _float32_problem, require as _require, table as _table
+from compare.scene.fields import unit_vector as _unit, vector as _vector
+from compare.scene.model import *  # noqa: F403 - the model is this module's face
+from compare.scene.model import (DEFAULT_PROBE_BOUNCES, DEFAULT_PROBE_GRID, ENV_FILE_SUFFIXES, GLOSSY_ROUGHNESS,
+                          INDIRECT_MODES, MAX_PROBES_PER_AXIS, MESH_FILE_SUFFIXES, MESH_SHAPES, TEXTURE_SUFFIXES,
+                          AreaLight, Camera, Environment, Features, Material, Mesh, Scene)
+
+
+def _camera(ctx: _Ctx, raw: Any) -> Camera:
+    t = _table(ctx, "camera", raw, {"position", "target", "up", "fov", "resolution"})
+    pos = _vector(ctx, "camera.position", _require(ctx, "camera", t, "position"), 3)
+    target = _vector(ctx, "camera.target", _require(ctx, "camera", t, "target"), 3)
+    for field, v in (("position", pos), ("target", target)):
+        problem = geometry.world_range_problem(max(abs(x) for x in v))
+        if problem:
+            raise ctx.err(f"camera.{field}", f"reaches {problem}")
+    if np.linalg.norm(np.subtract(target, pos)) < 1e-12:
+        raise ctx.err("camera.target", "must differ from camera.position")
+    up = tuple(_unit(ctx, "camera.up", t.get("up", [0, 1, 0])))
+    fwd = np.subtract(target, pos)
+    if np.linalg.norm(np.cross(fwd / np.linalg.norm(fwd), up)) < 1e-6:
+        raise ctx.err("camera.up", f"is parallel to the viewing direction, got {_fmt(t.get('up', [0, 1, 0]))}")
+    fov = _number(ctx, "camera.fov", t.get("fov", 45.0))
+    if not 0 < fov < 180:
+        raise ctx.err("camera.fov", f"expected a vertical field of view in degrees in (0, 180), got {_fmt(t['fov'])}")
+    res = t.get("resolution", [320, 240])
+    if not (isinstance(res, list) and len(res) == 2 and all(isinstance(x, int) and not isinstance(x, bool) and x > 0
+                                                            for x in res)):
+        raise ctx.err("camera.resolution", f"expected two positive integers, got {_fmt(res)}")
+    return Camera(pos, target, up, fov, (res[0], res[1]))  # type: ignore[arg-type]
+
+
+def _material(ctx: _Ctx, name: str, raw: Any) -> Material:
+    w = f"materials.{name}"
+    t = _table(ctx, w, raw, {"base_color", "metallic", "roughness", "emission", "base_color_texture",
+                             "metallic_roughness_texture", "emissive_texture", "occlusion_texture",
+                             "occlusion_strength", "normal_texture", "normal_scale", "distribution", "texture_offset",
+                             "texture_rotation", "texture_scale", "texture_wrap", "texture_filter",
+                             "alpha_mode", "alpha", "alpha_cutoff"})
+    wrap = t.get("texture_wrap", "repeat")
+    if wrap not in TEXTURE_WRAPS:
+        raise ctx.err(f"{w}.texture_wrap", f"expected one of {', '.join(map(repr, TEXTURE_WRAPS))}, got {_fmt(wrap)}")
+    filt = t.get("texture_filter", "linear")
+    if filt not in TEXTURE_FILTERS:
+        raise ctx.err(f"{w}.texture_filter", f"expected one of {', '.join(map(repr, TEXTURE_FILTERS))}, "
+                                             f"got {_fmt(filt)}")
+    scale = _vector(ctx, f"{w}.texture_scale", t.get("texture_scale", [1.0, 1.0]), 2)
+    if 0.0 in scale:
+        raise ctx.err(f"{w}.texture_scale", f"expected two non-zero numbers, got {_fmt(t.get('texture_scale'))}")
+    alpha_mode = t.get("alpha_mode", "opaque")
+    if alpha_mode not in ALPHA_MODES:
+        hint = " (blending is not modelled: use \"mask\" with an alpha_cutoff)" if alpha_mode == "blend" else ""
+        raise ctx.err(f"{w}.alpha_mode", f"expected one of {', '.join(map(repr, ALPHA_MODES))}, got {_fmt(alpha_mode)}"
+                                         + hint)
+    dist = t.get("distribution", DEFAULT_DISTRIBUTION)
+    if dist not in DISTRIBUTIONS:
+        raise ctx.err(f"{w}.distribution", f"expected one of {', '.join(map(repr, DISTRIBUTIONS))} (Blender's "
+                                           f"Principled BSDF distribution), got {_fmt(dist)}")
+    mat = Material(
+        name=name,
+        base_color=_color(ctx, f"{w}.base_color", t.get("base_color", [0.8, 0.8, 0.8]), hi=1.0),
+        metallic=_number(ctx, f"{w}.metallic", t.get("metallic", 0.0), lo=0.0, hi=1.0),
+        roughness=_number(ctx, f"{w}.roughness", t.get("roughness", 0.5), lo=0.0, hi=1.0),
+        emission=_color(ctx, f"{w}.emission", t.get("emission", [0, 0, 0])),
+        base_color_texture=(_texture(ctx, f"{w}.base_color_texture", t["base_color_texture"])
+                            if "base_color_texture" in t else None),
+        metallic_roughness_texture=(_texture(ctx, f"{w}.metallic_roughness_texture", t["metallic_roughness_texture"])
+                                    if "metallic_roughness_texture" in t else None),
+        emissive_texture=(_texture(ctx, f"{w}.emissive_texture", t["emissive_texture"])
+                          if "emissive_texture" in t else None),
+        occlusion_texture=(_texture(ctx, f"{w}.occlusion_texture", t["occlusion_texture"])
+                           if "occlusion_texture" in t else None),
+        occlusion_strength=_number(ctx, f"{w}.occlusion_strength", t.get("occlusion_strength", 1.0), lo=0.0, hi=1.0),
+        normal_texture=(_texture(ctx, f"{w}.normal_texture", t["normal_texture"]) if "normal_texture" in t else None),
+        normal_scale=_number(ctx, f"{w}.normal_scale", t.get("normal_scale", 1.0)),
+        texture_offset=_vector(ctx, f"{w}.texture_offset", t.get("texture_offset", [0.0, 0.0]), 2),
+        texture_rotation=_number(ctx, f"{w}.texture_rotation", t.get("texture_rotation", 0.0)),
+        texture_scale=scale,
+        texture_wrap=wrap,
+        texture_filter=filt,
+        distribution=dist,
+        alpha_mode=alpha_mode,
+        alpha=_number(ctx, f"{w}.alpha", t.get("alpha", 1.0), lo=0.0, hi=1.0),
+        alpha_cutoff=_number(ctx, f"{w}.alpha_cutoff", t.get("alpha_cutoff", 0.5), lo=0.0, hi=1.0),
+    )
+    if mat.is_masked and mat.is_emissive:
+        raise ctx.err(f"{w}.alpha_mode", "an emissive material cannot be alpha-masked (the reference's emitters "
+                                         "have no holes); drop the emission or the mask")
+    return mat
+
+
+def _texture(ctx: _Ctx, where: str, v: Any) -> Path:
+    """A texture file, read once here: unreadable, NaN or negative values are refused at load."""
+    from compare.scene.textures import texture_problem
+
+    path = _file(ctx, where, v, TEXTURE_SUFFIXES)
+    problem = texture_problem(path)
+    if problem:
+        raise ctx.err(where, f"{v}: {problem}")
+    return path
+
+
+def _mesh(ctx: _Ctx, k: int, raw: Any, materials: dict[str, Material]) -> Mesh:
+    w = f"meshes[{k}]"
+    common = {"name", "shape", "material", "translate", "rotate", "scale"}
+    if not isinstance(raw, dict):
+        raise ctx.err(w, f"expected a table, got {_fmt(raw)}")
+    shape = _require(ctx, w, raw, "shape")
+    if shape not in MESH_SHAPES:
+        raise ctx.err(f"{w}.shape", f"expected one of {', '.join(MESH_SHAPES)}, got {_fmt(shape)}")
+    extra = {"quad": {"size", "corners"}, "box": {"size"}, "sphere": {"radius", "segments", "rings"},
+             "cylinder": {"radius", "height", "segments"}, "file": {"file"}}[shape]
+    t = _table(ctx, w, raw, common | extra)
+    name = t.get("name", f"mesh{k}")
+    if not isinstance(name, str):
+        raise ctx.err(f"{w}.name", f"expected a string, got {_fmt(name)}")
+    mat = _require(ctx, w, t, "material")
+    if mat not in materials:
+        known = ", ".join(sorted(materials)) or "none defined"
+        raise ctx.err(f"{w}.material", f"unknown material {_fmt(mat)} (known: {known})")
+    params: dict[str, Any] = {}
+    file = None
+    if shape == "quad":
+        if ("size" in t) == ("corners" in t):
+            raise ctx.err(w, "a quad needs exactly one of 'size' or 'corners'")
+        if "size" in t:
+            params["size"] = _vector(ctx, f"{w}.size", t["size"], 2, positive=True)
+        else:
+            c = t["corners"]
+            if not (isinstance(c, list) and len(c) == 4):
+                raise ctx.err(f"{w}.corners", f"expected four [x, y, z] points, got {_fmt(c)}")
+            pts = np.array([_vector(ctx, f"{w}.corners[{i}]", p, 3) for i, p in enumerate(c)])
+            if np.linalg.norm(np.cross(pts[1] - pts[0], pts[2] - pts[0])) < 1e-12:
+                raise ctx.err(f"{w}.corners", "the first three corners are collinear (zero-area quad)")
+            params["corners"] = pts
+    elif shape == "box":
+        params["size"] = _vector(ctx, f"{w}.size", _require(ctx, w, t, "size"), 3, positive=True)
+    elif shape in ("sphere", "cylinder"):
+        params["radius"] = _number(ctx, f"{w}.radius", _require(ctx, w, t, "radius"), positive=True)
+        if shape == "cylinder":
+            params["height"] = _number(ctx, f"{w}.height", _require(ctx, w, t, "height"), positive=True)
+        for key, lo in (("segments", 3), ("rings", 2)):
+            if key in t:
+                v = t[key]
+                if not (isinstance(v, int) and not isinstance(v, bool) and lo <= v <= 4096):
+                    raise ctx.err(f"{w}.{key}", f"expected an integer in [{lo}, 4096], got {_fmt(v)}")
+                params[key] = v
+    else:
+        file = _file(ctx, f"{w}.file", _require(ctx, w, t, "file"), MESH_FILE_SUFFIXES)
+    scale = t.get("scale", [1, 1, 1])
+    if isinstance(scale, (int, float)) and not isinstance(scale, bool):
+        scale = [scale] * 3
+    sv = _vector(ctx, f"{w}.scale", scale, 3)
+    if any(abs(s) < 1e-12 for s in sv):
+        raise ctx.err(f"{w}.scale", f"expected non-zero scale factors, got {_fmt(scale)}")
+    m = geometry.transform_matrix(
+        _vector(ctx, f"{w}.translate", t.get("translate", [0, 0, 0]), 3),
+        _vector(ctx, f"{w}.rotate", t.get("rotate", [0, 0, 0]), 3),
+        sv,
+    )
+    mesh = Mesh(name=name, shape=shape, material=mat, params=params, transform=m, file=file)
+    try:
+        mesh.triangles()  # reads a mesh file, and checks every mesh's world coordinates
+    except geometry.MeshFileError as exc:
+        raise ctx.err(f"{w}.file", str(exc)) from exc
+    except geometry.MeshRangeError as exc:
+        raise ctx.err(w, str(exc)) from exc
+    return mesh
+
+
+def _light(ctx: _Ctx, k: int, raw: Any) -> AreaLight:
+    w = f"lights[{k}]"
+    t = _table(ctx, w, raw, {"name", "type", "center", "size", "normal", "tangent", "radiance", "power"})
+    kind = t.get("type", "rect")
+    if kind != "rect":
+        raise ctx.err(f"{w}.type", f"only rectangular area lights ('rect') are supported, got {_fmt(kind)}")
+    center = _vector(ctx, f"{w}.center", _require(ctx, w, t, "center"), 3)
+    size = _vector(ctx, f"{w}.size", _require(ctx, w, t, "size"), 2, positive=True)
+    normal = _unit(ctx, f"{w}.normal", _require(ctx, w, t, "normal"))
+    if "tangent" in t:
+        tangent = _unit(ctx, f"{w}.tangent", t["tangent"])
+        tangent = tangent - normal * float(tangent @ normal)  # make it exactly perpendicular
+        if np.linalg.norm(tangent) < 1e-6:
+            raise ctx.err(f"{w}.tangent", f"is parallel to the normal, got {_fmt(t['tangent'])}")
+        tangent /= np.linalg.norm(tangent)
+    else:
+        helper = np.array([1.0, 0, 0]) if abs(normal[0]) < 0.9 else np.array([0, 0, 1.0])
+        tangent = helper - normal * float(helper @ normal)
+        tangent /= np.linalg.norm(tangent)
+    if ("radiance" in t) == ("power" in t):
+        raise ctx.err(w, "give exactly one of 'radiance' (W/sr/m²) or 'power' (W)")
+    if "radiance" in t:
+        radiance = _color(ctx, f"{w}.radiance", t["radiance"])
+    else:
+        power = _color(ctx, f"{w}.power", t["power"])
+        radiance = tuple(p / (math.pi * size[0] * size[1]) for p in power)
+    if max(radiance) <= 0:
+        raise ctx.err(f"{w}.radiance" if "radiance" in t else f"{w}.power", "a light must emit something (all zero)")
+    for r in radiance:
+        problem = _float32_problem(r)
+        if problem:
+            raise ctx.err(f"{w}.power", f"gives a radiance of which {problem}")
+    problem = geometry.world_range_problem(float(np.max(np.abs(center)) + max(size)))
+    if problem:
+        raise ctx.err(f"{w}.center", f"the light reaches {problem}")
+    name = t.get("name", f"light{k}")
+    if not isinstance(name, str):
+        raise ctx.err(f"{w}.name", f"expected a string, got {_fmt(name)}")
+    return AreaLight(name, center, size, tuple(normal), tuple(tangent), radiance)  # type: ignore[arg-type]
+
+
+def _environment(ctx: _Ctx, raw: Any) -> Environment:
+    from compare.scene import environments
+
+    sources = ("constant", "file", "procedural", "blender")
+    kind = raw.get("procedural") if isinstance(raw, dict) else None
+    params = set(environments.PROCEDURAL[kind][0]) if kind in environments.PROCEDURAL else set()
+    t = _table(ctx, "environment", raw, {*sources, "intensity", "rotation"} | params)
+    if sum(k in t for k in sources) != 1:
+        raise ctx.err("environment", "give exactly one of 'constant' (radiance), 'file' (equirectangular map), "
+                                     "'procedural' (\"sky\", \"studio\", \"axes\") or 'blender' (a studio-light name)")
+    constant = _color(ctx, "environment.constant", t["constant"]) if "constant" in t else None
+    file = _file(ctx, "environment.file", t["file"], ENV_FILE_SUFFIXES) if "file" in t else None
+    intensity = _number(ctx, "environment.intensity", t.get("intensity", 1.0), lo=0.0)
+    rotation = _number(ctx, "environment.rotation", t.get("rotation", 0.0))
+    env = Environment(constant, file, intensity, rotation)
+    try:
+        if "procedural" in t:
+            if kind not in environments.PROCEDURAL:
+                raise ValueError(f"procedural: expected one of {', '.join(map(repr, environments.PROCEDURAL))}, "
+                                 f"got {_fmt(kind)}")
+            full = environments.validate_procedural(kind, {k: t[k] for k in params if k in t})
+            env = dataclasses.replace(env, procedural=kind, parameters=tuple(sorted(full.items())))
+        elif "blender" in t:
+            if not isinstance(t["blender"], str):
+                raise ValueError(f"blender: expected a studio-light name (string), got {_fmt(t['blender'])}")
+            env = dataclasses.replace(env, blender=t["blender"])
+        # The map's bytes go into the scene hash (a procedural map is generated into the cache here).
+        path = environments.environment_path(env) if file is None and constant is None else None
+    except ValueError as exc:
+        field, _, msg = str(exc).partition(": ")
+        raise ctx.err(f"environment.{field}", msg) from None
+    except MissingComponentError as exc:
+        raise ctx.err("environment.blender", str(exc)) from None
+    if path is not None:
+        ctx.files.append(path)
+    return env
+
+
+def parse_scene(data: dict[str, Any], path: Path) -> Scene:
+    """Validate a parsed TOML document (``path`` is used for messages and relative paths)."""
+    ctx = _Ctx(Path(path))
+    _table(ctx, "", data, {"name", "camera", "materials", "meshes", "lights", "environment", "render", "include"})
+    name = data.get("name", ctx.path.stem)
+    if not isinstance(name, str):
+        raise ctx.err("name", f"expected a string, got {_fmt(name)}")
+    includes = _includes(ctx, data.get("include", []))
+    cam_raw = data.get("camera")
+    included_cam = next((inc.camera for inc in includes if inc.camera), None)
+    if included_cam is not None and (cam_raw is None or (isinstance(cam_raw, dict) and "position" not in cam_raw)):
+        cam_raw = {**included_cam, **(cam_raw or {})}  # the TOML's own [camera] fields win
+    camera = _camera(ctx, cam_raw if cam_raw is not None else _require(ctx, "", data, "camera"))
+    mats_raw = data.get("materials", {})
+    if not isinstance(mats_raw, dict):
+        raise ctx.err("materials", f"expected a table of named materials, got {_fmt(mats_raw)}")
+    materials = {n: m for inc in includes for n, m in inc.materials.items()}
+    materials.update({n: _material(ctx, n, m) for n, m in mats_raw.items()})  # a TOML material replaces an imported one
+    meshes_raw = data.get("meshes", [])
+    if not isinstance(meshes_raw, list):
+        raise ctx.err("meshes", "expected an array of tables ([[meshes]])")
+    meshes = tuple(_mesh(ctx, k, m, materials) for k, m in enumerate(meshes_raw))
+    meshes += tuple(m for inc in includes for m in inc.meshes)
+    if not meshes:
+        raise ctx.err("meshes", "a scene needs at least one mesh")
+    lights_raw = data.get("lights", [])
+    if not isinstance(lights_raw, list):
+        raise ctx.err("lights", "expected an array of tables ([[lights]])")
+    lights = tuple(_light(ctx, k, v) for k, v in enumerate(lights_raw))
+    lights += tuple(light for inc in includes for light in inc.lights)
+    ctx.files.extend(f for inc in includes for f in inc.files)
+    env = _environment(ctx, data["environment"]) if "environment" in data else None
+    render = _table(ctx, "render", data.get("render", {}), {"max_depth", "indirect", "probe_grid", "probe_bounces",
+                                                            "reference_spp"})
+    reference_spp = render.get("reference_spp")
+    if reference_spp is not None and not (isinstance(reference_spp, int) and not isinstance(reference_spp, bool)
+                                          and reference_spp >= 1):
+        raise ctx.err("render.reference_spp", f"expected a positive integer, got {_fmt(reference_spp)}")
+    max_depth = render.get("max_depth", 16)
+    if not (isinstance(max_depth, int) and not isinstance(max_depth, bool) and (max_depth == -1 or max_depth >= 1)):
+        raise ctx.err("render.max_depth", f"expected -1 (unbounded) or an integer >= 1, got {_fmt(max_depth)}")
+    emissive = any(materials[m.material].is_emissive for m in meshes)
+    # A map file or a procedural map counts as emitting; a zero constant or intensity does not.
+    env_emits = env is not None and env.intensity > 0 and (env.constant is None or max(env.constant) > 0)
+    if not (any(max(lt.radiance) > 0 for lt in lights) or env_emits or emissive):
+        # Every renderer would draw black, and a black image cannot be told from a black ground truth.
+        raise ctx.err("lights", "the scene has no light: add [[lights]] with radiance > 0, an [environment] above "
+                                "zero or an emissive material")
+    files = tuple(sorted(set(ctx.files)))
+    indirect, probe_grid, probe_bounces = _indirect(ctx, render)
+    return Scene(ctx.path, name, camera, materials, meshes, lights, env, max_depth, files,
+                 file_hash=_content_hash(ctx.path, files, data), indirect=indirect, probe_grid=probe_grid,
+                 probe_bounces=probe_bounces, reference_spp=reference_spp)
+
+
+def _indirect(ctx: _Ctx, render: dict[str, Any]) -> tuple[str, tuple[int, int, int], int]:
+    """The rasterizer's indirect-light fields of ``[render]``: indirect, probe_grid, probe_bounces."""
+    indirect = render.get("indirect", "none")
+    if indirect not in INDIRECT_MODES:
+        raise ctx.err("render.indirect",
+                      f"expected one of {', '.join(map(repr, INDIRECT_MODES))}, got {_fmt(indirect)}")
+    grid = render.get("probe_grid", list(DEFAULT_PROBE_GRID))
+    if not (isinstance(grid, list) and len(grid) == 3
+            and all(isinstance(n, int) and not isinstance(n, bool) and 2 <= n <= MAX_PROBES_PER_AXIS for n in grid)):
+        raise ctx.err("render.probe_grid", f"expected three integers in [2, {MAX_PROBES_PER_AXIS}] (probes along x, "
+                                           f"y, z), got {_fmt(grid)}")
+    bounces = render.get("probe_bounces", DEFAULT_PROBE_BOUNCES)
+    if not (isinstance(bounces, int) and not isinstance(bounces, bool) and bounces >= 1):
+        raise ctx.err("render.probe_bounces", f"expected an integer >= 1, got {_fmt(bounces)}")
+    return indirect, (grid[0], grid[1], grid[2]), bounces
+
+
+def _includes(ctx: _Ctx, raw: Any) -> list:
+    """The ``include`` field: one glTF file name, a table, or an array of either (``[[include]]``)."""
+    from compare.scene import include as scene_include
+
+    items = raw if isinstance(raw, list) else [raw]
+    out = []
+    for k, item in enumerate(items):
+        where = f"include[{k}]" if isinstance(raw, list) else "include"
+        out.append(scene_include.include(ctx, where, {"file": item} if isinstance(item, str) else item))
+    return out
+
+
+def _content_hash(path: Path, files: tuple[Path, ...], data: dict) -> str:
+    parts: list[bytes | str] = [repr(_canonical(data))]
+    for f in files:
+        parts += [f.name, f.read_bytes()]
+    return sha256_bytes(*parts)
+
+
+def _canonical(v: Any) -> Any:
+    """Key-sorted form, so the hash ignores formatting and comments but not values."""
+    if isinstance(v, dict):
+        return tuple((k, _canonical(v[k])) for k in sorted(v))
+    if isinstance(v, list):
+        return tuple(_canonical(x) for x in v)
+    return v
+
+
+def load_scene(path: str | Path) -> Scene:
+    """Load and validate a scene file; raises :class:`SceneError` naming the file and field."""
+    path = Path(path)
+    try:
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        raise SceneError(f"{path}: scene file not found") from None
+    except OSError as exc:
+        raise SceneError(f"{path}: cannot read scene file: {exc}") from exc
+    try:
+        data = tomllib.loads(raw.decode("utf-8"))
+    except UnicodeDecodeError as exc:
+        raise SceneError(f"{path}: not UTF-8 text: {exc}") from exc
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(f"{path}: invalid TOML: {exc}") from exc
+    try:
+        return parse_scene(data, path)
+    except CompareError:
+        raise
+    except (TypeError, ValueError, IndexError, KeyError, AttributeError, OverflowError) as exc:
+        # Fields are checked by name where they are read; a value of the wrong TOML type further
+        # down (a list where a name belongs) ends here, as one error naming the file.
+        raise SceneError(f"{path}: malformed scene ({type(exc).__name__}: {exc}); see scenes/README.md for "
+                         "the format") from None

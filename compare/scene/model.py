@@ -1,0 +1,376 @@
+"""The scene model every renderer reads: camera, materials, meshes, area lights, environment.
+
+Built by :func:`compare.scene.loader.load_scene` from a scene file (TOML); see that
+module for the file's conventions (units, handedness, light radiometry).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from compare.scene import geometry
+from compare.util.errors import SceneError
+from compare.util.files import sha256_bytes
+
+MESH_SHAPES = ("quad", "box", "sphere", "cylinder", "file")
+MESH_FILE_SUFFIXES = (".ply", ".obj")
+TEXTURE_SUFFIXES = (".png", ".jpg", ".jpeg", ".exr")
+ENV_FILE_SUFFIXES = (".exr", ".hdr")
+#: A material counts as glossy (needs specular lighting work) below this roughness, or when metallic.
+GLOSSY_ROUGHNESS = 0.6
+#: Indirect diffuse light in the rasterizer: none (the paper's technique) or an irradiance volume.
+INDIRECT_MODES = ("none", "probes")
+#: Default probes per axis and bounces of the irradiance volume (compare.progressive.probes).
+DEFAULT_PROBE_GRID = (6, 6, 6)
+DEFAULT_PROBE_BOUNCES = 2
+#: Largest number of probes along one axis (keeps the volume's textures small).
+MAX_PROBES_PER_AXIS = 64
+
+
+@dataclass(frozen=True)
+class Camera:
+    """Pinhole camera: position, look-at target, up vector, vertical FOV in degrees, resolution (w, h)."""
+
+    position: tuple[float, float, float]
+    target: tuple[float, float, float]
+    up: tuple[float, float, float] = (0.0, 1.0, 0.0)
+    fov: float = 45.0
+    resolution: tuple[int, int] = (320, 240)
+
+    @property
+    def width(self) -> int:
+        return self.resolution[0]
+
+    @property
+    def height(self) -> int:
+        return self.resolution[1]
+
+    @property
+    def aspect(self) -> float:
+        return self.resolution[0] / self.resolution[1]
+
+    def basis(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Orthonormal (right, up, forward) in world space; image x grows along right."""
+        f = np.subtract(self.target, self.position).astype(np.float64)
+        f /= np.linalg.norm(f)
+        r = np.cross(f, self.up)
+        r /= np.linalg.norm(r)
+        u = np.cross(r, f)
+        return r, u, f
+
+    def ray_directions(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Unit world directions through continuous film positions (x right, y down, in pixels).
+
+        Pixel (i, j) covers [i, i+1) × [j, j+1) with row 0 at the top, as in
+        Mitsuba's film and the rasterizer's readback.
+        """
+        r, u, f = self.basis()
+        t = math.tan(math.radians(self.fov) / 2)
+        sx = (2 * np.asarray(x, dtype=np.float64) / self.width - 1) * t * self.aspect
+        sy = (1 - 2 * np.asarray(y, dtype=np.float64) / self.height) * t
+        d = f + sx[..., None] * r + sy[..., None] * u
+        return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+    def view_matrix(self) -> np.ndarray:
+        """World → camera (OpenGL convention: camera looks down −Z, +Y up, +X right)."""
+        r, u, f = self.basis()
+        m = np.eye(4)
+        m[0, :3], m[1, :3], m[2, :3] = r, u, -f
+        m[:3, 3] = -m[:3, :3] @ np.asarray(self.position, dtype=np.float64)
+        return m
+
+    def projection_matrix(self, near: float, far: float, jitter: tuple[float, float] = (0.0, 0.0)) -> np.ndarray:
+        """OpenGL perspective projection; ``jitter`` is a sub-pixel offset in pixels (x right, y up).
+
+        Jitter (0, 0) puts pixel centres at (i + 0.5, j + 0.5), the same
+        convention as Mitsuba's film.
+        """
+        t = 1.0 / math.tan(math.radians(self.fov) / 2)
+        m = np.zeros((4, 4))
+        m[0, 0] = t / self.aspect
+        m[1, 1] = t
+        m[2, 2] = (far + near) / (near - far)
+        m[2, 3] = 2 * far * near / (near - far)
+        m[3, 2] = -1.0
+        # A shift of d pixels is 2d/width in NDC; added to clip x as 2d/width · w_clip.
+        m[0, 2] = -2.0 * jitter[0] / self.width
+        m[1, 2] = -2.0 * jitter[1] / self.height
+        return m
+
+
+@dataclass(frozen=True)
+class Material:
+    """glTF 2.0 metallic-roughness material (linear base colour, perceptual roughness)."""
+
+    name: str
+    base_color: tuple[float, float, float] = (0.8, 0.8, 0.8)
+    metallic: float = 0.0
+    roughness: float = 0.5
+    emission: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    base_color_texture: Path | None = None
+    metallic_roughness_texture: Path | None = None
+    #: An sRGB emission map, multiplied by ``emission`` (glTF's emissiveTexture × emissiveFactor).
+    emissive_texture: Path | None = None
+    #: glTF's occlusion map (R channel, linear) and its strength: it darkens the ambient and indirect
+    #: light a renderer approximates (environment light, irradiance probes), never the direct light. A
+    #: path tracer computes that occlusion itself and leaves the map out (the reference, Cycles).
+    occlusion_texture: Path | None = None
+    occlusion_strength: float = 1.0
+    #: glTF's tangent-space normal map (RGB linear, +X along increasing u, +Y up the image, +Z out of
+    #: the surface) and its scale (the map's X and Y are multiplied by it before normalising).
+    normal_texture: Path | None = None
+    normal_scale: float = 1.0
+    #: The texture transform of every map of the material (glTF's KHR_texture_transform): offset,
+    #: rotation (degrees here; radians in glTF) and scale, applied as offset · rotation · scale.
+    texture_offset: tuple[float, float] = (0.0, 0.0)
+    texture_rotation: float = 0.0
+    texture_scale: tuple[float, float] = (1.0, 1.0)
+    #: How the maps are sampled: ``texture_wrap`` "repeat", "clamp" or "mirror"; ``texture_filter``
+    #: "linear" (mipmapped where a renderer has mipmaps) or "nearest".
+    texture_wrap: str = "repeat"
+    texture_filter: str = "linear"
+    #: glTF's alpha mode: "opaque" (alpha ignored) or "mask": the surface exists where its coverage,
+    #: ``alpha`` (baseColorFactor's alpha) times the base-colour map's alpha channel, is at least
+    #: ``alpha_cutoff``, and is a hole elsewhere, for camera rays, shadows and light alike.
+    alpha_mode: str = "opaque"
+    alpha: float = 1.0
+    alpha_cutoff: float = 0.5
+
+    def uv_transform(self) -> np.ndarray:
+        """The 3 × 3 matrix glTF's KHR_texture_transform applies to texture coordinates (column vectors)."""
+        c, s = math.cos(math.radians(self.texture_rotation)), math.sin(math.radians(self.texture_rotation))
+        t = np.array([[1.0, 0.0, self.texture_offset[0]], [0.0, 1.0, self.texture_offset[1]], [0.0, 0.0, 1.0]])
+        r = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+        return t @ r @ np.diag([self.texture_scale[0], self.texture_scale[1], 1.0])
+
+    @property
+    def has_uv_transform(self) -> bool:
+        return (self.texture_offset, self.texture_rotation, self.texture_scale) != ((0.0, 0.0), 0.0, (1.0, 1.0))
+    #: The Principled BSDF's microfacet distribution in Blender (``multi_ggx``, Blender's default, or
+    #: ``ggx``): what the Blender comparators set and the reference's ``cycles`` mode models. The
+    #: glTF BRDF (the rasterizer, the ``shared`` reference) is single-scattering GGX either way.
+    distribution: str = "multi_ggx"
+
+    @property
+    def is_masked(self) -> bool:
+        """Whether the material cuts holes (alpha mode "mask")."""
+        return self.alpha_mode == "mask"
+
+    @property
+    def has_maps(self) -> bool:
+        """Whether the material samples any texture (an alpha mask reads texture coordinates too)."""
+        return bool(self.base_color_texture or self.metallic_roughness_texture or self.emissive_texture
+                    or self.occlusion_texture or self.normal_texture or self.is_masked)
+
+    @property
+    def is_emissive(self) -> bool:
+        return max(self.emission) > 0.0
+
+    @property
+    def is_glossy(self) -> bool:
+        return self.metallic > 0.0 or self.roughness < GLOSSY_ROUGHNESS
+
+
+@dataclass(frozen=True)
+class Mesh:
+    """One mesh: a primitive or a file, a transform and a material name."""
+
+    name: str
+    shape: str
+    material: str
+    params: dict[str, Any]
+    transform: np.ndarray = field(default_factory=lambda: np.eye(4), compare=False)
+    file: Path | None = None
+
+    def triangles(self) -> geometry.TriangleMesh:
+        """World-space triangles of this mesh."""
+        p = self.params
+        if self.shape == "quad":
+            local = geometry.quad_from_corners(p["corners"]) if "corners" in p else geometry.quad(p["size"])
+        elif self.shape == "box":
+            local = geometry.box(p["size"])
+        elif self.shape == "sphere":
+            local = geometry.sphere(p["radius"], p.get("segments", 64), p.get("rings", 32))
+        elif self.shape == "cylinder":
+            local = geometry.cylinder(p["radius"], p["height"], p.get("segments", 64))
+        elif self.shape == "gltf":  # made by an [[include]]: triangles in the glTF node's frame
+            local = p["triangles"]
+        else:
+            assert self.file is not None
+            local = geometry.load_ply(self.file) if self.file.suffix.lower() == ".ply" else geometry.load_obj(self.file)
+        return local.transformed(self.transform)
+
+
+@dataclass(frozen=True)
+class AreaLight:
+    """A one-sided rectangular area light emitting along ``normal``.
+
+    ``tangent`` is the direction of the first side (``size[0]``); the second
+    side runs along ``bitangent = normal × tangent``, so that
+    tangent × bitangent = normal.
+    """
+
+    name: str
+    center: tuple[float, float, float]
+    size: tuple[float, float]
+    normal: tuple[float, float, float]
+    tangent: tuple[float, float, float]
+    radiance: tuple[float, float, float]
+
+    @property
+    def area(self) -> float:
+        return self.size[0] * self.size[1]
+
+    @property
+    def bitangent(self) -> np.ndarray:
+        return np.cross(self.normal, self.tangent)
+
+    @property
+    def power(self) -> np.ndarray:
+        """Emitted power Φ = π·A·L per channel (Lambertian, one-sided)."""
+        return math.pi * self.area * np.asarray(self.radiance)
+
+    def corners(self) -> np.ndarray:
+        """Four corners (4, 3), counter-clockwise seen from the lit side."""
+        c = np.asarray(self.center, dtype=np.float64)
+        du = np.asarray(self.tangent) * self.size[0] / 2
+        dv = self.bitangent * self.size[1] / 2
+        return np.array([c - du - dv, c + du - dv, c + du + dv, c - du + dv])
+
+
+@dataclass(frozen=True)
+class Environment:
+    """Distant environment light: a constant radiance, an equirectangular map file, a procedural
+    map or one of Blender's studio-light HDRIs (exactly one; see :mod:`compare.scene.environments`).
+
+    ``rotation`` turns the map about +Y by that many degrees; ``intensity`` scales it.
+    """
+
+    constant: tuple[float, float, float] | None = None
+    file: Path | None = None
+    intensity: float = 1.0
+    rotation: float = 0.0
+    procedural: str | None = None
+    """``"sky"``, ``"studio"`` or ``"axes"`` (:data:`compare.scene.environments.PROCEDURAL`)."""
+    parameters: tuple[tuple[str, Any], ...] = ()
+    """The procedural map's parameters, complete (defaults filled in), sorted by name."""
+    blender: str | None = None
+    """Name of a Blender studio light (``"interior"``, ``"courtyard"``, ...)."""
+
+
+@dataclass(frozen=True)
+class Features:
+    """What a scene needs, so renderers and reports can leave out the rest."""
+
+    environment: bool
+    area_lights: bool
+    glossy: bool
+    metallic: bool
+    textures: bool
+    emissive_meshes: bool
+    alpha_mask: bool = False
+
+    def names(self) -> list[str]:
+        """Names of the features present."""
+        return [f.name for f in dataclasses.fields(self) if getattr(self, f.name)]
+
+    def omitted(self) -> dict[str, str]:
+        """Work a renderer can skip, with the reason (for reports)."""
+        out = {}
+        if not self.environment:
+            out["environment lighting (IBL prefiltering, env samples, occlusion)"] = "the scene has no environment"
+        if not self.area_lights:
+            out["area-light shadow maps and direct-light samples"] = "the scene has no area lights"
+        if not self.textures:
+            out["texture upload and sampling"] = "no material uses a texture"
+        if not self.alpha_mask:
+            out["alpha test in the geometry and shadow passes"] = "no material is alpha-masked"
+        return out
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A validated scene. Build it with :func:`load_scene`."""
+
+    path: Path
+    name: str
+    camera: Camera
+    materials: dict[str, Material]
+    meshes: tuple[Mesh, ...]
+    lights: tuple[AreaLight, ...]
+    environment: Environment | None
+    max_depth: int
+    referenced_files: tuple[Path, ...]
+    file_hash: str
+    # Rasterizer-only options ([render] table): they do not change the reference's pixels,
+    # so they stay out of :attr:`hash` beyond the file's own bytes (which carry them).
+    indirect: str = "none"
+    """Indirect diffuse light of the rasterizer: ``"none"`` or ``"probes"`` (an irradiance volume)."""
+    probe_grid: tuple[int, int, int] = DEFAULT_PROBE_GRID
+    """Probes along x, y, z of the irradiance volume (each >= 2)."""
+    probe_bounces: int = DEFAULT_PROBE_BOUNCES
+    """Diffuse bounces baked into the irradiance volume (>= 1)."""
+    reference_spp: int | None = None
+    """Samples per pixel this scene's ground truth needs (``compare run --spp auto``), chosen so that its
+    noise floor stays below a fraction of the errors it judges; None: the run's ``--spp``."""
+
+    def features(self) -> Features:
+        """What this scene needs (environment, area lights, glossy materials, textures, ...)."""
+        used = [self.materials[m.material] for m in self.meshes]
+        return Features(
+            environment=self.environment is not None,
+            area_lights=bool(self.lights),
+            glossy=any(m.is_glossy for m in used),
+            metallic=any(m.metallic > 0 for m in used),
+            textures=any(m.has_maps for m in used),
+            emissive_meshes=any(m.is_emissive for m in used),
+            alpha_mask=any(m.is_masked for m in used),
+        )
+
+    @cached_property
+    def hash(self) -> str:
+        """Stable content hash of the scene file, every file it references and any overrides."""
+        return sha256_bytes(self.file_hash, repr(self.camera.resolution), str(self.max_depth))
+
+    def with_resolution(self, width: int, height: int) -> "Scene":
+        """The same scene rendered at another resolution."""
+        if width < 1 or height < 1:
+            raise SceneError(f"{self.path}: camera.resolution: expected two positive integers, got [{width}, {height}]")
+        cam = dataclasses.replace(self.camera, resolution=(int(width), int(height)))
+        return dataclasses.replace(self, camera=cam)
+
+    def without_maps(self) -> "Scene":
+        """The same scene with every material's factors only: no maps, opaque (the texture benchmark's
+        other side)."""
+        plain = {k: dataclasses.replace(m, base_color_texture=None, metallic_roughness_texture=None,
+                                        emissive_texture=None, occlusion_texture=None, normal_texture=None,
+                                        alpha_mode="opaque")
+                 for k, m in self.materials.items()}
+        return dataclasses.replace(self, materials=plain)
+
+    def with_max_depth(self, max_depth: int) -> "Scene":
+        """The same scene with another path depth for the reference (2 = direct light only)."""
+        return dataclasses.replace(self, max_depth=int(max_depth))
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """World-space axis-aligned bounds (min, max) of all meshes."""
+        lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+        for m in self.meshes:
+            p = m.triangles().positions
+            lo, hi = np.minimum(lo, p.min(0)), np.maximum(hi, p.max(0))
+        return lo, hi
+
+    def extent(self) -> tuple[np.ndarray, np.ndarray]:
+        """World-space axis-aligned bounds (min, max) of every mesh and light rectangle."""
+        lo, hi = self.bounds()
+        for light in self.lights:
+            c = light.corners()
+            lo, hi = np.minimum(lo, c.min(0)), np.maximum(hi, c.max(0))
+        return lo, hi

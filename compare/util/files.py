@@ -1,0 +1,194 @@
+"""Atomic file writes and content hashing.
+
+A crash or Ctrl-C in the middle of a write must never leave a half-written
+file where a finished one is expected (caches, EXRs, reports), and several
+processes may write the same cache key at once: each writes to its own
+temporary file in the target folder and renames it into place, which POSIX
+makes atomic on one file system.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import os
+import tempfile
+from pathlib import Path
+from typing import Iterator
+
+
+#: In the names of files being written (``.<name>.part-XXXX<suffix>``): a process killed while
+#: writing (SIGKILL, power loss) leaves one; :func:`remove_stale_parts` removes them.
+PART_MARK = ".part-"
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[Path]:
+    """Yield a temporary path beside ``path``; rename it onto ``path`` on success.
+
+    The temporary file keeps ``path``'s suffix (or ``suffix``) because some
+    writers (OpenEXR, PNG) choose the format from it. On any exception the
+    temporary file is removed and ``path`` is left as it was.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}{PART_MARK}", suffix=suffix or path.suffix, dir=path.parent)
+    os.close(fd)
+    tmp_path = Path(tmp)
+    try:
+        yield tmp_path
+        # mkstemp makes the file private (0600); a finished output gets the permissions any new file
+        # gets here (0666 less the umask), so that reports and images can be shared.
+        os.chmod(tmp_path, 0o666 & ~_umask())
+        os.replace(tmp_path, path)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            tmp_path.unlink()
+        raise
+
+
+def check_outputs(outputs: dict[str, str | os.PathLike], inputs=(), suffixes: dict[str, str] | None = None) -> None:
+    """Refuse outputs, before any work, that would destroy something or cannot be written.
+
+    ``outputs`` maps each output's option name (for the message, e.g. ``"-o"``) to its path,
+    ``inputs`` are the files the command reads, and ``suffixes`` the required file kind per
+    option (e.g. ``{"-o": ".exr"}``, compared case-insensitively). Raises
+    :class:`~compare.util.errors.OutputError` naming the option and the path when an output is
+    an input, two outputs are the same file, a suffix is wrong, or the output's folder
+    cannot be written (its nearest existing ancestor is checked, as parents are created).
+    """
+    from compare.util.errors import OutputError
+
+    def same(a: Path, b: Path) -> bool:
+        a, b = Path(a), Path(b)
+        if a.exists() and b.exists():
+            return os.path.samefile(a, b)
+        return a.resolve() == b.resolve()
+
+    seen: dict[Path, str] = {}
+    for option, raw in outputs.items():
+        path = Path(raw)
+        want = (suffixes or {}).get(option)
+        if want and path.suffix.lower() != want:
+            raise OutputError(f"{option} {path}: the output must be a {want} file (ending in {want})")
+        if path.is_dir():
+            raise OutputError(f"{option} {path}: is a folder, not a file")
+        for src in inputs:
+            if same(path, src):
+                raise OutputError(f"{option} {path}: is an input of this command ({src}); choose another path")
+        for other, opt in seen.items():
+            if same(path, other):
+                raise OutputError(f"{option} {path}: is also the output of {opt}; choose two paths")
+        seen[path] = option
+        _check_writable_below(option, path, path.parent if str(path.parent) else Path("."))
+
+
+def check_output_folder(option: str, path: str | os.PathLike) -> None:
+    """Refuse an output folder, before any work, that is a file or cannot be created or written
+    (:class:`~compare.util.errors.OutputError` naming the option and the path)."""
+    from compare.util.errors import OutputError
+
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise OutputError(f"{option} {path}: is a file, not a folder")
+    _check_writable_below(option, path, path)
+
+
+def _check_writable_below(option: str, path: Path, folder: Path) -> None:
+    """``folder`` (or its nearest existing ancestor, as parents are created) is a writable folder."""
+    from compare.util.errors import OutputError
+
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    if not folder.is_dir():
+        raise OutputError(f"{option} {path}: cannot be created, {folder} is a file, not a folder")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise OutputError(f"{option} {path}: cannot write in {folder} (permission denied)")
+    # access() says yes to root everywhere and knows nothing of read-only or special file systems
+    # (/proc, a full disk): a file made and removed there says for sure.
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".compare-probe-", dir=folder)
+    except OSError as exc:
+        raise OutputError(f"{option} {path}: cannot write in {folder} ({exc.strerror or exc})") from None
+    os.close(fd)
+    with contextlib.suppress(OSError):
+        os.unlink(probe)
+
+
+def _umask() -> int:
+    """The process's umask (read by setting it, the only way POSIX offers, and restoring it)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> None:
+    """Write ``data`` to ``path`` atomically."""
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(data)
+
+
+def write_text_atomic(path: str | os.PathLike, text: str) -> None:
+    """Write ``text`` (UTF-8) to ``path`` atomically."""
+    write_bytes_atomic(path, text.encode("utf-8"))
+
+
+def sha256_bytes(*parts: bytes | str) -> str:
+    """Hex SHA-256 of the parts, each length-prefixed so that boundaries matter."""
+    h = hashlib.sha256()
+    for p in parts:
+        b = p.encode("utf-8") if isinstance(p, str) else p
+        h.update(len(b).to_bytes(8, "little"))
+        h.update(b)
+    return h.hexdigest()
+
+
+def remove_stale_parts(folder: str | os.PathLike, *, older_than: float = 0.0) -> list[Path]:
+    """Remove half-written files (:data:`PART_MARK`) below ``folder`` older than ``older_than``
+    seconds; returns what was removed. Call it where no other process writes (a locked output
+    folder), or with an age no write lasts (a shared cache)."""
+    import time
+
+    folder, now, gone = Path(folder), time.time(), []
+    if not folder.is_dir():
+        return gone
+    for p in folder.rglob(f".*{PART_MARK}*"):
+        try:
+            if p.is_file() and not p.is_symlink() and now - p.stat().st_mtime >= older_than:
+                p.unlink()
+                gone.append(p)
+        except OSError:
+            pass  # gone meanwhile, or not ours to remove
+    return gone
+
+
+@contextlib.contextmanager
+def folder_lock(folder: str | os.PathLike, what: str) -> Iterator[None]:
+    """Hold ``folder`` for this process while the block runs (an advisory ``flock`` on
+    ``folder/.compare.lock``): a second command into the same folder is refused with
+    :class:`~compare.util.errors.OutputError` instead of mixing its files with this one's.
+    The lock ends with the process, however it ends (no stale lock after a kill)."""
+    import fcntl
+
+    from compare.util.errors import OutputError
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / ".compare.lock"
+    f = open(path, "a+", encoding="utf-8")
+    try:
+        try:
+            fcntl.flock(f.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            f.seek(0)
+            holder = f.read().strip() or "another process"
+            raise OutputError(f"{folder}: in use by {holder}; wait for it to finish or choose another "
+                              "output folder") from None
+        f.seek(0)
+        f.truncate()
+        f.write(f"{what} (pid {os.getpid()})\n")
+        f.flush()
+        yield
+    finally:
+        f.close()  # closing releases the lock
+
