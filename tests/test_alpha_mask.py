@@ -10,7 +10,7 @@ import pytest
 from PIL import Image
 
 from compare.util.errors import SceneError
-from compare.progressive import render_progressive
+from compare.progressive.rasterizer import render_progressive
 from compare.progressive.gpu_scene import GpuScene
 from compare.mitsuba.reference import ReferenceRenderer
 from compare.scene.loader import load_scene

@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 
 from compare.metrics.closed_form import polygon_irradiance
-from compare.progressive import render_progressive
+from compare.progressive.rasterizer import render_progressive
 from compare.scene.loader import load_scene
 
 from test_progressive import pixel_rays
@@ -254,12 +254,12 @@ def test_shadow_ratio_converges_to_the_exact_shadowed_light(gl_ctx, tmp_path):
 def test_ltc_first_frame_is_the_exact_unshadowed_light(gl_ctx):
     """With ``ltc`` frame 0's preview is the closed-form unshadowed light: drawn forward it equals the
     same light drawn from frame 0's G-buffer, and every later frame before a light sample shows it too."""
-    from compare.progressive import ProgressiveRenderer
+    from compare.progressive.rasterizer import Rasterizer
 
     s = load_scene(ROOT / "scenes" / "cornell.toml").with_resolution(48, 36)
     firsts = {}
     for mode in ("forward", "gbuffer"):
-        with ProgressiveRenderer(s, frames=8, ctx=gl_ctx, shadow_size=64, area_model="ltc", first_frame=mode,
+        with Rasterizer(s, frames=8, ctx=gl_ctx, shadow_size=64, area_model="ltc", first_frame=mode,
                                  direct_fraction=0.5) as r:
             assert r.preview is None and r.direct_acc is None  # no centre-point preview, no running mean
             r.render_frame()
@@ -348,10 +348,10 @@ def test_ltc_glsl_matches_the_numpy_polygon_integral(gl_ctx, tmp_path, case):
     scene = load_scene(path)
     # The closed form itself: the LTC pass's unshadowed specular sum of the one frame (the image scales
     # it by the shadow ratio, which also corrects the fitted lobe's shape through the samples).
-    from compare.progressive import ProgressiveRenderer
+    from compare.progressive.rasterizer import Rasterizer
     from compare.progressive.readback import read_texture_rgb
 
-    with ProgressiveRenderer(scene, frames=1, ctx=gl_ctx, shadow_size=64, area_model="ltc") as pr:
+    with Rasterizer(scene, frames=1, ctx=gl_ctx, shadow_size=64, area_model="ltc") as pr:
         for _ in pr.frames():
             pass
         (_, specular), _ = pr.ltc.unshadowed[0]

@@ -8,7 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from compare.progressive import ProgressiveRenderer, plan, render_progressive
+from compare.progressive.rasterizer import Rasterizer, render_progressive
+from compare.progressive.distributor import plan
 from compare.progressive.budget import BudgetScheduler, FrameCosts
 from compare.scene.loader import load_scene
 
@@ -89,7 +90,7 @@ def test_budget_is_validated():
         with pytest.raises(ValueError, match="budget"):
             BudgetScheduler(p, bad)
     with pytest.raises(ValueError, match="frame_budget_ms"):
-        ProgressiveRenderer(_scene("cornell.toml"), frames=8, frame_budget_ms=-5)
+        Rasterizer(_scene("cornell.toml"), frames=8, frame_budget_ms=-5)
 
 
 @pytest.mark.gl
@@ -100,7 +101,7 @@ def test_budget_render_reaches_the_fixed_plans_image(gl_ctx):
     other_seed = render_progressive(s, frames=32, ctx=gl_ctx, shadow_size=128, seed=1).image
     images = {}
     for budget in (1e4, 1e-3):
-        with ProgressiveRenderer(s, frames=32, ctx=gl_ctx, shadow_size=128, frame_budget_ms=budget) as r:
+        with Rasterizer(s, frames=32, ctx=gl_ctx, shadow_size=128, frame_budget_ms=budget) as r:
             for _ in r.frames():
                 pass
             images[budget] = r.image()
@@ -141,7 +142,7 @@ def test_preview_stays_until_every_light_has_a_sample(gl_ctx):
     """Kitchen, 6 lights, one sample a frame: the unshadowed preview is shown until each light has a sample,
     not one light's estimate scaled up to stand for all six (FLIP 0.58 at frame 2 before this rule)."""
     s = _scene("kitchen.toml")
-    with ProgressiveRenderer(s, frames=64, ctx=gl_ctx, shadow_size=128, frame_budget_ms=1e-3) as r:
+    with Rasterizer(s, frames=64, ctx=gl_ctx, shadow_size=128, frame_budget_ms=1e-3) as r:
         means, seen = [], []
         for _ in r.frames():
             means.append(float(r.image().mean()))

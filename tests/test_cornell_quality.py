@@ -45,7 +45,7 @@ def references(cornell):
 
 @pytest.fixture(scope="module")
 def progressive(cornell, gl_ctx):
-    from compare.progressive import render_progressive
+    from compare.progressive.rasterizer import render_progressive
 
     return render_progressive(cornell, frames=128, seed=0, checkpoints=CHECKPOINTS, ctx=gl_ctx)
 
@@ -81,7 +81,7 @@ def test_error_falls_as_frames_rise(references, progressive):
 
 
 def test_deterministic_and_finite(cornell, gl_ctx, progressive):
-    from compare.progressive import render_progressive
+    from compare.progressive.rasterizer import render_progressive
 
     again = render_progressive(cornell, frames=128, seed=0, ctx=gl_ctx)
     assert np.isfinite(progressive.image).all()

@@ -352,7 +352,7 @@ def test_background_orientation_both_renderers(gl_ctx, tmp_path, rotation):
     pixels must equal the numpy lookup averaged over 8 × 8 points per pixel up to
     its noise, and the accumulated rasterizer image must equal Mitsuba's.
     """
-    from compare.progressive import render_progressive
+    from compare.progressive.rasterizer import render_progressive
     from compare.mitsuba.reference import ReferenceRenderer
 
     for axis in AXES:

@@ -419,7 +419,7 @@ def _pair(tmp_path: Path):
 
 @pytest.mark.gl
 def test_included_scene_renders_like_its_toml_twin_progressive(tmp_path, gl_ctx):
-    from compare.progressive import render_progressive
+    from compare.progressive.rasterizer import render_progressive
 
     a, b = _pair(tmp_path)
     ia = render_progressive(a, frames=24, ctx=gl_ctx).image

@@ -21,7 +21,7 @@ import pytest
 
 from compare.brdf import directional_albedo
 from compare.metrics.images import flip
-from compare.progressive import ProgressiveRenderer, render_progressive
+from compare.progressive.rasterizer import Rasterizer, render_progressive
 from compare.mitsuba.reference import ReferenceRenderer
 from compare.scene.loader import load_scene, parse_scene
 
@@ -67,7 +67,7 @@ def disc_mask(scene, fraction: float) -> np.ndarray:
 def test_scene_without_environment_does_no_environment_work(gl_ctx, tmp_path, monkeypatch):
     monkeypatch.setenv("COMPARE_CACHE", str(tmp_path))
     cornell = load_scene(ROOT / "scenes" / "cornell.toml").with_resolution(32, 24)
-    with ProgressiveRenderer(cornell, frames=4, ctx=gl_ctx, shadow_size=64) as r:
+    with Rasterizer(cornell, frames=4, ctx=gl_ctx, shadow_size=64) as r:
         assert r.environment is None and r.env_occlusion is None and r.env_acc is None
         assert r.accumulate.environment is None
         assert not any(fp.env_samples for fp in r.plan)
@@ -82,7 +82,7 @@ def test_first_frame_is_environment_only(gl_ctx):
                          {"procedural": "sky", "width": 64, "sun_radiance": 0.0},
                          extra_meshes=[{"shape": "quad", "size": [4, 4], "material": "grey",
                                         "translate": [0, -1, 0]}])
-    with ProgressiveRenderer(scene, frames=8, ctx=gl_ctx, **SMALL) as r:
+    with Rasterizer(scene, frames=8, ctx=gl_ctx, **SMALL) as r:
         assert r.plan.env_frames == 7 and not r.plan[0].env_samples
         r.render_frame()
         assert r.env_acc.count == 0, "frame 0: no occlusion pass"
@@ -91,7 +91,7 @@ def test_first_frame_is_environment_only(gl_ctx):
             pass
         assert r.env_acc.counts == list(r.plan.env_counts)
         meta = r.metadata()
-    with ProgressiveRenderer(scene, frames=8, ctx=gl_ctx, d_occ=0.0, **SMALL) as r0:
+    with Rasterizer(scene, frames=8, ctx=gl_ctx, d_occ=0.0, **SMALL) as r0:
         assert r0.env_occlusion is None and r0.plan.env_frames == 0
         r0.render_frame()
         np.testing.assert_array_equal(first, r0.image())  # frame 0 is the unoccluded split sum
@@ -108,11 +108,11 @@ def test_first_frame_is_environment_only(gl_ctx):
 def test_bad_environment_options_are_refused(gl_ctx):
     scene = sphere_scene({"base_color": [1, 1, 1]}, {"constant": [1, 1, 1]})
     with pytest.raises(ValueError, match="d_occ"):
-        ProgressiveRenderer(scene, frames=2, ctx=gl_ctx, d_occ=-1.0)
+        Rasterizer(scene, frames=2, ctx=gl_ctx, d_occ=-1.0)
     with pytest.raises(ValueError, match="env_diffuse"):
-        ProgressiveRenderer(scene, frames=2, ctx=gl_ctx, env_diffuse="sh4")
+        Rasterizer(scene, frames=2, ctx=gl_ctx, env_diffuse="sh4")
     with pytest.raises(ValueError, match="env_format"):
-        ProgressiveRenderer(scene, frames=2, ctx=gl_ctx, env_format="logluv")
+        Rasterizer(scene, frames=2, ctx=gl_ctx, env_format="logluv")
 
 
 # ----------------------------------------------------------------------------- furnaces

@@ -19,7 +19,7 @@ from compare.util.errors import SceneError
 from compare.ibl.cubemap import padded_directions, pad_from_interior
 from compare.ibl.irradiance import irradiance_at, sh9_irradiance
 from compare.metrics.images import compare_images
-from compare.progressive import ProgressiveRenderer, render_progressive
+from compare.progressive.rasterizer import Rasterizer, render_progressive
 from compare.progressive import rasterizer as renderer_module
 from compare.progressive.probes import ProbeVolume, backface_fraction, distance_moments, probe_grid, project_sh9
 from compare.scene.loader import load_scene
@@ -142,7 +142,7 @@ def test_scene_options_are_validated(tmp_path, line, field, message):
 ])
 def test_renderer_overrides_are_validated(kwargs, match):
     with pytest.raises(ValueError, match=match):
-        ProgressiveRenderer(load_scene(CORNELL), frames=2, **kwargs)  # raises before any GL work
+        Rasterizer(load_scene(CORNELL), frames=2, **kwargs)  # raises before any GL work
 
 
 # ----------------------------------------------------------------------------- GL: Cornell box quality
@@ -177,11 +177,11 @@ def test_probes_bring_cornell_closer_to_full_gi(gl_ctx, cornell_small):
 
 @pytest.mark.gl
 def test_more_bounces_add_light_and_no_probe_work_without_probes(gl_ctx, cornell_small):
-    with ProgressiveRenderer(cornell_small, frames=2, ctx=gl_ctx, shadow_size=64) as r:
+    with Rasterizer(cornell_small, frames=2, ctx=gl_ctx, shadow_size=64) as r:
         assert r.probes is None and r.indirect_pass is None
     means = []
     for bounces in (1, 3):
-        with ProgressiveRenderer(cornell_small, frames=2, ctx=gl_ctx, shadow_size=64, indirect="probes",
+        with Rasterizer(cornell_small, frames=2, ctx=gl_ctx, shadow_size=64, indirect="probes",
                                  probe_grid=(4, 4, 4), probe_bounces=bounces) as r:
             assert np.isfinite(r.probes.irradiance).all()
             means.append(r.probes.irradiance[r.probes.valid, 0].mean(axis=0))
@@ -283,7 +283,7 @@ def test_dark_room_stays_dark(gl_ctx, tmp_path, monkeypatch, grid, why):
     dark, lit = two_rooms(tmp_path, "dark", grid), two_rooms(tmp_path, "lit", grid)
     ref = ReferenceRenderer(dark, progress=False).render(16).image
     assert ref.max() == 0.0, "no light path reaches the dark room"
-    with ProgressiveRenderer(dark, frames=8, ctx=gl_ctx, shadow_size=256) as r:  # the file says "probes"
+    with Rasterizer(dark, frames=8, ctx=gl_ctx, shadow_size=256) as r:  # the file says "probes"
         for _ in r.frames():
             pass
         image = r.image()

@@ -17,7 +17,8 @@ import numpy as np
 import pytest
 
 from compare.util.errors import ImageError, MissingComponentError
-from compare.progressive import ProgressiveRenderer, plan, render_progressive
+from compare.progressive.rasterizer import Rasterizer, render_progressive
+from compare.progressive.distributor import plan
 from compare.progressive.distributor import default_samples_per_light, round_half_up
 from compare.progressive.sampling import light_sample_points, pixel_jitter
 from compare.scene.loader import Camera, load_scene
@@ -306,7 +307,7 @@ def test_deterministic_for_a_fixed_seed(gl_ctx, cornell):
 
 @pytest.mark.gl
 def test_first_frame_is_cheap_and_shows_a_preview(gl_ctx, cornell):
-    with ProgressiveRenderer(cornell, frames=32, ctx=gl_ctx, shadow_size=128) as r:
+    with Rasterizer(cornell, frames=32, ctx=gl_ctx, shadow_size=128) as r:
         frames = r.frames()
         next(frames)
         first = r.image()
@@ -465,7 +466,7 @@ material = "glow"
 """
     scene = scene_from(tmp_path, text)
     with pytest.warns(UserWarning, match="do not light other surfaces"):
-        r = ProgressiveRenderer(scene, frames=4, ctx=gl_ctx)
+        r = Rasterizer(scene, frames=4, ctx=gl_ctx)
     with r:
         assert r.shadow is None and r.direct is None, "no shadow or direct-light programs without area lights"
         for _ in r.frames():
@@ -536,7 +537,7 @@ def test_forward_first_frame_matches_the_gbuffer_frame(gl_ctx, scene_file):
     frames = 6
     images, means = {}, {}
     for mode, scale in (("forward", 1.0), ("forward", 0.5), ("gbuffer", 1.0)):
-        with ProgressiveRenderer(s, frames=frames, ctx=gl_ctx, shadow_size=64, ibl_size=16, ibl_samples=16,
+        with Rasterizer(s, frames=frames, ctx=gl_ctx, shadow_size=64, ibl_size=16, ibl_samples=16,
                                  first_frame=mode, first_frame_scale=scale) as r:
             meta = r.metadata()
             assert meta["first_frame"] == mode
@@ -581,7 +582,7 @@ def test_forward_first_frame_matches_the_gbuffer_frame(gl_ctx, scene_file):
 def test_first_frame_mode_is_validated():
     s = load_scene(CORNELL).with_resolution(8, 6)
     with pytest.raises(ValueError, match="first_frame"):
-        ProgressiveRenderer(s, frames=2, first_frame="deferred")
+        Rasterizer(s, frames=2, first_frame="deferred")
 
 
 @pytest.mark.gl
@@ -592,7 +593,7 @@ def test_first_frame_is_reduced_only_where_the_preview_keeps_its_structure(gl_ct
     assert auto_scale((319, 240)) == auto_scale((320, 239)) == auto_scale((64, 48)) == 1.0
     s = load_scene(CORNELL).with_resolution(320, 240)
     for frames, scale in ((2, 0.5), (1, 1.0)):  # with one frame the preview would be the result
-        with ProgressiveRenderer(s, frames=frames, ctx=gl_ctx, shadow_size=64, warm_up=False) as r:
+        with Rasterizer(s, frames=frames, ctx=gl_ctx, shadow_size=64, warm_up=False) as r:
             assert r.metadata()["first_frame_scale"] == scale
 
 
@@ -601,7 +602,7 @@ def test_first_frame_is_reduced_only_where_the_preview_keeps_its_structure(gl_ct
 def test_first_frame_scale_is_validated(gl_ctx, scale):
     s = load_scene(CORNELL).with_resolution(8, 6)
     with pytest.raises(ValueError, match="first_frame_scale"):
-        ProgressiveRenderer(s, frames=2, ctx=gl_ctx, first_frame_scale=scale)
+        Rasterizer(s, frames=2, ctx=gl_ctx, first_frame_scale=scale)
 
 
 @pytest.mark.gl
@@ -614,13 +615,13 @@ def test_image_sizes_beyond_the_context_are_refused_up_front(gl_ctx, monkeypatch
     limit = int(gl_ctx.info["GL_MAX_TEXTURE_SIZE"])
     scene = load_scene(CORNELL).with_resolution(limit + 1, 8)
     with pytest.raises(SceneError) as exc:
-        ProgressiveRenderer(scene, frames=2, ctx=gl_ctx)
+        Rasterizer(scene, frames=2, ctx=gl_ctx)
     assert str(exc.value).startswith(f"{CORNELL}: camera.resolution: {limit + 1}x8 is larger than this OpenGL "
                                      f"context's largest texture, {limit} pixels a side (GL_MAX_TEXTURE_SIZE of ")
     monkeypatch.setattr(context, "BYTES_PER_PIXEL", 2**50)  # as if the targets were vast
     with pytest.raises(SceneError, match=r"camera.resolution: 16x12 needs about \d+ GiB of render targets, more "
                                          r"than this machine's \d+ GiB of memory"):
-        ProgressiveRenderer(load_scene(CORNELL).with_resolution(16, 12), frames=2, ctx=gl_ctx)
+        Rasterizer(load_scene(CORNELL).with_resolution(16, 12), frames=2, ctx=gl_ctx)
 
 
 @pytest.mark.parametrize("scene_file, options", [

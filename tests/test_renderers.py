@@ -349,3 +349,107 @@ def test_blender_distribution_options_are_variants_with_their_own_key():
     for bad in ("cycles:nope", "eevee:ggx+msaa", "cycles:GGX"):
         with pytest.raises(ValueError, match="the Principled BSDF's distribution"):
             Registry().get(bad)
+
+
+def _fake_dist(tmp_path, monkeypatch, name: str, source: str, entry: str) -> None:
+    """A package "installed" on sys.path with one compare.renderers entry point (its dist-info)."""
+    site = tmp_path / f"site-{name}"
+    pkg = site / name
+    pkg.mkdir(parents=True)
+    (pkg / "__init__.py").write_text(textwrap.dedent(source))
+    info = site / f"{name}-0.1.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {name.replace('_', '-')}\nVersion: 0.1\n")
+    (info / "entry_points.txt").write_text(f"[compare.renderers]\n{entry}\n")
+    monkeypatch.syspath_prepend(str(site))
+
+
+def test_a_plugin_that_does_not_subclass_renderer_is_one_clear_error(tmp_path, monkeypatch, capsys):
+    """The attributes alone are not a renderer: the core relies on the base class, so the registry
+    refuses anything else by name, in `compare renderers` and in `compare run`, without a traceback."""
+    _fake_dist(tmp_path, monkeypatch, "duck_plugin", '''
+        class Duck:
+            name = "duck"
+            label = "Duck"
+            unit = "frame"
+
+            def steps(self, settings):
+                return 4
+
+            def key(self, scene, settings):
+                return []
+
+            def render(self, scene, *, steps, checkpoints, seed, context):
+                raise AssertionError("never called")
+    ''', "duck = duck_plugin:Duck")
+    reg = Registry()
+    with pytest.raises(RendererError, match=r"duck_plugin\.Duck is not a renderer: subclass "
+                                            r"compare\.renderers\.base\.Renderer"):
+        reg.get("duck")
+    rows = {r["name"]: r for r in reg.listing()}
+    assert not rows["duck"]["available"] and "subclass compare.renderers.base.Renderer" in rows["duck"]["why"]
+    assert main(["renderers"]) == 0
+    assert "not a renderer" in capsys.readouterr().out
+    code = main(["run", "--scenes", str(CORNELL), "--size", "16x12", "--renderers", "mitsuba,duck",
+                 "--frames", "2", "--spp", "2", "-o", str(tmp_path / "out"), "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 2 and "subclass compare.renderers.base.Renderer" in err and "Traceback" not in err
+    assert not (tmp_path / "out" / "results.json").exists()
+
+
+def test_a_plugin_may_not_take_a_builtin_name(tmp_path, monkeypatch):
+    _fake_dist(tmp_path, monkeypatch, "shadow_plugin", '''
+        from compare.renderers import Renderer
+
+        class Fake(Renderer):
+            name = "mitsuba"
+
+            def render(self, scene, *, steps, checkpoints, seed, context):
+                raise AssertionError("never called")
+    ''', "mitsuba = shadow_plugin:Fake")
+    assert type(Registry().get("mitsuba")).__module__ == "compare.mitsuba.renderer"
+
+
+def test_every_builtin_is_an_entry_point_and_its_options_come_from_its_declaration():
+    reg = Registry()
+    from importlib import metadata
+
+    eps = {ep.name for ep in metadata.entry_points(group="compare.renderers") if ep.dist.name == "compare-pbr"}
+    assert set(reg.builtins()) == eps
+    for name in reg.builtins():
+        cls = type(reg.get(name))
+        for word in cls.OPTIONS:
+            spec = f"{name}:{word.replace('<ms>', '16')}"
+            assert reg.get(spec).name == spec
+        with pytest.raises(ValueError, match="expected one of" if cls.OPTIONS else "takes no ':' options"):
+            reg.get(f"{name}:nosuchoption")
+        assert all(spec.partition(":")[0] == name for spec in cls.VARIANTS)
+    for group, specs in reg.groups().items():
+        assert reg.parse(group) == specs and all(reg.get(s) for s in specs)
+
+
+def test_the_docs_table_of_builtins_is_the_registry():
+    """docs/renderers.md lists exactly the registered built-ins, each with its declared options."""
+    text = (Path(__file__).resolve().parents[1] / "docs" / "renderers.md").read_text(encoding="utf-8")
+    start = text.index("<!-- builtins -->")
+    end = text.index("<!-- /builtins -->")
+    rows = [line for line in text[start:end].splitlines() if line.startswith("| `")]
+    reg = Registry()
+    documented = {row.split("`")[1]: row for row in rows}
+    assert sorted(documented) == sorted(reg.builtins())
+    for name, row in documented.items():
+        for word in type(reg.get(name)).OPTIONS:
+            assert f"`{word}`" in row, f"docs/renderers.md: {name}'s option {word} is missing"
+
+
+def test_budgets_come_from_the_renderer_unless_the_run_names_one():
+    reg = Registry()
+    s = RunSettings(frames=7, spp=9)
+    assert reg.get("progressive").steps(s) == 7 and reg.get("mitsuba").steps(s) == 9
+    assert reg.get("cycles").steps(s) == 1024 and reg.get("eevee").steps(s) == 64
+    s = RunSettings(frames=7, spp=9, budgets={"cycles": 5, "progressive:ltc": 3})
+    assert reg.get("cycles").steps(s) == 5 and reg.get("cycles:ggx").steps(s) == 5
+    assert reg.get("progressive:ltc").steps(s) == 3 and reg.get("progressive").steps(s) == 7
+    # results.json written before per-renderer budgets still reads
+    old = RunSettings.from_json({"frames": 7, "spp": 9, "cycles_spp": 16, "eevee_samples": 4})
+    assert old.budgets == {"cycles": 16, "eevee": 4}

@@ -19,6 +19,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from compare.cli import run as cli_run
+from compare.cli.argtypes import parse_sizes
+from compare.renderers import Registry
 from compare.run import runner as run_mod
 from compare.run import scene_job
 from compare.progressive import renderer as progressive_adapter
@@ -185,9 +188,9 @@ def test_checkpoint_steps():
 
 
 def test_parse_sizes_and_renderers():
-    assert run_mod.parse_sizes("320x240, 1280x720") == [(320, 240), (1280, 720)]
+    assert parse_sizes("320x240, 1280x720") == [(320, 240), (1280, 720)]
     with pytest.raises(argparse.ArgumentTypeError):
-        run_mod.parse_sizes("320by240")
+        parse_sizes("320by240")
     assert run_mod.parse_renderers("mitsuba,progressive:paper") == ["mitsuba", "progressive:paper"]
     for bad in ("cyclesx", "mitsuba:x", "eevee:fast", "progressive:", "", "progressive,progressive"):
         with pytest.raises(ValueError):
@@ -350,16 +353,9 @@ def test_rerun_reuses_finished_units_and_redoes_changed_ones(tmp_path, monkeypat
         assert again.scenes[0].run("progressive").key != more.scenes[0].run("progressive").key
         # A change to the rasterizer's code: its unit is redone, the reference reused.
         FakeReference.renders.clear()
-        monkeypatch.setattr(progressive_adapter, "source_fingerprint", lambda *names: "edited")
+        monkeypatch.setattr(progressive_adapter.ProgressiveRenderer, "code_key", lambda self: "edited")
         run_mod.run([CORNELL], out, RunSettings(frames=16, spp=32, sizes=[[48, 36]]), progress=False, report=False)
         assert FakeReference.renders == [] and calls == [16, 16]
-
-
-def test_rasterizer_sources_include_its_shaders():
-    files = {f.name for f in progressive_adapter.source_files(*progressive_adapter.RASTERIZER_SOURCES)}
-    assert {"renderer.py", "first_frame.glsl", "area_light.glsl", "brdf.glsl", "variants.py", "ltc.glsl",
-            "ltc_table.npz"} <= files  # a refitted LTC table redoes the units too
-    assert progressive_adapter.source_fingerprint("progressive") != progressive_adapter.source_fingerprint("brdf")
 
 
 def test_interrupted_run_resumes_without_redoing_finished_work(tmp_path):
@@ -447,7 +443,7 @@ def test_report_command_rebuilds_into_another_folder(tmp_path, capsys):
     synthetic_report(out, [CORNELL])
     parser = argparse.ArgumentParser(prog="compare")
     sub = parser.add_subparsers(dest="command", required=True)
-    run_mod.add_run_parser(sub)
+    cli_run.add_run_parser(sub)
     add_report_parser(sub)
     add_check_parser(sub)
     copy = tmp_path / "copy"
@@ -479,7 +475,7 @@ def test_report_command_rebuilds_into_another_folder(tmp_path, capsys):
 
 def test_run_command_end_to_end(tmp_path, capsys):
     parser = argparse.ArgumentParser(prog="compare")
-    run_mod.add_run_parser(parser.add_subparsers(dest="command", required=True))
+    cli_run.add_run_parser(parser.add_subparsers(dest="command", required=True))
     out = tmp_path / "cli"
     args = parser.parse_args(["run", "--scenes", str(CORNELL), "--size", "48x36", "--frames", "4", "--spp", "8",
                               "--quiet", "--no-report", "-o", str(out)])
@@ -527,13 +523,13 @@ def test_real_renderers_tiny_cornell(tmp_path, gl_ctx):
 def test_all_renderers_give_the_papers_table_1(tmp_path):
     """``--renderers all``: Mitsuba, the three area models, Cycles and EEVEE, each a Table 1 row with its error."""
     out = tmp_path / "out"
-    assert run_mod.parse_renderers("all") == list(run_mod.ALL_RENDERERS)
+    assert run_mod.parse_renderers("all") == Registry.groups()["all"]
     assert run_mod.parse_renderers("all,progressive:probes")[-1] == "progressive:probes"
     with pytest.raises(ValueError, match="unknown renderer"):
         run_mod.parse_renderers("cycles:fast")
-    res = synthetic_report(out, [CORNELL], renderers=("all",), cycles_spp=64, eevee_samples=16, materials="cycles")
+    res = synthetic_report(out, [CORNELL], renderers=("all",), budgets={"cycles": 64, "eevee": 16}, materials="cycles")
     (scene,) = res.scenes
-    assert [r.renderer for r in scene.runs] == list(run_mod.ALL_RENDERERS)
+    assert [r.renderer for r in scene.runs] == Registry.groups()["all"]
     cycles, eevee = scene.run("cycles"), scene.run("eevee")
     assert [p.step for p in cycles.points] == [1, 4, 16, 64] and cycles.steps == 64
     assert [p.step for p in eevee.points] == [1, 4, 16] and eevee.label == "Blender EEVEE"
@@ -557,7 +553,7 @@ def test_no_likeness_skips_the_measurement_and_reuses_what_has_it(tmp_path):
         return fake_blender(*a, **k)
 
     def run(out, likeness):
-        settings = RunSettings(frames=8, spp=16, sizes=[[48, 36]], renderers=["cycles"], cycles_spp=16,
+        settings = RunSettings(frames=8, spp=16, sizes=[[48, 36]], renderers=["cycles"], budgets={"cycles": 16},
                                materials="cycles", likeness=likeness)
         with synthetic_renderers():
             with pytest.MonkeyPatch.context() as mp:

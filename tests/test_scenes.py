@@ -56,7 +56,7 @@ def ibl_cache(tmp_path_factory):
 
 
 def progressive(scene, ctx, cache, **kw):
-    from compare.progressive import render_progressive
+    from compare.progressive.rasterizer import render_progressive
 
     opts = {"frames": 24, "shadow_size": 256, **FAST_IBL, "cache_dir": cache, "ctx": ctx, **kw}
     with warnings.catch_warnings():
@@ -278,14 +278,14 @@ def _scene(tmp_path, body: str):
 
 @pytest.mark.gl
 def test_rasterizer_skips_what_the_scene_does_not_need(tmp_path, gl_ctx, ibl_cache):
-    from compare.progressive import ProgressiveRenderer
+    from compare.progressive.rasterizer import Rasterizer
 
     emissive_only = _scene(tmp_path, '[[meshes]]\nshape = "sphere"\nradius = 0.2\nmaterial = "glow"\n')
     feats = emissive_only.features()
     assert not feats.environment and not feats.area_lights
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        r = ProgressiveRenderer(emissive_only, frames=4, ctx=gl_ctx)
+        r = Rasterizer(emissive_only, frames=4, ctx=gl_ctx)
     try:
         assert r.shadow is None and r.direct is None and r.environment is None and r.env_occlusion is None
         assert all(not fp.light_samples and not fp.env_samples for fp in r.plan)
@@ -307,7 +307,7 @@ def test_rasterizer_skips_what_the_scene_does_not_need(tmp_path, gl_ctx, ibl_cac
     """)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        r = ProgressiveRenderer(lit, frames=8, ctx=gl_ctx, shadow_size=64, cache_dir=ibl_cache, **FAST_IBL)
+        r = Rasterizer(lit, frames=8, ctx=gl_ctx, shadow_size=64, cache_dir=ibl_cache, **FAST_IBL)
     try:
         assert r.shadow is not None and r.environment is not None
         list(r.frames())

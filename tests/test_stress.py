@@ -41,7 +41,7 @@ def reference(scene, spp: int, **kw) -> np.ndarray:
 
 
 def progressive(scene, ctx, **kw):
-    from compare.progressive import render_progressive
+    from compare.progressive.rasterizer import render_progressive
 
     opts = {"frames": 64, "shadow_size": 256, "ctx": ctx, **kw}
     with warnings.catch_warnings():
@@ -384,14 +384,14 @@ def _drift(gl_ctx, frames: int) -> float:
     a pixel sees either the strip (the emission) or black, so even with float32 read-backs amplified by n
     the value is unambiguous, and its float64 mean is exact.
     """
-    from compare.progressive import ProgressiveRenderer
+    from compare.progressive.rasterizer import Rasterizer
 
     s = load("long_accumulation.toml", None)
     emission = np.asarray(s.materials["glow"].emission, dtype=np.float64)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         # Frame 0 at full size is the mean's first value (a reduced one is a preview outside it).
-        r = ProgressiveRenderer(s, frames=frames, ctx=gl_ctx, warm_up=False, first_frame_scale=1.0)
+        r = Rasterizer(s, frames=frames, ctx=gl_ctx, warm_up=False, first_frame_scale=1.0)
     try:
         assert r.shadow is None and r.environment is None  # nothing but jitter and accumulation
         prev = np.zeros((s.camera.height, s.camera.width, 3))

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from compare.progressive import render_progressive
+from compare.progressive.rasterizer import render_progressive
 from compare.progressive.gpu_scene import GpuScene
 from compare.mitsuba.reference import ReferenceRenderer
 from compare.scene.loader import load_scene

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from compare.progressive import ProgressiveRenderer, render_progressive
+from compare.progressive.rasterizer import Rasterizer, render_progressive
 from compare.progressive.shadow import (SHADOW_FILTERS, VSM_FILTER_TEXELS, ShadowAtlas, chebyshev_visibility,
                                         vsm_face_size, vsm_filter_width)
 from compare.scene.loader import load_scene
@@ -150,7 +150,7 @@ def test_filter_width_follows_the_share_of_the_light(cornell):
 def test_shadow_filter_is_validated(cornell):
     assert SHADOW_FILTERS == ("hard", "vsm")
     with pytest.raises(ValueError, match="shadow_filter.*'hard', 'vsm'.*'pcf'"):
-        ProgressiveRenderer(cornell, shadow_filter="pcf")
+        Rasterizer(cornell, shadow_filter="pcf")
 
 
 @pytest.mark.gl

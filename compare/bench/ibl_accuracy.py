@@ -59,7 +59,7 @@ from compare.ibl.prefilter import source_chain
 __all__ = ["accuracy_tables", "atlas_table", "encoding_table", "format_tables", "irradiance_table", "split_sum_table",
            "timing_table"]
 
-#: Rasterizer variants measured: name → ProgressiveRenderer options.
+#: Rasterizer variants measured: name → Rasterizer options.
 VARIANTS = {
     "float+cube": {},
     "rgbm": {"env_format": "rgbm"},
@@ -102,7 +102,7 @@ def split_sum_table(envs: dict[str, dict] | None = None, *, roughness=(0.0, 0.1,
                     stride: int = 2, samples: int = 1024, ibl_size: int = DEFAULT_SIZE,
                     ibl_samples: int = DEFAULT_SAMPLES, ctx=None) -> list[dict]:
     """Rasterizer frame 1 against brute-force MC on a sphere; see the module notes."""
-    from compare.progressive import ProgressiveRenderer
+    from compare.progressive.rasterizer import Rasterizer
     from compare.progressive.context import create_context
 
     envs = environments() if envs is None else envs
@@ -117,7 +117,7 @@ def split_sum_table(envs: dict[str, dict] | None = None, *, roughness=(0.0, 0.1,
                     truth = None
                     for variant in variants:
                         # The G-buffer path for frame 0: its targets are read back below.
-                        with ProgressiveRenderer(scene, frames=1, ctx=ctx, d_occ=0.0, ibl_size=ibl_size,
+                        with Rasterizer(scene, frames=1, ctx=ctx, d_occ=0.0, ibl_size=ibl_size,
                                                  ibl_samples=ibl_samples, first_frame="gbuffer",
                                                  **VARIANTS[variant]) as rend:
                             rend.render_frame()

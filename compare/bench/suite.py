@@ -58,7 +58,6 @@ each figure:
 
 from __future__ import annotations
 
-import json
 import math
 import platform
 import subprocess
@@ -66,7 +65,6 @@ import sys
 from pathlib import Path
 
 from compare.util.figures import Figure, median as _median, time_to_error
-from compare.util.files import write_text_atomic
 
 ITEMS = ("first-frame", "depth-floor", "area-models", "textures", "wrapper-overhead", "equal-error", "frame-budget", "peak-rss",
          "eevee")
@@ -338,36 +336,5 @@ def format_table(result: dict) -> str:
     return "\n".join(lines)
 
 
-def add_bench_parser(subparsers) -> None:
-    """Register ``compare bench``."""
-    import argparse
-
-    from compare.cli.argtypes import parse_size
-
-    p = subparsers.add_parser("bench", help="speed and memory ratios measured side by side (medians)",
-                              description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--scene", type=Path, default=Path("scenes/cornell.toml"), help="scene file")
-    p.add_argument("--size", type=parse_size, default=(320, 240), help="WIDTHxHEIGHT")
-    p.add_argument("--frames", type=int, default=128, help="progressive frames")
-    p.add_argument("--spp", type=int, default=256, help="reference samples per pixel (equal-error ladder)")
-    p.add_argument("--repeats", type=int, default=5, help="repeated runs per side (medians)")
-    p.add_argument("--only", default=",".join(ITEMS), help=f"comma-separated items of: {', '.join(ITEMS)}")
-    p.add_argument("-o", "--output", type=Path, default=Path("reports/bench.json"), help="JSON output")
-    p.set_defaults(func=_cmd_bench)
 
 
-def _cmd_bench(args) -> int:
-    items = tuple(x.strip() for x in args.only.split(",") if x.strip())
-    bad = [x for x in items if x not in ITEMS]
-    if bad:
-        print(f"compare: error: --only: unknown item(s) {', '.join(bad)}; known: {', '.join(ITEMS)}", file=sys.stderr)
-        return 2
-    from compare.util.files import check_outputs
-
-    check_outputs({"-o": args.output}, inputs=(args.scene,), suffixes={"-o": ".json"})
-    result = run_bench(args.scene, size=args.size, frames=args.frames, spp=args.spp, repeats=args.repeats,
-                       items=items)
-    write_text_atomic(args.output, json.dumps(result, indent=2))
-    print(format_table(result))
-    print(f"written {args.output}")
-    return 0

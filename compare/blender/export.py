@@ -73,17 +73,10 @@ dielectric Fresnel for IOR 1.5 in place of Schlick, and a Lambert lobe
 scaled by one minus Cycles' estimate of the specular layer's albedo at the view
 direction, in place of glTF's per-direction ``1 − F(v·h)``. The reference's
 ``cycles`` mode models exactly this (:mod:`compare.mitsuba.principled`, the
-plugin's ``cycles`` flavour). Measured (:mod:`compare.blender.likeness`; Cornell
-box 64×48, kitchen and car 96×72, 64 spp): with ``shared`` the Cornell box
-(rough white walls) agrees within 2 % on every region's brightest channel, but
-glossy materials differ: 6 % on the car's floor (roughness 0.55), 10–16 % on
-its paint and glass, 12 % on the kitchen's dark glossy countertop; with
-``cycles`` every region of the three scenes agrees (within 3 standard errors or
-2 %), also at 512–1024 spp, where the largest difference is 1.7–2.9 %. (The
-``cycles`` mode used to be Mitsuba's ``principled``, a Disney BSDF: 18–47 %
-brighter per region on the Cornell box.) With Lambert on both sides the regions
-of all three scenes agree within noise (one of the kitchen's 41 at z = 3.2, a
-34-pixel drawer front), so the rest of the mapping is not the cause.
+plugin's ``cycles`` flavour): with ``shared`` glossy materials differ from
+Cycles, with ``cycles`` they agree, and with Lambert on both sides the regions
+agree within noise, so the rest of the mapping is not the cause
+(:mod:`compare.blender.likeness`; the numbers are in ``docs/performance-notes.md``).
 Emission = ``Emission Color`` with strength 1, made one-sided (as Mitsuba's
 ``area`` emitter on a mesh) by zeroing it on back faces. A
 ``metallic_roughness_texture`` drives Roughness (its G channel) and Metallic (B)

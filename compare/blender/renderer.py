@@ -8,8 +8,9 @@ from typing import Any
 import numpy as np
 
 from compare.renderers.base import Checkpoint, RenderContext, Renderer, Rendering
+from compare.renderers.options import parse_spec
 
-__all__ = ["BlenderRenderer", "blender_ladder"]
+__all__ = ["BlenderRenderer", "CyclesRenderer", "EeveeRenderer", "blender_ladder"]
 
 
 def blender_ladder(samples: int) -> list[int]:
@@ -61,10 +62,6 @@ def _cycles_likeness(scene, *, samples: int, seed: int, first, cache_dir, materi
             "likeness_regions": f"{agree}/{len(res.regions)}"}
 
 
-#: ``cycles:<option>`` / ``eevee:<option>``: the Principled BSDF's distribution for every material.
-DISTRIBUTION_OPTIONS = ("ggx", "multi_ggx")
-
-
 class BlenderRenderer(Renderer):
     """Cycles (CPU) or EEVEE through ``bpy`` in a separate process.
 
@@ -79,14 +76,17 @@ class BlenderRenderer(Renderer):
     """
 
     unit = "spp"
+    OPTIONS = {"ggx": "GGX (single scattering) in every Principled BSDF",
+               "multi_ggx": "Multiscatter GGX in every Principled BSDF"}
 
     def __init__(self, spec: str):
-        engine, _, option = spec.partition(":")
+        engine = spec.partition(":")[0]
         if engine not in ("cycles", "eevee"):
             raise ValueError(f"unknown Blender engine {engine!r}")
-        if option and option not in DISTRIBUTION_OPTIONS:
-            raise ValueError(f"unknown renderer {spec!r}: {engine} takes the option "
-                             f"{' or '.join(DISTRIBUTION_OPTIONS)} (the Principled BSDF's distribution)")
+        options = parse_spec(spec, self.OPTIONS)
+        if len(options) > 1:
+            raise ValueError(f"renderer {spec!r}: one distribution at a time ({' or '.join(self.OPTIONS)})")
+        option = options[0][0] if options else ""
         self.engine = engine
         self.distribution = option or None
         self.name = spec
@@ -101,9 +101,6 @@ class BlenderRenderer(Renderer):
         from compare.blender import blender_available
 
         return blender_available()
-
-    def steps(self, settings) -> int:
-        return int(settings.cycles_spp if self.engine == "cycles" else settings.eevee_samples)
 
     def checkpoints(self, steps: int) -> list[int]:
         return blender_ladder(steps)
@@ -137,3 +134,19 @@ class BlenderRenderer(Renderer):
             meta.update(_cycles_likeness(scene, samples=steps, seed=seed, first=result, cache_dir=context.cache_dir,
                                          materials=context.settings.materials, distribution=self.distribution))
         return Rendering([Checkpoint(s, t, img) for s, t, img in cps], startup, meta)
+
+
+class CyclesRenderer(BlenderRenderer):
+    """Blender Cycles on the CPU: the paper's reference (1024 spp)."""
+
+    default_budget = 1024
+    budget_flag = "--cycles-spp"
+    VARIANTS = ("cycles:ggx",)
+
+
+class EeveeRenderer(BlenderRenderer):
+    """Blender EEVEE: the paper's rasterizer comparator (64 samples)."""
+
+    default_budget = 64
+    budget_flag = "--eevee-samples"
+    VARIANTS = ("eevee:ggx",)

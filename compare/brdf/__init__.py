@@ -52,7 +52,7 @@ Numerical conventions (identical in all three forms)
   peak, float32 rounding of the half vector (about 2 ulp, 1.2e-7) perturbs
   ``sin^2(theta_h)`` by ~2.4e-7 * sin(theta_h), a relative error in D of about
   ``5e-7 / alpha`` for world-space inputs; at 0.002025 that is 2.4e-4, the
-  tolerance of the GLSL test there (measured: under 1e-4). Smaller alphas would
+  tolerance of the GLSL test there (``docs/performance-notes.md``). Smaller alphas would
   buy a sharper highlight with a D that float32 no longer pins down. Roughness 0
   is therefore a very sharp glossy lobe, not a delta mirror. (Mitsuba's own
   microfacet code clamps at 1e-4; Filament's fp16 value is 0.089^2.)

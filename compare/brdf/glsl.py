@@ -14,6 +14,8 @@ Its public functions: ``brdf_eval``, ``brdf_eval_lobes``, ``brdf_ggx_d``,
 
 from __future__ import annotations
 
+import numpy as np
+
 from functools import lru_cache
 from pathlib import Path
 

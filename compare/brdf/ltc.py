@@ -26,7 +26,7 @@ read with a linear texture fetch at ``uv = (r, sqrt(1 - cos)) 63/64 + 0.5/64``
 (:func:`ltc_matrix`); :func:`polygon_integral` is the GLSL's polygon integral.
 The file ``ltc_table.npz`` also holds ``fit_error`` and ``magnitude`` (64, 64)
 float32 and the fit's settings; ``python -m compare.brdf.ltc`` rewrites it
-(4 to 6 minutes on 2 cores).
+(minutes; ``docs/performance-notes.md``).
 
 The fit
 -------
@@ -38,12 +38,10 @@ at normal incidence; each fit starts from the previous one, from roughness 1 to
 0 along normal incidence and from there towards grazing per roughness.
 
 Accuracy: ``fit_error = integral |f - magnitude D_ltc| / integral f`` (over the
-sphere, so the LTC's mass below the horizon counts) has median 0.056, 95th
-percentile 0.46 and maximum 0.91 (roughness 0.079, theta 89.99 deg); for
-cos(theta_v) >= 0.5: 0.037, 0.19, 0.27. The error grows towards grazing, where
-a clamped cosine cannot follow a lobe cut by the horizon. Heitz's published GGX
-table, evaluated the same way on 21 cells, has errors within 0.01 of these
-(0.04 in the last row).
+sphere, so the LTC's mass below the horizon counts). The error grows towards
+grazing, where a clamped cosine cannot follow a lobe cut by the horizon; it is
+close to that of Heitz's published GGX table evaluated the same way (both in
+``docs/performance-notes.md``).
 """
 
 from __future__ import annotations

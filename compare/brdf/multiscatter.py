@@ -38,7 +38,7 @@ as ``lookup_table_read_2D`` / ``lookup_table_read`` do (linear, texel ``i`` at
 coordinate ``i/31``). ``energy_table.npz`` holds the result at 256²
 Hammersley points per cell (E) and 64 Gauss-Legendre nodes in mu of 128² points
 each (E_avg). It agrees with Cycles' own tables (``scene/shader.tables`` of
-Blender 5.0) within 3.6e-5 in E and 2e-5 in E_avg over all 1056 entries;
+Blender 5.0; the differences are in ``docs/performance-notes.md``);
 ``tests/test_multiscatter.py`` recomputes part of it and checks values read
 from Cycles' tables.
 Regenerate with ``python -m compare.brdf.multiscatter``.

@@ -14,7 +14,6 @@ from pathlib import Path
 
 from compare.cli.argtypes import parse_size, positive_float, positive_int
 from compare.util.errors import CompareError
-from compare.progressive.options import OPTIONS as VARIANT_OPTIONS
 
 __all__ = ["main", "parse_size", "positive_float", "positive_int"]
 
@@ -22,12 +21,14 @@ __all__ = ["main", "parse_size", "positive_float", "positive_int"]
 def _renderer_arg(text: str) -> str:
     """``--renderer``: a built-in's spec (e.g. a variant's options) is checked here, before any work;
     other names against the registry (which may need ``--renderer-config``) in the command."""
-    from compare.renderers.registry import builtin
+    from compare.renderers import Registry
 
-    try:
-        builtin(text)
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
+    registry = Registry()
+    if text.partition(":")[0] in registry.builtins():
+        try:
+            registry.get(text)
+        except ValueError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
     return text
 
 
@@ -36,6 +37,8 @@ class UsageError(CompareError, ValueError):
 
 
 def _build_parser() -> argparse.ArgumentParser:
+    from compare.renderers import Registry
+
     p = argparse.ArgumentParser(prog="compare", description=__doc__.splitlines()[0],
                                 formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
@@ -44,9 +47,8 @@ def _build_parser() -> argparse.ArgumentParser:
                        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     r.add_argument("--scene", required=True, type=Path, help="scene file (TOML)")
     r.add_argument("--renderer", default="mitsuba", type=_renderer_arg,
-                   help="any renderer of `compare renderers`: mitsuba, progressive or "
-                        "progressive:<option>[+<option>] (options: " + ", ".join(VARIANT_OPTIONS)
-                        + "), cycles, eevee, plug-ins, or one of --renderer-config")
+                   help="any renderer of `compare renderers`, NAME[:OPTION[+OPTION]]: "
+                        + Registry().describe() + "; or one of --renderer-config")
     r.add_argument("--renderer-config", type=Path, default=None, metavar="TOML",
                    help="a renderer file with [renderer.<name>] tables (docs/renderers.md)")
     r.add_argument("--steps", type=positive_int, default=None,
@@ -99,11 +101,11 @@ def _build_parser() -> argparse.ArgumentParser:
     n.add_argument("--json", action="store_true", help="print JSON instead of a table")
     n.set_defaults(func=cmd_renderers)
 
-    from compare.bench.suite import add_bench_parser
-    from compare.report.check import add_check_parser
-    from compare.run.measure import add_measure_parser
-    from compare.report.html import add_report_parser
-    from compare.run.runner import add_run_parser
+    from compare.cli.bench import add_bench_parser
+    from compare.cli.check import add_check_parser
+    from compare.cli.measure import add_measure_parser
+    from compare.cli.report import add_report_parser
+    from compare.cli.run import add_run_parser
 
     add_run_parser(sub)
     add_measure_parser(sub)
@@ -147,7 +149,7 @@ def cmd_render(args: argparse.Namespace) -> int:
     if args.max_depth is not None:
         scene = scene.with_max_depth(args.max_depth)
     settings = RunSettings(frames=args.frames, spp=args.spp, seed=args.seed, materials=args.materials,
-                           cycles_spp=args.spp, eevee_samples=args.samples, likeness=False)
+                           budgets={"cycles": args.spp, "eevee": args.samples}, likeness=False)
     steps = args.steps or renderer.steps(settings)
     options = {"variant": args.variant} if args.variant else {}
     with RenderContext(settings, cache_dir=False if args.no_cache else None, progress=True,

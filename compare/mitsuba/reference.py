@@ -29,6 +29,7 @@ from tqdm.auto import tqdm
 from compare import __version__
 from compare.mitsuba.backend import load_mitsuba
 from compare.image.exr import read_exr, write_exr
+from compare.util.code import code_fingerprint
 from compare.util.errors import ImageError
 from compare.util.files import sha256_bytes
 from compare.mitsuba.scene_dict import MATERIAL_MODELS, MATERIAL_MODES, PRINCIPLED_MODES, scene_dict, world_scale
@@ -165,6 +166,8 @@ class ReferenceRenderer:
             "sampler": self.sampler,
             "resolution": [cam.width, cam.height],
             "mitsuba": self.mi.__version__,
+            # the code that makes the pixels: a change to it must not reuse cached passes
+            "code": code_fingerprint(__name__),
         }
         if self.materials in MATERIAL_MODELS:  # a changed model must not reuse the old model's passes
             settings["material_model"] = MATERIAL_MODELS[self.materials]

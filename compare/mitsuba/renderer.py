@@ -8,6 +8,7 @@ with one checkpoint reuses the passes of a convergence ladder and the reference 
 from __future__ import annotations
 
 from compare.renderers.base import Checkpoint, RenderContext, Renderer, Rendering
+from compare.renderers.options import parse_spec
 
 __all__ = ["MitsubaRenderer", "bench_wrapper_overhead"]
 
@@ -46,6 +47,10 @@ class MitsubaRenderer(Renderer):
 
     name = "mitsuba"
     unit = "spp"
+    default_budget = "spp"
+
+    def __init__(self, spec: str = "mitsuba"):
+        parse_spec(spec, self.OPTIONS)  # it takes none: a ':' is refused by the one grammar
 
     @property
     def label(self) -> str:
@@ -66,9 +71,6 @@ class MitsubaRenderer(Renderer):
         except MissingComponentError as exc:
             return False, str(exc)
         return True, ""
-
-    def steps(self, settings) -> int:
-        return int(settings.spp)
 
     def _reference(self, scene, context: RenderContext):
         from compare.mitsuba.reference import ReferenceRenderer

@@ -16,7 +16,7 @@ __all__ = ["bench_area_models", "bench_depth_floor", "bench_first_frame", "bench
 def bench_first_frame(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
     """Frame 1 against the mean frame and the total of a whole progressive run; the same with frame 0
     drawn at full size, alternating with the default (half size) run for run."""
-    from compare.progressive import ProgressiveRenderer
+    from compare.progressive.rasterizer import Rasterizer
     from compare.progressive.first_frame import auto_scale
 
     scales = (auto_scale((scene.camera.width, scene.camera.height)), 1.0)  # the default, then full size
@@ -24,7 +24,7 @@ def bench_first_frame(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
     renderers = []
     try:
         for k in scales:
-            renderers.append(ProgressiveRenderer(scene, frames=frames, ctx=ctx, first_frame_scale=k))
+            renderers.append(Rasterizer(scene, frames=frames, ctx=ctx, first_frame_scale=k))
         for _ in range(repeats):
             for i, r in enumerate(renderers):
                 r.reset()
@@ -50,11 +50,11 @@ def bench_first_frame(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
 
 def bench_depth_floor(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
     """Mean frame time against a depth-only pass of the same geometry and size."""
-    from compare.progressive import ProgressiveRenderer
+    from compare.progressive.rasterizer import Rasterizer
     from compare.progressive.depth_only import DepthOnlyPass
 
     frame_t, floor_t = [], []
-    with ProgressiveRenderer(scene, frames=frames, ctx=ctx) as r:
+    with Rasterizer(scene, frames=frames, ctx=ctx) as r:
         depth = DepthOnlyPass(ctx, r.gpu_scene, r.size)
         try:
             vp = r.camera.view_proj((0.0, 0.0))
@@ -111,14 +111,14 @@ def _alternating_mean_frames(options: list[dict], scene, *, frames: int, repeats
                              scenes=None) -> list[list[float]]:
     """The mean frame time of one whole run per renderer (``options`` each, on ``scenes`` each or on
     ``scene``), ``repeats`` times, the renderers alternating run for run."""
-    from compare.progressive import ProgressiveRenderer
+    from compare.progressive.rasterizer import Rasterizer
 
     scenes = scenes or [scene] * len(options)
     mean: list[list[float]] = [[] for _ in options]
     renderers = []
     try:
         for s, opts in zip(scenes, options):
-            renderers.append(ProgressiveRenderer(s, frames=frames, ctx=ctx, **opts))
+            renderers.append(Rasterizer(s, frames=frames, ctx=ctx, **opts))
         for _ in range(repeats):
             for i, r in enumerate(renderers):
                 r.reset()

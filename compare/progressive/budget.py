@@ -14,7 +14,7 @@ from a cost model of this device:
 ``c_0`` is a frame without samples (G-buffer, every-frame pass), ``c_l`` one
 light sample (its shadow atlas and direct pass), ``c_e`` one environment
 occlusion sample, all measured once after the shaders are compiled
-(:meth:`ProgressiveRenderer._calibrate`); ``s`` follows the observed frame
+(:meth:`Rasterizer._calibrate`); ``s`` follows the observed frame
 times (an exponential moving average of observed ÷ predicted), so the model
 keeps up with a device that speeds up or slows down. Each frame gets samples
 one at a time, always of the kind (light or environment) that is furthest

@@ -103,8 +103,8 @@ vec4 ratio_terms(vec3 x, vec3 n, vec3 v, vec3 y, vec3 base, float metallic, floa
     // closed form it scales, per sample), not the BRDF's: the ratio then corrects the fitted
     // lobe's shape and Fresnel as well as the shadows, and converges to the exact shadowed light.
     // The closed form's scale s (Fresnel x (A + B), a constant of the pixel) is left out here and
-    // applied by the compose pass: the light's unshadowed specular sum carries it (ltc_light.glsl).
-    // Evaluating the polygon integral again per sample, only to get s, made this pass 1.5x as costly.
+    // applied by the compose pass: the light's unshadowed specular sum carries it (ltc_light.glsl),
+    // so this pass need not evaluate the polygon integral again per sample (docs/performance-notes.md).
     float h_s = ltc_density(n, v, l, roughness) * point_solid_angle(d2, cos_l);
     // Where the fitted lobe has (almost) no density the BRDF may still have some: bounded at
     // LTC_SHAPE_MAX times the lobe's own, s h_s, a sample cannot make a firefly of the ratio.

@@ -41,12 +41,11 @@ light's centre. Karis' ``(α/α')²``, ``α' = α + ρ``, holds at normal incide
 in general the map from l to h has the Jacobian ``dω_h/dω_l = 1/(4 v·h)``:
 within the plane of incidence h turns by half of l's angle, across it by
 ``1/(2 v·h)`` of it, so the factor is ``α² / ((α + ρ)(α + ρ/(v·h)))`` (each
-bracket capped at 1). Without the ``v·h`` the glossy plane of
-``scenes/stress/grazing.toml`` reflected up to 1.8× the light's radiance and
-its near part (N·V ≈ 0.1) was 6.4× the reference; with it 2.0×. Last, the
-term is bounded by ``L · (F0·A + B)``, the lobe's directional albedo from the
-split-sum table (:mod:`compare.ibl.lut`): no light reflects more than that,
-whatever part of the hemisphere it covers. The term is the same for all
+bracket capped at 1). Without the ``v·h`` a glossy plane seen at grazing
+angles (``scenes/stress/grazing.toml``) reflects more than the light's radiance
+(``docs/performance-notes.md``). Last, the term is bounded by ``L · (F0·A + B)``,
+the lobe's directional albedo from the split-sum table (:mod:`compare.ibl.lut`):
+no light reflects more than that, whatever part of the hemisphere it covers. The term is the same for all
 samples of a light and is multiplied by each sample's visibility, so its mean
 is the MRP specular × mean visibility.
 """

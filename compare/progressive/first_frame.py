@@ -21,13 +21,10 @@ the display upsamples it bilinearly, and frame 1 draws the full-resolution
 unshadowed preview from its G-buffer, which then stays until every light has a
 sample.
 
-Measured on Mesa llvmpipe (Cornell box, 128 frames, medians of alternating runs):
-the first frame (frame 0) ÷ the mean frame is 0.16–0.21 at 320×240 and 0.16 at
-1280×720 at half size, against 0.34–0.36 and 0.50 at full size (and 1.19 and 1.39
-drawn through the G-buffer). On a CPU rasterizer it is per-pixel work (clearing
-the targets, the preview's light evaluation) plus per-frame overhead, so a quarter
-of the pixels is what brings it under a quarter of an average frame. The full-size
-preview moves to the second frame (frame 1: 7.5 instead of 3.5 ms at 320×240).
+On a CPU rasterizer frame 0 is per-pixel work (clearing the targets, the
+preview's light evaluation) plus per-frame overhead, so a half-size preview (a
+quarter of the pixels) is what keeps frame 0 cheap; the full-size preview's cost
+moves to frame 1. Measurements: ``docs/performance-notes.md``.
 """
 
 from __future__ import annotations
@@ -41,13 +38,13 @@ from compare.progressive.gpu_scene import mat_bytes
 from compare.progressive.ltc import LTC_UNIT
 from compare.progressive.shaders import load_program, set_uniform
 
-#: How frame 0 is drawn (ProgressiveRenderer's ``first_frame``).
+#: How frame 0 is drawn (Rasterizer's ``first_frame``).
 FIRST_FRAME_MODES = ("forward", "gbuffer")
-#: Fraction of each axis of a reduced forward frame 0 (ProgressiveRenderer's ``first_frame_scale``).
+#: Fraction of each axis of a reduced forward frame 0 (Rasterizer's ``first_frame_scale``).
 DEFAULT_FIRST_FRAME_SCALE = 0.5
 #: The smallest reduced frame 0 that :func:`auto_scale` draws: below it the preview loses the
-#: scene's structure (64×48 → 32×24: the gate's frame-1 SSIM fell from 0.655–0.691 to 0.608–0.684
-#: over six seeds) and saves little (frame 1 is mostly per-frame overhead there: 0.40 vs 0.56 ms).
+#: scene's structure and saves little, as a frame that small is mostly per-frame overhead
+#: (docs/performance-notes.md).
 MIN_REDUCED_SIZE = (160, 120)
 
 
@@ -126,7 +123,7 @@ class FirstFramePass:
                 self.direct.filter = (ctx.NEAREST, ctx.NEAREST)
             self.fbo = self._keep(ctx.framebuffer(colour + [self.direct], self.depth))
             # Depth pre-pass: with the nearest depth known, each pixel is shaded once, however
-            # much the scene overdraws (the kitchen's frame 0 cost 3x an average frame without it).
+            # much the scene overdraws (docs/performance-notes.md).
             self.depth_fbo = self._keep(ctx.framebuffer(depth_attachment=self.depth))
             self.depth_programs = gpu_scene.occluder_programs(ctx, "depth_only.glsl")
             for program in self.depth_programs.values():

@@ -29,7 +29,8 @@ class GBuffer:
         self.depth = ctx.depth_renderbuffer(size)
         self.fbo = ctx.framebuffer([self.textures[n] for n in self.NAMES], self.depth)
         # One program per set of maps the meshes have (a scene without maps has one): each samples only
-        # those maps. On llvmpipe one program for all cost the kitchen's frame 1.9x its untextured time.
+        # those maps: a software rasterizer runs both sides of a shared program's uniform branches and
+        # would pay for every map's lookup on every mesh (docs/performance-notes.md).
         self.programs = {}
         try:
             for key in gpu_scene.map_sets():

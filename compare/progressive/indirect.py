@@ -1,10 +1,9 @@
 """The irradiance volume's indirect diffuse light as a pass of its own (``indirect.glsl``).
 
 Looking the volume up costs far more than the rest of an every-frame pass on a
-software rasterizer (8 probes × 9 coefficients and 8 distance maps per pixel:
-about 20 ms at 320×240 on llvmpipe against 2 ms), and its result is smooth and
-noise-free: the running mean over jittered frames only anti-aliases it. So it
-has its own running mean, updated in the first :data:`PROBE_FRAMES` frames that
+software rasterizer (8 probes × 9 coefficients and 8 distance maps per pixel;
+``docs/performance-notes.md``), and its result is smooth and noise-free: the
+running mean over jittered frames only anti-aliases it. So it has its own running mean, updated in the first :data:`PROBE_FRAMES` frames that
 draw the G-buffer and then kept as it is; ``compose.glsl`` adds it. The
 forward-shaded frame 0 has no G-buffer, so its preview shows no indirect light;
 every later image does.

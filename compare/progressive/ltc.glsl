@@ -197,8 +197,7 @@ void ltc_light_scaled(vec3 x, vec3 n, vec3 v, vec3 base, float metallic, float r
 #endif
     // The specular polygon is clipped to the surface's horizon before the transform too: the
     // transformed cosine of a grazing view has mass below it, where the BRDF has none
-    // (tests/test_ltc.py, roughness 0.6, n.v 0.2: the large rectangle on the lobe's peak,
-    // which crosses the horizon, is 0.18 of the lobe's magnitude off without this, 0.11 with it).
+    // (tests/test_ltc.py; docs/performance-notes.md).
     vec3 fd;
     vec3 fs;
     ltc_quad_form_factors(q, minv, fd, fs);
@@ -220,9 +219,8 @@ void ltc_light_scaled(vec3 x, vec3 n, vec3 v, vec3 base, float metallic, float r
     // Magnitude: the lobe's directional albedo with Fresnel 1, A + B of the split-sum table.
     // Fresnel: Schlick's at the half vector of the lit part's mean direction (that of the
     // transformed polygon's vector form factor, mapped back by M), as for the diffuse lobe.
-    // The lobe's average F0 A + B would be the Fresnel of the whole hemisphere: at grazing
-    // views, where Fresnel changes fastest across the lobe, it put the Cornell box's walls
-    // (roughness 1, n.v ~ 0.25) 1.5x above the exact specular light, this 1.1x.
+    // The lobe's average F0 A + B would be the Fresnel of the whole hemisphere, too bright at
+    // grazing views, where Fresnel changes fastest across the lobe (docs/performance-notes.md).
     vec2 ab = textureLod(u_spec_lut, vec2(nv, clamp(roughness, 0.0, 1.0)), 0.0).rg;
     vec3 f0 = vec3(BRDF_DIELECTRIC_F0) + (base - vec3(BRDF_DIELECTRIC_F0)) * m;
     float len_fs = length(fs);

@@ -22,21 +22,19 @@ numerator's BRDF term is bounded by 1.5 h_k:
 which converges to the exact shadowed specular light as samples grow (to within
 the bound), correcting the fitted lobe's shape and its Fresnel where the fit is
 poor: at grazing views the clamped cosine, sheared, keeps mass near the horizon
-where BRDF × cos vanishes (``stress/grazing.toml``'s plane at N·V ≈ 0.1: 1.89× the
-reference from the closed form, 0.88× with this ratio). The bound keeps a sample
-where the fitted lobe has almost no density from making a firefly (without it the
-grazing plane reached 4× the light's radiance). Where
-light i is entirely visible the diffuse ratio is exactly 1, whatever the number of
-samples, so the diffuse light is the closed form's, exact. In penumbrae the ratio converges
-as samples grow, as the radiometric model's point-on-area estimate does, but
-without that model's discretisation error in the unshadowed part (a Lambert
-plane under a rectangle, 32 samples: −11 % … +9 % per pixel, and 0.1 … 3.2×
-with the light at 0.05× its size above the plane; ``tests/test_area_models.py``).
+where BRDF × cos vanishes (``stress/grazing.toml``'s plane;
+``docs/performance-notes.md``). The bound keeps a sample where the fitted lobe
+has almost no density from making a firefly. Where light i is entirely visible
+the diffuse ratio is exactly 1, whatever the number of samples, so the diffuse
+light is the closed form's, exact. In penumbrae the ratio converges as samples grow, as the radiometric model's point-on-area estimate does, but
+without that model's discretisation error in the unshadowed part, which grows
+as the light comes close to the surface (``tests/test_area_models.py``;
+``docs/performance-notes.md``).
 
 The closed form's scale is a constant of the pixel, so the sample pass leaves it out of h_k
 and the bound reads it from the specular sum's alpha (below), where the unshadowed pass has
-summed it; the compose pass divides by it (evaluating the polygon integral again in every
-sample pass, only to get it, made that pass about 1.5× as costly).
+summed it; the compose pass divides by it. So the sample pass does not evaluate the polygon
+integral again just to get it, which would make it much dearer (``docs/performance-notes.md``).
 
 Per light this keeps three RGBA32F sums over the whole image, added to with
 blending, never ping-ponged: the unshadowed diffuse and specular light of the
@@ -56,9 +54,8 @@ The paper holds light samples back to the last 70 % of the frames (f_d = 0.3)
 and shows a crude unshadowed preview until then. With this model the light is
 exact from the first frame and only its shadows wait for samples, so they start
 at frame 1 (:data:`LTC_DIRECT_FRACTION` = 0; the samples, their order and
-count are the paper's): on the Cornell box (320×240, 128 frames) the
-direct-light FLIP of the early images falls by about half (frame 4: 0.045 →
-0.025, frame 16: 0.038 → 0.017), and the final image is as good (0.0120 both).
+count are the paper's): the early images come closer to the reference and the
+final image is as good (``docs/performance-notes.md``).
 """
 
 from __future__ import annotations
@@ -155,7 +152,7 @@ class LtcLights:
         The unshadowed light is smooth but for the edges of what the G-buffer sees, which
         its jitter anti-aliases: a subset of the frames' jitter positions does that as well
         as all of them, and evaluating a light in every frame would cost as much as a
-        shadowed sample pass each (the kitchen's six lights: 2.5× the radiometric frame).
+        shadowed sample pass each (docs/performance-notes.md).
         """
         due = [i for i in range(len(self.lights)) if self.due(i)]
         self.gbuffer_frames += 1

@@ -1,6 +1,6 @@
 """Variants of the progressive renderer named in ``--renderers``: ``progressive:<option>[+<option>…]``.
 
-Each option sets :class:`~compare.progressive.ProgressiveRenderer` keywords, so
+Each option sets :class:`~compare.progressive.rasterizer.Rasterizer` keywords, so
 the report can show what each departure from the paper's technique costs and
 gains against the same ground truth (an ablation):
 
@@ -27,7 +27,7 @@ Options combine with ``+``: ``progressive:probes+vsm``.
 
 from __future__ import annotations
 
-import re
+from compare.renderers.options import parse_spec
 
 __all__ = ["OPTIONS", "describe", "renderer_options"]
 
@@ -41,47 +41,32 @@ OPTIONS = {
     "budget<ms>": "a per-frame time budget in milliseconds, e.g. budget16",
     "fullfirst": "frame 0 at full size (the paper's first frame)",
 }
-_BUDGET = re.compile(r"budget(\d+(?:\.\d+)?)")
+#: What each option sets among the rasterizer's keywords, and its words in a report's label.
+_KEYWORDS = {
+    "paper": ("area_model", "paper"),
+    "radiometric": ("area_model", "radiometric"),
+    "ltc": ("area_model", "ltc"),
+    "probes": ("indirect", "probes"),
+    "vsm": ("shadow_filter", "vsm"),
+    "budget<ms>": ("frame_budget_ms", None),
+    "fullfirst": ("first_frame_scale", 1.0),
+}
 
 
 def renderer_options(spec: str) -> dict:
-    """ProgressiveRenderer keywords of a renderer spec (``progressive`` gives ``{}``).
+    """Rasterizer keywords of a renderer spec (``progressive`` gives ``{}``).
 
     Raises ValueError naming the unknown option and the known ones.
     """
-    base, _, text = spec.partition(":")
-    if base != "progressive":
+    if spec.partition(":")[0] != "progressive":
         raise ValueError(f"{spec!r} is not a progressive renderer spec")
-    if ":" in spec and not text:
-        raise ValueError(f"renderer {spec!r}: no option after ':'; expected one of {', '.join(OPTIONS)}")
     kwargs: dict = {}
-    for opt in filter(None, text.split("+")) if text else ():
-        key, value = _option(spec, opt)
+    for word, number in parse_spec(spec, OPTIONS):
+        key, value = _KEYWORDS[word]
         if key in kwargs:
-            raise ValueError(f"renderer {spec!r}: {opt!r} sets {key} twice")
-        kwargs[key] = value
-    if text and any(not o for o in text.split("+")):
-        raise ValueError(f"renderer {spec!r}: empty option between '+' signs")
+            raise ValueError(f"renderer {spec!r}: {word!r} sets {key} twice")
+        kwargs[key] = number if value is None else value
     return kwargs
-
-
-def _option(spec: str, opt: str) -> tuple[str, object]:
-    if opt in ("paper", "radiometric", "ltc"):
-        return "area_model", opt
-    if opt == "probes":
-        return "indirect", "probes"
-    if opt == "vsm":
-        return "shadow_filter", "vsm"
-    if opt == "fullfirst":
-        return "first_frame_scale", 1.0
-    m = _BUDGET.fullmatch(opt)
-    if m:
-        ms = float(m.group(1))
-        if ms <= 0:
-            raise ValueError(f"renderer {spec!r}: the frame budget must be positive, got {opt!r}")
-        return "frame_budget_ms", ms
-    raise ValueError(f"renderer {spec!r}: unknown option {opt!r}; expected "
-                     + ", ".join(f"{k} ({v})" for k, v in OPTIONS.items()))
 
 
 def describe(spec: str) -> str:

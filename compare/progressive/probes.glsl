@@ -55,9 +55,9 @@ vec2 probe_moments(int p, vec3 d) {
 
 // Indirect irradiance at x with unit normal n, seen from the unit direction v (towards the
 // viewer: it moves the lookup point off the surface, away from the surface's back side).
-// All 8 probes are evaluated in one pass (their irradiance also feeds the fall-back): on
-// llvmpipe, fetching coefficients only for probes with a weight, or blending coefficients
-// through arrays, measured slower (branches run for the whole SIMD group).
+// All 8 probes are evaluated in one pass (their irradiance also feeds the fall-back), without
+// skipping probes of weight zero: a branch runs for the whole SIMD group
+// (docs/performance-notes.md).
 vec3 probe_irradiance(vec3 x, vec3 n, vec3 v) {
     float y[9];
     probe_sh_basis(n, y);

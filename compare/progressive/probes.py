@@ -236,7 +236,7 @@ class ProbeVolume:
     shadow_size : int, keyword-only
         Face size of the bake's own hard shadow atlas (made and freed by the bake).
     shadow_bias : (float, float, float), keyword-only
-        Shadow bias in texels, as :class:`~compare.progressive.rasterizer.ProgressiveRenderer`'s.
+        Shadow bias in texels, as :class:`~compare.progressive.rasterizer.Rasterizer`'s.
     environment : EnvironmentLighting or None, keyword-only
         The scene's environment (what the probes see where no surface is), or None.
     materials : {"shared", "diffuse"}, keyword-only

@@ -52,7 +52,7 @@ GPU time. Scene upload, shader compilation and one warm-up of frame 0 (and of fr
 1 after a reduced frame 0) and of a light frame (drivers compile shaders at their
 first draw) are counted separately
 (``setup_seconds``), and so is readback: it happens only when an image is asked
-for (:meth:`ProgressiveRenderer.image`).
+for (:meth:`Rasterizer.image`).
 """
 
 from __future__ import annotations
@@ -115,10 +115,10 @@ class ProgressiveResult:
     checkpoints: list[Checkpoint] = field(default_factory=list)
     plan: Plan | None = None
     layers: dict[str, np.ndarray] = field(default_factory=dict)
-    """The final image split by kind of light (:meth:`ProgressiveRenderer.layers`)."""
+    """The final image split by kind of light (:meth:`Rasterizer.layers`)."""
 
 
-class ProgressiveRenderer:
+class Rasterizer:
     """Otto et al.'s progressive rasterizer (environment and area lights) for one scene.
 
     Parameters
@@ -681,7 +681,7 @@ class ProgressiveRenderer:
             self.ctx.release()
             self.ctx = None
 
-    def __enter__(self) -> "ProgressiveRenderer":
+    def __enter__(self) -> "Rasterizer":
         return self
 
     def __exit__(self, *exc) -> None:
@@ -696,7 +696,7 @@ def render_progressive(scene, *, frames: int = DEFAULT_FRAMES, seed: int = 0, ar
     ----------
     scene : compare.scene.loader.Scene
     frames, seed, area_model, ctx : keyword-only
-        See :class:`ProgressiveRenderer`.
+        See :class:`Rasterizer`.
     checkpoints : sequence of int or "every", keyword-only
         Frame counts (1 … frames) after which the accumulated image is read
         back, e.g. ``(1, 2, 4, …, 128)``, or ``"every"`` frame; readback is not
@@ -704,7 +704,7 @@ def render_progressive(scene, *, frames: int = DEFAULT_FRAMES, seed: int = 0, ar
         before ``frames`` (or after: each frame then evaluates at least one
         sample); counts it does not reach are not taken.
     **options
-        Further :class:`ProgressiveRenderer` options (materials, direct_fraction,
+        Further :class:`Rasterizer` options (materials, direct_fraction,
         samples_per_light, shadow_size, shadow_bias, shadow_filter, d_occ, env_samples,
         occlusion_bias, env_format, env_diffuse, ibl_size, ibl_levels,
         ibl_samples, cache_dir).
@@ -723,7 +723,7 @@ def render_progressive(scene, *, frames: int = DEFAULT_FRAMES, seed: int = 0, ar
     bad = sorted(c for c in wanted if not 1 <= c <= limit)
     if bad:
         raise ValueError(f"checkpoints: frame counts must lie in 1 … {frames} (frames), got {bad}")
-    with ProgressiveRenderer(scene, frames=frames, seed=seed, area_model=area_model, ctx=ctx, **options) as r:
+    with Rasterizer(scene, frames=frames, seed=seed, area_model=area_model, ctx=ctx, **options) as r:
         taken = []
         for n, seconds in r.frames():
             if every or n in wanted:

@@ -4,40 +4,14 @@ registry: ``progressive`` and ``progressive:<option>[+<option>]`` (:mod:`compare
 from __future__ import annotations
 
 import functools
-import json
 import time
-from pathlib import Path
 
 import numpy as np
 
-from compare.util.files import sha256_bytes
+from compare.progressive.options import OPTIONS, describe, renderer_options
 from compare.renderers.base import Checkpoint, RenderContext, Renderer, Rendering
 
-__all__ = ["ProgressiveRenderer", "RASTERIZER_SOURCES", "source_fingerprint", "source_files"]
-
-#: What the rasterizer's images depend on (its units are redone when any of it changes).
-RASTERIZER_SOURCES = ("progressive", "brdf", "ibl", "variants.py", "scene.py", "geometry.py", "gltf.py",
-                      "procedural_meshes.py", "environments.py", "encodings.py")
-_PACKAGE = Path(__file__).resolve().parent.parent
-
-
-def source_files(*names: str) -> list[Path]:
-    """The package's sources (``.py``, ``.glsl``, and ``.npz`` for committed tables such as the LTC
-    fit) under ``names`` (folders or files of ``compare/``)."""
-    files: list[Path] = []
-    for name in names:
-        path = _PACKAGE / name
-        files += (sorted(f for f in path.rglob("*") if f.suffix in (".py", ".glsl", ".npz")) if path.is_dir()
-                  else [path])
-    return files
-
-
-@functools.lru_cache(maxsize=None)
-def source_fingerprint(*names: str) -> str:
-    """Hash of :func:`source_files` of ``names``: in a render's key, so that a finished render is
-    redone once the renderer's code changes (the version number moves only at releases)."""
-    parts = [(f.relative_to(_PACKAGE).as_posix(), sha256_bytes(f.read_bytes())) for f in source_files(*names)]
-    return sha256_bytes(json.dumps(parts))
+__all__ = ["ProgressiveRenderer"]
 
 
 def _create_gl_context():
@@ -54,7 +28,7 @@ def _progressive_checkpoints(scene, *, frames: int, seed: int, options: dict, ch
     call minus its timed frames (context-side set-up, shader compilation,
     uploads, readbacks).
     """
-    from compare.progressive import render_progressive
+    from compare.progressive.rasterizer import render_progressive
 
     t0 = time.perf_counter()
     result = render_progressive(scene, frames=frames, seed=seed, checkpoints=tuple(checkpoints), ctx=ctx, **options)
@@ -77,10 +51,10 @@ class ProgressiveRenderer(Renderer):
     unit = "frame"
     #: A frame budget decides the frame count itself: its last checkpoint is the frames it rendered.
     open_ended = False
+    OPTIONS = OPTIONS
+    VARIANTS = ("progressive:paper", "progressive:ltc", "progressive:probes", "progressive:vsm")
 
     def __init__(self, spec: str = "progressive"):
-        from compare.progressive.options import describe, renderer_options
-
         self.options = renderer_options(spec)  # ValueError naming an unknown option
         self.name = spec
         self.variant_of = "progressive" if spec != "progressive" else None
@@ -96,9 +70,6 @@ class ProgressiveRenderer(Renderer):
             return False, "moderngl is not installed: pip install moderngl (and Mesa's EGL: apt-get install libegl1)"
         return True, ""
 
-    def steps(self, settings) -> int:
-        return int(settings.frames)
-
     def preflight(self, scene, context: RenderContext) -> None:
         from compare.progressive.context import check_image_size
 
@@ -107,7 +78,7 @@ class ProgressiveRenderer(Renderer):
             check_image_size(ctx, scene.camera.resolution, str(scene.path))
 
     def key(self, scene, settings) -> list:
-        return [self.name, source_fingerprint(*RASTERIZER_SOURCES)]
+        return [self.name]  # the code it runs is in every render key (Renderer.code_key)
 
     def render(self, scene, *, steps: int, checkpoints: list[int], seed: int, context: RenderContext) -> Rendering:
         ctx = context.resource("gl", _create_gl_context, lambda c: c.release())

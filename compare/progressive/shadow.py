@@ -79,13 +79,11 @@ because the bleeding reduction narrows the ramp to (1 − a) of its width:
 Penumbrae of occluders near their receivers come out too wide (contact shadows
 are not hardened), of occluders near the light too narrow.
 
-Measured on the Cornell box (direct light only, against Mitsuba and against a
-1024-sample hard-shadow render): a wider filter (D = 0.5 × diagonal) raised
-FLIP and relMSE at every frame count from 8 to 128; no D tried (0.5–4 ×
-diagonal) beat the hard test at equal frames, and the error falls monotonically
-towards the hard test's as D grows. Two reasons, both visible in the images:
-light bleeding (below), and *sloped receivers*: Chebyshev's bound compares the receiver with the footprint's mean,
-and on a floor seen obliquely from the light the lit texels beyond a
+A wider filter than that does not pay: it measures worse against the reference,
+and no width tried beats the hard test at equal frames
+(``docs/performance-notes.md``). Two reasons: light bleeding (below), and
+*sloped receivers*: Chebyshev's bound compares the receiver with the footprint's
+mean, and on a floor seen obliquely from the light the lit texels beyond a
 silhouette lie deeper than the receiver, pull μ past d and light up the edge of
 the umbra (the wider the box, the more); the two-depth argument above assumes
 the lit part of the footprint lies at the receiver's own depth.
@@ -96,11 +94,11 @@ the narrowest filter, rounded up to even), so the narrowest box spans about
 VSM_FILTER_TEXELS texels and the blur costs a bounded number of taps
 (two per bilinear fetch); ``shadow_size`` becomes an upper bound. Rasterising
 fewer texels is what can make a VSM pass cheaper than a hard one at the same S,
-but the blur's cost grows with ``S_v² · VSM_FILTER_TEXELS`` (on llvmpipe it
-outweighs the saving once n_i is large). Rasterising at twice S_v and averaging
-2 × 2 blocks (exact partial coverage of silhouettes) was tried and changed no
-metric: more texels help by narrowing the effective kernel (the bilinear lookup
-adds a texel to the box) and the texel-sized bias, not by anti-aliasing.
+but the blur's cost grows with ``S_v² · VSM_FILTER_TEXELS`` and can outweigh
+the saving once n_i is large. Supersampling the atlas (exact partial coverage of
+silhouettes) does not help (``docs/performance-notes.md``): more texels help by
+narrowing the effective kernel (the bilinear lookup adds a texel to the box) and
+the texel-sized bias, not by anti-aliasing.
 
 *Bias.* The receiver gets the hard test's normal offset, and its distance the
 hard test's constant and slope-scaled bias (all in texels of the VSM atlas)
@@ -121,10 +119,10 @@ farther occluder (d − μ small against σ). The reduction
 a; Lauritzen suggests 0.2–0.3. It narrows each ramp to (1 − a)·W and moves its
 middle a·W/2 towards the lit side (the lit end stays), so W is widened by
 1/(1 − a), which leaves the ramp W wide but a·W/(2(1 − a)) towards the lit side.
-On the Cornell box a = 0–0.2 measure alike and a ≥ 0.4 is worse everywhere
-(darker, shifted penumbrae cost more than the bleeding they remove); what
-bleeding is left shows at the far tip of the short block's floor shadow with few
-samples. Other known artefacts: the filter stops at face seams (a seam's
+A larger a darkens and shifts penumbrae by more than the bleeding it removes,
+hence 0.2, the low end of Lauritzen's range (``docs/performance-notes.md``);
+what bleeding is left shows at the far tip of the short block's floor shadow
+with few samples. Other known artefacts: the filter stops at face seams (a seam's
 penumbra is one-sided for W/2), and texels that see nothing hold ``far``, whose
 large variance against a near occluder makes shadows fade where the map looks
 past an edge into the void.
@@ -152,8 +150,8 @@ VSM_MIN_SIGMA = 1e-3
 #: VSM: penumbra distance D = 1/(1/z_o − 1/z_r) as a fraction of the scene's diagonal (filter ∝ 1/D).
 VSM_PENUMBRA_DISTANCE = 1.0
 #: VSM: texels spanned by the narrowest filter; sets the atlas resolution (at most ``size``).
-#: 4 keeps a VSM pass about as costly as a hard one at S = 1024 on llvmpipe; 8 lowers the
-#: Cornell box's error a little (FLIP −0.0005 at 128 frames) at 2–3 × the time.
+#: 4 keeps a VSM pass about as costly as a hard one at the default size; a wider span buys
+#: little accuracy for its time (docs/performance-notes.md).
 VSM_FILTER_TEXELS = 4.0
 
 

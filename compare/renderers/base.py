@@ -36,16 +36,17 @@ the steps asked for, ascending times, the scene's size, finite pixels. A broken 
 
 from __future__ import annotations
 
+import abc
 import math
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any, Callable, ClassVar, NamedTuple
 
 import numpy as np
 
 from compare.util.errors import CompareError
 
 __all__ = ["UNITS", "Checkpoint", "RenderContext", "Renderer", "RendererError", "Rendering", "check_layers",
-           "check_rendering", "doubling_steps"]
+           "check_renderer", "check_rendering", "doubling_steps"]
 
 #: What a step may count.
 UNITS = ("spp", "frame", "sample")
@@ -55,9 +56,9 @@ class RendererError(CompareError, RuntimeError):
     """A renderer failed or produced something that is not a result (named in the message)."""
 
 
-@dataclass(frozen=True)
-class Checkpoint:
-    """One checkpoint: the image after ``step`` steps and the render seconds spent up to it."""
+class Checkpoint(NamedTuple):
+    """One checkpoint of any renderer: the image after ``step`` steps (frames, spp or samples) and the
+    render seconds spent up to it."""
 
     step: int
     seconds: float
@@ -137,8 +138,15 @@ def doubling_steps(total: int) -> list[int]:
     return steps
 
 
-class Renderer:
-    """Base class of renderers (subclass it or provide the same attributes)."""
+class Renderer(abc.ABC):
+    """Base class of every renderer: the core relies on what it declares, so subclassing is required
+    (the registry refuses anything else, naming it).
+
+    A subclass declares, as class attributes: ``unit``; :attr:`OPTIONS` (its ``:<option>`` words, parsed by
+    :func:`compare.renderers.options.parse_spec`); :attr:`VARIANTS` (option sets ``compare renderers``
+    lists); and :attr:`default_budget` with :attr:`budget_flag` where its budget is not the run's ``--frames`` /
+    ``--spp``. It implements :meth:`render`; everything else has a default.
+    """
 
     name: str = ""
     label: str = ""
@@ -151,22 +159,46 @@ class Renderer:
     #: Whether a worker process can rebuild this renderer from its name (an object made in a
     #: test or by ``compare measure`` cannot: such runs stay in this process).
     portable: bool = True
+    #: ``:<option>`` words and what each changes (``word<unit>`` takes a number: ``budget<ms>``).
+    OPTIONS: ClassVar[dict[str, str]] = {}
+    #: Specs (this family's name with options) that ``compare renderers`` lists beside the plain name.
+    VARIANTS: ClassVar[tuple[str, ...]] = ()
+    #: The budget when the run names none for this renderer: a number of steps, or ``"frames"`` /
+    #: ``"spp"`` for the run's ``--frames`` / ``--spp``; and a ``compare run`` flag of its own that sets it.
+    default_budget: ClassVar[int | str] = "frames"
+    budget_flag: ClassVar[str | None] = None
+
+    @classmethod
+    def from_spec(cls, spec: str) -> "Renderer":
+        """The renderer of ``spec`` (``<name>[:<option>[+<option>]]``); ValueError for a bad option."""
+        return cls(spec)  # type: ignore[call-arg]
 
     def available(self) -> tuple[bool, str]:
         """``(True, "")`` or ``(False, what is missing and how to install it)``."""
         return True, ""
 
     def steps(self, settings) -> int:
-        """The budget of a run with ``settings`` (frames, spp or samples)."""
-        return int(settings.frames)
+        """The budget of a run with ``settings`` (frames, spp or samples): :meth:`RunSettings.budget`."""
+        return int(settings.budget(self))
 
     def checkpoints(self, steps: int) -> list[int]:
         """The steps to keep an image at, ascending, ending with ``steps``: 1, 2, 4, …, steps by default."""
         return doubling_steps(steps)
 
     def key(self, scene, settings) -> Any:
-        """Every setting that changes this renderer's pixels (JSON data)."""
+        """Every setting that changes this renderer's pixels (JSON data) besides its code, which
+        :meth:`code_key` adds to every render's key."""
         return []
+
+    def code_key(self) -> str | None:
+        """Hash of the code that renders: the import closure of this class's module and the data files
+        beside it (:func:`compare.util.code.code_fingerprint`); None for a class without a source file."""
+        from compare.util.code import code_fingerprint
+
+        try:
+            return code_fingerprint(type(self).__module__)
+        except (ModuleNotFoundError, ValueError, OSError, SyntaxError):
+            return None
 
     def preflight(self, scene, context: RenderContext) -> None:
         """Refuse, before any work of a run, a scene this renderer cannot render here (e.g. a size
@@ -176,9 +208,9 @@ class Renderer:
         """Keys of other finished renders that serve a run with ``settings`` as well (default: none)."""
         return []
 
+    @abc.abstractmethod
     def render(self, scene, *, steps: int, checkpoints: list[int], seed: int, context: RenderContext) -> Rendering:
         """Render ``scene`` with ``seed``; a checkpoint at every step of ``checkpoints`` (the last is ``steps``)."""
-        raise NotImplementedError
 
     def render_layers(self, scene, *, steps: int, seed: int, context: RenderContext) -> dict[str, np.ndarray]:
         """Per-effect layers of a ``steps`` render made for them alone (for a ground truth whose
@@ -191,8 +223,21 @@ class Renderer:
         return {}
 
     def facts(self, metadata: dict) -> dict[str, str]:
-        """Facts about the machine this renderer's metadata reveals (``gl_renderer``, ``mitsuba_variant``)."""
+        """Facts about the machine this renderer's metadata reveals (e.g. ``gl_renderer``), for the report's
+        machine table."""
         return {}
+
+
+def check_renderer(r: object, where: str) -> Renderer:
+    """``r`` as a renderer, or one :class:`RendererError` naming ``where`` and what is wrong."""
+    if not isinstance(r, Renderer):
+        raise RendererError(f"{where}: {type(r).__module__}.{type(r).__name__} is not a renderer: subclass "
+                            "compare.renderers.base.Renderer (docs/renderers.md)")
+    if not isinstance(r.name, str) or not r.name:
+        raise RendererError(f"{where}: the renderer's name must be a non-empty string, got {r.name!r}")
+    if r.unit not in UNITS:
+        raise RendererError(f"{where}: unit {r.unit!r} is not one of {', '.join(UNITS)}")
+    return r
 
 
 def check_rendering(renderer: Renderer, rendering: Any, *, scene, checkpoints: list[int]) -> Rendering:
@@ -209,7 +254,7 @@ def check_rendering(renderer: Renderer, rendering: Any, *, scene, checkpoints: l
         raise RendererError(f"renderer {name!r}: render() returned {type(rendering).__name__}, not a Rendering")
     w, h = scene.camera.resolution
     got = [int(c.step) for c in rendering.checkpoints]
-    if getattr(renderer, "open_ended", False) and got:
+    if renderer.open_ended and got:
         # It decides its step count itself (a frame budget): what was asked for below its end, and the end.
         checkpoints = [s for s in checkpoints if s < got[-1]] + [got[-1]]
     missing = [s for s in checkpoints if s not in got]

@@ -1,23 +1,25 @@
-"""Where renderers come from: the built-ins, installed plug-ins and renderer TOML files.
+"""Where renderers come from: entry points (the built-ins and installed plug-ins) and renderer TOML files.
 
-A renderer spec (``--renderers``, ``--renderer``) is looked up, in this order, among
+A renderer spec (``--renderers``, ``--renderer``) is ``<name>[:<option>[+<option>]]``
+(:mod:`compare.renderers.options`). Its name is looked up, in this order, among
 
 1. renderer objects handed to :class:`Registry` in this process (tests, ``compare measure``);
 2. the ``[renderer.<name>]`` tables of a renderer TOML file (``--renderer-config``;
    external commands, :mod:`compare.renderers.external`);
-3. entry points of the group ``compare.renderers`` of installed packages: the entry
-   point's name is the renderer's name and it loads a :class:`~compare.renderers.base.Renderer`
-   instance, or a class or function that returns one when called without arguments::
+3. entry points of the group ``compare.renderers``. The suite's own renderers are
+   registered there by its own package, like any plug-in::
 
        # pyproject.toml of a plug-in package
        [project.entry-points."compare.renderers"]
        mine = "my_package.compare_plugin:MyRenderer"
 
-4. the built-ins: ``mitsuba``, ``progressive[:<option>[+<option>]]`` (:mod:`compare.progressive.options`),
-   ``cycles`` and ``eevee``, and the web engines ``threejs`` and ``threejs-pathtracer``
-   (``web`` names both).
+   The entry point's name is the renderer's name; it loads a
+   :class:`~compare.renderers.base.Renderer` subclass (built with
+   :meth:`~compare.renderers.base.Renderer.from_spec`), an instance, or a function
+   that returns one.
 
-A plug-in or a TOML file may not take a built-in's name.
+Renderer groups (``--renderers web``, ``all``) are data: ``groups.toml`` beside this module. A plug-in or a TOML file may not
+take the name of one of the suite's renderers or of a group.
 """
 
 from __future__ import annotations
@@ -27,52 +29,28 @@ from importlib import metadata
 from pathlib import Path
 from typing import Iterable
 
-from compare.renderers.base import UNITS, Renderer, RendererError
+from compare.renderers.base import Renderer, RendererError, check_renderer
 from compare.renderers.external import ConfigError, external_from_table
+from compare.renderers.options import split_spec
 
-__all__ = ["BUILTIN", "ENTRY_POINT_GROUP", "TABLE_1", "Registry", "builtin"]
+__all__ = ["DIST", "ENTRY_POINT_GROUP", "Registry"]
 
 ENTRY_POINT_GROUP = "compare.renderers"
-#: The built-in renderers' names (``progressive`` takes ``:<option>`` variants).
-BUILTIN = ("mitsuba", "progressive", "cycles", "eevee", "threejs", "threejs-pathtracer")
-#: ``--renderers web``: every web engine (compare.web.renderer).
-WEB = ("threejs", "threejs-pathtracer")
-#: What ``--renderers all`` means: the paper's Table 1 (and the three area models).
-TABLE_1 = ("mitsuba", "progressive", "progressive:paper", "progressive:ltc", "cycles", "eevee")
+_GROUPS = tomllib.loads(Path(__file__).with_name("groups.toml").read_text(encoding="utf-8"))
+#: The distribution whose entry points are the built-ins.
+DIST = "compare-pbr"
 
 
-def builtin(spec: str) -> Renderer | None:
-    """The built-in renderer of ``spec``, or None if it names none (ValueError for a bad variant)."""
-    base = spec.partition(":")[0]
-    if spec == "mitsuba":
-        from compare.mitsuba.renderer import MitsubaRenderer
-
-        return MitsubaRenderer()
-    if base == "progressive":
-        from compare.progressive.renderer import ProgressiveRenderer
-
-        return ProgressiveRenderer(spec)
-    if base in ("cycles", "eevee"):
-        from compare.blender.renderer import BlenderRenderer
-
-        return BlenderRenderer(spec)  # ValueError for a bad option
-    if base in WEB:
-        from compare.web.renderer import WebRenderer
-
-        return WebRenderer(spec)  # ValueError for a bad option
-    return None
+def _entry_points() -> list[metadata.EntryPoint]:
+    eps = list(metadata.entry_points(group=ENTRY_POINT_GROUP))
+    if not any(_is_builtin(ep) for ep in eps):
+        raise RendererError(f"no built-in renderers: the package {DIST} is not installed (its entry points of "
+                            f"group {ENTRY_POINT_GROUP} register them); run scripts/suite.sh setup or pip install -e .")
+    return eps
 
 
-def _check(r: object, where: str) -> Renderer:
-    """``r`` has what a renderer declares (duck typing: a Renderer subclass is not required)."""
-    for attr in ("name", "label", "unit", "steps", "key", "render"):
-        if not hasattr(r, attr):
-            raise RendererError(f"{where}: {type(r).__name__} has no {attr!r} (see compare/renderers/base.py)")
-    if not isinstance(r.name, str) or not r.name:
-        raise RendererError(f"{where}: the renderer's name must be a non-empty string, got {r.name!r}")
-    if r.unit not in UNITS:
-        raise RendererError(f"{where}: unit {r.unit!r} is not one of {', '.join(UNITS)}")
-    return r  # type: ignore[return-value]
+def _is_builtin(ep: metadata.EntryPoint) -> bool:
+    return ep.dist is not None and ep.dist.name == DIST
 
 
 class Registry:
@@ -90,14 +68,26 @@ class Registry:
         self.config = Path(config) if config else None
         self._objects = {}
         for r in renderers:
-            r = _check(r, "renderer object")
+            r = check_renderer(r, "renderer object")
             self._objects[r.name] = r
-        self._tables = self._load_config(self.config) if self.config else {}
         self._cache: dict[str, Renderer] = {}
-        self._entry_points = None
+        self._classes: dict[str, type[Renderer]] = {}
+        self._builtin: dict[str, metadata.EntryPoint] = {}
+        self._plugins: dict[str, metadata.EntryPoint] = {}
+        for ep in _entry_points():
+            if _is_builtin(ep):
+                self._builtin[ep.name] = ep
+        for ep in _entry_points():
+            if not _is_builtin(ep) and ep.name not in self._builtin:
+                self._plugins[ep.name] = ep
+        self._tables = self._load_config(self.config) if self.config else {}
 
-    @staticmethod
-    def _load_config(path: Path) -> dict[str, Renderer]:
+    # -- sources ------------------------------------------------------------------------------
+
+    def _reserved(self) -> set[str]:
+        return set(self._builtin) | set(self.groups())
+
+    def _load_config(self, path: Path) -> dict[str, Renderer]:
         try:
             data = tomllib.loads(path.read_text(encoding="utf-8"))
         except FileNotFoundError:
@@ -113,40 +103,86 @@ class Registry:
         if not isinstance(tables, dict) or not tables:
             raise ConfigError(f"{path}: no [renderer.<name>] table")
         out = {}
+        reserved = self._reserved()
         for name, table in tables.items():
-            if name.partition(":")[0] in BUILTIN or ":" in name:
-                raise ConfigError(f"{path}: renderer.{name}: the name is taken by a built-in renderer or holds ':'")
+            if name in reserved or ":" in name:
+                raise ConfigError(f"{path}: renderer.{name}: the name is taken by a built-in renderer or a group, "
+                                  "or holds ':'")
             out[name] = external_from_table(name, table, source=path)
         return out
 
-    def _plugins(self) -> dict[str, metadata.EntryPoint]:
-        if self._entry_points is None:
-            self._entry_points = {ep.name: ep for ep in metadata.entry_points(group=ENTRY_POINT_GROUP)}
-        return self._entry_points
-
-    def _plugin(self, name: str) -> Renderer:
-        ep = self._plugins()[name]
-        where = f"entry point {name!r} ({ep.value}) of group {ENTRY_POINT_GROUP}"
+    def _load(self, ep: metadata.EntryPoint) -> object:
+        where = f"entry point {ep.name!r} ({ep.value}) of group {ENTRY_POINT_GROUP}"
         try:
-            obj = ep.load()
-            if not isinstance(obj, Renderer) and callable(obj) and not hasattr(obj, "render"):
-                obj = obj()
-            elif isinstance(obj, type):
-                obj = obj()
+            return ep.load()
         except Exception as exc:  # noqa: BLE001 - a broken plug-in is reported, not fatal to others
             raise RendererError(f"{where}: cannot load it: {type(exc).__name__}: {exc}") from None
-        r = _check(obj, where)
-        if r.name != name:
+
+    def _class(self, name: str) -> type[Renderer] | None:
+        """The Renderer subclass a built-in entry point names."""
+        if name not in self._classes:
+            obj = self._load(self._builtin[name])
+            if not (isinstance(obj, type) and issubclass(obj, Renderer)):
+                raise RendererError(f"built-in entry point {name!r}: {obj!r} is not a Renderer subclass")
+            self._classes[name] = obj
+        return self._classes[name]
+
+    def _from_entry_point(self, ep: metadata.EntryPoint, spec: str) -> Renderer:
+        where = f"entry point {ep.name!r} ({ep.value}) of group {ENTRY_POINT_GROUP}"
+        obj = self._load(ep)
+        try:
+            if isinstance(obj, type) and issubclass(obj, Renderer):
+                r = obj.from_spec(spec)
+            elif isinstance(obj, Renderer) or isinstance(obj, type):
+                r = obj  # an instance, or a class that is not a renderer (refused below)
+            elif callable(obj):
+                r = obj()
+            else:
+                r = obj
+        except ValueError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - a broken plug-in is reported, not fatal to others
+            raise RendererError(f"{where}: cannot build it: {type(exc).__name__}: {exc}") from None
+        r = check_renderer(r, where)
+        if r.name != spec:
             raise RendererError(f"{where}: it calls itself {r.name!r}; the entry point's name must be the same")
         return r
 
+    # -- queries ------------------------------------------------------------------------------
+
+    def builtins(self) -> list[str]:
+        """The names of the suite's own renderers (its entry points)."""
+        return list(self._builtin)
+
     def names(self) -> list[str]:
-        """Every renderer name known here (built-ins first; ``progressive`` stands for its variants)."""
-        names = list(BUILTIN)
-        for n in list(self._plugins()) + list(self._tables) + list(self._objects):
+        """Every renderer name known here (built-ins first; a name stands for its ``:<option>`` variants)."""
+        names = self.builtins()
+        for n in list(self._plugins) + list(self._tables) + list(self._objects):
             if n not in names:
                 names.append(n)
         return names
+
+    @staticmethod
+    def groups() -> dict[str, list[str]]:
+        """Renderer groups of ``--renderers`` (``web``, ``all``): ``groups.toml``."""
+        return {k: list(v) for k, v in _GROUPS.items()}
+
+    def specs(self) -> list[str]:
+        """Every built-in spec worth listing: each name and its declared variants."""
+        out = []
+        for name in self._builtin:
+            out += [name, *(v for v in self._class(name).VARIANTS if split_spec(v)[0] == name)]
+        return out
+
+    def describe(self) -> str:
+        """The renderers and their options in words, for help and errors."""
+        words = []
+        for name in self._builtin:
+            opts = self._class(name).OPTIONS
+            words.append(f"{name}[:{'|'.join(opts)}]" if opts else name)
+        more = [n for n in self.names() if n not in self._builtin]
+        groups = ", ".join(f"{g} ({', '.join(s)})" for g, s in self.groups().items())
+        return (", ".join(words + more) + f"; options combine with '+'; groups: {groups}")
 
     def get(self, spec: str) -> Renderer:
         """The renderer named ``spec``.
@@ -154,49 +190,46 @@ class Registry:
         Raises
         ------
         ValueError
-            An unknown name or a bad ``progressive`` option, naming what is known.
+            An unknown name or a bad option, naming what is known.
         RendererError
-            A plug-in that cannot be loaded or does not declare what a renderer must.
+            A plug-in that cannot be loaded or is not a renderer.
         """
         if spec in self._cache:
             return self._cache[spec]
+        name, _ = split_spec(spec)
         if spec in self._objects:
             r = self._objects[spec]
         elif spec in self._tables:
             r = self._tables[spec]
-        elif spec.partition(":")[0] in BUILTIN:
-            r = builtin(spec)
-            if r is None:  # a built-in's name with ':' options it does not take
-                raise ValueError(f"unknown renderer {spec!r}: {spec.partition(':')[0]} takes no ':' options")
-        elif spec in self._plugins():
-            r = self._plugin(spec)
+        elif name in self._builtin:
+            r = check_renderer(self._class(name).from_spec(spec), f"built-in renderer {name!r}")
+        elif name in self._plugins:
+            if spec != name:
+                raise ValueError(f"unknown renderer {spec!r}: the plug-in {name} takes no ':' options")
+            r = self._from_entry_point(self._plugins[name], spec)
         else:
-            from compare.progressive.options import OPTIONS
-
-            more = [n for n in self.names() if n not in BUILTIN]
-            raise ValueError(f"unknown renderer {spec!r}; expected mitsuba, progressive, progressive:<option> "
-                             f"(options: {', '.join(OPTIONS)}), cycles, cycles:ggx, eevee, eevee:ggx, threejs, threejs-pathtracer"
-                             + (f", {', '.join(more)}" if more else "")
-                             + " or all (renderers of a TOML file: --renderer-config FILE; `compare renderers` "
-                               "lists what is available)")
+            raise ValueError(f"unknown renderer {spec!r}; expected one of {self.describe()} (renderers of a "
+                             "TOML file: --renderer-config FILE; `compare renderers` lists what is available)")
         self._cache[spec] = r
         return r
 
     def parse(self, text: str | Iterable[str]) -> list[str]:
-        """Validate a comma-separated renderer list; ``all`` is the paper's Table 1 (:data:`TABLE_1`)."""
+        """Validate a comma-separated renderer list; a group's name stands for its renderers."""
         items = [s.strip() for s in (text.split(",") if isinstance(text, str) else text) if s.strip()]
         if not items:
             raise ValueError("expected at least one renderer, e.g. mitsuba,progressive")
-        if "all" in items:
-            items = list(TABLE_1) + [i for i in items if i != "all" and i not in TABLE_1]
-        if "web" in items:
-            k = items.index("web")
-            items = items[:k] + [w for w in WEB if w not in items] + items[k + 1:]
+        groups = self.groups()
+        expanded: list[str] = []
         for item in items:
+            if item in groups and item not in self._objects and item not in self._tables:
+                expanded += [s for s in groups[item] if s not in expanded and s not in items]
+            else:
+                expanded.append(item)
+        for item in expanded:
             self.get(item)  # names an unknown renderer before hours of reference rendering
-        if len(set(items)) != len(items):
-            raise ValueError(f"renderer listed twice in {items}")
-        return items
+        if len(set(expanded)) != len(expanded):
+            raise ValueError(f"renderer listed twice in {expanded}")
+        return expanded
 
     @property
     def portable(self) -> bool:
@@ -205,16 +238,14 @@ class Registry:
 
     def listing(self) -> list[dict]:
         """Every renderer with its label, unit, source and availability (``compare renderers``)."""
-        rows = []
-        specs = ["mitsuba", "progressive", *(f"progressive:{o}" for o in ("paper", "ltc", "probes", "vsm")),
-                 "cycles", "cycles:ggx", "eevee", "eevee:ggx", *WEB, "threejs:shadows"]
-        sources = {s: "built-in" for s in specs}
-        for n in self._plugins():
-            sources.setdefault(n, f"entry point {self._plugins()[n].value}")
+        sources = {s: "built-in" for s in self.specs()}
+        for n, ep in self._plugins.items():
+            sources.setdefault(n, f"entry point {ep.value}")
         for n in self._tables:
             sources[n] = str(self.config)
         for n in self._objects:
             sources[n] = "this process"
+        rows = []
         for spec, source in sources.items():
             try:
                 r = self.get(spec)

@@ -19,7 +19,7 @@ Schema 1
         "renderers": ["mitsuba", "progressive"],
         "sizes": [[320, 240]],                      # [] = each scene's own resolution
         "exposure": 1.0, "tonemap": "aces", "materials": "shared",
-        "cycles_spp": 1024, "eevee_samples": 64, "likeness": true, "seeds": 1, "scene_spp": false,
+        "budgets": {"cycles": 1024, "eevee": 64}, "likeness": true, "seeds": 1, "scene_spp": false,
         "ground_truth": "mitsuba",                  # the renderer every run is measured against
         "baseline": "progressive",                  # the ablation table's baseline
         "renderer_config": null                     # a renderer TOML file, or null
@@ -228,12 +228,13 @@ class RunSettings:
     materials : str
         Reference material mode (``"shared"`` BRDF plugin, ``"cycles"`` or ``"cycles-ggx"``;
         :mod:`compare.mitsuba.scene_dict`).
-    cycles_spp, eevee_samples : int
-        Samples of the Blender renderers ``cycles`` and ``eevee`` (the paper: 1024 and 64).
+    budgets : dict of str to int
+        Budgets (steps) of single renderers, by spec or name (e.g. ``{"cycles": 1024, "eevee": 64}``);
+        a renderer not named takes its own default (:meth:`budget`).
     likeness : bool
         With ``materials="cycles"`` (``"cycles-ggx"``), measure whether the ground truth is
         Cycles-like against the ``cycles`` (``cycles:ggx``) run
-        (one more Cycles render and two Mitsuba passes at ``cycles_spp``, so it roughly
+        (one more Cycles render and two Mitsuba passes at Cycles' budget, so it roughly
         triples the Cycles unit's cost; turn it off for large Table 1 runs).
     scene_spp : bool
         ``--spp auto``: each scene's ``[render] reference_spp`` where it sets one, else ``spp``.
@@ -258,8 +259,7 @@ class RunSettings:
     exposure: float = 1.0
     tonemap: str = "aces"
     materials: str = "shared"
-    cycles_spp: int = 1024
-    eevee_samples: int = 64
+    budgets: dict[str, int] = field(default_factory=dict)
     likeness: bool = True
     seeds: int = 1
     scene_spp: bool = False
@@ -271,10 +271,28 @@ class RunSettings:
         """JSON-ready dict."""
         return asdict(self)
 
+    def budget(self, renderer) -> int:
+        """The steps of ``renderer`` in this run: :attr:`budgets` for its spec or name, else the renderer's
+        ``default_budget``: a number, or ``"spp"`` / ``"frames"`` for this run's :attr:`spp` / :attr:`frames`."""
+        name = renderer.name.partition(":")[0]
+        for key in (renderer.name, name):
+            if key in self.budgets:
+                return int(self.budgets[key])
+        default = renderer.default_budget
+        if default == "spp":
+            return int(self.spp)
+        if default == "frames":
+            return int(self.frames)
+        return int(default)
+
     @classmethod
     def from_json(cls, d: dict) -> "RunSettings":
         """Inverse of :meth:`to_json`; unknown keys are ignored (forward compatibility)."""
         known = {f.name for f in fields(cls)}
+        d = dict(d)
+        legacy = {"cycles_spp": "cycles", "eevee_samples": "eevee"}  # schema 1 before per-renderer budgets
+        if any(k in d for k in legacy):
+            d["budgets"] = {**{legacy[k]: int(d[k]) for k in legacy if k in d}, **dict(d.get("budgets") or {})}
         return cls(**{k: v for k, v in d.items() if k in known})
 
 

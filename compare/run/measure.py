@@ -10,20 +10,17 @@ does.
 
 from __future__ import annotations
 
-import argparse
 import re
-import sys
 from pathlib import Path
 
-from compare.cli.argtypes import positive_float, positive_int
 from compare.util.errors import CompareError
 from compare.util.files import sha256_bytes
 from compare.renderers import RenderContext, Renderer, RendererError, Rendering
 from compare.renderers.job import read_checkpoints, step_files
 
-__all__ = ["ImageFolder", "add_measure_parser", "measure"]
+__all__ = ["ImageFolder", "measure"]
 
-_UNITS = {"frames": "frame", "spp": "spp", "samples": "sample"}
+UNITS = {"frames": "frame", "spp": "spp", "samples": "sample"}
 
 
 class ImageFolder(Renderer):
@@ -84,32 +81,5 @@ def measure(folder: str | Path, scene_path: str | Path, out: str | Path, *, name
     return run([scene_path], out, settings, progress=progress, fresh=fresh, report=report, renderers=[images])
 
 
-def add_measure_parser(subparsers) -> None:
-    """Register ``compare measure``."""
-    p = subparsers.add_parser("measure", help="measure checkpoint EXRs made anywhere against a scene's ground truth",
-                              description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("images", type=Path, help="folder with step-<N>.exr and timings.json")
-    p.add_argument("--scene", required=True, type=Path, help="the scene the images show (TOML)")
-    p.add_argument("--name", default=None, help="the renderer's name in results.json (default: the folder's name)")
-    p.add_argument("--label", default=None, help="the renderer's label in the report")
-    p.add_argument("--unit", choices=sorted(_UNITS), default="frames", help="what a step counts")
-    p.add_argument("--spp", type=positive_int, default=1024, help="ground-truth samples per pixel")
-    p.add_argument("--seed", type=int, default=0, help="ground-truth seed")
-    p.add_argument("--ground-truth", default="mitsuba", metavar="RENDERER", help="the ground-truth renderer")
-    p.add_argument("--exposure", type=positive_float, default=1.0, help="exposure before tone mapping")
-    p.add_argument("--fresh", action="store_true", help="redo finished units")
-    p.add_argument("--quiet", action="store_true", help="no progress bars")
-    p.add_argument("-o", "--output", type=Path, required=True, help="output folder (results.json and the report)")
-    p.set_defaults(func=_cmd_measure)
 
 
-def _cmd_measure(args) -> int:
-    from compare.report.results import RunSettings
-
-    settings = RunSettings(spp=args.spp, seed=args.seed, exposure=args.exposure, ground_truth=args.ground_truth)
-    res = measure(args.images, args.scene, args.output, name=args.name, label=args.label, unit=_UNITS[args.unit],
-                  settings=settings, progress=not args.quiet, fresh=args.fresh)
-    run = res.scenes[0].runs[0]
-    print(f"{args.output / 'results.json'}: {run.label}, {len(run.points)} checkpoints, final FLIP "
-          f"{run.final.metrics.get('flip'):.4f}; open {args.output / 'index.html'}", file=sys.stdout)
-    return 0

@@ -30,40 +30,32 @@ timed regions.
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import datetime
 import os
 import platform
-import sys
 from pathlib import Path
 from typing import Iterable
 
 from tqdm.auto import tqdm
 
 from compare import __version__
-from compare.cli.argtypes import parse_sizes, positive_float, positive_int
-from compare.util.errors import CompareError, MissingComponentError
+from compare.util.errors import MissingComponentError
 from compare.util.files import check_output_folder, folder_lock, remove_stale_parts
-from compare.renderers import TABLE_1, RenderContext, Registry, doubling_steps
+from compare.renderers import RenderContext, Registry, doubling_steps
 from compare.report.results import Environment, Results, RunSettings, SceneResult
 from compare.scene.loader import Scene, load_scene
 from compare.run.scene_job import SceneJob, cpu_model, scene_id
-from compare.progressive.options import OPTIONS as VARIANT_OPTIONS
 
 __all__ = [
-    "add_run_parser",
     "checkpoint_steps",
     "collect_environment",
     "parse_renderers",
-    "parse_sizes",
     "registry_for",
     "run",
     "scene_id",
 ]
 
-#: What ``--renderers all`` means: the paper's Table 1 (and the three area models).
-ALL_RENDERERS = TABLE_1
 checkpoint_steps = doubling_steps
 
 
@@ -113,9 +105,9 @@ def _check_settings(settings: RunSettings, registry: Registry) -> None:
     settings.renderers = registry.parse(settings.renderers)
     if settings.frames < 1 or settings.spp < 1:
         raise ValueError(f"frames and spp must be positive, got frames={settings.frames}, spp={settings.spp}")
-    if settings.cycles_spp < 1 or settings.eevee_samples < 1:
-        raise ValueError(f"Blender samples must be positive, got cycles_spp={settings.cycles_spp}, "
-                         f"eevee_samples={settings.eevee_samples}")
+    bad = {k: v for k, v in settings.budgets.items() if isinstance(v, bool) or not isinstance(v, int) or v < 1}
+    if bad:
+        raise ValueError(f"budgets must be positive integers, got {bad}")
     registry.get(settings.ground_truth)
     missing = []
     for spec in dict.fromkeys([settings.ground_truth, *settings.renderers]):
@@ -312,128 +304,15 @@ def _run_held(jobs: dict, out: Path, settings: RunSettings, registry: Registry, 
 # --------------------------------------------------------------------------- CLI
 
 
-def _sizes_arg(text: str) -> list[tuple[int, int]]:
-    sizes = parse_sizes(text)
-    if not sizes:
-        raise argparse.ArgumentTypeError(f"expected sizes such as 320x240,1280x720, got {text!r}")
-    return sizes
 
 
-def _renderer_list(text: str) -> list[str]:
-    """Split ``--renderers``; the names are checked against the registry (which may need
-    ``--renderer-config``) in the command, before any work."""
-    items = [s.strip() for s in text.split(",") if s.strip()]
-    if not items:
-        raise argparse.ArgumentTypeError("expected at least one renderer, e.g. mitsuba,progressive")
-    return items
 
 
-#: The ground truth's samples per pixel when neither --spp nor the scene says.
-DEFAULT_SPP = 1024
 
 
-def _spp_arg(text: str):
-    """``--spp``: a positive integer, or ``auto``."""
-    return "auto" if text == "auto" else positive_int(text)
 
 
-def add_run_parser(subparsers) -> argparse.ArgumentParser:
-    """Add ``compare run`` to an argparse subparsers object; returns the new parser."""
-    p = subparsers.add_parser(
-        "run", help="render scenes with every renderer, measure error against time, write results.json and a report",
-        description="Render each scene at each size with the Mitsuba reference (ground truth, its convergence "
-                    "ladder and noise floor) and the progressive rasterizer (checkpoints at frames 1, 2, 4, ...); "
-                    "measure every checkpoint against the ground truth; write results.json and an HTML report. "
-                    "Finished work in the output folder is reused when the settings match.",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    # String defaults: argparse converts them with `type`, and --help prints them plainly.
-    p.add_argument("--scenes", nargs="+", type=Path, default="scenes/cornell.toml", metavar="SCENE",
-                   help="scene files (TOML)")
-    p.add_argument("--size", type=_sizes_arg, default=None, metavar="WxH[,WxH...]",
-                   help="resolutions, comma-separated; default: each scene's own")
-    p.add_argument("--frames", type=positive_int, default=128, help="progressive frames (checkpoints at 1, 2, 4, ...)")
-    p.add_argument("--spp", type=_spp_arg, default=1024,
-                   help="reference samples per pixel (ground truth), or auto: each scene's [render] reference_spp "
-                        "(what its ground truth needs to judge the built-in renderers), else 1024")
-    p.add_argument("--renderers", type=_renderer_list, default="mitsuba,progressive",
-                   metavar="LIST", help="comma-separated: mitsuba (reference convergence + noise floor), "
-                                        "progressive, progressive:<option>[+<option>] with options " + ", ".join(VARIANT_OPTIONS)
-                                        + " (e.g. progressive:paper,progressive:ltc,progressive:budget16), "
-                                        "cycles and eevee (Blender, the blender extra; cycles:ggx, eevee:ggx set GGX in every Principled BSDF), renderers of installed plug-ins and of "
-                                        "--renderer-config, or all (the paper's Table 1: " + ",".join(ALL_RENDERERS)
-                                        + "); `compare renderers` lists them")
-    p.add_argument("--renderer-config", type=Path, default=None, metavar="TOML",
-                   help="a renderer file: [renderer.<name>] tables of external commands (docs/renderers.md)")
-    p.add_argument("--ground-truth", default="mitsuba", metavar="RENDERER",
-                   help="the renderer every run is measured against (at its full budget, seed --seed); its own "
-                        "run, if listed, uses seed+1 and gives the noise floor")
-    p.add_argument("--baseline", default="progressive", metavar="RENDERER",
-                   help="the run the report's ablation table compares the variants of its family with")
-    p.add_argument("--cycles-spp", type=positive_int, default=1024, help="Cycles samples per pixel (the paper: 1024)")
-    p.add_argument("--eevee-samples", type=positive_int, default=64, help="EEVEE samples (the paper: 64)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the ground truth (its convergence ladder uses seed+1)")
-    p.add_argument("--exposure", type=positive_float, default=1.0,
-                   help="linear exposure before ACES tone mapping (LDR metrics and previews)")
-    p.add_argument("--materials", choices=["shared", "cycles", "cycles-ggx"], default="shared",
-                   help="reference material mode: shared (the rasterizer's BRDF), cycles (Blender's Principled "
-                        "BSDF v2 with each material's distribution, Blender's default Multiscatter GGX; for "
-                        "comparisons with cycles and eevee) or cycles-ggx (the same with GGX single scattering; "
-                        "compare with cycles:ggx and eevee:ggx)")
-    p.add_argument("--no-likeness", dest="likeness", action="store_false",
-                   help="with --materials cycles (cycles-ggx), skip the Cycles-likeness measurement (it renders Cycles once more "
-                        "and Mitsuba twice with as many samples as give it Cycles' noise: about three times the "
-                        "Cycles unit's cost)")
-    p.add_argument("--seeds", type=positive_int, default=1,
-                   help="independent runs of every renderer (different seeds); 2 or more split each checkpoint's "
-                        "error into squared bias and variance (compare/metrics/bias.py), at that many times the cost")
-    p.add_argument("--fresh", action="store_true", help="redo finished units instead of reusing them (also into "
-                                                         "a folder that holds the results of other settings)")
-    p.add_argument("--update", action="store_true",
-                   help="into a folder that holds the results of other settings: keep what still matches, redo "
-                        "the rest, replace its results.json and report")
-    p.add_argument("--no-report", action="store_true", help="write results.json only")
-    p.add_argument("--quiet", action="store_true", help="no progress bars")
-    p.add_argument("--executor", default="local", metavar="WHERE",
-                   help="local (a process pool sized to the machine), local:N, serial, or dask://HOST:PORT "
-                        "(see compare/run/executor.py for setting up workers)")
-    p.add_argument("-o", "--output", type=Path, default=None,
-                   help="output folder; default reports/<first scene's file name>")
-    p.set_defaults(func=cmd_run)
-    return p
 
 
-def cmd_run(args: argparse.Namespace) -> int:
-    """``compare run``; returns the exit status."""
-    config = str(args.renderer_config) if args.renderer_config else None
-    try:
-        renderers = Registry(config).parse(args.renderers)
-    except ValueError as e:
-        if isinstance(e, CompareError):
-            raise
-        raise _UsageError(f"--renderers: {e}") from None
-    auto = args.spp == "auto"
-    settings = RunSettings(frames=args.frames, spp=DEFAULT_SPP if auto else args.spp, scene_spp=auto,
-                           seed=args.seed, renderers=renderers,
-                           sizes=[list(s) for s in (args.size or [])], exposure=args.exposure, tonemap="aces",
-                           materials=args.materials, cycles_spp=args.cycles_spp, eevee_samples=args.eevee_samples,
-                           likeness=args.likeness, seeds=args.seeds, ground_truth=args.ground_truth,
-                           baseline=args.baseline,
-                           renderer_config=config)
-    scenes = args.scenes if isinstance(args.scenes, list) else [args.scenes]  # the default is one Path
-    out = args.output or Path("reports") / scenes[0].stem
-    try:
-        res = run(scenes, out, settings, progress=not args.quiet, fresh=args.fresh, report=not args.no_report,
-                  executor=args.executor, update=args.update)
-    except ValueError as e:
-        if isinstance(e, CompareError):
-            raise
-        raise _UsageError(str(e)) from e
-    n = len(res.scenes)
-    where = out / ("index.html" if not args.no_report else "results.json")
-    print(f"{out / 'results.json'}: {n} scene/size combination{'s' if n != 1 else ''}; open {where}",
-          file=sys.stdout)
-    return 0
 
 
-class _UsageError(CompareError, ValueError):
-    """A bad combination of ``compare run`` options."""

@@ -246,8 +246,8 @@ class SceneJob:
                     key: Any = None) -> str:
         s = self.settings
         key = r.key(scene, s) if key is None else key
-        return _key("render", r.name, key, scene.hash, steps, checkpoints, seed, s.exposure, s.tonemap,
-                    self.machine, __version__)
+        return _key("render", r.name, key, r.code_key(), scene.hash, steps, checkpoints, seed, s.exposure,
+                    s.tonemap, self.machine, __version__)
 
     # -- stage 1: render ------------------------------------------------------------------------
 

@@ -39,10 +39,11 @@ import numpy as np
 
 from compare.util.files import sha256_bytes
 from compare.renderers.base import Checkpoint, RenderContext, Renderer, RendererError, Rendering
+from compare.renderers.options import parse_spec
 
-__all__ = ["PAGE", "WEB_ENGINES", "WebRenderer", "web_root"]
+__all__ = ["PAGE", "WEB_ENGINES", "ThreeJsPathTracer", "ThreeJsRenderer", "WebRenderer", "web_root"]
 
-#: The web engines (``--renderers web`` is all of them).
+#: The web engines of this module.
 WEB_ENGINES = ("threejs", "threejs-pathtracer")
 #: Options of ``threejs:<option>[+<option>]`` and what they change.
 THREEJS_OPTIONS = {
@@ -114,14 +115,12 @@ class _Browser:
 class WebRenderer(Renderer):
     """One web engine in headless Chromium (see the module docstring)."""
 
+
     def __init__(self, spec: str):
-        engine, _, text = spec.partition(":")
+        engine = spec.partition(":")[0]
         if engine not in WEB_ENGINES:
             raise ValueError(f"unknown web engine {engine!r}")
-        opts = [o for o in text.split("+")] if text else []
-        if engine != "threejs" and opts or any(o not in THREEJS_OPTIONS for o in opts) or len(set(opts)) != len(opts):
-            raise ValueError(f"renderer {spec!r}: expected threejs:<option>[+<option>] with options "
-                             + ", ".join(f"{k} ({v})" for k, v in THREEJS_OPTIONS.items()))
+        opts = [word for word, _ in parse_spec(spec, self.OPTIONS)]
         self.name = spec
         self.engine = engine
         self.options = {o: True for o in opts}
@@ -148,9 +147,6 @@ class WebRenderer(Renderer):
             if not (modules / package / "package.json").is_file():
                 return False, f"the npm package {package} is not in {modules}; {INSTALL}"
         return True, ""
-
-    def steps(self, settings) -> int:
-        return int(settings.frames)
 
     def key(self, scene, settings) -> list:
         files = [PAGE / "engine.js", PAGE / "index.html", web_root() / "package-lock.json"]
@@ -225,3 +221,15 @@ class WebRenderer(Renderer):
     def facts(self, metadata: dict) -> dict[str, str]:
         g = metadata.get("webgl_renderer")
         return {"webgl_renderer": g} if isinstance(g, str) else {}
+
+
+class ThreeJsRenderer(WebRenderer):
+    """three.js, rasterized: jittered frames averaged in float."""
+
+    OPTIONS = THREEJS_OPTIONS
+    VARIANTS = ("threejs:shadows",)
+
+
+class ThreeJsPathTracer(WebRenderer):
+    """three-gpu-pathtracer in the page, one sample per step; its budget is the run's ``--frames``, as a
+    real-time path tracer's samples are frames."""

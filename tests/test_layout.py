@@ -1,0 +1,122 @@
+"""The package's structure: render keys from the code that renders, and an import graph without circles."""
+
+from __future__ import annotations
+
+import ast
+import shutil
+from collections import defaultdict
+from pathlib import Path
+
+import pytest
+
+from compare.util.code import code_fingerprint, import_closure
+
+PACKAGE = Path(__file__).resolve().parents[1] / "compare"
+#: The layers of the package, bottom up; a package may import its own layer and those below it.
+LAYERS = [("util",), ("image", "brdf"), ("scene", "metrics"), ("renderers", "report"),
+          ("mitsuba", "ibl", "web"), ("progressive", "blender"), ("run",), ("bench",), ("cli",)]
+
+
+@pytest.fixture(scope="module")
+def package_copy(tmp_path_factory) -> Path:
+    """A copy of the package to edit (never the checkout's own files)."""
+    root = tmp_path_factory.mktemp("pkg") / "compare"
+    shutil.copytree(PACKAGE, root, ignore=shutil.ignore_patterns("__pycache__"))
+    return root
+
+
+def test_rasterizer_key_follows_every_module_it_imports(package_copy):
+    """Editing any module or data file the rasterizer's renderer reaches changes its key; the files
+    a hand-kept list once missed are among them, and an unrelated module is not."""
+    roots = {"compare": package_copy}
+    module = "compare.progressive.renderer"
+    closure = import_closure(module, roots)
+    names = {p.relative_to(package_copy).as_posix() for p in closure}
+    assert {"scene/textures.py", "scene/include.py", "scene/model.py", "scene/fields.py", "progressive/rasterizer.py",
+            "progressive/options.py", "brdf/ltc.py", "ibl/prefilter.py"} <= names
+    assert not names & {"run/runner.py", "cli/main.py", "report/html.py", "mitsuba/reference.py"}
+    base = code_fingerprint(module, roots)
+    data = [p for p in package_copy.rglob("*") if p.suffix in (".glsl", ".npz")
+            and p.parent in {c.parent for c in closure}]
+    assert any(p.name == "ltc_table.npz" for p in data) and any(p.name == "brdf.glsl" for p in data)
+    for path in closure + data:
+        original = path.read_bytes()
+        path.write_bytes(original + b"\n")
+        try:
+            assert code_fingerprint(module, roots) != base, f"{path.relative_to(package_copy)} is not in the key"
+        finally:
+            path.write_bytes(original)
+    assert code_fingerprint(module, roots) == base
+    unrelated = package_copy / "report" / "html.py"
+    unrelated.write_bytes(unrelated.read_bytes() + b"\n")
+    assert code_fingerprint(module, roots) == base
+
+
+def test_every_renderer_key_holds_its_code():
+    from compare.renderers import Registry
+
+    reg = Registry()
+    keys = {name: reg.get(name).code_key() for name in reg.builtins()}
+    assert all(isinstance(k, str) and len(k) == 64 for k in keys.values())
+    assert keys["progressive"] != keys["mitsuba"]
+
+
+def _imports() -> dict[str, set[str]]:
+    """Module → the package modules it imports (any import statement, at any depth)."""
+    modules = {}
+    for f in PACKAGE.rglob("*.py"):
+        parts = ["compare", *f.relative_to(PACKAGE).with_suffix("").parts]
+        modules[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = f
+    graph: dict[str, set[str]] = defaultdict(set)
+    for name, f in modules.items():
+        for node in ast.walk(ast.parse(f.read_text(encoding="utf-8"))):
+            found = []
+            if isinstance(node, ast.Import):
+                found = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                assert node.level == 0, f"{f}: relative import"
+                found = [node.module] + [f"{node.module}.{a.name}" for a in node.names]
+            for target in found:
+                while target and target not in modules:
+                    target = target.rpartition(".")[0]
+                if target and target != name and target != "compare":
+                    graph[name].add(target)
+    return graph
+
+
+def _package(module: str) -> str:
+    parts = module.split(".")
+    return parts[1] if len(parts) > 2 or (PACKAGE / parts[1]).is_dir() else module
+
+
+def test_no_import_circle_and_no_import_upwards():
+    graph = _imports()
+    layer = {pkg: k for k, pkgs in enumerate(LAYERS) for pkg in pkgs}
+    top = {p.name for p in PACKAGE.iterdir() if p.is_dir() and (p / "__init__.py").exists()}
+    assert top == set(layer), "a package without a layer (or a layer without a package)"
+    upward = [f"{a} -> {b}" for a, bs in graph.items() for b in bs
+              if layer[_package(b)] > layer[_package(a)]]
+    assert not upward, "imports against the layering:\n" + "\n".join(sorted(upward))
+    # circles between packages (a layer may hold two packages that must not import each other both ways)
+    pkg_graph: dict[str, set[str]] = defaultdict(set)
+    for a, bs in graph.items():
+        pkg_graph[_package(a)].update(_package(b) for b in bs if _package(b) != _package(a))
+    for a, bs in pkg_graph.items():
+        for b in bs:
+            assert a not in pkg_graph.get(b, ()), f"packages {a} and {b} import each other"
+    # circles between modules
+    state: dict[str, int] = {}
+
+    def visit(node: str, path: list[str]) -> None:
+        state[node] = 1
+        for nxt in sorted(graph.get(node, ())):
+            if state.get(nxt) == 1:
+                raise AssertionError("import circle: " + " -> ".join(path[path.index(nxt):] + [nxt]))
+            if nxt not in state:
+                visit(nxt, path + [nxt])
+        state[node] = 2
+
+    for module in sorted(graph):
+        if module not in state:
+            visit(module, [module])
+    assert len(LAYERS) <= 9
