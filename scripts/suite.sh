@@ -162,6 +162,8 @@ case "$job" in
     test)
         setup
         setup_blender
+        log "ruff (syntax errors, undefined and unused names)"
+        "$VENV/bin/ruff" check --quiet compare tests scenes examples scripts notebooks/make_notebooks.py
         exec "$VENV/bin/python" -m pytest "$@"
         ;;
     slow)

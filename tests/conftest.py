@@ -1,12 +1,15 @@
 """Shared pytest set-up: the cache folder, the OpenGL context, scene files and fuzzing sizes.
 
-* ``$COMPARE_CACHE`` is a fresh folder per test run (removed at the end), never the user's
-  cache; ``COMPARE_TEST_CACHE=<folder>`` runs the tests on that folder instead and keeps it.
-* ``gl_ctx`` hands out one headless OpenGL context per session, checked after each test for GL
-  errors and leaked GL objects; every test that uses it is marked ``gl``.
+* ``$COMPARE_CACHE`` is a fresh folder per test run, removed at the end, never the user's cache.
+  ``COMPARE_TEST_CACHE=<folder>`` runs the tests on that folder instead (kept afterwards), for
+  a test that wants what an earlier run cached.
+* ``gl_ctx`` hands out one headless OpenGL context per session, in OpenGL's initial state, and
+  checks after each test for GL errors and GL objects not released. Every test that uses it,
+  directly or through another fixture, is marked ``gl``.
 * ``make_scene`` writes a scene TOML file into the test's temporary folder.
 * Hypothesis sizes come from a profile: ``default`` (a few dozen cases, the default run) or ``slow``
-  (many more), chosen by ``HYPOTHESIS_PROFILE=<name>`` or by selecting slow tests (``-m slow``).
+  (many more), chosen by ``HYPOTHESIS_PROFILE=<name>``, else ``slow`` when ``-m`` selects slow
+  tests (``-m slow``), when each property also counts as a slow test.
 """
 
 from __future__ import annotations
@@ -20,26 +23,27 @@ import weakref
 from pathlib import Path
 
 import pytest
-from hypothesis import HealthCheck, settings
-from hypothesis.internal.detection import is_hypothesis_test
+from hypothesis import HealthCheck, is_hypothesis_test, settings
 
 # ----------------------------------------------------------------------------- the cache folder
 
-_CACHE_KEY = "compare_cache"
+#: (folder, whether this process made it and removes it, $COMPARE_CACHE before the run)
+_CACHE = pytest.StashKey[tuple]()
+_WORKER_CACHE = "compare_cache"
 
 
 def pytest_configure(config):
-    # In os.environ, not monkeypatch: subprocesses (the CLI, executors, notebooks) must inherit it.
+    # os.environ, not monkeypatch: subprocesses (the CLI, executors, notebook kernels) inherit it.
     mine = os.environ.get("COMPARE_TEST_CACHE")
     if mine:
         folder, owned = mine, False
-    elif hasattr(config, "workerinput"):  # an xdist worker shares its controller's folder
-        folder, owned = config.workerinput[_CACHE_KEY], False
+    elif hasattr(config, "workerinput"):  # a pytest-xdist worker: its controller's folder
+        folder, owned = config.workerinput[_WORKER_CACHE], False
     else:
         folder, owned = tempfile.mkdtemp(prefix="compare-test-cache-"), True
     config.stash[_CACHE] = (folder, owned, os.environ.get("COMPARE_CACHE"))
     os.environ["COMPARE_CACHE"] = folder
-    settings.load_profile(_hypothesis_profile(config))
+    settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE") or ("slow" if _selects_slow(config) else "default"))
 
 
 def pytest_unconfigure(config):
@@ -56,11 +60,10 @@ def pytest_unconfigure(config):
 
 @pytest.hookimpl(optionalhook=True)
 def pytest_configure_node(node):
-    """pytest-xdist: workers use the controller's cache folder (content-keyed, written atomically)."""
-    node.workerinput[_CACHE_KEY] = node.config.stash[_CACHE][0]
+    """pytest-xdist: the workers share the controller's folder (the caches are content-keyed and
+    written atomically, as for the suite's own executors)."""
+    node.workerinput[_WORKER_CACHE] = node.config.stash[_CACHE][0]
 
-
-_CACHE = pytest.StashKey[tuple]()
 
 # ----------------------------------------------------------------------------- hypothesis profiles
 
@@ -70,23 +73,16 @@ settings.register_profile("slow", max_examples=400, deadline=None, suppress_heal
 
 
 def _selects_slow(config) -> bool:
-    """Whether ``-m`` selects tests marked slow (``-m slow``, ``-m ''``; not the default ``not slow``)."""
-    from _pytest.mark.expression import Expression
+    """Whether ``-m`` selects tests marked slow: ``-m slow`` or no ``-m``; not the default ``not slow``."""
+    from _pytest.mark.expression import Expression  # what -m itself evaluates
 
     expr = config.option.markexpr
-    if not expr:
-        return True
-    return Expression.compile(expr).evaluate(lambda name, **kwargs: name == "slow")
+    return not expr or Expression.compile(expr).evaluate(lambda name, **kwargs: name == "slow")
 
 
-def _hypothesis_profile(config) -> str:
-    return os.environ.get("HYPOTHESIS_PROFILE") or ("slow" if _selects_slow(config) else "default")
+# ----------------------------------------------------------------------------- markers
 
-
-# ----------------------------------------------------------------------------- markers from fixtures
-
-#: Fixtures that hand out the OpenGL context: a test that uses one (directly or through another
-#: fixture) is marked ``gl``.
+#: Fixtures that hand out the OpenGL context.
 GL_FIXTURES = {"gl_ctx", "gl_session_ctx"}
 
 
@@ -96,9 +92,8 @@ def pytest_collection_modifyitems(config, items):
     for item in items:
         if GL_FIXTURES.intersection(getattr(item, "fixturenames", ())):
             item.add_marker(pytest.mark.gl)
-        # A property is written once: in a run of slow tests it is one of them, with the slow profile.
         if slow_run and is_hypothesis_test(getattr(item, "obj", None)):
-            item.add_marker(pytest.mark.slow)
+            item.add_marker(pytest.mark.slow)  # selected by -m slow, run with the slow profile
 
 
 _CALL_REPORT = pytest.StashKey[pytest.TestReport]()
@@ -114,38 +109,71 @@ def pytest_runtest_makereport(item, call):
 
 # ----------------------------------------------------------------------------- the OpenGL context
 
-#: Context methods that make a GL object the caller owns (detect_framebuffer and the external_*
-#: ones wrap objects made elsewhere).
+#: The context's methods that make a GL object the caller must release (not detect_framebuffer
+#: and external_*, which wrap objects made elsewhere, nor query: moderngl queries have no
+#: release() and go with the context).
 _FACTORIES = ("buffer", "texture", "texture3d", "texture_array", "texture_cube", "depth_texture",
               "depth_texture_cube", "framebuffer", "simple_framebuffer", "empty_framebuffer", "renderbuffer",
               "depth_renderbuffer", "program", "vertex_array", "simple_vertex_array", "sampler",
               "compute_shader", "scope")
 
 
-class _Tracked:
-    """Records every object the context's factories make, weakly, so that a test's leftovers can be
-    listed without scanning the heap."""
+class _Made:
+    """Every object the context's factories made, held weakly (moderngl keeps no list of live
+    objects); gl_ctx empties it at each hand-out."""
 
     def __init__(self, ctx):
-        self.made: weakref.WeakSet = weakref.WeakSet()
+        self.ctx = ctx
+        self.objects: weakref.WeakSet = weakref.WeakSet()
+        self.reported: set = set()  # the GL side of leaks already named, not to be named again
         for name in _FACTORIES:
             setattr(ctx, name, self._recording(getattr(ctx, name)))
 
     def _recording(self, factory):
         def make(*args, **kwargs):
             obj = factory(*args, **kwargs)
-            self.made.add(obj)
+            self.objects.add(obj)
+            if isinstance(obj, _moderngl().Framebuffer):
+                obj.release = self._releasing(obj)
             return obj
 
         return make
+
+    def _releasing(self, fbo):
+        """``fbo.release`` that, when ``fbo`` is bound, records framebuffer 0 as bound, as GL binds it.
+        moderngl 5.13 keeps recording the deleted framebuffer and rebinds it after its next framebuffer
+        operation (creating, clearing or reading another one): GL_INVALID_OPERATION."""
+        ctx, ref = self.ctx, weakref.ref(fbo)  # weak: no cycle through the object's own attribute
+
+        def release():
+            obj = ref()
+            if obj is None:
+                return
+            bound = ctx.mglo.fbo is obj.mglo
+            type(obj).release(obj)
+            if bound:
+                ctx.mglo.fbo = ctx.extra["framebuffer 0"]
+
+        return release
+
+    def unreleased(self) -> list[str]:
+        invalid = _moderngl().InvalidObject
+        live = [o for o in self.objects if not isinstance(o.mglo, invalid)]
+        self.reported.update(o.mglo for o in live)
+        return sorted(type(o).__name__ for o in live)
+
+
+def _moderngl():
+    import moderngl
+
+    return moderngl
 
 
 @pytest.fixture(scope="session")
 def gl_session_ctx():
     """One headless OpenGL context for the whole session; skips when none can be made.
 
-    Tests take :func:`gl_ctx`; only fixtures wider than a function (which outlive one test's
-    checks) take this one.
+    Tests take :func:`gl_ctx`; this one is for fixtures wider than a function.
     """
     from compare.progressive.context import create_context
     from compare.util.errors import MissingComponentError
@@ -154,35 +182,34 @@ def gl_session_ctx():
         ctx = create_context()
     except MissingComponentError as exc:
         pytest.skip(f"no OpenGL 3.3+ context: {exc}")
-    # Objects dropped without release() are queued on ctx.objects (instead of vanishing with their
-    # GL names still allocated), so that gl_ctx can name and free them.
+    # An object garbage-collected without release() is queued on ctx.objects instead of keeping its
+    # GL name unseen: gl_ctx names and frees it.
     ctx.gc_mode = "context_gc"
-    ctx.extra = {"tracked": _Tracked(ctx), "viewport": ctx.viewport}
+    ctx.extra = {"made": _Made(ctx), "framebuffer 0": ctx.mglo.fbo}
     yield ctx
     ctx.release()
 
 
 def _reset_state(ctx) -> None:
-    """OpenGL's initial state for what the passes set (they set all they need; this keeps a test from
-    depending on the one before it)."""
+    """OpenGL's initial state, for what the passes set: a test must not depend on the one before it."""
     ctx.enable_only(ctx.NOTHING)
-    ctx.blend_func = ctx.DEFAULT_BLENDING
+    ctx.blend_func = ctx.ONE, ctx.ZERO
     ctx.blend_equation = ctx.FUNC_ADD
     ctx.depth_func = "<"
     ctx.front_face = "ccw"
     ctx.cull_face = "back"
     ctx.wireframe = False
     ctx.polygon_offset = (0.0, 0.0)
-    ctx.line_width = ctx.point_size = 1.0
-    ctx.scissor = None
-    ctx.viewport = ctx.extra["viewport"]
-    ctx.fbo = None  # as made: the context has no default framebuffer (surfaceless EGL)
-    ctx.clear_samplers(0, -1)
+    ctx.line_width = 1.0
+    ctx.point_size = 1.0
+    ctx.clear_samplers()
+    ctx.extra["framebuffer 0"].use()  # with the viewport and scissor the context was made with
+    ctx.fbo = None  # as made: a surfaceless context has no default framebuffer object
 
 
 def _gl_errors(ctx) -> list[str]:
     errors = []
-    for _ in range(8):  # one flag per kind of error; glGetError clears one each call
+    for _ in range(8):  # glGetError returns and clears one flag per call
         error = ctx.error
         if error == "GL_NO_ERROR":
             break
@@ -190,54 +217,51 @@ def _gl_errors(ctx) -> list[str]:
     return errors
 
 
-def _dropped(ctx) -> list:
-    """Objects garbage-collected without release() since the last call; frees them."""
-    import moderngl
-
-    leaked = []
+def _free_dropped(ctx) -> list[str]:
+    """Release what was garbage-collected without release() (ctx.objects; released objects queue an
+    InvalidObject, which ctx.gc() cannot handle); returns their kinds."""
+    reported = ctx.extra["made"].reported
+    dropped = []
     while ctx.objects:
         mglo = ctx.objects.popleft()
-        if not isinstance(mglo, moderngl.InvalidObject):  # released ones queue an InvalidObject
+        if not isinstance(mglo, _moderngl().InvalidObject):
+            if ctx.mglo.fbo is mglo:  # see _Made._releasing
+                ctx.mglo.fbo = ctx.extra["framebuffer 0"]
             mglo.release()
-            leaked.append(type(mglo).__name__)
-    return leaked
+            if mglo in reported:
+                reported.discard(mglo)
+            else:
+                dropped.append(type(mglo).__name__)
+    return dropped
 
 
 @pytest.fixture
 def gl_ctx(gl_session_ctx, request):
-    """The session's OpenGL context, reset to OpenGL's initial state; after the test it must hold no
-    GL error and the test must have released every GL object it made.
-
-    moderngl queries have no release() (they go with the context), so they are not counted.
+    """The session's OpenGL context in OpenGL's initial state. The test fails when it leaves a GL error
+    or a GL object it made and did not release (a moderngl query, which cannot be released, aside).
     """
     ctx = gl_session_ctx
-    pending, dropped = _gl_errors(ctx), _dropped(ctx)
-    if pending or dropped:
-        pytest.fail(f"left by a fixture set up before the test: GL errors {pending}, objects never released "
-                    f"{dropped}", pytrace=False)
+    made = ctx.extra["made"]
+    # What wider fixtures or an earlier test's late garbage left is not this test's doing.
+    _free_dropped(ctx)
+    pending = _gl_errors(ctx)
+    if pending:
+        pytest.fail(f"GL error(s) before the test, left by a fixture: {', '.join(pending)}", pytrace=False)
     _reset_state(ctx)
-    tracked = ctx.extra["tracked"]
-    tracked.made.clear()
+    made.objects.clear()
     yield ctx
-    errors, dropped = _gl_errors(ctx), _dropped(ctx)
-    live = sorted(type(o).__name__ for o in tracked.made if not isinstance(o.mglo, _invalid()))
-    tracked.made.clear()
+    errors, dropped, live = _gl_errors(ctx), _free_dropped(ctx), made.unreleased()
+    made.objects.clear()
     problems = ([f"GL error(s) {', '.join(errors)}"] if errors else []) + (
         [f"GL objects garbage-collected without release(): {', '.join(dropped)}"] if dropped else []) + (
         [f"GL objects still alive and not released: {', '.join(live)}"] if live else [])
     if not problems:
         return
     call = request.node.stash.get(_CALL_REPORT, None)
-    if call is not None and not call.passed:  # its traceback holds the test's objects: report, don't fail
+    if call is not None and not call.passed:  # already failed; its traceback holds the test's objects
         request.node.add_report_section("teardown", "gl_ctx", "; ".join(problems))
         return
-    pytest.fail(f"{request.node.nodeid}: " + "; ".join(problems), pytrace=False)
-
-
-def _invalid():
-    import moderngl
-
-    return moderngl.InvalidObject
+    pytest.fail("; ".join(problems), pytrace=False)
 
 
 # ----------------------------------------------------------------------------- scene files
@@ -257,11 +281,11 @@ def _toml_value(v) -> str:
     raise TypeError(f"no TOML value for {type(v).__name__}")
 
 
-def _toml_tables(name: str, value) -> str:
-    """``value`` as TOML under ``name``: a dict of dicts as ``[name.key]`` tables, a dict as a
-    ``[name]`` table, a list of dicts as ``[[name]]`` tables."""
+def _toml_table(name: str, value) -> str:
+    """``value`` under ``name``: a dict of dicts as ``[name.key]`` tables, a dict as ``[name]``, a list
+    of dicts as ``[[name]]`` tables."""
     if isinstance(value, dict) and value and all(isinstance(v, dict) for v in value.values()):
-        return "".join(_toml_tables(f"{name}.{key}", v) for key, v in value.items())
+        return "".join(_toml_table(f"{name}.{key}", v) for key, v in value.items())
     if isinstance(value, dict):
         return f"\n[{name}]\n" + "".join(f"{k} = {_toml_value(v)}\n" for k, v in value.items())
     if isinstance(value, (list, tuple)) and all(isinstance(v, dict) for v in value):
@@ -272,17 +296,17 @@ def _toml_tables(name: str, value) -> str:
 
 @pytest.fixture
 def make_scene(tmp_path):
-    """``make_scene(*texts, name="scene.toml", folder=None, **tables) -> Path``: write a scene file.
+    """``make_scene(*texts, name="scene.toml", folder=None, **tables) -> Path`` writes a scene file.
 
-    Each text is TOML as written in the test (dedented, joined in order); each keyword is a table
-    after them, e.g. ``camera={"position": [0, 1, 3], ...}``, ``materials={"grey": {...}}``,
-    ``meshes=[{...}, ...]``. The file goes into ``folder`` (default: the test's ``tmp_path``).
+    The texts are TOML as written in the test (each dedented, in order); each keyword is a table
+    after them: ``camera={"position": [0, 1, 3], ...}``, ``materials={"grey": {...}}``,
+    ``meshes=[{...}, ...]``. The file goes into ``folder``, by default the test's ``tmp_path``.
     """
 
     def make(*texts: str, name: str = "scene.toml", folder: Path | None = None, **tables) -> Path:
         path = Path(folder or tmp_path) / name
         path.write_text("".join(textwrap.dedent(t) for t in texts)
-                        + "".join(_toml_tables(k, v) for k, v in tables.items()))
+                        + "".join(_toml_table(k, v) for k, v in tables.items()))
         return path
 
     return make

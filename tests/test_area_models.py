@@ -28,7 +28,6 @@ from compare.metrics.closed_form import polygon_irradiance
 from compare.progressive.rasterizer import render_progressive
 from compare.scene.loader import load_scene
 
-from test_progressive import pixel_rays
 
 ROOT = Path(__file__).resolve().parent.parent
 ALBEDO = 0.5

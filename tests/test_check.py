@@ -11,11 +11,11 @@ import pytest
 
 from compare.report.check import (
     ThresholdsError,
-    add_check_parser,
     assert_thresholds,
     check,
     load_thresholds,
 )
+from compare.cli.check import add_check_parser
 from compare.util.errors import CompareError
 from compare.report.results import Point, Reference, RendererRun, Results, RunSettings, SceneResult
 from compare.run.runner import collect_environment

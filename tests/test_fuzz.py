@@ -15,7 +15,6 @@ from __future__ import annotations
 import json
 import math
 import shutil
-import tomllib
 from pathlib import Path
 
 import numpy as np

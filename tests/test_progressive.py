@@ -553,7 +553,7 @@ def test_forward_first_frame_matches_the_gbuffer_frame(gl_ctx, scene_file):
                 pass
             means[mode, scale] = mean_of(r.base).copy()
             images[mode, scale] = first, second, r.image()
-    (f1, f2, fin), (h1, h2, hin), (g1, g2, gin) = (images["forward", 1.0], images["forward", 0.5],
+    (f1, _, fin), (h1, h2, hin), (g1, g2, gin) = (images["forward", 1.0], images["forward", 0.5],
                                                    images["gbuffer", 1.0])
     for im in (f1, h1, h2):
         assert im.shape == g1.shape and np.isfinite(im).all() and im.min() >= 0

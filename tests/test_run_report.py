@@ -436,8 +436,8 @@ def test_hdr_payload_round_trips_as_float16():
 
 
 def test_report_command_rebuilds_into_another_folder(tmp_path, capsys):
-    from compare.report.check import add_check_parser
-    from compare.report.html import add_report_parser
+    from compare.cli.check import add_check_parser
+    from compare.cli.report import add_report_parser
 
     out = tmp_path / "out"
     synthetic_report(out, [CORNELL])

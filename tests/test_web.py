@@ -15,7 +15,6 @@ import numpy as np
 import pytest
 
 from compare.run import runner as run_mod
-from compare.image.exr import read_exr
 from compare.metrics.images import compare_images
 from compare.renderers import RenderContext, RendererError
 from compare.web.renderer import WebRenderer

@@ -170,7 +170,15 @@ class Renderer(abc.ABC):
 
     @classmethod
     def from_spec(cls, spec: str) -> "Renderer":
-        """The renderer of ``spec`` (``<name>[:<option>[+<option>]]``); ValueError for a bad option."""
+        """The renderer of ``spec`` (``<name>[:<option>[+<option>]]``): ``cls(spec)``, or ``cls()`` for a class
+        whose constructor takes no argument (it then declares no options); ValueError for a bad option."""
+        import inspect
+
+        from compare.renderers.options import parse_spec
+
+        if not inspect.signature(cls).parameters:
+            parse_spec(spec, cls.OPTIONS)  # a ':' is refused where no options are declared
+            return cls()
         return cls(spec)  # type: ignore[call-arg]
 
     def available(self) -> tuple[bool, str]:
@@ -231,7 +239,8 @@ class Renderer(abc.ABC):
 def check_renderer(r: object, where: str) -> Renderer:
     """``r`` as a renderer, or one :class:`RendererError` naming ``where`` and what is wrong."""
     if not isinstance(r, Renderer):
-        raise RendererError(f"{where}: {type(r).__module__}.{type(r).__name__} is not a renderer: subclass "
+        what = r if isinstance(r, type) else type(r)
+        raise RendererError(f"{where}: {what.__module__}.{what.__qualname__} is not a renderer: subclass "
                             "compare.renderers.base.Renderer (docs/renderers.md)")
     if not isinstance(r.name, str) or not r.name:
         raise RendererError(f"{where}: the renderer's name must be a non-empty string, got {r.name!r}")

@@ -58,6 +58,7 @@ import numpy as np
 
 from compare.util.errors import CompareError
 from compare.util.files import write_text_atomic
+from compare.metrics.table import METRICS
 from compare.report.results import Results, SceneResult, metric_value
 
 __all__ = ["ReportError", "build_report", "hdr_payload"]
@@ -68,17 +69,8 @@ _HERE = Path(__file__).parent
 _STATIC = ("report.css", "report.js")
 _HALF_MAX = 65504.0
 
-#: Metrics shown in tables, in order: (key for metric_value, heading, digits).
-TABLE_METRICS = (
-    ("flip", "FLIP", 4),
-    ("flip_median", "FLIP w. median", 4),
-    ("flip_p95", "FLIP p95", 4),
-    ("flip_hdr", "HDR-FLIP", 4),
-    ("ssim", "SSIM", 4),
-    ("psnr", "PSNR (dB)", 2),
-    ("relmse", "relMSE", 4),
-    ("mse", "MSE", 4),
-)
+#: Metrics shown in tables, in order: (key for metric_value, heading, digits), from the one table.
+TABLE_METRICS = tuple((m.name, m.heading, m.digits) for m in METRICS)
 
 _MAP_TITLES = {"flip": "FLIP (LDR)", "one_minus_ssim": "1 − SSIM", "relmse": "relMSE"}
 

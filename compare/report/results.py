@@ -138,9 +138,6 @@ __all__ = [
 #: changes meaning or disappears; readers refuse other versions.
 SCHEMA = 1
 
-#: Metrics where larger is better; :func:`metric_value` turns them into errors.
-HIGHER_IS_BETTER = ("ssim", "psnr")
-
 
 class ResultsError(CompareError, ValueError):
     """``results.json`` is missing, malformed, or of another schema version."""

@@ -37,9 +37,9 @@ from compare.scene.fields import Ctx as _Ctx, color as _color, file_field as _fi
 from compare.scene.fields import float32_problem as _float32_problem, require as _require, table as _table
 from compare.scene.fields import unit_vector as _unit, vector as _vector
 from compare.scene.model import *  # noqa: F403 - the model is this module's face
-from compare.scene.model import (DEFAULT_PROBE_BOUNCES, DEFAULT_PROBE_GRID, ENV_FILE_SUFFIXES, GLOSSY_ROUGHNESS,
+from compare.scene.model import (DEFAULT_PROBE_BOUNCES, DEFAULT_PROBE_GRID, ENV_FILE_SUFFIXES,
                           INDIRECT_MODES, MAX_PROBES_PER_AXIS, MESH_FILE_SUFFIXES, MESH_SHAPES, TEXTURE_SUFFIXES,
-                          AreaLight, Camera, Environment, Features, Material, Mesh, Scene)
+                          AreaLight, Camera, Environment, Material, Mesh, Scene)
 
 
 def _camera(ctx: _Ctx, raw: Any) -> Camera:
