@@ -1,15 +1,17 @@
 """Shared pytest set-up: the cache folder, the OpenGL context, scene files and fuzzing sizes.
 
 * ``$COMPARE_CACHE`` is a fresh folder per test run, removed at the end, never the user's cache.
-  ``COMPARE_TEST_CACHE=<folder>`` runs the tests on that folder instead (kept afterwards), for
-  a test that wants what an earlier run cached.
+  ``COMPARE_TEST_CACHE=<folder>`` runs the tests on that folder instead and keeps it, for tests
+  that want what an earlier run cached (e.g. ``~/.cache/compare-tests``: reruns skip the BRDF
+  table, environment and texture preprocessing, several seconds a run).
 * ``gl_ctx`` hands out one headless OpenGL context per session, in OpenGL's initial state, and
   checks after each test for GL errors and GL objects not released. Every test that uses it,
   directly or through another fixture, is marked ``gl``.
 * ``make_scene`` writes a scene TOML file into the test's temporary folder.
-* Hypothesis sizes come from a profile: ``default`` (a few dozen cases, the default run) or ``slow``
-  (many more), chosen by ``HYPOTHESIS_PROFILE=<name>``, else ``slow`` when ``-m`` selects slow
-  tests (``-m slow``), when each property also counts as a slow test.
+* ``--update-golden`` makes the golden tests rewrite their files from the code as it is.
+* Hypothesis sizes come from a profile, ``default`` (a few dozen cases) or ``slow`` (many more):
+  ``HYPOTHESIS_PROFILE=<name>`` chooses, else ``-m``: a run that selects slow tests (``-m slow``)
+  counts every property as one of them and runs it with ``slow``.
 """
 
 from __future__ import annotations
@@ -30,6 +32,19 @@ from hypothesis import HealthCheck, is_hypothesis_test, settings
 #: (folder, whether this process made it and removes it, $COMPARE_CACHE before the run)
 _CACHE = pytest.StashKey[tuple]()
 _WORKER_CACHE = "compare_cache"
+_PREFIX = "compare-test-cache-"  # then the pid of the run that made it
+
+
+def pytest_addoption(parser):
+    parser.addoption("--update-golden", action="store_true",
+                     help="rewrite the golden results (tests/data/*-before.json) from this code instead of "
+                          "comparing with them; review the diff before committing it")
+
+
+@pytest.fixture
+def update_golden(request) -> bool:
+    """Whether ``--update-golden`` asks the golden tests to rewrite their files."""
+    return bool(request.config.getoption("--update-golden"))
 
 
 def pytest_configure(config):
@@ -40,7 +55,8 @@ def pytest_configure(config):
     elif hasattr(config, "workerinput"):  # a pytest-xdist worker: its controller's folder
         folder, owned = config.workerinput[_WORKER_CACHE], False
     else:
-        folder, owned = tempfile.mkdtemp(prefix="compare-test-cache-"), True
+        _sweep_killed_runs()
+        folder, owned = tempfile.mkdtemp(prefix=f"{_PREFIX}{os.getpid()}-"), True
     config.stash[_CACHE] = (folder, owned, os.environ.get("COMPARE_CACHE"))
     os.environ["COMPARE_CACHE"] = folder
     settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE") or ("slow" if _selects_slow(config) else "default"))
@@ -56,6 +72,20 @@ def pytest_unconfigure(config):
         os.environ["COMPARE_CACHE"] = before
     if owned:
         shutil.rmtree(folder, ignore_errors=True)
+
+
+def _sweep_killed_runs() -> None:
+    """Remove the folders of runs that were killed before pytest_unconfigure (their pid is gone)."""
+    for folder in Path(tempfile.gettempdir()).glob(f"{_PREFIX}*-*"):
+        pid = folder.name[len(_PREFIX):].split("-")[0]
+        if not pid.isdigit():
+            continue
+        try:
+            os.kill(int(pid), 0)
+        except ProcessLookupError:
+            shutil.rmtree(folder, ignore_errors=True)
+        except OSError:  # alive, another user's
+            pass
 
 
 @pytest.hookimpl(optionalhook=True)
@@ -170,7 +200,7 @@ def _moderngl():
 
 
 @pytest.fixture(scope="session")
-def gl_session_ctx():
+def gl_session_ctx(request):
     """One headless OpenGL context for the whole session; skips when none can be made.
 
     Tests take :func:`gl_ctx`; this one is for fixtures wider than a function.
@@ -186,8 +216,23 @@ def gl_session_ctx():
     # GL name unseen: gl_ctx names and frees it.
     ctx.gc_mode = "context_gc"
     ctx.extra = {"made": _Made(ctx), "framebuffer 0": ctx.mglo.fbo}
+    request.config.stash[_GL_CONTEXT] = ctx
     yield ctx
+    del request.config.stash[_GL_CONTEXT]
     ctx.release()
+
+
+_GL_CONTEXT = pytest.StashKey[object]()
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_runtest_setup(item):
+    # moderngl draws with the thread's current context, the last one made or entered: after a test
+    # (or the code it runs) made its own, the session's is not current until entered again. Here,
+    # before the test's fixtures are set up, so that wider ones drawing for it use it too.
+    ctx = item.config.stash.get(_GL_CONTEXT, None)
+    if ctx is not None and GL_FIXTURES.intersection(item.fixturenames):
+        ctx.__enter__()
 
 
 def _reset_state(ctx) -> None:
@@ -242,14 +287,16 @@ def gl_ctx(gl_session_ctx, request):
     """
     ctx = gl_session_ctx
     made = ctx.extra["made"]
+    ctx.__enter__()  # see pytest_runtest_setup
     # What wider fixtures or an earlier test's late garbage left is not this test's doing.
     _free_dropped(ctx)
     pending = _gl_errors(ctx)
     if pending:
-        request.node.add_report_section("setup", "gl_ctx", f"GL error(s) before the test: {', '.join(pending)}")
+        pytest.fail(f"GL error(s) before the test, left by a fixture: {', '.join(pending)}", pytrace=False)
     _reset_state(ctx)
     made.objects.clear()
     yield ctx
+    ctx.__enter__()  # the test may have made another context current
     errors, dropped, live = _gl_errors(ctx), _free_dropped(ctx), made.unreleased()
     made.objects.clear()
     problems = ([f"GL error(s) {', '.join(errors)}"] if errors else []) + (
@@ -261,9 +308,7 @@ def gl_ctx(gl_session_ctx, request):
     if call is not None and not call.passed:  # already failed; its traceback holds the test's objects
         request.node.add_report_section("teardown", "gl_ctx", "; ".join(problems))
         return
-    # Reported beside the test, not failed: some passes still leave a GL_INVALID_OPERATION behind
-    # (being traced); a failure here would hide every other result.
-    request.node.add_report_section("teardown", "gl_ctx", "; ".join(problems))
+    pytest.fail("; ".join(problems), pytrace=False)
 
 
 # ----------------------------------------------------------------------------- scene files

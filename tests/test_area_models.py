@@ -18,7 +18,6 @@ above the plane.
 from __future__ import annotations
 
 import math
-import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -53,7 +52,7 @@ CAMERAS = {
 }
 
 
-def plane_scene(tmp_path, case: str, extra: str = "", name: str | None = None):
+def plane_scene(make_scene, case: str, extra: str = "", name: str | None = None):
     """The grey plane y = 0 under light ``case`` seen by camera ``case``, plus the TOML ``extra``."""
     light, cam = {**LIGHTS, **OTHER_LIGHTS}[case], CAMERAS[case]
     text = f"""
@@ -80,9 +79,7 @@ def plane_scene(tmp_path, case: str, extra: str = "", name: str | None = None):
     tangent = {light['tangent']}
     radiance = [{RADIANCE}, {RADIANCE}, {RADIANCE}]
     """
-    path = tmp_path / f"{name or case}.toml"
-    path.write_text(textwrap.dedent(text) + textwrap.dedent(extra))
-    return load_scene(path)
+    return load_scene(make_scene(text, extra, name=f"{name or case}.toml"))
 
 
 def plane_points(scene, jitters):
@@ -155,12 +152,11 @@ def point_sample(scene, x, y, model: str):
     return ALBEDO / math.pi * RADIANCE * omega * cos_s * (cos_l > 0)
 
 
-@pytest.mark.gl
 @pytest.mark.parametrize("case", list(LIGHTS))
 @pytest.mark.parametrize("model", ["ltc", "radiometric", "paper"])
-def test_plane_under_rectangle(gl_ctx, tmp_path, model, case):
+def test_plane_under_rectangle(gl_ctx, make_scene, model, case):
     """Each pixel against its exact expectation at the frames' own jitter positions."""
-    scene = plane_scene(tmp_path, case)
+    scene = plane_scene(make_scene, case)
     r = render_progressive(scene, frames=FRAMES, ctx=gl_ctx, materials="diffuse", samples_per_light=SAMPLES,
                            shadow_size=256, area_model=model)
     assert r.metadata["area_model"] == model
@@ -188,8 +184,8 @@ WALL_TOP = 0.95  # the wall's top edge; the light hangs at y = 1 above it, centr
 WALL_HALF = 0.001  # half its thickness
 
 
-def wall_scene(tmp_path):
-    return plane_scene(tmp_path, "wall", name="wall", extra=f"""
+def wall_scene(make_scene):
+    return plane_scene(make_scene, "wall", name="wall", extra=f"""
     [[meshes]]
     name = "wall"
     shape = "box"
@@ -215,13 +211,12 @@ def visible_part(light, x):
     return corners
 
 
-@pytest.mark.gl
-def test_shadow_ratio_converges_to_the_exact_shadowed_light(gl_ctx, tmp_path):
+def test_shadow_ratio_converges_to_the_exact_shadowed_light(gl_ctx, make_scene):
     """A wall under the middle of the light hides part of it from the plane: the visible part is a
     rectangle again, so Lambert's formula gives the exact shadowed light. The ``ltc`` shadow ratio
     converges to it as samples grow, and with as many samples it is closer than the radiometric sum
     (the largest error over the pixels beside the wall)."""
-    scene = wall_scene(tmp_path)
+    scene = wall_scene(make_scene)
     light = scene.lights[0]
     errors = {}
     for model, counts in (("ltc", (8, 128, 512)), ("radiometric", (8, 128))):
@@ -249,7 +244,6 @@ def test_shadow_ratio_converges_to_the_exact_shadowed_light(gl_ctx, tmp_path):
     assert errors["ltc", 8] < errors["radiometric", 8] and errors["ltc", 128] < errors["radiometric", 128]
 
 
-@pytest.mark.gl
 def test_ltc_first_frame_is_the_exact_unshadowed_light(gl_ctx):
     """With ``ltc`` frame 0's preview is the closed-form unshadowed light: drawn forward it equals the
     same light drawn from frame 0's G-buffer, and every later frame before a light sample shows it too."""
@@ -274,7 +268,6 @@ def test_ltc_first_frame_is_the_exact_unshadowed_light(gl_ctx):
     assert np.median(np.abs(second[lit] - g[lit])) < 0.01 * g[lit].mean()
 
 
-@pytest.mark.gl
 @pytest.mark.parametrize("options", [{"shadow_filter": "vsm"}, {"frame_budget_ms": 30.0}, {"indirect": "probes"}])
 def test_ltc_combines_with_the_other_options(gl_ctx, options):
     """Variance shadow maps, a frame budget and probes change ``ltc``'s image as they change the
@@ -292,10 +285,9 @@ def test_ltc_combines_with_the_other_options(gl_ctx, options):
     assert change["ltc"] == pytest.approx(change["radiometric"], rel=0.03)
 
 
-@pytest.mark.gl
 @pytest.mark.parametrize("roughness, metallic", [(0.2, 1.0), (0.4, 0.0), (0.6, 1.0)])
 @pytest.mark.parametrize("case", ["flat", "tilted"])
-def test_ltc_glossy_plane_matches_the_reference(gl_ctx, tmp_path, case, roughness, metallic):
+def test_ltc_glossy_plane_matches_the_reference(gl_ctx, make_scene, case, roughness, metallic):
     """The shared BRDF's specular lobe through the fitted table, against the direct-light reference,
     in 8×8-pixel blocks where the view is not grazing (N·V ≥ 0.5): their sum within 5 % (measured
     0.98–1.01), each block with at least 5 % of the brightest one's light within 20 % (measured
@@ -305,11 +297,9 @@ def test_ltc_glossy_plane_matches_the_reference(gl_ctx, tmp_path, case, roughnes
     0.01–0.66 at N·V ≈ 0.45."""
     from compare.mitsuba.reference import ReferenceRenderer
 
-    text = plane_scene(tmp_path, case).path.read_text().replace(
+    text = plane_scene(make_scene, case).path.read_text().replace(
         "roughness = 1.0", f"roughness = {roughness}\nmetallic = {metallic}")
-    path = tmp_path / "glossy.toml"
-    path.write_text(text)
-    scene = load_scene(path)
+    scene = load_scene(make_scene(text, name="glossy.toml"))
     ref = ReferenceRenderer(scene, max_depth=2, progress=False, cache_dir=False).render(256).image
     img = render_progressive(scene, frames=64, ctx=gl_ctx, shadow_size=128, area_model="ltc").image
     hit, valid = plane_points(scene, [(0.0, 0.0)])
@@ -331,20 +321,17 @@ def test_ltc_glossy_plane_matches_the_reference(gl_ctx, tmp_path, case, roughnes
     assert np.all(np.abs(ratio - 1) < 0.2)
 
 
-@pytest.mark.gl
 @pytest.mark.parametrize("case", ["tilted", "straddling"])
-def test_ltc_glsl_matches_the_numpy_polygon_integral(gl_ctx, tmp_path, case):
+def test_ltc_glsl_matches_the_numpy_polygon_integral(gl_ctx, make_scene, case):
     """The shader's LTC (table lookup, frame, both clippings, edge integrals) against the numpy
     form of compare.brdf.ltc per pixel, on a glossy metal plane (specular only) under the tilted
     light and the one the plane's horizon cuts."""
     from compare.brdf.ltc import load_table, ltc_matrix, polygon_integral, polygon_vector_form_factor
     from compare.ibl import split_sum
 
-    text = plane_scene(tmp_path, case).path.read_text().replace(
+    text = plane_scene(make_scene, case).path.read_text().replace(
         "roughness = 1.0", "roughness = 0.35\nmetallic = 1.0")
-    path = tmp_path / "metal.toml"
-    path.write_text(text)
-    scene = load_scene(path)
+    scene = load_scene(make_scene(text, name="metal.toml"))
     # The closed form itself: the LTC pass's unshadowed specular sum of the one frame (the image scales
     # it by the shadow ratio, which also corrects the fitted lobe's shape through the samples).
     from compare.progressive.rasterizer import Rasterizer

@@ -21,7 +21,6 @@ def test_time_to_error_interpolates_log_log():
     assert math.isinf(time_to_error(seconds, errors, 0.01))
 
 
-@pytest.mark.gl
 def test_bench_reports_ratios(tmp_path, gl_ctx):
     result = run_bench(ROOT / "scenes" / "cornell.toml", size=(48, 36), frames=8, spp=4, repeats=2,
                        items=("first-frame", "depth-floor", "area-models", "wrapper-overhead"), progress=False)
@@ -39,7 +38,6 @@ def test_bench_reports_ratios(tmp_path, gl_ctx):
     assert result["environment"]["cores"] >= 1
 
 
-@pytest.mark.gl
 def test_bench_times_texturing_and_skips_a_scene_without_maps(tmp_path, gl_ctx):
     """The textures item: the textured car against its factors only; the Cornell box has nothing to time."""
     result = run_bench(ROOT / "scenes" / "car.toml", size=(32, 24), frames=4, spp=4, repeats=2,
@@ -52,7 +50,6 @@ def test_bench_times_texturing_and_skips_a_scene_without_maps(tmp_path, gl_ctx):
     assert plain["figures"] == [] and "no material of the scene has a map" in plain["skipped"]["textures"]
 
 
-@pytest.mark.gl
 def test_bench_equal_error_times_fresh_renders(tmp_path, gl_ctx, monkeypatch):
     """Both sides are medians of --repeats runs, and the Mitsuba ladder is rendered, not read from the
     reference cache (whose seconds would be those of the run that filled it)."""

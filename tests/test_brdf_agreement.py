@@ -336,7 +336,6 @@ def _world_frames(rng, n):
     return normal, t, b
 
 
-@pytest.mark.gl
 def test_glsl_matches_numpy(gl_ctx):
     from compare.brdf.glsl import eval_brdf_gl
 
@@ -354,7 +353,6 @@ def test_glsl_matches_numpy(gl_ctx):
     _check("glsl eval (world frames)", got, ref, rtol, _scale(n, v, l, r)[:, None])
 
 
-@pytest.mark.gl
 def test_glsl_zero_below_horizon(gl_ctx):
     from compare.brdf.glsl import eval_brdf_gl
 
@@ -366,7 +364,6 @@ def test_glsl_zero_below_horizon(gl_ctx):
     assert np.all(got == 0.0)
 
 
-@pytest.mark.gl
 def test_glsl_vndf_sampler_matches_numpy(gl_ctx):
     from compare.brdf.glsl import sample_ggx_vndf_gl
 

@@ -144,7 +144,6 @@ def _check_sampling_extremes(mi):
 # gl_ctx: the session-wide headless context of tests/conftest.py (skips without OpenGL).
 
 
-@pytest.mark.gl
 def test_glsl_extremes_finite(extremes, gl_ctx):
     from compare.brdf.glsl import eval_brdf_gl, sample_ggx_vndf_gl
 

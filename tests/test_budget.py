@@ -93,7 +93,6 @@ def test_budget_is_validated():
         Rasterizer(_scene("cornell.toml"), frames=8, frame_budget_ms=-5)
 
 
-@pytest.mark.gl
 def test_budget_render_reaches_the_fixed_plans_image(gl_ctx):
     """Same samples, fewer frames: the final image matches the fixed plan's closer than another seed's does."""
     s = _scene("cornell.toml", (64, 48))
@@ -127,7 +126,6 @@ def test_budget_render_reaches_the_fixed_plans_image(gl_ctx):
     assert rel(images[1e-3]) < 0.01
 
 
-@pytest.mark.gl
 def test_budget_checkpoints_every_frame(gl_ctx):
     s = _scene("cornell.toml", (32, 24))
     res = render_progressive(s, frames=16, ctx=gl_ctx, shadow_size=64, checkpoints="every", frame_budget_ms=0.001)
@@ -137,7 +135,6 @@ def test_budget_checkpoints_every_frame(gl_ctx):
     assert res.metadata["frames"] == n
 
 
-@pytest.mark.gl
 def test_preview_stays_until_every_light_has_a_sample(gl_ctx):
     """Kitchen, 6 lights, one sample a frame: the unshadowed preview is shown until each light has a sample,
     not one light's estimate scaled up to stand for all six (FLIP 0.58 at frame 2 before this rule)."""

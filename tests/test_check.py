@@ -138,7 +138,6 @@ CORNELL_TEST_SIZE = "64x48"
 CORNELL_TEST_SETTINGS = dict(frames=32, spp=256, sizes=[[64, 48]], renderers=["mitsuba", "progressive"])
 
 
-@pytest.mark.gl
 def test_cornell_box_meets_repository_thresholds(tmp_path, gl_ctx):
     """The CI gate: the built-in Cornell box at test resolution, real renderers, thresholds.toml."""
     from compare.run.runner import run

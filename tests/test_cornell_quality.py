@@ -26,8 +26,6 @@ ROOT = Path(__file__).resolve().parent.parent
 SPP = 512
 CHECKPOINTS = (1, 4, 16, 64, 128)
 
-pytestmark = pytest.mark.gl
-
 
 @pytest.fixture(scope="module")
 def cornell():
@@ -44,10 +42,10 @@ def references(cornell):
 
 
 @pytest.fixture(scope="module")
-def progressive(cornell, gl_ctx):
+def progressive(cornell, gl_session_ctx):
     from compare.progressive.rasterizer import render_progressive
 
-    return render_progressive(cornell, frames=128, seed=0, checkpoints=CHECKPOINTS, ctx=gl_ctx)
+    return render_progressive(cornell, frames=128, seed=0, checkpoints=CHECKPOINTS, ctx=gl_session_ctx)
 
 
 def test_against_full_reference(references, progressive):

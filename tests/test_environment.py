@@ -342,7 +342,6 @@ def axis_scene(axis: str, rotation: float = 0.0):
     }, Path(__file__).with_name(f"axes_{axis}.toml"))
 
 
-@pytest.mark.gl
 @pytest.mark.parametrize("rotation", [0.0, 90.0])
 def test_background_orientation_both_renderers(gl_ctx, tmp_path, rotation):
     """Along ±X, ±Y, ±Z the rasterizer's background equals the numpy lookup and Mitsuba's envmap.

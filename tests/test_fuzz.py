@@ -5,9 +5,10 @@ files and command lines are mutated at random (hypothesis). Each must either
 load, or fail with a :class:`compare.util.errors.CompareError` whose message names
 the file it is about; no other exception, no traceback, no file half-written.
 
-Textures (PNG, EXR) are fuzzed through the scene that names them. The
-default run tries a few dozen cases per input (seconds); ``-m slow`` runs
-the same properties with many more.
+Textures (PNG, EXR) are fuzzed through the scene that names them. How many
+cases each property tries is the hypothesis profile's (tests/conftest.py): the
+default run tries a few dozen per input (seconds); ``-m slow`` (or
+``HYPOTHESIS_PROFILE=slow``) runs the same properties with many more.
 """
 
 from __future__ import annotations
@@ -19,13 +20,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings, strategies as st
+from hypothesis import given, strategies as st
 
 from compare.util.errors import CompareError
 
 ROOT = Path(__file__).resolve().parent.parent
-QUICK = settings(max_examples=30, deadline=None, suppress_health_check=list(HealthCheck), derandomize=True)
-LONG = settings(max_examples=400, deadline=None, suppress_health_check=list(HealthCheck))
 
 
 # --------------------------------------------------------------------------- a scene with one of everything
@@ -280,16 +279,8 @@ def case_dir(tmp_path) -> Path:
     return d
 
 
-@QUICK
 @given(data=mutated(SCENE))
 def test_fuzz_scene_files(template, case_dir, data):
-    check_scene_text(template, case_dir, data)
-
-
-@pytest.mark.slow
-@LONG
-@given(data=mutated(SCENE))
-def test_fuzz_scene_files_long(template, case_dir, data):
     check_scene_text(template, case_dir, data)
 
 
@@ -299,29 +290,13 @@ mesh_bytes = st.one_of(st.binary(max_size=300),
                        st.builds(lambda s, i: s[:i].encode(), st.sampled_from([OBJ, PLY]), st.integers(0, 200)))
 
 
-@QUICK
 @given(name=st.sampled_from(["m.obj", "m.ply"]), data=mesh_bytes)
 def test_fuzz_mesh_files(template, case_dir, name, data):
     check_mesh_bytes(template, case_dir, name, data)
 
 
-@pytest.mark.slow
-@LONG
-@given(name=st.sampled_from(["m.obj", "m.ply"]), data=mesh_bytes)
-def test_fuzz_mesh_files_long(template, case_dir, name, data):
-    check_mesh_bytes(template, case_dir, name, data)
-
-
-@QUICK
 @given(doc=mutated(_gltf()))
 def test_fuzz_gltf_files(template, case_dir, doc):
-    check_gltf(template, case_dir, doc)
-
-
-@pytest.mark.slow
-@LONG
-@given(doc=mutated(_gltf()))
-def test_fuzz_gltf_files_long(template, case_dir, doc):
     check_gltf(template, case_dir, doc)
 
 
@@ -342,16 +317,8 @@ def _image_bytes():
 IMAGES = _image_bytes()
 
 
-@QUICK
 @given(name=st.sampled_from(["env.exr", "env.hdr"]), data=IMAGES)
 def test_fuzz_image_files(template, case_dir, name, data):
-    check_image_bytes(template, case_dir, name, data)
-
-
-@pytest.mark.slow
-@LONG
-@given(name=st.sampled_from(["env.exr", "env.hdr"]), data=IMAGES)
-def test_fuzz_image_files_long(template, case_dir, name, data):
     check_image_bytes(template, case_dir, name, data)
 
 
@@ -361,43 +328,25 @@ texture_bytes = st.one_of(
     st.builds(lambda i, b: PNG[:i] + bytes([b]) + PNG[i + 1:], st.integers(0, len(PNG) - 1), st.integers(0, 255)))
 
 
-@QUICK
 @given(name=st.sampled_from(["tex.png", "tex.exr"]), data=texture_bytes)
 def test_fuzz_texture_files(template, case_dir, name, data):
     check_mesh_bytes(template, case_dir, name, data)  # the scene names the texture: it loads or names it
-
-
-@pytest.mark.slow
-@LONG
-@given(name=st.sampled_from(["tex.png", "tex.exr"]), data=texture_bytes)
-def test_fuzz_texture_files_long(template, case_dir, name, data):
-    check_mesh_bytes(template, case_dir, name, data)
 
 
 THRESHOLDS = {"schema": 1, "rule": [{"scene": "Cornell box", "renderer": "progressive", "step": "final",
                                       "max": {"flip": 0.3}, "min": {"ssim": 0.5}, "note": "x"}]}
 
 
-@QUICK
 @given(data=mutated(THRESHOLDS))
 def test_fuzz_thresholds(tmp_path, data):
     check_thresholds(tmp_path, data)
 
 
-@QUICK
 @given(data=mutated(_results_template()))
 def test_fuzz_results_files(tmp_path, data):
     check_results(tmp_path, data)
 
 
-@pytest.mark.slow
-@LONG
-@given(data=mutated(_results_template()))
-def test_fuzz_results_files_long(tmp_path, data):
-    check_results(tmp_path, data)
-
-
-@QUICK
 @given(argv=_cli_argv())
 def test_fuzz_command_lines(tmp_path, capsys, monkeypatch, argv):
     monkeypatch.chdir(tmp_path)  # whatever the arguments write lands here

@@ -25,12 +25,6 @@ PNG_2X2 = base64.b64decode(
 )
 
 
-def write_toml(folder: Path, text: str, name: str = "scene.toml") -> Path:
-    path = folder / name
-    path.write_text(textwrap.dedent(text))
-    return path
-
-
 def quiet_load(path):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -219,13 +213,13 @@ def test_truncated_glb(tmp_path):
         load_gltf(path)
 
 
-def test_external_buffer_and_image_files_count_for_the_hash(tmp_path):
+def test_external_buffer_and_image_files_count_for_the_hash(tmp_path, make_scene):
     w = simple_writer()
     doc = _raw_doc(w)
     (tmp_path / "m.bin").write_bytes(bytes(w.bin))
     doc["buffers"][0]["uri"] = "m.bin"
     _write_doc(tmp_path / "m.gltf", doc)
-    scene = write_toml(tmp_path, 'include = "m.gltf"\n')
+    scene = make_scene('include = "m.gltf"\n')
     s1 = quiet_load(scene)
     assert tmp_path / "m.bin" in s1.referenced_files and tmp_path / "m.gltf" in s1.referenced_files
     data = bytearray(w.bin)
@@ -237,9 +231,9 @@ def test_external_buffer_and_image_files_count_for_the_hash(tmp_path):
 # ----------------------------------------------------------------------------- into a scene
 
 
-def test_include_maps_materials_camera_and_lights(tmp_path):
+def test_include_maps_materials_camera_and_lights(tmp_path, make_scene):
     simple_writer().write(tmp_path / "m.glb")
-    s = quiet_load(write_toml(tmp_path, """
+    s = quiet_load(make_scene("""
         include = "m.glb"
 
         [[meshes]]
@@ -270,9 +264,9 @@ def test_include_maps_materials_camera_and_lights(tmp_path):
         assert np.dot(np.subtract(light.center, centre), light.normal) > 0
 
 
-def test_include_options_transform_override_and_toml_camera(tmp_path):
+def test_include_options_transform_override_and_toml_camera(tmp_path, make_scene):
     simple_writer().write(tmp_path / "m.glb")
-    s = quiet_load(write_toml(tmp_path, """
+    s = quiet_load(make_scene("""
         [camera]
         resolution = [64, 48]
         fov = 30
@@ -298,7 +292,7 @@ def test_include_options_transform_override_and_toml_camera(tmp_path):
     np.testing.assert_allclose(hi, [6.0, 4.0, 1.0], atol=1e-6)
 
 
-def test_spot_and_directional_lights(tmp_path):
+def test_spot_and_directional_lights(tmp_path, make_scene):
     w = GltfWriter()
     w.node("floor", mesh=w.mesh("floor", [(geometry.quad((4, 4)), w.material("white"))]))
     w.node("spot", light=w.light("spot", "spot", 683.0 * 2), translation=(0, 3, 0),
@@ -306,7 +300,7 @@ def test_spot_and_directional_lights(tmp_path):
     w.node("sun", light=w.light("sun", "directional", 5.0))
     w.write(tmp_path / "l.glb")
     with pytest.warns(UserWarning) as record:
-        s = load_scene(write_toml(tmp_path, """
+        s = load_scene(make_scene("""
             [camera]
             position = [0, 2, 5]
             target = [0, 0, 0]
@@ -332,15 +326,15 @@ def test_spot_and_directional_lights(tmp_path):
     ('include = "bad.glb"\n', r"scene\.toml: include\.file: .*bad\.glb: "),
     ('include = "m.obj"\n', r"include\.file: 'm.obj': unsupported file type"),
 ])
-def test_include_errors_name_scene_and_field(tmp_path, text, message):
+def test_include_errors_name_scene_and_field(tmp_path, make_scene, text, message):
     simple_writer().write(tmp_path / "m.glb")
     (tmp_path / "bad.glb").write_bytes(b"glTF\x02\x00\x00\x00\x20\x00\x00\x00" + b"\x00" * 20)
     (tmp_path / "m.obj").write_text("v 0 0 0\n")
     with pytest.raises(SceneError, match=message):
-        quiet_load(write_toml(tmp_path, text))
+        quiet_load(make_scene(text))
 
 
-def test_embedded_and_external_textures(tmp_path, monkeypatch):
+def test_embedded_and_external_textures(tmp_path, make_scene, monkeypatch):
     monkeypatch.setenv("COMPARE_CACHE", str(tmp_path / "cache"))
     w = simple_writer()
     img = w._add("images", {"bufferView": w.view(PNG_2X2), "mimeType": "image/png"})
@@ -358,7 +352,7 @@ def test_embedded_and_external_textures(tmp_path, monkeypatch):
     (tmp_path / "tex").mkdir()
     (tmp_path / "tex" / "mr.png").write_bytes(PNG_2X2)
     w.write(tmp_path / "t.glb")
-    s = quiet_load(write_toml(tmp_path, 'include = "t.glb"\n'))
+    s = quiet_load(make_scene('include = "t.glb"\n'))
     mat = s.materials["t/paint"]
     assert mat.base_color_texture.read_bytes() == PNG_2X2
     assert mat.base_color_texture.is_relative_to(tmp_path / "cache")
@@ -371,7 +365,7 @@ def test_embedded_and_external_textures(tmp_path, monkeypatch):
 # ----------------------------------------------------------------------------- rendering
 
 
-def _pair(tmp_path: Path):
+def _pair(tmp_path: Path, make_scene):
     """The same lit box twice: once from a glTF include, once written as TOML primitives and lights."""
     simple_writer().write(tmp_path / "m.glb")
     cam = """
@@ -391,12 +385,12 @@ def _pair(tmp_path: Path):
         size = [6, 6]
         material = "grey"
     """
-    via_gltf = quiet_load(write_toml(tmp_path, cam + floor + """
+    via_gltf = quiet_load(make_scene(cam + floor + """
         [[include]]
         file = "m.glb"
         punctual = "ignore"
-    """, "a.toml"))
-    via_toml = quiet_load(write_toml(tmp_path, cam + floor + """
+    """, name="a.toml"))
+    via_toml = quiet_load(make_scene(cam + floor + """
         [materials.paint]
         base_color = [0.8, 0.1, 0.1]
         roughness = 0.3
@@ -413,15 +407,14 @@ def _pair(tmp_path: Path):
         normal = [0, -1, 0]
         tangent = [1, 0, 0]
         radiance = [5, 4, 3]
-    """, "b.toml"))
+    """, name="b.toml"))
     return via_gltf, via_toml
 
 
-@pytest.mark.gl
-def test_included_scene_renders_like_its_toml_twin_progressive(tmp_path, gl_ctx):
+def test_included_scene_renders_like_its_toml_twin_progressive(tmp_path, make_scene, gl_ctx):
     from compare.progressive.rasterizer import render_progressive
 
-    a, b = _pair(tmp_path)
+    a, b = _pair(tmp_path, make_scene)
     ia = render_progressive(a, frames=24, ctx=gl_ctx).image
     ib = render_progressive(b, frames=24, ctx=gl_ctx).image
     assert np.isfinite(ia).all() and ia.mean() > 2e-3
@@ -429,10 +422,10 @@ def test_included_scene_renders_like_its_toml_twin_progressive(tmp_path, gl_ctx)
     np.testing.assert_allclose(ia, ib, rtol=1e-4, atol=1e-6)
 
 
-def test_included_scene_renders_like_its_toml_twin_reference(tmp_path):
+def test_included_scene_renders_like_its_toml_twin_reference(tmp_path, make_scene):
     from compare.mitsuba.reference import ReferenceRenderer
 
-    a, b = _pair(tmp_path)
+    a, b = _pair(tmp_path, make_scene)
     ia = ReferenceRenderer(a, cache_dir=False, progress=False).render(16).image
     ib = ReferenceRenderer(b, cache_dir=False, progress=False).render(16).image
     assert np.isfinite(ia).all() and ia.mean() > 2e-3
@@ -458,7 +451,7 @@ def test_fields_of_the_wrong_json_type_are_one_error_naming_the_file(tmp_path):
         assert str(exc.value) == (f"{path}: malformed glTF ({detail}); check it with the Khronos glTF validator")
 
 
-def test_texture_transform_and_sampler_are_imported_and_exported(tmp_path, monkeypatch):
+def test_texture_transform_and_sampler_are_imported_and_exported(tmp_path, make_scene, monkeypatch):
     """KHR_texture_transform and the sampler's wrapS / magFilter become the material's texture settings;
     the glTF a renderer of the registry receives (compare.renderers.job.export_gltf) carries them back."""
     import math
@@ -475,7 +468,7 @@ def test_texture_transform_and_sampler_are_imported_and_exported(tmp_path, monke
         "index": 0, "extensions": {"KHR_texture_transform": {"offset": [0.25, 0.5], "rotation": math.pi / 2,
                                                              "scale": [2.0, 3.0]}}}
     w.write(tmp_path / "t.glb")
-    s = quiet_load(write_toml(tmp_path, 'include = "t.glb"\n'))
+    s = quiet_load(make_scene('include = "t.glb"\n'))
     mat = s.materials["t/paint"]
     assert mat.texture_offset == (0.25, 0.5) and mat.texture_rotation == pytest.approx(90.0)
     assert mat.texture_scale == (2.0, 3.0) and mat.texture_wrap == "mirror" and mat.texture_filter == "nearest"

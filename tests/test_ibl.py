@@ -257,7 +257,6 @@ void main() {
     return np.concatenate([a, b], axis=1)
 
 
-@pytest.mark.gl
 def test_glsl_mappings_equal_numpy(gl_ctx):
     from compare.image.encodings import octahedral_encode
     from compare.scene.environments import direction_to_uv

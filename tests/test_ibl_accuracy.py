@@ -15,7 +15,6 @@ def _cache(tmp_path_factory, monkeypatch):
     monkeypatch.setenv("COMPARE_CACHE", str(tmp_path_factory.getbasetemp() / "cache"))
 
 
-@pytest.mark.gl
 def test_split_sum_is_exact_in_a_constant_environment_and_not_under_a_sun(gl_ctx):
     envs = {"constant": {"constant": [1.0, 1.0, 1.0]}, "sky": {"procedural": "sky", "width": 256}}
     rows = accuracy.split_sum_table(envs, roughness=(0.0, 1.0), materials=("metal",), variants=("float+cube",),
@@ -49,7 +48,6 @@ def test_irradiance_and_encoding_tables():
 
 
 @pytest.mark.slow
-@pytest.mark.gl
 def test_quick_benchmark_runs(gl_ctx, capsys):
     tables = accuracy.accuracy_tables(quick=True, ctx=gl_ctx)
     assert {"split_sum", "irradiance", "encodings", "atlases"} <= set(tables)

@@ -26,7 +26,6 @@ from compare.mitsuba.reference import ReferenceRenderer
 from compare.scene.loader import load_scene, parse_scene
 
 ROOT = Path(__file__).resolve().parent.parent
-pytestmark = pytest.mark.gl
 
 #: Small preprocessing for tests: 16² or 32² cube faces, few GGX samples.
 SMALL = {"ibl_size": 16, "ibl_samples": 64}

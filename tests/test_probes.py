@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import functools
 import math
-import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -26,12 +25,6 @@ from compare.scene.loader import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 CORNELL = ROOT / "scenes" / "cornell.toml"
-
-
-def scene_from(tmp_path, text: str, name: str = "scene.toml"):
-    path = tmp_path / name
-    path.write_text(textwrap.dedent(text))
-    return load_scene(path)
 
 
 def random_normals(n: int, seed: int = 0) -> np.ndarray:
@@ -108,10 +101,10 @@ def cornell_text(render: str) -> str:
     return CORNELL.read_text().replace("[render]\nmax_depth = 16\n", "[render]\nmax_depth = 16\n" + render + "\n")
 
 
-def test_scene_options_default_and_parse(tmp_path):
+def test_scene_options_default_and_parse(make_scene):
     plain = load_scene(CORNELL)
     assert (plain.indirect, plain.probe_grid, plain.probe_bounces) == ("none", (6, 6, 6), 2)
-    s = scene_from(tmp_path, cornell_text('indirect = "probes"\nprobe_grid = [4, 3, 5]\nprobe_bounces = 3'))
+    s = load_scene(make_scene(cornell_text('indirect = "probes"\nprobe_grid = [4, 3, 5]\nprobe_bounces = 3')))
     assert (s.indirect, s.probe_grid, s.probe_bounces) == ("probes", (4, 3, 5), 3)
     assert s.features() == plain.features()
     assert s.hash != plain.hash and len(s.hash) == len(plain.hash)
@@ -127,9 +120,9 @@ def test_scene_options_default_and_parse(tmp_path):
     ("probe_bounces = true", "render.probe_bounces", "expected an integer >= 1"),
     ("probe_spacing = 1.0", "render.probe_spacing", "unknown field"),
 ])
-def test_scene_options_are_validated(tmp_path, line, field, message):
+def test_scene_options_are_validated(tmp_path, make_scene, line, field, message):
     with pytest.raises(SceneError) as info:
-        scene_from(tmp_path, cornell_text(line))
+        load_scene(make_scene(cornell_text(line)))
     assert str(info.value).startswith(f"{tmp_path / 'scene.toml'}: {field}: ")
     assert message in str(info.value)
 
@@ -153,7 +146,6 @@ def cornell_small():
     return load_scene(CORNELL).with_resolution(64, 48)
 
 
-@pytest.mark.gl
 def test_probes_bring_cornell_closer_to_full_gi(gl_ctx, cornell_small):
     """Measured (64×48, 16 frames, reference 256 spp): FLIP 0.253 → 0.115, relMSE 0.074 → 0.011."""
     from compare.mitsuba.reference import ReferenceRenderer
@@ -175,7 +167,6 @@ def test_probes_bring_cornell_closer_to_full_gi(gl_ctx, cornell_small):
     assert plain.metadata["indirect"] == "none" and "probe_bake_seconds" not in plain.metadata
 
 
-@pytest.mark.gl
 def test_more_bounces_add_light_and_no_probe_work_without_probes(gl_ctx, cornell_small):
     with Rasterizer(cornell_small, frames=2, ctx=gl_ctx, shadow_size=64) as r:
         assert r.probes is None and r.indirect_pass is None
@@ -264,23 +255,22 @@ radiance = [20, 20, 20]
 """
 
 
-def two_rooms(tmp_path, view: str, grid: str):
+def two_rooms(make_scene, view: str, grid: str):
     """A closed box split by a thick wall: the light is in the right room (x > 0.1), the camera in ``view``."""
     sign = -1 if view == "dark" else 1
     text = TWO_ROOMS.format(position=f"[{0.9 * sign}, 0.9, 0.1]", target=f"[{0.3 * sign}, 0.0, 0.7]", grid=grid)
-    return scene_from(tmp_path, text, f"{view}.toml")
+    return load_scene(make_scene(text, name=f"{view}.toml"))
 
 
-@pytest.mark.gl
 @pytest.mark.parametrize("grid, why", [
     ("[4, 3, 3]", "probes on both sides of the wall, 0.55 m apart: the visibility test decides"),
     ("[5, 3, 3]", "a column of probes inside the wall: they are marked invalid"),
 ])
-def test_dark_room_stays_dark(gl_ctx, tmp_path, monkeypatch, grid, why):
+def test_dark_room_stays_dark(gl_ctx, make_scene, monkeypatch, grid, why):
     """Measured: dark room ≤ 1e-15 with the limits; without them 0.030 for [4, 3, 3] (4.5% of the lit room)."""
     from compare.mitsuba.reference import ReferenceRenderer
 
-    dark, lit = two_rooms(tmp_path, "dark", grid), two_rooms(tmp_path, "lit", grid)
+    dark, lit = two_rooms(make_scene, "dark", grid), two_rooms(make_scene, "lit", grid)
     ref = ReferenceRenderer(dark, progress=False).render(16).image
     assert ref.max() == 0.0, "no light path reaches the dark room"
     with Rasterizer(dark, frames=8, ctx=gl_ctx, shadow_size=256) as r:  # the file says "probes"
@@ -327,15 +317,14 @@ material = "grey"
 """
 
 
-@pytest.mark.gl
-def test_environment_is_not_counted_twice(gl_ctx, tmp_path, monkeypatch):
+def test_environment_is_not_counted_twice(gl_ctx, tmp_path, make_scene, monkeypatch):
     """A lone plane under a constant sky has no indirect light: the probes see the sky but leave it out.
 
     The environment's diffuse light is the every-frame pass's; had the probes kept
     the sky they see, the plane would get about twice its light.
     """
     monkeypatch.setenv("COMPARE_CACHE", str(tmp_path / "cache"))
-    scene = scene_from(tmp_path, PLANE + "\n[environment]\nconstant = [0.4, 0.5, 0.6]\n")
+    scene = load_scene(make_scene(PLANE + "\n[environment]\nconstant = [0.4, 0.5, 0.6]\n"))
     opts = dict(frames=2, ctx=gl_ctx, ibl_size=8, ibl_samples=16)
     with_probes = render_progressive(scene, **opts)
     without = render_progressive(scene, indirect="none", **opts)
@@ -347,8 +336,7 @@ def test_environment_is_not_counted_twice(gl_ctx, tmp_path, monkeypatch):
     assert np.abs(with_probes.image[30:, :] - plane).mean() < 0.05 * plane.mean()
 
 
-@pytest.mark.gl
-def test_emissive_mesh_lights_the_plane_through_the_probes(gl_ctx, tmp_path):
+def test_emissive_mesh_lights_the_plane_through_the_probes(gl_ctx, make_scene):
     """Measured (6³ probes, reference 256 spp): rows 30–39 0.0101 vs 0.0098, rows 40– 0.0029 vs 0.0036 (red)."""
     from compare.mitsuba.reference import ReferenceRenderer
 
@@ -363,7 +351,7 @@ size = [0.4, 0.4, 0.4]
 translate = [0, 0.3, 0]
 material = "glow"
 """
-    scene = scene_from(tmp_path, text)
+    scene = load_scene(make_scene(text))
     ref = ReferenceRenderer(scene, progress=False).render(256).image
     with pytest.warns(UserWarning, match="only through the irradiance volume"):
         img = render_progressive(scene, frames=2, ctx=gl_ctx, probe_grid=(6, 6, 6)).image

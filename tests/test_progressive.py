@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -28,12 +27,6 @@ CORNELL = ROOT / "scenes" / "cornell.toml"
 
 
 # ----------------------------------------------------------------------------- helpers
-
-
-def scene_from(tmp_path, text: str, name: str = "scene.toml"):
-    path = tmp_path / name
-    path.write_text(textwrap.dedent(text))
-    return load_scene(path)
 
 
 PLANE_SCENE = """
@@ -160,13 +153,15 @@ def cornell():
 
 @pytest.fixture(scope="module")
 def two_lights(tmp_path_factory):
-    return scene_from(tmp_path_factory.mktemp("two"), PLANE_SCENE + """
+    path = tmp_path_factory.mktemp("two") / "scene.toml"
+    path.write_text(PLANE_SCENE + """
 [[lights]]
 center = [-1.0, 1.2, 0.0]
 size = [0.3, 0.3]
 normal = [0, -1, 0]
 radiance = [2, 2, 2]
 """)
+    return load_scene(path)
 
 
 @pytest.mark.parametrize("frames", [1, 2, 3, 8, 128, 300])
@@ -281,7 +276,6 @@ def test_create_context_names_packages_when_egl_is_missing(monkeypatch):
 # ----------------------------------------------------------------------------- GL
 
 
-@pytest.mark.gl
 def test_render_result_shape_finite_and_metadata(gl_ctx, cornell):
     r = render_progressive(cornell, frames=8, seed=0, ctx=gl_ctx, shadow_size=128, checkpoints=(1, 2, 8))
     assert r.image.shape == (48, 64, 3) and r.image.dtype == np.float32
@@ -296,7 +290,6 @@ def test_render_result_shape_finite_and_metadata(gl_ctx, cornell):
     assert all(isinstance(v, (str, int, float)) for v in meta.values())
 
 
-@pytest.mark.gl
 def test_deterministic_for_a_fixed_seed(gl_ctx, cornell):
     a = render_progressive(cornell, frames=6, seed=7, ctx=gl_ctx, shadow_size=128).image
     b = render_progressive(cornell, frames=6, seed=7, ctx=gl_ctx, shadow_size=128).image
@@ -305,7 +298,6 @@ def test_deterministic_for_a_fixed_seed(gl_ctx, cornell):
     assert not np.array_equal(a, c)
 
 
-@pytest.mark.gl
 def test_first_frame_is_cheap_and_shows_a_preview(gl_ctx, cornell):
     with Rasterizer(cornell, frames=32, ctx=gl_ctx, shadow_size=128) as r:
         frames = r.frames()
@@ -322,7 +314,6 @@ def test_first_frame_is_cheap_and_shows_a_preview(gl_ctx, cornell):
     assert first.mean() > 0.5 * final.mean()
 
 
-@pytest.mark.gl
 def test_error_falls_as_frames_rise(gl_ctx, cornell):
     ref = render_progressive(cornell, frames=256, seed=1, ctx=gl_ctx, shadow_size=256).image
     errors = [rel_mse(render_progressive(cornell, frames=m, seed=0, ctx=gl_ctx, shadow_size=256).image, ref)
@@ -331,16 +322,15 @@ def test_error_falls_as_frames_rise(gl_ctx, cornell):
     assert errors[-1] < 0.2 * errors[0], errors
 
 
-@pytest.mark.gl
 @pytest.mark.parametrize("view", ["near", "grazing"])
-def test_lambert_plane_matches_polygon_formula(gl_ctx, tmp_path, view):
+def test_lambert_plane_matches_polygon_formula(gl_ctx, make_scene, view):
     """Radiometric diffuse: the converged image equals (ρ/π)·E with E from the exact polygon formula.
 
     "grazing" looks at plane points about 10.7 m from the light, 82° from the plane's
     normal and 86° from the light's: they land in a side face of the shadow atlas
     near its bottom edge, where acne or missing coverage would darken them.
     """
-    scene = scene_from(tmp_path, PLANE_SCENE)
+    scene = load_scene(make_scene(PLANE_SCENE))
     if view == "grazing":
         cam = dataclasses.replace(scene.camera, position=(3.0, 4.0, -10.0), target=(3.0, 0.0, -10.5))
         scene = dataclasses.replace(scene, camera=cam)
@@ -386,8 +376,7 @@ radiance = [5000, 5000, 5000]
 SHADOW_TARGETS = [(0.6, 0.0), (3.0, 90.0), (3.0, 180.0), (3.0, 270.0), (6.0, 45.0), (8.0, 0.0), (5.0, 225.0)]
 
 
-@pytest.mark.gl
-def test_shadow_atlas_covers_the_lit_half_space(gl_ctx, tmp_path):
+def test_shadow_atlas_covers_the_lit_half_space(gl_ctx, make_scene):
     """Small occluders between the light and the plane in every direction cast their shadows."""
     light_pos = np.array([0.0, 1.0, 0.0])
     boxes, targets, beside = [], [], []
@@ -405,7 +394,7 @@ material = "grey"
         side = np.array([-math.sin(a), 0.0, math.cos(a)])  # across the shadow
         targets.append(s)
         beside.append((s + 1.6 * side, s - 1.6 * side))
-    scene = scene_from(tmp_path, SHADOW_SCENE + "".join(boxes))
+    scene = load_scene(make_scene(SHADOW_SCENE + "".join(boxes)))
     r = render_progressive(scene, frames=2, ctx=gl_ctx, materials="diffuse", samples_per_light=1, shadow_size=512)
     img = r.image[..., 0]
     light = scene.lights[0]
@@ -420,11 +409,10 @@ material = "grey"
             assert img[row, col] == pytest.approx(want, rel=0.01), f"acne or leak beside the shadow at {rho}, {az}°"
 
 
-@pytest.mark.gl
-def test_paper_model_is_a_quarter_below_the_light(gl_ctx, tmp_path):
+def test_paper_model_is_a_quarter_below_the_light(gl_ctx, make_scene):
     text = SHADOW_SCENE.replace("position = [0.0, 12.0, 0.0]", "position = [0.0, 5.0, 0.0]").replace(
         "fov = 100", "fov = 30").replace("[160, 160]", "[48, 48]")
-    scene = scene_from(tmp_path, text)
+    scene = load_scene(make_scene(text))
     kw = dict(frames=2, ctx=gl_ctx, materials="diffuse", samples_per_light=1, shadow_size=128)
     rad = render_progressive(scene, area_model="radiometric", **kw)
     pap = render_progressive(scene, area_model="paper", **kw)
@@ -437,22 +425,20 @@ def test_paper_model_is_a_quarter_below_the_light(gl_ctx, tmp_path):
     assert ratio == pytest.approx(1.0 / (4.0 * cos_l[mask]), rel=0.03)
 
 
-@pytest.mark.gl
-def test_lights_show_as_one_sided_emitters(gl_ctx, tmp_path):
+def test_lights_show_as_one_sided_emitters(gl_ctx, make_scene):
     text = PLANE_SCENE.replace("position = [0, 0.7, 3.0]", "position = [0.2, 0.5, -0.3]").replace(
         "target = [0, 0, 0]", "target = [0.2, 1.5, -0.31]")
-    below = scene_from(tmp_path, text, "below.toml")
+    below = load_scene(make_scene(text, name="below.toml"))
     img = render_progressive(below, frames=2, ctx=gl_ctx, shadow_size=64).image
     assert np.allclose(img[24, 32], 4.0, rtol=1e-5), "the front of the light shows its radiance"
     text = PLANE_SCENE.replace("position = [0, 0.7, 3.0]", "position = [0.2, 2.5, -0.3]").replace(
         "target = [0, 0, 0]", "target = [0.2, 1.5, -0.29]")
-    above = scene_from(tmp_path, text, "above.toml")
+    above = load_scene(make_scene(text, name="above.toml"))
     img = render_progressive(above, frames=2, ctx=gl_ctx, shadow_size=64).image
     assert np.all(img[24, 32] == 0.0), "the back of the light is black and reflects nothing"
 
 
-@pytest.mark.gl
-def test_scene_without_lights_skips_light_work(gl_ctx, tmp_path):
+def test_scene_without_lights_skips_light_work(gl_ctx, make_scene):
     text = PLANE_SCENE.split("[[lights]]")[0] + """
 [materials.glow]
 base_color = [0.0, 0.0, 0.0]
@@ -464,7 +450,7 @@ size = [0.5, 0.5, 0.5]
 translate = [0, 0.3, 0]
 material = "glow"
 """
-    scene = scene_from(tmp_path, text)
+    scene = load_scene(make_scene(text))
     with pytest.warns(UserWarning, match="do not light other surfaces"):
         r = Rasterizer(scene, frames=4, ctx=gl_ctx)
     with r:
@@ -476,15 +462,14 @@ material = "glow"
     assert np.allclose(img[pixel_of(scene.camera, (0, 0.3, 0.25))], (1.5, 0.5, 0.25), rtol=1e-5)
 
 
-@pytest.mark.gl
-def test_environment_lights_the_scene_with_the_area_light(gl_ctx, tmp_path, monkeypatch):
+def test_environment_lights_the_scene_with_the_area_light(gl_ctx, tmp_path, make_scene, monkeypatch):
     """Area light and environment together (the environment's own tests are tests/test_ibl*.py)."""
     monkeypatch.setenv("COMPARE_CACHE", str(tmp_path / "cache"))
-    scene = scene_from(tmp_path, PLANE_SCENE + "\n[environment]\nconstant = [0.1, 0.2, 0.3]\n")
+    scene = load_scene(make_scene(PLANE_SCENE + "\n[environment]\nconstant = [0.1, 0.2, 0.3]\n"))
     r = render_progressive(scene, frames=2, ctx=gl_ctx, shadow_size=64, ibl_size=8, ibl_samples=16)
     assert r.metadata["environment"] == "split sum"
     assert np.allclose(r.image[0, 0], (0.1, 0.2, 0.3)), "the constant environment is the background"
-    lit = render_progressive(scene_from(tmp_path, PLANE_SCENE, "lit.toml"), frames=2, ctx=gl_ctx,
+    lit = render_progressive(load_scene(make_scene(PLANE_SCENE, name="lit.toml")), frames=2, ctx=gl_ctx,
                              shadow_size=64).image
     # The grey plane adds its directional albedo times the constant radiance (nothing occludes it).
     from compare.brdf import directional_albedo
@@ -494,7 +479,6 @@ def test_environment_lights_the_scene_with_the_area_light(gl_ctx, tmp_path, monk
     np.testing.assert_allclose(r.image[40, 32] - lit[40, 32], albedo * np.array([0.1, 0.2, 0.3]), rtol=0.01)
 
 
-@pytest.mark.gl
 def test_readback_rejects_non_finite_pixels(gl_ctx):
     from compare.progressive.readback import read_rgb
 
@@ -518,7 +502,6 @@ def test_readback_rejects_non_finite_pixels(gl_ctx):
 # ----------------------------------------------------------------------------- the cheap first frame
 
 
-@pytest.mark.gl
 @pytest.mark.parametrize("scene_file", ["cornell.toml", "car.toml"])
 def test_forward_first_frame_matches_the_gbuffer_frame(gl_ctx, scene_file):
     """Frame 0 drawn forward (depth pre-pass + one shading pass) at full size leaves the result unchanged:
@@ -585,7 +568,6 @@ def test_first_frame_mode_is_validated():
         Rasterizer(s, frames=2, first_frame="deferred")
 
 
-@pytest.mark.gl
 def test_first_frame_is_reduced_only_where_the_preview_keeps_its_structure(gl_ctx):
     from compare.progressive.first_frame import auto_scale
 
@@ -597,7 +579,6 @@ def test_first_frame_is_reduced_only_where_the_preview_keeps_its_structure(gl_ct
             assert r.metadata()["first_frame_scale"] == scale
 
 
-@pytest.mark.gl
 @pytest.mark.parametrize("scale", [0.0, -0.5, 1.5, float("nan"), True])
 def test_first_frame_scale_is_validated(gl_ctx, scale):
     s = load_scene(CORNELL).with_resolution(8, 6)
@@ -605,7 +586,6 @@ def test_first_frame_scale_is_validated(gl_ctx, scale):
         Rasterizer(s, frames=2, ctx=gl_ctx, first_frame_scale=scale)
 
 
-@pytest.mark.gl
 def test_image_sizes_beyond_the_context_are_refused_up_front(gl_ctx, monkeypatch):
     """Before any GL object is made: a side beyond GL_MAX_TEXTURE_SIZE, or targets beyond the machine's
     memory, is one error naming the scene file and the limit (before: a moderngl traceback)."""

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -36,20 +35,14 @@ radiance = [10, 10, 10]
 """
 
 
-def write(tmp_path: Path, text: str, name: str = "x.toml") -> Path:
-    p = tmp_path / name
-    p.write_text(textwrap.dedent(text))
-    return p
-
-
-def test_good_scene_loads(tmp_path):
-    s = load_scene(write(tmp_path, GOOD))
+def test_good_scene_loads(make_scene):
+    s = load_scene(make_scene(GOOD))
     assert s.camera.resolution == (32, 24)
     assert len(s.meshes) == 1 and len(s.lights) == 1
     assert s.lights[0].area == pytest.approx(0.25)
 
 
-# (replacement applied to GOOD, expected message after "x.toml: ")
+# (replacement applied to GOOD, expected message after "scene.toml: ")
 MALFORMED = [
     (("size = [0.5, 0.5]", "size = [0.5, -1]"), "lights[0].size: expected two positive numbers, got [0.5, -1]"),
     (("resolution = [32, 24]", "resolution = [32]"), "camera.resolution: expected two positive integers, got [32]"),
@@ -77,18 +70,18 @@ MALFORMED = [
 
 
 @pytest.mark.parametrize("replace, message", MALFORMED, ids=[m[1].split(":")[0] for m in MALFORMED])
-def test_malformed_scene_messages(tmp_path, replace, message):
+def test_malformed_scene_messages(make_scene, replace, message):
     old, new = replace
     assert old in GOOD
-    path = write(tmp_path, GOOD.replace(old, new, 1))
+    path = make_scene(GOOD.replace(old, new, 1))
     with pytest.raises(SceneError) as info:
         load_scene(path)
     assert str(info.value) == f"{path}: {message}"
 
 
-def test_invalid_toml_names_file_and_line(tmp_path):
-    path = write(tmp_path, "[camera\nposition = 1")
-    with pytest.raises(SceneError, match=r"x\.toml: invalid TOML: .*line 1"):
+def test_invalid_toml_names_file_and_line(make_scene):
+    path = make_scene("[camera\nposition = 1")
+    with pytest.raises(SceneError, match=r"scene\.toml: invalid TOML: .*line 1"):
         load_scene(path)
 
 
@@ -97,126 +90,126 @@ def test_missing_scene_file(tmp_path):
         load_scene(tmp_path / "nope.toml")
 
 
-def test_missing_camera(tmp_path):
+def test_missing_camera(make_scene):
     text = GOOD[GOOD.index("[materials"):]
-    with pytest.raises(SceneError, match=r"x\.toml: camera: missing required field$"):
-        load_scene(write(tmp_path, text))
+    with pytest.raises(SceneError, match=r"scene\.toml: camera: missing required field$"):
+        load_scene(make_scene(text))
 
 
-def test_no_light_at_all(tmp_path):
+def test_no_light_at_all(make_scene):
     text = GOOD[: GOOD.index("[[lights]]")]
     with pytest.raises(SceneError, match="lights: the scene has no light"):
-        load_scene(write(tmp_path, text))
+        load_scene(make_scene(text))
 
 
 @pytest.mark.parametrize("extra", [
     "[environment]\nconstant = [0, 0, 0]\n",                    # a black environment
     "[environment]\nconstant = [1, 1, 1]\nintensity = 0\n",     # switched off
 ])
-def test_an_environment_that_emits_nothing_is_no_light(tmp_path, extra):
+def test_an_environment_that_emits_nothing_is_no_light(make_scene, extra):
     """A scene lit only by a zero environment would render black everywhere, and a black image
     against a black ground truth scores as perfect: it is refused at load, with the field (a light
     of zero radiance is refused on its own field)."""
-    path = write(tmp_path, GOOD[: GOOD.index("[[lights]]")] + extra)
+    path = make_scene(GOOD[: GOOD.index("[[lights]]")] + extra)
     with pytest.raises(SceneError) as exc:
         load_scene(path)
     assert str(exc.value) == (f"{path}: lights: the scene has no light: add [[lights]] with radiance > 0, an "
                               "[environment] above zero or an emissive material")
-    load_scene(write(tmp_path, GOOD + extra, "lit.toml"))  # with a light beside it the scene is fine
+    load_scene(make_scene(GOOD + extra, name="lit.toml"))  # with a light beside it the scene is fine
 
 
-def test_mesh_file_missing(tmp_path):
+def test_mesh_file_missing(make_scene):
     text = GOOD.replace('shape = "quad"\nsize = [2, 2]', 'shape = "file"\nfile = "bunny.ply"')
     with pytest.raises(SceneError, match=r"meshes\[0\]\.file: file 'bunny.ply' not found"):
-        load_scene(write(tmp_path, text))
+        load_scene(make_scene(text))
 
 
-def test_path_leaving_scene_folder_is_refused(tmp_path):
+def test_path_leaving_scene_folder_is_refused(tmp_path, make_scene):
     (tmp_path / "outside.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
     sub = tmp_path / "scenes"
     sub.mkdir()
     text = GOOD.replace('shape = "quad"\nsize = [2, 2]', 'shape = "file"\nfile = "../outside.obj"')
     with pytest.raises(SceneError, match=r"meshes\[0\]\.file: path '../outside.obj' leaves the scene file's folder"):
-        load_scene(write(sub, text))
+        load_scene(make_scene(text, folder=sub))
     text = GOOD.replace('shape = "quad"\nsize = [2, 2]', f'shape = "file"\nfile = "{tmp_path}/outside.obj"')
     with pytest.raises(SceneError, match="is absolute"):
-        load_scene(write(sub, text))
+        load_scene(make_scene(text, folder=sub))
 
 
-def test_missing_texture_names_field(tmp_path):
+def test_missing_texture_names_field(make_scene):
     text = GOOD.replace("base_color = [0.8, 0.8, 0.8]", 'base_color_texture = "wood.png"')
     with pytest.raises(SceneError, match=r"materials\.white\.base_color_texture: file 'wood.png' not found"):
-        load_scene(write(tmp_path, text))
+        load_scene(make_scene(text))
 
 
-def test_malformed_mesh_file_names_scene_field_and_line(tmp_path):
+def test_malformed_mesh_file_names_scene_field_and_line(tmp_path, make_scene):
     (tmp_path / "bad.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n")
     text = GOOD.replace('shape = "quad"\nsize = [2, 2]', 'shape = "file"\nfile = "bad.obj"')
-    with pytest.raises(SceneError, match=r"x\.toml: meshes\[0\]\.file: .*bad\.obj:4: malformed OBJ line"):
-        load_scene(write(tmp_path, text))
+    with pytest.raises(SceneError, match=r"scene\.toml: meshes\[0\]\.file: .*bad\.obj:4: malformed OBJ line"):
+        load_scene(make_scene(text))
 
 
-def test_obj_and_ply_files_load_with_normals(tmp_path):
+def test_obj_and_ply_files_load_with_normals(tmp_path, make_scene):
     (tmp_path / "tri.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 0 -1\nv 1 0 -1\nf 1 2 4 3\n")
     (tmp_path / "tri.ply").write_text(
         "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
         "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 0 -1\n3 0 1 2\n")
     for name in ("tri.obj", "tri.ply"):
         text = GOOD.replace('shape = "quad"\nsize = [2, 2]', f'shape = "file"\nfile = "{name}"')
-        tri = load_scene(write(tmp_path, text)).meshes[0].triangles()
+        tri = load_scene(make_scene(text)).meshes[0].triangles()
         assert tri.triangle_count >= 1
         np.testing.assert_allclose(tri.normals, np.tile([0, 1, 0], (len(tri.normals), 1)), atol=1e-6)
 
 
-def test_binary_ply_matches_ascii(tmp_path):
+def test_binary_ply_matches_ascii(tmp_path, make_scene):
     header = ("ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
               "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n")
     body = np.array([0, 0, 0, 1, 0, 0, 0, 0, -1], "<f4").tobytes() + bytes([3]) + np.array([0, 1, 2], "<i4").tobytes()
     (tmp_path / "b.ply").write_bytes(header.encode() + body)
     text = GOOD.replace('shape = "quad"\nsize = [2, 2]', 'shape = "file"\nfile = "b.ply"')
-    tri = load_scene(write(tmp_path, text)).meshes[0].triangles()
+    tri = load_scene(make_scene(text)).meshes[0].triangles()
     np.testing.assert_allclose(tri.positions, [[0, 0, 0], [1, 0, 0], [0, 0, -1]])
     (tmp_path / "b.ply").write_bytes(header.encode() + body[:20])
     with pytest.raises(SceneError, match="truncated or malformed PLY"):
-        load_scene(write(tmp_path, text))
+        load_scene(make_scene(text))
 
 
-def test_power_converts_to_radiance(tmp_path):
+def test_power_converts_to_radiance(make_scene):
     text = GOOD.replace("radiance = [10, 10, 10]", "power = 10")
-    light = load_scene(write(tmp_path, text)).lights[0]
+    light = load_scene(make_scene(text)).lights[0]
     # Φ = π·A·L for a one-sided Lambertian emitter
     assert light.radiance[0] == pytest.approx(10 / (np.pi * 0.25))
     np.testing.assert_allclose(light.power, 10.0)
 
 
-def test_light_frame_is_right_handed(tmp_path):
-    light = load_scene(write(tmp_path, GOOD)).lights[0]
+def test_light_frame_is_right_handed(make_scene):
+    light = load_scene(make_scene(GOOD)).lights[0]
     np.testing.assert_allclose(np.cross(light.tangent, light.bitangent), light.normal, atol=1e-12)
     c = light.corners()
     np.testing.assert_allclose(np.cross(c[1] - c[0], c[2] - c[0]) / 0.25, light.normal, atol=1e-9)
 
 
-def test_features_and_omissions(tmp_path):
-    s = load_scene(write(tmp_path, GOOD))
+def test_features_and_omissions(make_scene):
+    s = load_scene(make_scene(GOOD))
     f = s.features()
     assert f.area_lights and not f.environment and not f.textures and f.glossy  # roughness 0.5 default
     assert any("environment" in k for k in f.omitted())
     env = GOOD.replace("[[lights]]", '[environment]\nconstant = [1, 1, 1]\n\n[[lights]]')
-    f2 = load_scene(write(tmp_path, env, "e.toml")).features()
+    f2 = load_scene(make_scene(env, name="e.toml")).features()
     assert f2.environment and not any("environment" in k for k in f2.omitted())
 
 
-def test_hash_tracks_content_not_formatting(tmp_path):
-    a = load_scene(write(tmp_path, GOOD, "a.toml")).hash
-    b = load_scene(write(tmp_path, "# a comment\n" + GOOD, "b.toml")).hash
-    c = load_scene(write(tmp_path, GOOD.replace("fov = 40", "fov = 41"), "c.toml")).hash
+def test_hash_tracks_content_not_formatting(tmp_path, make_scene):
+    a = load_scene(make_scene(GOOD, name="a.toml")).hash
+    b = load_scene(make_scene("# a comment\n" + GOOD, name="b.toml")).hash
+    c = load_scene(make_scene(GOOD.replace("fov = 40", "fov = 41"), name="c.toml")).hash
     assert a == b and a != c
     (tmp_path / "m.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 0 -1\nf 1 2 3\n")
     text = GOOD.replace('shape = "quad"\nsize = [2, 2]', 'shape = "file"\nfile = "m.obj"')
-    h1 = load_scene(write(tmp_path, text, "d.toml")).hash
+    h1 = load_scene(make_scene(text, name="d.toml")).hash
     (tmp_path / "m.obj").write_text("v 0 0 0\nv 2 0 0\nv 0 0 -1\nf 1 2 3\n")
-    assert load_scene(write(tmp_path, text, "d.toml")).hash != h1  # referenced file content counts
-    s = load_scene(write(tmp_path, GOOD, "a.toml"))
+    assert load_scene(make_scene(text, name="d.toml")).hash != h1  # referenced file content counts
+    s = load_scene(make_scene(GOOD, name="a.toml"))
     assert s.with_resolution(64, 48).hash != s.hash
 
 
@@ -269,11 +262,11 @@ def test_primitives_are_closed_and_sized():
      "camera.position: reaches 3e+20, beyond ±1e+15: the renderers compute in float32, where squared distances of "
      "such coordinates overflow"),
 ])
-def test_numbers_float32_cannot_carry_are_refused(tmp_path, old, new, message):
+def test_numbers_float32_cannot_carry_are_refused(make_scene, old, new, message):
     """Finite in float64 but zero or infinite in float32 (which every renderer computes in): before, such
     scenes rendered black without a word."""
     assert old in GOOD
-    path = write(tmp_path, GOOD.replace(old, new))
+    path = make_scene(GOOD.replace(old, new))
     with pytest.raises(SceneError) as exc:
         load_scene(path)
     assert str(exc.value) == f"{path}: {message}"
@@ -313,21 +306,21 @@ def test_textures_are_checked_when_the_scene_loads(tmp_path):
         assert str(exc.value).startswith(f"{scene}: materials.white.base_color_texture: {message}"), exc.value
 
 
-def test_reference_spp_is_the_scenes_choice_under_spp_auto(tmp_path):
+def test_reference_spp_is_the_scenes_choice_under_spp_auto(tmp_path, make_scene):
     from compare.renderers import Registry
     from compare.renderers.base import RenderContext
     from compare.report.results import RunSettings
     from compare.run.scene_job import SceneJob
 
-    scene = load_scene(write(tmp_path, GOOD + "\n[render]\nreference_spp = 4096\n"))
-    assert scene.reference_spp == 4096 and load_scene(write(tmp_path, GOOD)).reference_spp is None
+    scene = load_scene(make_scene(GOOD + "\n[render]\nreference_spp = 4096\n"))
+    assert scene.reference_spp == 4096 and load_scene(make_scene(GOOD)).reference_spp is None
     job = SceneJob(RunSettings(spp=64), tmp_path / "o", registry=Registry(), context=RenderContext(RunSettings()))
     assert job.settings_for(scene).spp == 64  # a given --spp holds
     job = SceneJob(RunSettings(spp=64, scene_spp=True), tmp_path / "o", registry=Registry(),
                    context=RenderContext(RunSettings()))
-    assert job.settings_for(scene).spp == 4096 and job.settings_for(load_scene(write(tmp_path, GOOD))).spp == 64
+    assert job.settings_for(scene).spp == 4096 and job.settings_for(load_scene(make_scene(GOOD))).spp == 64
     with pytest.raises(SceneError, match=r"render.reference_spp: expected a positive integer, got 0"):
-        load_scene(write(tmp_path, GOOD + "\n[render]\nreference_spp = 0\n"))
+        load_scene(make_scene(GOOD + "\n[render]\nreference_spp = 0\n"))
 
 
 @pytest.mark.parametrize("field, value, message", [
@@ -337,8 +330,8 @@ def test_reference_spp_is_the_scenes_choice_under_spp_auto(tmp_path):
     ("texture_offset", "[1.0]", "texture_offset: expected two numbers"),
     ("emissive_texture", '"missing.png"', "emissive_texture"),
 ])
-def test_bad_texture_settings_name_file_and_field(tmp_path, field, value, message):
+def test_bad_texture_settings_name_file_and_field(make_scene, field, value, message):
     text = GOOD.replace("base_color = [0.8, 0.8, 0.8]", f"base_color = [0.8, 0.8, 0.8]\n{field} = {value}", 1)
     with pytest.raises(SceneError, match=f"materials.white.{message}".replace("[", r"\[").replace("]", r"\]")
                        .replace("(", r"\(").replace(")", r"\)").replace(".", r"\.")):
-        load_scene(write(tmp_path, text))
+        load_scene(make_scene(text))

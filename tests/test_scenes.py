@@ -11,7 +11,6 @@ import dataclasses
 import importlib.util
 import io
 import sys
-import textwrap
 import warnings
 from pathlib import Path
 
@@ -84,7 +83,6 @@ def test_scene_renders_finite_nonnegative_and_bounded_in_the_reference(path):
     assert blocks.max() <= 1.5 * radiance_bound(scene)
 
 
-@pytest.mark.gl
 @pytest.mark.parametrize("path", ALL_SCENES, ids=lambda p: str(p.relative_to(SCENES)))
 def test_scene_renders_finite_nonnegative_and_bounded_in_the_rasterizer(path, gl_ctx, ibl_cache):
     scene = load(path)
@@ -251,9 +249,8 @@ def test_generated_files_are_up_to_date(tmp_path):
 # ----------------------------------------------------------------------------- features drive the work
 
 
-def _scene(tmp_path, body: str):
-    path = tmp_path / "s.toml"
-    path.write_text(textwrap.dedent("""
+def _scene(make_scene, body: str):
+    return load(make_scene("""
         [camera]
         position = [0, 1, 3]
         target = [0, 0, 0]
@@ -272,15 +269,13 @@ def _scene(tmp_path, body: str):
         shape = "quad"
         size = [2, 2]
         material = "grey"
-    """) + textwrap.dedent(body))
-    return load(path, (16, 12))
+    """, body, name="s.toml"), (16, 12))
 
 
-@pytest.mark.gl
-def test_rasterizer_skips_what_the_scene_does_not_need(tmp_path, gl_ctx, ibl_cache):
+def test_rasterizer_skips_what_the_scene_does_not_need(make_scene, gl_ctx, ibl_cache):
     from compare.progressive.rasterizer import Rasterizer
 
-    emissive_only = _scene(tmp_path, '[[meshes]]\nshape = "sphere"\nradius = 0.2\nmaterial = "glow"\n')
+    emissive_only = _scene(make_scene, '[[meshes]]\nshape = "sphere"\nradius = 0.2\nmaterial = "glow"\n')
     feats = emissive_only.features()
     assert not feats.environment and not feats.area_lights
     with warnings.catch_warnings():
@@ -295,7 +290,7 @@ def test_rasterizer_skips_what_the_scene_does_not_need(tmp_path, gl_ctx, ibl_cac
         assert sum(r.shadow_passes) == 0
     finally:
         r.release()
-    lit = _scene(tmp_path, """
+    lit = _scene(make_scene, """
         [[lights]]
         center = [0, 1, 0]
         size = [0.5, 0.5]
@@ -317,13 +312,13 @@ def test_rasterizer_skips_what_the_scene_does_not_need(tmp_path, gl_ctx, ibl_cac
         r.release()
 
 
-def test_reference_builds_only_what_the_scene_has(tmp_path):
+def test_reference_builds_only_what_the_scene_has(make_scene):
     from compare.mitsuba.scene_dict import scene_dict
 
-    bare = _scene(tmp_path, '[[meshes]]\nshape = "sphere"\nradius = 0.2\nmaterial = "glow"\n')
+    bare = _scene(make_scene, '[[meshes]]\nshape = "sphere"\nradius = 0.2\nmaterial = "glow"\n')
     d = scene_dict(bare, spp=1)
     assert "environment" not in d and not any(k.startswith("light") for k in d)
-    lit = _scene(tmp_path, '[[lights]]\ncenter = [0, 1, 0]\nsize = [0.5, 0.5]\nnormal = [0, -1, 0]\n'
+    lit = _scene(make_scene, '[[lights]]\ncenter = [0, 1, 0]\nsize = [0.5, 0.5]\nnormal = [0, -1, 0]\n'
                            'radiance = [5, 5, 5]\n\n[environment]\nconstant = [0.2, 0.2, 0.2]\n')
     d = scene_dict(lit, spp=1)
     assert "environment" in d and "light000" in d

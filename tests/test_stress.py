@@ -98,7 +98,6 @@ def _direct_reference(name: str, size: tuple[int, int], spp: int) -> np.ndarray:
     return reference(load(name, size), spp, max_depth=2)
 
 
-@pytest.mark.gl
 @pytest.mark.parametrize("area_model", ["radiometric", "ltc"])
 def test_roughness_sweep_agrees_and_highlights_fall_with_roughness(gl_ctx, area_model):
     """Roughness 0…1 × metallic 0/1 under one light: no sphere brighter than the light; per-sphere
@@ -141,7 +140,6 @@ _RADIOMETRIC_GRAZING = pytest.mark.xfail(strict=True, reason=(
     "roughness sweep's metal spheres (0.57x); area_model='ltc' integrates the polygon in closed form instead"))
 
 
-@pytest.mark.gl
 @pytest.mark.parametrize("area_model, what", [
     ("radiometric", "energy bound"), pytest.param("radiometric", "plane radiance", marks=_RADIOMETRIC_GRAZING),
     # ltc: measured 0.88x. The closed form alone, a fitted LTC cut by the horizon, was 1.89x; the
@@ -211,7 +209,6 @@ def test_sun_and_tiny_light_reference_matches_closed_form():
     assert abs(np.median(ratio) - 1) < 0.01
 
 
-@pytest.mark.gl
 def test_sun_and_tiny_light_rasterizer_matches_closed_form(gl_ctx, tmp_path):
     s = load("sun_and_tiny_light.toml", (64, 48))
     expected, mask = _sun_scene_expectation(s)
@@ -230,7 +227,6 @@ def test_sun_and_tiny_light_rasterizer_matches_closed_form(gl_ctx, tmp_path):
 # ----------------------------------------------------------------------------- very dark scene
 
 
-@pytest.mark.gl
 def test_dark_scene_is_the_bright_one_scaled(gl_ctx):
     """Radiance 1e-6: both renderers are linear, so ×1e6 gives the Cornell box (same seed) to float precision."""
     dark = load("dark.toml")
@@ -244,7 +240,6 @@ def test_dark_scene_is_the_bright_one_scaled(gl_ctx):
         assert rel.max() < 1e-4, f"{name}: dark ×1e6 differs from bright by {rel.max():.2e}"
 
 
-@pytest.mark.gl
 def test_error_falls_with_frames(gl_ctx):
     """The dark box's direct light: the rasterizer's error against the reference falls as frames accumulate."""
     s = load("dark.toml")
@@ -266,7 +261,6 @@ def unit_scale_scene(tmp_path_factory):
     return load(str(path))
 
 
-@pytest.mark.gl
 @pytest.mark.parametrize("name", ["scale_1e-3.toml", "scale_1e4.toml"])
 def test_scale_invariance_rasterizer(gl_ctx, unit_scale_scene, name):
     """Lengths ×1e-3 or ×1e4, radiance unchanged: the same image (shadow-map depth and bias are relative)."""
@@ -337,7 +331,6 @@ def test_degenerate_mesh_loads_with_unit_normals():
     assert (mesh.normals[:, 1] > 0).all()  # the bumpy patch faces up everywhere
 
 
-@pytest.mark.gl
 def test_zero_area_faces_change_nothing(gl_ctx, tmp_path):
     s = load("degenerate.toml")
     clean = load(str(_without_zero_area_faces(tmp_path)))
@@ -352,7 +345,6 @@ def test_zero_area_faces_change_nothing(gl_ctx, tmp_path):
 # ----------------------------------------------------------------------------- 64 area lights
 
 
-@pytest.mark.gl
 def test_64_lights_match_the_closed_form(gl_ctx):
     """An empty floor under the 64 coloured lights: every light's polygon irradiance, summed, per channel."""
     from compare.metrics.closed_form import polygon_irradiance
@@ -413,14 +405,12 @@ def _drift(gl_ctx, frames: int) -> float:
     return float(np.abs(prev - exact).max() / emission.max())
 
 
-@pytest.mark.gl
 def test_long_accumulation_float32_drift_1e4_frames(gl_ctx):
     """10⁴ frames of a 4 × 4 image: the RGBA32F running mean stays within 1e-5 of the float64 mean
     (measured: 4.7e-7 after 10³ frames, 8.5e-7 after 10⁴)."""
     assert _drift(gl_ctx, 10_000) < 1e-5
 
 
-@pytest.mark.gl
 @pytest.mark.slow
 def test_long_accumulation_float32_drift_1e5_frames(gl_ctx):
     """10⁵ frames (1–4 minutes on llvmpipe): the drift stays within 3e-5 of the float64 mean."""
@@ -430,7 +420,6 @@ def test_long_accumulation_float32_drift_1e5_frames(gl_ctx):
 # ----------------------------------------------------------------------------- early frames
 
 
-@pytest.mark.gl
 def test_rasterizer_is_never_negative_at_any_checkpoint(gl_ctx, tmp_path):
     """Early images too: the environment-occlusion estimate once went negative after 2–16 frames (car: −0.12)."""
     with warnings.catch_warnings():

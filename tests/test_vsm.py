@@ -109,9 +109,9 @@ def truth(cornell_96):
 
 
 @pytest.fixture(scope="module")
-def renders(cornell_96, gl_ctx):
+def renders(cornell_96, gl_session_ctx):
     """96×72, 32 frames (8 light samples): hard, vsm, and unshadowed (a bias every surface passes)."""
-    opts = dict(frames=32, seed=0, ctx=gl_ctx, shadow_size=SHADOW_SIZE)
+    opts = dict(frames=32, seed=0, ctx=gl_session_ctx, shadow_size=SHADOW_SIZE)
     hard = render_progressive(cornell_96, **opts)
     vsm = render_progressive(cornell_96, shadow_filter="vsm", **opts)
     lit = render_progressive(cornell_96, shadow_bias=(0.0, 1e9, 0.0), **opts)
@@ -153,7 +153,6 @@ def test_shadow_filter_is_validated(cornell):
         Rasterizer(cornell, shadow_filter="pcf")
 
 
-@pytest.mark.gl
 def test_glsl_chebyshev_matches_numpy(gl_ctx):
     """vsm.glsl's vsm_visibility against chebyshev_visibility on edge cases and random moments."""
     rng = np.random.default_rng(3)
@@ -201,7 +200,6 @@ void main() {
     assert set(np.round(want, 6)) >= {0.0, 1.0} and ((want > 0.05) & (want < 0.95)).sum() > 20
 
 
-@pytest.mark.gl
 def test_blur_stays_within_each_face(gl_ctx, cornell):
     """Each tile filled with its own constant keeps it exactly: nothing bleeds across the five faces."""
     from compare.progressive.gpu_scene import GpuScene
@@ -246,7 +244,6 @@ def test_blur_stays_within_each_face(gl_ctx, cornell):
 # ----------------------------------------------------------------------------- renders
 
 
-@pytest.mark.gl
 def test_hard_is_the_default_and_unchanged(cornell_96, gl_ctx, renders):
     hard = render_progressive(cornell_96, frames=32, seed=0, ctx=gl_ctx, shadow_size=SHADOW_SIZE,
                               shadow_filter="hard")
@@ -254,7 +251,6 @@ def test_hard_is_the_default_and_unchanged(cornell_96, gl_ctx, renders):
     assert hard.metadata["shadow_filter"] == "hard" and hard.metadata["shadow_size"] == SHADOW_SIZE
 
 
-@pytest.mark.gl
 def test_vsm_is_finite_non_negative_and_described(renders):
     _, vsm, _ = renders
     assert np.isfinite(vsm.image).all() and vsm.image.min() >= 0
@@ -262,7 +258,6 @@ def test_vsm_is_finite_non_negative_and_described(renders):
     assert 16 <= vsm.metadata["shadow_size"] <= SHADOW_SIZE
 
 
-@pytest.mark.gl
 def test_fully_lit_surfaces_are_unchanged(renders, truth):
     """Pixels that see the whole light (and whose neighbours do): vsm = hard = unshadowed."""
     hard, vsm, lit = (r.image.astype(np.float64).sum(-1) for r in renders)
@@ -276,7 +271,6 @@ def test_fully_lit_surfaces_are_unchanged(renders, truth):
     assert np.abs(vsm[mask] / hard[mask] - 1).max() < 1e-6
 
 
-@pytest.mark.gl
 def test_occluder_shadow_is_still_there(renders, truth):
     """The floor in the blocks' umbra stays dark; the open floor stays lit."""
     _, vsm, lit = (r.image.astype(np.float64).sum(-1) for r in renders)
@@ -290,7 +284,6 @@ def test_occluder_shadow_is_still_there(renders, truth):
     assert vsm[umbra].mean() < 0.01 * vsm[open_floor].mean()
 
 
-@pytest.mark.gl
 def test_error_against_direct_reference_is_close_to_hard(cornell_96, renders, tmp_path_factory):
     """Against Mitsuba's direct light (max_depth = 2), VSM's error stays within a measured bound of hard's."""
     from compare.metrics.images import compare_images

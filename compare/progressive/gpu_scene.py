@@ -127,35 +127,39 @@ class GpuScene:
         self.occluded = any(scene.materials[m.material].occlusion_texture is not None for m in scene.meshes)
         #: Whether any mesh is alpha-masked: the ALPHA_MASK define, also of the passes that draw occluders.
         self.masked = bool(scene.features().alpha_mask)
-        for mesh in scene.meshes:
-            tri = mesh.triangles()
-            mat = scene.materials[mesh.material]
-            gm = self._upload(mesh.name, tri.positions, tri.normals, tri.indices, mat.base_color, mat.metallic,
-                              mat.roughness, mat.emission, 1.0, uvs=tri.uvs)
-            if self.textured:
-                if mat.base_color_texture is not None:
-                    gm.base_color_map = self._map(mat.base_color_texture, mat, srgb=True, alpha=mat.is_masked)
-                if mat.is_masked:
-                    gm.alpha, gm.alpha_cutoff = float(mat.alpha), float(mat.alpha_cutoff)
-                if mat.metallic_roughness_texture is not None:
-                    gm.metallic_roughness_map = self._map(mat.metallic_roughness_texture, mat, srgb=False)
-                if mat.emissive_texture is not None:
-                    gm.emission_map = self._map(mat.emissive_texture, mat, srgb=True)
-                if mat.normal_texture is not None:
-                    gm.normal_map = self._map(mat.normal_texture, mat, srgb=False)
-                    gm.normal_scale = float(mat.normal_scale)
-                if mat.occlusion_texture is not None:
-                    gm.occlusion_map = self._map(mat.occlusion_texture, mat, srgb=False)
-                    gm.occlusion_strength = float(mat.occlusion_strength)
-                # GLSL mat3 is column-major: the bytes of the transpose of the row-major matrix
-                gm.uv_transform = np.ascontiguousarray(mat.uv_transform().T, dtype=np.float32).tobytes()
-                gm.wrap = float(("repeat", "clamp", "mirror").index(mat.texture_wrap))
-            self.meshes.append(gm)
-        quad = np.array([[0, 1, 2], [0, 2, 3]], dtype=np.uint32)
-        for i, light in enumerate(scene.lights):
-            normals = np.tile(np.asarray(light.normal, dtype=np.float32), (4, 1))
-            self.light_quads.append(self._upload(light.name, light.corners(), normals, quad, (0.0, 0.0, 0.0),
-                                                 0.0, 1.0, light.radiance, 2.0, light=i))
+        try:
+            for mesh in scene.meshes:
+                tri = mesh.triangles()
+                mat = scene.materials[mesh.material]
+                gm = self._upload(mesh.name, tri.positions, tri.normals, tri.indices, mat.base_color, mat.metallic,
+                                  mat.roughness, mat.emission, 1.0, uvs=tri.uvs)
+                self.meshes.append(gm)  # owned (and released on failure) before its maps are made
+                if self.textured:
+                    if mat.base_color_texture is not None:
+                        gm.base_color_map = self._map(mat.base_color_texture, mat, srgb=True, alpha=mat.is_masked)
+                    if mat.is_masked:
+                        gm.alpha, gm.alpha_cutoff = float(mat.alpha), float(mat.alpha_cutoff)
+                    if mat.metallic_roughness_texture is not None:
+                        gm.metallic_roughness_map = self._map(mat.metallic_roughness_texture, mat, srgb=False)
+                    if mat.emissive_texture is not None:
+                        gm.emission_map = self._map(mat.emissive_texture, mat, srgb=True)
+                    if mat.normal_texture is not None:
+                        gm.normal_map = self._map(mat.normal_texture, mat, srgb=False)
+                        gm.normal_scale = float(mat.normal_scale)
+                    if mat.occlusion_texture is not None:
+                        gm.occlusion_map = self._map(mat.occlusion_texture, mat, srgb=False)
+                        gm.occlusion_strength = float(mat.occlusion_strength)
+                    # GLSL mat3 is column-major: the bytes of the transpose of the row-major matrix
+                    gm.uv_transform = np.ascontiguousarray(mat.uv_transform().T, dtype=np.float32).tobytes()
+                    gm.wrap = float(("repeat", "clamp", "mirror").index(mat.texture_wrap))
+            quad = np.array([[0, 1, 2], [0, 2, 3]], dtype=np.uint32)
+            for i, light in enumerate(scene.lights):
+                normals = np.tile(np.asarray(light.normal, dtype=np.float32), (4, 1))
+                self.light_quads.append(self._upload(light.name, light.corners(), normals, quad, (0.0, 0.0, 0.0),
+                                                     0.0, 1.0, light.radiance, 2.0, light=i))
+        except BaseException:
+            self.release()  # a map the GPU refuses must not leave the uploaded meshes behind
+            raise
 
     def defines(self) -> dict[str, int]:
         """The material defines of a pass that shades the scene (material.glsl)."""

@@ -120,7 +120,7 @@ class WebRenderer(Renderer):
         engine = spec.partition(":")[0]
         if engine not in WEB_ENGINES:
             raise ValueError(f"unknown web engine {engine!r}")
-        opts = [word for word, _ in parse_spec(spec, self.OPTIONS)]
+        opts = [word for word, _ in parse_spec(spec, THREEJS_OPTIONS if engine == "threejs" else {})]
         self.name = spec
         self.engine = engine
         self.options = {o: True for o in opts}
