@@ -35,7 +35,7 @@ def test_bench_reports_ratios(tmp_path, gl_ctx):
     json.dumps(result, allow_nan=False)  # no NaN/Inf can reach the JSON
     table = format_table(result)
     assert "first-frame" in table and "A/B" in table
-    assert result["environment"]["cores"] >= 1
+    assert result["machine"]["cores"] >= 1
 
 
 def test_bench_times_texturing_and_skips_a_scene_without_maps(tmp_path, gl_ctx):

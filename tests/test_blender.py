@@ -335,7 +335,7 @@ intensity = 2.0
 def test_cycles_checkpoints_are_prefixes_of_the_full_render():
     scene = load_scene(CORNELL).with_resolution(16, 12)
     r = render_blender(scene, engine="cycles", samples=8, seed=5, ladder=[1, 2, 4])
-    assert [c.spp for c in r.checkpoints] == [1, 2, 4, 8]
+    assert [c.step for c in r.checkpoints] == [1, 2, 4, 8]
     assert r.checkpoints[-1].image is r.image
     again = render_blender(scene, engine="cycles", samples=4, seed=5)
     np.testing.assert_array_equal(again.image, r.checkpoints[2].image)  # deterministic sample sequence

@@ -18,7 +18,7 @@ from compare.report.check import (
 from compare.cli.check import add_check_parser
 from compare.util.errors import CompareError
 from compare.report.results import Point, Reference, RendererRun, Results, RunSettings, SceneResult
-from compare.run.runner import collect_environment
+from compare.run.runner import collect_machine
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -33,7 +33,7 @@ def results() -> Results:
     ])
     scene = SceneResult("c-1-64x48", "Cornell box", "c.toml", "h", 64, 48, [], {}, Reference(16, 0, 2.0, "v"),
                         None, [mits, prog])
-    return Results(RunSettings(), collect_environment(), [scene], created="now", compare_version="0")
+    return Results(RunSettings(), collect_machine(), [scene], created="now", compare_version="0")
 
 
 def rules(*rule_tables: dict) -> dict:

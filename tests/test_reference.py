@@ -93,7 +93,7 @@ def test_ladder_and_cache_resume(tmp_path, monkeypatch):
     rendered = []
     monkeypatch.setattr(r.mi, "render", _counting(r.mi.render, rendered))
     checkpoints = r.ladder(8)
-    assert [c.spp for c in checkpoints] == [1, 2, 4, 8]
+    assert [c.step for c in checkpoints] == [1, 2, 4, 8]
     assert rendered == [2, 4]  # resumed: only the passes that were missing
     assert all(b.seconds > a.seconds for a, b in zip(checkpoints, checkpoints[1:]))
 

@@ -136,7 +136,12 @@ def test_maps_replace_their_factors_and_leave_the_control_alone(tmp_path, gl_ctx
 def test_no_texture_work_without_textures(tmp_path, gl_ctx):
     plain = _scene(tmp_path, 'base_color = [0.8, 0.8, 0.8]')
     textured = _scene(tmp_path, 'base_color_texture = "quadrants.png"')
-    assert not GpuScene(gl_ctx, plain).textured and GpuScene(gl_ctx, textured).textured
+    gpu = [GpuScene(gl_ctx, plain), GpuScene(gl_ctx, textured)]
+    try:
+        assert not gpu[0].textured and gpu[1].textured
+    finally:
+        for g in gpu:
+            g.release()
     assert "texture upload and sampling" in plain.features().omitted()
 
 

@@ -42,7 +42,7 @@ def test_threejs_beside_mitsuba_and_the_rasterizer(tmp_path, gl_ctx):
     three, prog = scene.run("threejs"), scene.run("progressive")
     assert [p.step for p in three.points] == [1, 2, 4, 8] and three.unit == "frame"
     assert three.setup_seconds > 0 and 0 < three.points[0].seconds <= three.seconds
-    assert res.environment.webgl_renderer and "webgl_renderer" in three.metadata
+    assert res.machine.facts.get("webgl_renderer") and "webgl_renderer" in three.metadata
     # Against the same 64-spp ground truth at 32x24 (measured: three.js 0.25, the rasterizer 0.25): both
     # lack the indirect light; three.js also the area light's shadows (RectAreaLight casts none).
     assert 0.15 < three.final.metrics["flip"] < 0.35, three.final.metrics

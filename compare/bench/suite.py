@@ -82,21 +82,24 @@ def _render(registry, spec: str, scene, *, steps: int, checkpoints=None, seed: i
                            scene=scene, checkpoints=cps)
 
 
-def _direct_context(context, max_depth: int | None, *, cache: bool = True):
-    """A context whose Mitsuba renders stop at ``max_depth`` (2: direct light only); ``cache=False``
-    turns the reference cache off (a timed render must be rendered, not read back with the seconds
-    of whichever run once filled the cache)."""
+def _context(context, *, cache: bool = True):
+    """``context``'s settings with the reference cache off for ``cache=False`` (a timed render must be
+    rendered, not read back with the seconds of whichever run once filled the cache)."""
     from compare.renderers import RenderContext
 
-    options = {**context.options, **({"max_depth": max_depth} if max_depth else {})}
-    return RenderContext(context.settings, cache_dir=context.cache_dir if cache else False, options=options)
+    return RenderContext(context.settings, cache_dir=context.cache_dir if cache else False)
+
+
+def _depth(scene, max_depth: int | None):
+    """``scene`` with its paths stopped at ``max_depth`` (2: direct light only), or as it is."""
+    return scene.with_max_depth(max_depth) if max_depth else scene
 
 
 def _truth(registry, scene, spp: int, context, max_depth: int | None):
     from compare.mitsuba.reference import derive_seed
 
-    with _direct_context(context, max_depth) as c:
-        return _render(registry, "mitsuba", scene, steps=4 * spp, seed=derive_seed("bench-ground-truth"),
+    with _context(context) as c:
+        return _render(registry, "mitsuba", _depth(scene, max_depth), steps=4 * spp, seed=derive_seed("bench-ground-truth"),
                        context=c).checkpoints[-1].image
 
 
@@ -104,8 +107,8 @@ def _ladder(registry, scene, spp: int, context, max_depth: int | None):
     """Mitsuba at 1, 2, 4, … ``spp`` samples per pixel (checkpoints of one render, timed: no cache)."""
     from compare.renderers import doubling_steps
 
-    with _direct_context(context, max_depth, cache=False) as c:
-        return _render(registry, "mitsuba", scene, steps=spp, checkpoints=doubling_steps(spp), context=c)
+    with _context(context, cache=False) as c:
+        return _render(registry, "mitsuba", _depth(scene, max_depth), steps=spp, checkpoints=doubling_steps(spp), context=c)
 
 
 def bench_equal_error(scene, *, frames: int, spp: int, repeats: int = 1, registry, context) -> list[Figure]:
@@ -241,7 +244,7 @@ def bench_eevee(scene, *, frames: int, repeats: int, registry, context) -> list[
                    repeats, "the paper's Table 1 ratio", prog, eevee)]
 
 
-def environment_info(ctx=None) -> dict:
+def machine_info(ctx=None) -> dict:
     """CPU, core count, GL renderer and versions, for the record."""
     import os
 
@@ -275,7 +278,7 @@ def _renderer_items(registry) -> dict:
 
 def run_bench(scene_path: str | Path, *, size: tuple[int, int], frames: int, spp: int, repeats: int,
               items: tuple[str, ...] = ITEMS, progress: bool = True) -> dict:
-    """Run the chosen benchmark items; returns a JSON-ready dict (figures, skipped items, environment).
+    """Run the chosen benchmark items; returns a JSON-ready dict (figures, skipped items, machine).
 
     Every renderer is reached through the registry: the items that compare renderers render through
     the protocol; the items about one renderer's internals are the ones that renderer declares.
@@ -312,9 +315,9 @@ def run_bench(scene_path: str | Path, *, size: tuple[int, int], frames: int, spp
                 skipped[item] = str(exc)
         from compare.progressive.renderer import _create_gl_context  # noqa: PLC2701 - the context the items used
 
-        env = environment_info(context.resource("gl", _create_gl_context, lambda c: c.release()))
+        env = machine_info(context.resource("gl", _create_gl_context, lambda c: c.release()))
     return {"schema": 1, "scene": str(scene_path), "size": list(size), "frames": frames, "spp": spp,
-            "repeats": repeats, "figures": [f.to_json() for f in figures], "skipped": skipped, "environment": env}
+            "repeats": repeats, "figures": [f.to_json() for f in figures], "skipped": skipped, "machine": env}
 
 
 def format_table(result: dict) -> str:

@@ -176,7 +176,8 @@ from compare.scene.loader import AreaLight, Camera, Scene
 #: Version of the job format shared by this module and the worker.
 JOB_VERSION = 1
 #: Material models: the glTF → Principled mapping, or Lambert only.
-MATERIAL_MODES = ("principled", "diffuse")
+#: The material modes (compare.brdf.SUPPORTED_MATERIALS) Blender is given: its Principled BSDF, or Lambert only.
+SUPPORTED_MATERIALS = ("cycles", "diffuse")
 #: The suite's distribution names → Blender's enum identifiers of the Principled BSDF's ``distribution``.
 BLENDER_DISTRIBUTIONS = {"multi_ggx": "MULTI_GGX", "ggx": "GGX"}
 #: Public engine names → Blender's engine identifiers.
@@ -328,15 +329,15 @@ def _material(mat, mode: str, distribution: str | None = None) -> dict[str, Any]
         # Blender's enum identifier of the Principled BSDF's distribution.
         "distribution": BLENDER_DISTRIBUTIONS[distribution or mat.distribution],
         "base_color": list(mat.base_color),
-        "metallic": mat.metallic if mode == "principled" else 0.0,
+        "metallic": mat.metallic if mode == "cycles" else 0.0,
         "roughness": mat.roughness,
         # 0.5 is neutral (F0 = 0.04 at IOR 1.5); 0 removes the specular layer (pure Lambert).
-        "specular_ior_level": 0.5 if mode == "principled" else 0.0,
+        "specular_ior_level": 0.5 if mode == "cycles" else 0.0,
         "emission": list(mat.emission),
         "base_color_texture": str(tex) if tex else None,
         # glTF channels G = roughness, B = metallic (linear); with "diffuse" only the roughness is wired.
         "metallic_roughness_texture": (str(mat.metallic_roughness_texture)
-                                       if mat.metallic_roughness_texture and mode == "principled" else None),
+                                       if mat.metallic_roughness_texture and mode == "cycles" else None),
         "emissive_texture": str(mat.emissive_texture) if mat.emissive_texture else None,
         "normal_texture": str(mat.normal_texture) if mat.normal_texture else None,
         "normal_scale": float(mat.normal_scale),
@@ -399,11 +400,11 @@ def _eevee_settings(samples: int) -> dict[str, Any]:
 
 
 def build_job(scene: Scene, *, engine: str, samples: int, seed: int, folder: Path,
-              materials: str = "principled", settings: Mapping[str, Any] | None = None, warmup: bool = False,
+              materials: str = "cycles", settings: Mapping[str, Any] | None = None, warmup: bool = False,
               threads: int = 0, ladder: Sequence[int] = (), distribution: str | None = None) -> dict[str, Any]:
     """Write the job for one render into ``folder`` and return its ``job.json`` content.
 
-    ``materials``: ``"principled"`` (the mapping in the module notes) or
+    ``materials``: ``"cycles"`` (the mapping in the module notes) or
     ``"diffuse"`` (Lambert only, reflectance = base colour: the same Principled
     BSDF with metallic 0 and ``Specular IOR Level`` 0, which removes the specular
     layer; the counterpart of the reference's ``diffuse`` mode, for closed forms).
@@ -416,8 +417,8 @@ def build_job(scene: Scene, *, engine: str, samples: int, seed: int, folder: Pat
     (``"multi_ggx"`` or ``"ggx"``); None keeps each material's own.
     """
     eng = engine_id(engine)
-    if materials not in MATERIAL_MODES:
-        raise ValueError(f"materials: expected one of {', '.join(MATERIAL_MODES)}, got {materials!r}")
+    if materials not in SUPPORTED_MATERIALS:
+        raise ValueError(f"materials: expected one of {', '.join(SUPPORTED_MATERIALS)}, got {materials!r}")
     if distribution is not None and distribution not in DISTRIBUTIONS:
         raise ValueError(f"distribution: expected one of {', '.join(DISTRIBUTIONS)} or None, got {distribution!r}")
     if int(samples) < 1:

@@ -372,7 +372,7 @@ def cycles_likeness(scene: Scene, *, spp: int, materials: str = "cycles", seeds:
     from compare.mitsuba.reference import ReferenceRenderer
     from compare.blender.render import render_blender
 
-    bm = "diffuse" if materials == "diffuse" else "principled"
+    bm = "diffuse" if materials == "diffuse" else "cycles"
     forced = PRINCIPLED_MODES.get(materials)
     if cycles is None:
         cycles = tuple(render_blender(scene, engine="cycles", samples=spp, seed=sd, materials=bm, distribution=forced)
@@ -381,7 +381,7 @@ def cycles_likeness(scene: Scene, *, spp: int, materials: str = "cycles", seeds:
     if ra.samples != spp or rb.samples != spp or ra.metadata.get("materials") != bm:
         raise ValueError(f"cycles: expected two {bm} renders of {spp} spp, got {ra.samples} and {rb.samples}")
     dist = {ra.metadata.get("distribution"), rb.metadata.get("distribution")}
-    if bm == "principled" and forced and dist != {forced.upper()}:
+    if bm == "cycles" and forced and dist != {forced.upper()}:
         raise ValueError(f"cycles: materials {materials!r} models {forced.upper()}, the renders have {sorted(dist)}")
     ref = ReferenceRenderer(scene, materials=materials, cache_dir=cache_dir, progress=progress)
     t0 = time.perf_counter()

@@ -28,7 +28,7 @@ import numpy as np
 from compare import __version__
 from compare.util.errors import CompareError, MissingComponentError
 from compare.image.exr import read_exr
-from compare.mitsuba.reference import Checkpoint
+from compare.renderers.base import Checkpoint
 from compare.scene.loader import Scene
 from compare.blender.export import ENGINES, build_job, cycles_bounces
 
@@ -62,7 +62,7 @@ class BlenderResult:
         time of the render, all threads; unlike wall time it does not grow when
         other processes share the cores).
     checkpoints
-        With ``ladder=``: one :class:`compare.mitsuba.reference.Checkpoint` (spp,
+        With ``ladder=``: one :class:`compare.renderers.base.Checkpoint` (step = samples,
         seconds, image) per sample count, the full render last. Each is a
         separate render with the same seed, which for Cycles' and EEVEE's
         deterministic sample sequences is the first n samples of the full
@@ -103,7 +103,7 @@ def blender_available() -> tuple[bool, str]:
 
 
 def render_blender(scene: Scene, *, engine: str = "cycles", samples: int, seed: int = 0,
-                   materials: str = "principled", settings: Mapping[str, Any] | None = None,
+                   materials: str = "cycles", settings: Mapping[str, Any] | None = None,
                    ladder: Sequence[int] = (), warmup: bool | None = None, threads: int = 0,
                    timeout: float | None = None, keep: str | os.PathLike | None = None,
                    distribution: str | None = None) -> BlenderResult:
@@ -120,7 +120,7 @@ def render_blender(scene: Scene, *, engine: str = "cycles", samples: int, seed: 
     seed
         Cycles' sampling seed (taken modulo 2³¹). EEVEE is deterministic and ignores it.
     materials
-        ``"principled"`` (glTF → Principled BSDF, see :mod:`compare.blender.export`)
+        ``"cycles"`` (glTF → Principled BSDF, see :mod:`compare.blender.export`)
         or ``"diffuse"`` (Lambert only, for closed-form checks).
     settings
         Overrides of ``scene.cycles`` / ``scene.eevee`` attributes by name, e.g.
@@ -237,7 +237,7 @@ def _run(py: str, scene: Scene, opts: dict, timeout: float | None, folder: Path)
         checkpoints.append(Checkpoint(int(cp["samples"]), float(cp["seconds"]), cp_image))
     if checkpoints:
         checkpoints.append(Checkpoint(int(samples), float(info["render_seconds"]), image))
-        meta["ladder"] = json.dumps([c.spp for c in checkpoints])
+        meta["ladder"] = json.dumps([c.step for c in checkpoints])
     return BlenderResult(image=image, seconds=float(info["render_seconds"]), startup_seconds=float(startup),
                          metadata=meta, checkpoints=checkpoints)
 

@@ -35,7 +35,7 @@ def _blender_checkpoints(scene, *, engine: str, samples: int, seed: int, ladder:
 
     result = render_blender(scene, engine=engine, samples=samples, seed=seed, ladder=ladder,
                             distribution=distribution)
-    cps = [(int(c.spp), float(c.seconds), np.asarray(c.image, dtype=np.float32)) for c in result.checkpoints]
+    cps = [(int(c.step), float(c.seconds), np.asarray(c.image, dtype=np.float32)) for c in result.checkpoints]
     if not cps or cps[-1][0] != samples:
         cps.append((samples, float(result.seconds), np.asarray(result.image, dtype=np.float32)))
     return cps, float(result.startup_seconds), dict(result.metadata), result

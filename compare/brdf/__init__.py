@@ -106,6 +106,16 @@ __all__ = [
     "specular_sampling_probability",
 ]
 
+#: The material models a renderer may be asked to render a scene's glTF materials with (``--materials``
+#: of ``compare run`` and ``compare render``): name → what it is. Each renderer takes the ones it has.
+MATERIAL_MODES = {
+    "shared": "this module's glTF metallic-roughness BRDF, shared by every renderer of the suite",
+    "cycles": "Blender's Principled BSDF v2, with each material's distribution (Blender's default Multiscatter GGX)",
+    "cycles-ggx": "Blender's Principled BSDF v2 with GGX single scattering in every material",
+    "diffuse": "Lambert only, for closed-form checks",
+}
+#: Modes for closed-form checks only, not offered to a run.
+CLOSED_FORM_MODES = ("diffuse",)
 #: Smallest GGX alpha (= 0.045**2, Filament's desktop MIN_ROUGHNESS); see the module notes.
 ALPHA_MIN = 0.002025
 #: Floor of n.v and n.l inside the visibility term V only (Filament's MIN_N_DOT_V).

@@ -12,6 +12,7 @@ import json
 import sys
 from pathlib import Path
 
+from compare.brdf import CLOSED_FORM_MODES, MATERIAL_MODES
 from compare.cli.argtypes import parse_size, positive_float, positive_int
 from compare.util.errors import CompareError
 
@@ -58,12 +59,13 @@ def _build_parser() -> argparse.ArgumentParser:
     r.add_argument("--samples", type=positive_int, default=64, help="EEVEE samples")
     r.add_argument("--size", type=parse_size, default=None, help="WIDTHxHEIGHT; default: the scene's resolution")
     r.add_argument("--seed", type=int, default=0, help="random seed")
-    r.add_argument("--materials", choices=["shared", "cycles", "cycles-ggx"], default="shared",
+    r.add_argument("--materials", choices=[m for m in MATERIAL_MODES if m not in CLOSED_FORM_MODES], default="shared",
                    help="reference material mode: the shared BRDF plugin, its Blender Principled v2 flavour "
                         "(Cycles-like; each material's distribution, Blender's default Multiscatter GGX) or that "
                         "flavour with GGX single scattering")
     r.add_argument("--max-depth", type=int, default=None, help="path depth override (2 = direct light only)")
-    r.add_argument("--variant", default=None, help="Mitsuba variant (default: best available)")
+    r.add_argument("--variant", default=None,
+                   help="Mitsuba variant (default: best available); the same as --renderer mitsuba:VARIANT")
     r.add_argument("--no-cache", action="store_true", help="do not read or write the reference cache")
     r.add_argument("--png", type=Path, default=None, help="PNG preview path (default: beside the EXR)")
     r.add_argument("--exposure", type=positive_float, default=1.0, help="exposure multiplier for the PNG preview")
@@ -127,8 +129,13 @@ def cmd_render(args: argparse.Namespace) -> int:
     from compare.image.tonemap import write_png
 
     registry = Registry(args.renderer_config)
+    spec = args.renderer
+    if args.variant:
+        if spec != "mitsuba":
+            raise UsageError(f"--variant picks Mitsuba's variant; --renderer {spec} is not mitsuba")
+        spec = f"mitsuba:{args.variant}"
     try:
-        renderer = registry.get(args.renderer)
+        renderer = registry.get(spec)
     except ValueError as exc:
         if isinstance(exc, CompareError):
             raise
@@ -151,9 +158,7 @@ def cmd_render(args: argparse.Namespace) -> int:
     settings = RunSettings(frames=args.frames, spp=args.spp, seed=args.seed, materials=args.materials,
                            budgets={"cycles": args.spp, "eevee": args.samples}, likeness=False)
     steps = args.steps or renderer.steps(settings)
-    options = {"variant": args.variant} if args.variant else {}
-    with RenderContext(settings, cache_dir=False if args.no_cache else None, progress=True,
-                       options=options) as context:
+    with RenderContext(settings, cache_dir=False if args.no_cache else None, progress=True) as context:
         rendering = check_rendering(renderer, renderer.render(scene, steps=steps, checkpoints=[steps], seed=args.seed,
                                                               context=context), scene=scene, checkpoints=[steps])
     last = rendering.checkpoints[-1]

@@ -6,6 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from compare.brdf import CLOSED_FORM_MODES, MATERIAL_MODES
 from compare.cli.argtypes import parse_sizes, positive_float, positive_int
 from compare.renderers import Registry
 from compare.report.results import RunSettings
@@ -76,7 +77,7 @@ def add_run_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0, help="seed of the ground truth (its convergence ladder uses seed+1)")
     p.add_argument("--exposure", type=positive_float, default=1.0,
                    help="linear exposure before ACES tone mapping (LDR metrics and previews)")
-    p.add_argument("--materials", choices=["shared", "cycles", "cycles-ggx"], default="shared",
+    p.add_argument("--materials", choices=[m for m in MATERIAL_MODES if m not in CLOSED_FORM_MODES], default="shared",
                    help="reference material mode: shared (the rasterizer's BRDF), cycles (Blender's Principled "
                         "BSDF v2 with each material's distribution, Blender's default Multiscatter GGX; for "
                         "comparisons with cycles and eevee) or cycles-ggx (the same with GGX single scattering; "

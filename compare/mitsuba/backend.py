@@ -81,6 +81,10 @@ def configure_llvm() -> str | None:
     return found
 
 
+#: The variants the suite renders with, in the order of preference of :func:`load_mitsuba`.
+VARIANTS = ("cuda_ad_rgb", "llvm_ad_rgb", "scalar_rgb")
+
+
 def load_mitsuba(variant: str | None = None):
     """Import Mitsuba, select a variant and return the ``mitsuba`` module.
 

@@ -29,6 +29,7 @@ from tqdm.auto import tqdm
 from compare import __version__
 from compare.mitsuba.backend import load_mitsuba
 from compare.image.exr import read_exr, write_exr
+from compare.renderers.base import Checkpoint
 from compare.util.code import code_fingerprint
 from compare.util.errors import ImageError
 from compare.util.files import sha256_bytes
@@ -67,15 +68,6 @@ def pass_plan(checkpoints: list[int]) -> list[int]:
     sums = {int(c) for c in checkpoints}
     sums.update(int(t) for t in np.cumsum(ladder_passes(int(max(sums)))))
     return sorted(sums)
-
-
-@dataclass
-class Checkpoint:
-    """Cumulative state of a render after some passes."""
-
-    spp: int
-    seconds: float
-    image: np.ndarray
 
 
 @dataclass
@@ -323,9 +315,9 @@ class ReferenceRenderer:
         for last in self.iter_ladder(spp, seed):
             pass
         assert last is not None
-        meta = {"renderer": "mitsuba", **_flat(self.settings()), "spp": last.spp, "seed": int(seed),
+        meta = {"renderer": "mitsuba", **_flat(self.settings()), "spp": last.step, "seed": int(seed),
                 "seconds": last.seconds, "package": __version__}
-        return RenderResult(last.image, last.spp, int(seed), last.seconds, meta)
+        return RenderResult(last.image, last.step, int(seed), last.seconds, meta)
 
     def independent_passes(self, count: int, spp: int, seed: int = 0) -> np.ndarray:
         """``count`` statistically independent renders of ``spp`` samples each, stacked (count, H, W, 3).

@@ -7,7 +7,8 @@ with one checkpoint reuses the passes of a convergence ladder and the reference 
 
 from __future__ import annotations
 
-from compare.renderers.base import Checkpoint, RenderContext, Renderer, Rendering
+from compare.renderers.base import RenderContext, Renderer, Rendering
+from compare.mitsuba.backend import VARIANTS
 from compare.renderers.options import parse_spec
 
 __all__ = ["MitsubaRenderer", "bench_wrapper_overhead"]
@@ -49,8 +50,17 @@ class MitsubaRenderer(Renderer):
     unit = "spp"
     default_budget = "spp"
 
+    OPTIONS = {v: f"Mitsuba's {v} variant instead of the best available" for v in VARIANTS}
+
     def __init__(self, spec: str = "mitsuba"):
-        parse_spec(spec, self.OPTIONS)  # it takes none: a ':' is refused by the one grammar
+        options = parse_spec(spec, self.OPTIONS)
+        if len(options) > 1:
+            raise ValueError(f"renderer {spec!r}: one Mitsuba variant at a time")
+        self.name = spec
+        #: The Mitsuba variant asked for, or None for the best available (compare.mitsuba.backend).
+        self.variant = options[0][0] if options else None
+        if self.variant:
+            self.variant_of, self.variant_note = "mitsuba", f"the {self.variant} variant"
 
     @property
     def label(self) -> str:
@@ -58,7 +68,7 @@ class MitsubaRenderer(Renderer):
         from compare.util.errors import MissingComponentError
 
         try:
-            return f"Mitsuba path tracer ({load_mitsuba(None).variant()})"
+            return f"Mitsuba path tracer ({load_mitsuba(self.variant).variant()})"
         except MissingComponentError:
             return "Mitsuba path tracer"
 
@@ -67,7 +77,7 @@ class MitsubaRenderer(Renderer):
         from compare.util.errors import MissingComponentError
 
         try:
-            load_mitsuba(None)
+            load_mitsuba(self.variant)
         except MissingComponentError as exc:
             return False, str(exc)
         return True, ""
@@ -75,10 +85,8 @@ class MitsubaRenderer(Renderer):
     def _reference(self, scene, context: RenderContext):
         from compare.mitsuba.reference import ReferenceRenderer
 
-        opts = context.options
-        return ReferenceRenderer(scene, materials=context.settings.materials, variant=opts.get("variant"),
-                                 max_depth=opts.get("max_depth"), cache_dir=context.cache_dir,
-                                 progress=context.progress)
+        return ReferenceRenderer(scene, materials=context.settings.materials, variant=self.variant,
+                                 cache_dir=context.cache_dir, progress=context.progress)
 
     def preflight(self, scene, context: RenderContext) -> None:
         check_film_memory(scene)
@@ -87,11 +95,12 @@ class MitsubaRenderer(Renderer):
         from compare.mitsuba.reference import ReferenceRenderer
 
         # ReferenceRenderer.settings() is the reference cache's key: every setting that changes pixels.
-        return ReferenceRenderer(scene, materials=settings.materials, cache_dir=False, progress=False).settings()
+        return ReferenceRenderer(scene, materials=settings.materials, variant=self.variant, cache_dir=False,
+                                 progress=False).settings()
 
     def render(self, scene, *, steps: int, checkpoints: list[int], seed: int, context: RenderContext) -> Rendering:
         rr = self._reference(scene, context)
-        out = [Checkpoint(c.spp, c.seconds, c.image) for c in rr.iter_checkpoints(checkpoints, seed)]
+        out = list(rr.iter_checkpoints(checkpoints, seed))
         meta = {"variant": rr.variant, "seed": seed, **rr.settings()}
         return Rendering(out, float(rr.load_seconds), meta, variance=rr.variance)
 

@@ -70,9 +70,9 @@ import math
 
 import numpy as np
 
+from compare.brdf import MATERIAL_MODES
 from compare.scene.loader import AreaLight, Material, Scene
 
-MATERIAL_MODES = ("shared", "cycles", "cycles-ggx", "diffuse")
 #: BSDF plugin name of the shared BRDF (registered by compare.mitsuba.bsdf).
 SHARED_BSDF = "gltf_pbr"
 #: Model identifiers of modes whose model changed (part of the reference's cache key).

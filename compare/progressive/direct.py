@@ -59,8 +59,8 @@ from compare.progressive.shaders import load_program, set_uniform
 from compare.progressive.shadow import SHADOW_FILTERS
 
 AREA_MODELS = ("radiometric", "paper", "ltc")
-#: Material modes as in compare.mitsuba.scene_dict: the shared BRDF, or Lambert only for closed forms.
-MATERIAL_MODES = ("shared", "diffuse")
+#: The material modes (compare.brdf.SUPPORTED_MATERIALS) the rasterizer has: the shared BRDF, and Lambert only.
+SUPPORTED_MATERIALS = ("shared", "diffuse")
 #: Texture unit of the split-sum table (units 0-5 hold the G-buffer, shadow atlas and running means).
 LUT_UNIT = 7
 #: Texture unit of the LTC table in the passes that evaluate it (units 0-3 hold the G-buffer and
@@ -93,8 +93,8 @@ class DirectPass:
                              f"got {shadow_filter!r}")
         if area_model not in AREA_MODELS:
             raise ValueError(f"area_model: expected one of {', '.join(map(repr, AREA_MODELS))}, got {area_model!r}")
-        if materials not in MATERIAL_MODES:
-            raise ValueError(f"materials: expected one of {', '.join(map(repr, MATERIAL_MODES))}, got {materials!r}")
+        if materials not in SUPPORTED_MATERIALS:
+            raise ValueError(f"materials: expected one of {', '.join(map(repr, SUPPORTED_MATERIALS))}, got {materials!r}")
         self.ctx = ctx
         self.lut_texture = None
         #: The LTC table (area model "ltc"): the specular shadow ratio's denominator reads it.

@@ -61,14 +61,15 @@ import math
 import time
 import warnings
 from dataclasses import dataclass, field
-from typing import Iterator, NamedTuple, Sequence
+from typing import Iterator, Sequence
 
 import numpy as np
 
 from compare import __version__
+from compare.renderers.base import Checkpoint
 from compare.progressive.accumulate import AccumulatePass, ComposePass, PingPong, Target
 from compare.progressive.context import check_image_size, create_context, gl_renderer_name
-from compare.progressive.direct import AREA_MODELS, MATERIAL_MODES, DirectPass
+from compare.progressive.direct import AREA_MODELS, SUPPORTED_MATERIALS, DirectPass
 from compare.progressive.environment import (ENV_DIFFUSE, MAX_SAMPLES_PER_FRAME, EnvironmentLighting, EnvOcclusionPass,
                           EnvOcclusionTargets)
 from compare.ibl import DEFAULT_LEVELS, DEFAULT_SAMPLES, DEFAULT_SIZE
@@ -88,14 +89,6 @@ from compare.progressive.shadow import DEFAULT_BIAS, DEFAULT_SHADOW_SIZE, SHADOW
 DEFAULT_D_OCC_FRACTION = 0.1
 #: Default depth bias of the occlusion test, as a fraction of d_occ.
 DEFAULT_OCCLUSION_BIAS = 0.01
-
-
-class Checkpoint(NamedTuple):
-    """The accumulated image after ``frame`` frames (1-based count) and the seconds they took."""
-
-    frame: int
-    seconds: float
-    image: np.ndarray
 
 
 @dataclass
@@ -213,8 +206,8 @@ class Rasterizer:
                  frame_budget_ms: float | None = None, ctx=None):
         if area_model not in AREA_MODELS:
             raise ValueError(f"area_model: expected one of {', '.join(map(repr, AREA_MODELS))}, got {area_model!r}")
-        if materials not in MATERIAL_MODES:
-            raise ValueError(f"materials: expected one of {', '.join(map(repr, MATERIAL_MODES))}, got {materials!r}")
+        if materials not in SUPPORTED_MATERIALS:
+            raise ValueError(f"materials: expected one of {', '.join(map(repr, SUPPORTED_MATERIALS))}, got {materials!r}")
         if len(tuple(shadow_bias)) != 3 or not all(np.isfinite(b) and b >= 0 for b in shadow_bias):
             raise ValueError(f"shadow_bias: expected three non-negative numbers, got {shadow_bias!r}")
         if first_frame_scale is not None:
@@ -728,7 +721,7 @@ def render_progressive(scene, *, frames: int = DEFAULT_FRAMES, seed: int = 0, ar
         for n, seconds in r.frames():
             if every or n in wanted:
                 taken.append(Checkpoint(n, seconds, r.image()))
-        image = taken[-1].image if taken and taken[-1].frame == r.frame else r.image()
+        image = taken[-1].image if taken and taken[-1].step == r.frame else r.image()
         return ProgressiveResult(
             image=image,
             seconds=r.seconds,

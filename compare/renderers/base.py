@@ -91,15 +91,14 @@ class RenderContext:
         The reference cache (None: the default; False: none).
     progress : bool
         Whether renderers may show progress bars.
-    options : dict
-        Renderer keywords from the command line of ``compare render`` (e.g. a Mitsuba variant).
+
+    A renderer's own settings are not here: they are the options of its spec.
     """
 
-    def __init__(self, settings, *, cache_dir=None, progress: bool = False, options: dict | None = None):
+    def __init__(self, settings, *, cache_dir=None, progress: bool = False):
         self.settings = settings
         self.cache_dir = cache_dir
         self.progress = progress
-        self.options = dict(options or {})
         self._resources: dict[str, tuple[Any, Callable[[Any], None] | None]] = {}
 
     def resource(self, name: str, make: Callable[[], Any], release: Callable[[Any], None] | None = None) -> Any:

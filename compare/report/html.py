@@ -525,7 +525,7 @@ def build_report(results: Results, out_dir: str | os.PathLike, *, source_dir: st
         title="Renderer comparison",
         results=results,
         settings=results.settings,
-        env=results.environment,
+        machine=results.machine,
         table1=_table1(results),
         materials_note=MATERIALS_NOTES.get(results.settings.materials, results.settings.materials),
         scenes=[_scene_view(s, plots[s.id], out, results.settings.exposure, results.settings.baseline)

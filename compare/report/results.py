@@ -24,7 +24,7 @@ Schema 1
         "baseline": "progressive",                  # the ablation table's baseline
         "renderer_config": null                     # a renderer TOML file, or null
       },
-      "environment": {                              # where it ran (see Environment)
+      "machine": {                                  # where it ran (see Machine)
         "cpu": "AMD EPYC 7B13", "cores": 2, "platform": "Linux-6.1-x86_64",
         "gl_renderer": "llvmpipe (LLVM 15.0.6, 256 bits)" | null,
         "mitsuba_variant": "llvm_ad_rgb" | null,
@@ -121,7 +121,7 @@ from compare.util.files import write_text_atomic
 
 __all__ = [
     "SCHEMA",
-    "Environment",
+    "Machine",
     "NoiseFloor",
     "Point",
     "Reference",
@@ -294,33 +294,32 @@ class RunSettings:
 
 
 @dataclass
-class Environment:
+class Machine:
     """The machine and software a run measured (timings mean nothing without it)."""
 
     cpu: str
     cores: int
     platform: str
-    gl_renderer: str | None = None
-    mitsuba_variant: str | None = None
     versions: dict[str, str | None] = field(default_factory=dict)
-    webgl_renderer: str | None = None
-    """The WebGL renderer the web engines ran on (SwiftShader, or a GPU), when any ran."""
+    facts: dict[str, str] = field(default_factory=dict)
+    """What the renderers' metadata revealed about it (``Renderer.facts``: e.g. ``gl_renderer``,
+    ``mitsuba_variant``, ``webgl_renderer``)."""
 
     def to_json(self) -> dict:
         """JSON-ready dict."""
         return asdict(self)
 
     @classmethod
-    def from_json(cls, d: dict) -> "Environment":
-        """Inverse of :meth:`to_json`."""
+    def from_json(cls, d: dict) -> "Machine":
+        """Inverse of :meth:`to_json`; reads the fixed fact fields of files written before ``facts``."""
+        facts = {k: str(d[k]) for k in ("gl_renderer", "mitsuba_variant", "webgl_renderer") if d.get(k)}
+        facts.update({str(k): str(v) for k, v in dict(d.get("facts") or {}).items()})
         return cls(
-            cpu=str(_require(d, "cpu", "environment")),
-            cores=int(_require(d, "cores", "environment")),
+            cpu=str(_require(d, "cpu", "machine")),
+            cores=int(_require(d, "cores", "machine")),
             platform=str(d.get("platform", "")),
-            gl_renderer=d.get("gl_renderer"),
-            mitsuba_variant=d.get("mitsuba_variant"),
             versions=dict(d.get("versions") or {}),
-            webgl_renderer=d.get("webgl_renderer"),
+            facts=facts,
         )
 
 
@@ -708,7 +707,7 @@ class Results:
     """The whole ``results.json``."""
 
     settings: RunSettings
-    environment: Environment
+    machine: Machine
     scenes: list[SceneResult] = field(default_factory=list)
     created: str = ""
     compare_version: str = ""
@@ -727,7 +726,7 @@ class Results:
             "created": self.created,
             "compare_version": self.compare_version,
             "settings": self.settings.to_json(),
-            "environment": self.environment.to_json(),
+            "machine": self.machine.to_json(),
             "scenes": [s.to_json() for s in self.scenes],
         }
         check_json_finite(d)
@@ -759,7 +758,7 @@ class Results:
         check_json_finite(d)
         return cls(
             settings=RunSettings.from_json(_require(d, "settings", "results", dict)),
-            environment=Environment.from_json(_require(d, "environment", "results", dict)),
+            machine=Machine.from_json(_require(d, "machine" if "machine" in d else "environment", "results", dict)),
             scenes=[SceneResult.from_json(s, f"results.scenes[{i}]")
                     for i, s in enumerate(_require(d, "scenes", "results", list))],
             created=str(d.get("created", "")),

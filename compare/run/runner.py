@@ -43,13 +43,13 @@ from compare import __version__
 from compare.util.errors import MissingComponentError
 from compare.util.files import check_output_folder, folder_lock, remove_stale_parts
 from compare.renderers import RenderContext, Registry, doubling_steps
-from compare.report.results import Environment, Results, RunSettings, SceneResult
+from compare.report.results import Machine, Results, RunSettings, SceneResult
 from compare.scene.loader import Scene, load_scene
 from compare.run.scene_job import SceneJob, cpu_model, scene_id
 
 __all__ = [
     "checkpoint_steps",
-    "collect_environment",
+    "collect_machine",
     "parse_renderers",
     "registry_for",
     "run",
@@ -78,16 +78,14 @@ def _version(dist: str) -> str | None:
         return None
 
 
-def collect_environment(*, gl_renderer: str | None = None, mitsuba_variant: str | None = None,
-                        webgl_renderer: str | None = None) -> Environment:
-    """Describe this machine and the software versions (for the report's environment table)."""
-    return Environment(
+def collect_machine(facts: dict[str, str] | None = None) -> Machine:
+    """Describe this machine and the software versions, with what the renderers revealed of it (``facts``),
+    for the report's machine table."""
+    return Machine(
         cpu=cpu_model(),
         cores=os.cpu_count() or 1,
         platform=platform.platform(),
-        gl_renderer=gl_renderer,
-        mitsuba_variant=mitsuba_variant,
-        webgl_renderer=webgl_renderer,
+        facts=dict(facts or {}),
         versions={
             "python": platform.python_version(),
             "compare": __version__,
@@ -286,9 +284,7 @@ def _run_held(jobs: dict, out: Path, settings: RunSettings, registry: Registry, 
 
     res = Results(
         settings=settings,
-        environment=collect_environment(gl_renderer=facts.get("gl_renderer"),
-                                        mitsuba_variant=facts.get("mitsuba_variant"),
-                                        webgl_renderer=facts.get("webgl_renderer")),
+        machine=collect_machine(facts),
         scenes=results,
         created=datetime.datetime.now(datetime.timezone.utc).replace(microsecond=0).isoformat().replace("+00:00", "Z"),
         compare_version=__version__,
