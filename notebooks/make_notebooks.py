@@ -45,7 +45,7 @@ print("left out:", scene.features().omitted())'''),
 ref = ReferenceRenderer(scene, progress=False)
 ladder = ref.ladder(SPP, seed=1)
 truth = ref.render(SPP, seed=0).image  # an independent ground truth for the ladder's own curve
-[(c.spp, round(c.seconds, 3)) for c in ladder]'''),
+[(c.step, round(c.seconds, 3)) for c in ladder]'''),
     new_markdown_cell("## The progressive rasterizer\n\nCheckpoints at frames 1, 2, 4, …; frame 1 is the cheap "
                       "preview."),
     new_code_cell('''from compare.progressive import render_progressive

@@ -202,7 +202,7 @@ def test_build_job_refuses_bad_arguments(tmp_path):
     with pytest.raises(ValueError, match="samples"):
         export.build_job(scene, engine="cycles", samples=0, seed=0, folder=tmp_path)
     with pytest.raises(ValueError, match="materials"):
-        export.build_job(scene, engine="cycles", samples=1, seed=0, folder=tmp_path, materials="cycles")
+        export.build_job(scene, engine="cycles", samples=1, seed=0, folder=tmp_path, materials="shared")
     with pytest.raises(ValueError, match="settings"):
         export.build_job(scene, engine="cycles", samples=1, seed=0, folder=tmp_path, settings={"x": [1]})
     with pytest.raises(ValueError, match="ladder"):

@@ -130,7 +130,7 @@ def test_budget_checkpoints_every_frame(gl_ctx):
     s = _scene("cornell.toml", (32, 24))
     res = render_progressive(s, frames=16, ctx=gl_ctx, shadow_size=64, checkpoints="every", frame_budget_ms=0.001)
     n = len(res.frame_seconds)
-    assert [c.frame for c in res.checkpoints] == list(range(1, n + 1))
+    assert [c.step for c in res.checkpoints] == list(range(1, n + 1))
     assert n == 1 + 4  # a budget below one sample's cost: one sample per frame (4 samples for 16 frames)
     assert res.metadata["frames"] == n
 

@@ -67,7 +67,7 @@ def test_against_direct_light_reference(references, progressive):
 
 def test_error_falls_as_frames_rise(references, progressive):
     _, direct = references
-    assert [c.frame for c in progressive.checkpoints] == list(CHECKPOINTS)
+    assert [c.step for c in progressive.checkpoints] == list(CHECKPOINTS)
     metrics = [compare_images(direct, c.image, flip_hdr=False) for c in progressive.checkpoints]
     relmse = [m["relmse"] for m in metrics]
     ssim = [m["ssim"] for m in metrics]

@@ -281,7 +281,7 @@ def test_render_result_shape_finite_and_metadata(gl_ctx, cornell):
     assert r.image.shape == (48, 64, 3) and r.image.dtype == np.float32
     assert np.isfinite(r.image).all() and r.image.min() >= 0
     assert len(r.frame_seconds) == 8 and r.seconds == pytest.approx(sum(r.frame_seconds))
-    assert [c.frame for c in r.checkpoints] == [1, 2, 8]
+    assert [c.step for c in r.checkpoints] == [1, 2, 8]
     assert [c.seconds for c in r.checkpoints] == sorted(c.seconds for c in r.checkpoints)
     assert np.array_equal(r.checkpoints[-1].image, r.image)
     meta = r.metadata

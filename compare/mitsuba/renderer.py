@@ -52,7 +52,8 @@ class MitsubaRenderer(Renderer):
 
     OPTIONS = {v: f"Mitsuba's {v} variant instead of the best available" for v in VARIANTS}
 
-    def __init__(self, spec: str = "mitsuba"):
+    def __init__(self, spec: str | None = None):
+        spec = spec or self.name  # a subclass may name itself
         options = parse_spec(spec, self.OPTIONS)
         if len(options) > 1:
             raise ValueError(f"renderer {spec!r}: one Mitsuba variant at a time")
