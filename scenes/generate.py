@@ -36,7 +36,7 @@ sys.path.insert(0, str(HERE))
 
 import procedural_meshes as pm  # noqa: E402
 import procedural_textures as pt  # noqa: E402
-from compare.scene.gltf import GltfWriter  # noqa: E402
+from compare.scene.gltf_write import GltfWriter  # noqa: E402
 
 
 # ----------------------------------------------------------------------------- GLB stand-ins

@@ -163,7 +163,7 @@ case "$job" in
         setup
         setup_blender
         log "ruff (syntax errors, undefined and unused names)"
-        "$VENV/bin/ruff" check --quiet compare tests scenes examples scripts notebooks/make_notebooks.py
+        "$VENV/bin/ruff" check --quiet compare tools tests scenes examples scripts notebooks/make_notebooks.py
         exec "$VENV/bin/python" -m pytest "$@"
         ;;
     slow)

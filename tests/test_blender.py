@@ -20,7 +20,7 @@ from compare.metrics.closed_form import polygon_irradiance
 from compare.blender import export
 from compare.blender.likeness import region_masks, region_stats
 from compare.blender.render import BlenderError, blender_available, blender_python, render_blender
-from compare.scene.environments import equirect_directions, world_to_env
+from compare.scene.equirect import equirect_directions, world_to_env
 from compare.util.errors import MissingComponentError
 from compare.image.exr import write_exr
 from compare.mitsuba.reference import ReferenceRenderer

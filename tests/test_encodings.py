@@ -8,7 +8,8 @@ import pytest
 from compare.image.encodings import (decode, encode, octahedral_decode, octahedral_directions, octahedral_encode,
                                octahedral_pad, rgbe_decode, rgbe_encode, rgbm_decode, rgbm_encode, rgbm_max,
                                roundtrip_stats)
-from compare.scene.environments import blender_studio_lights, load_equirect, procedural_map
+from compare.scene.environments import blender_studio_lights, load_equirect
+from compare.scene.procedural_env import procedural_map
 
 
 def log_uniform(n: int, lo: float, hi: float, seed: int = 0) -> np.ndarray:

@@ -16,9 +16,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from compare.scene.environments import (PROCEDURAL, blender_studio_lights, direction_to_uv, environment_image,
-                                  environment_path, procedural_map, read_hdr, rotation_matrix, sample_equirect,
-                                  uv_to_direction, validate_procedural, world_to_env, write_hdr)
+from compare.scene.procedural_env import PROCEDURAL, procedural_map, validate_procedural
+from compare.scene.environments import blender_studio_lights, environment_image, environment_path
+from compare.scene.equirect import direction_to_uv, rotation_matrix, sample_equirect, uv_to_direction, world_to_env
+from compare.image.hdr import read_hdr, write_hdr
 from compare.util.errors import ImageError, SceneError
 from compare.image.exr import write_exr
 from compare.scene.loader import load_scene, parse_scene

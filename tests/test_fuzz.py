@@ -37,7 +37,7 @@ PLY = ("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty floa
 
 def _gltf() -> dict:
     from compare.scene.geometry import box
-    from compare.scene.gltf import GltfWriter
+    from compare.scene.gltf_write import GltfWriter
 
     w = GltfWriter()
     m = w.material("grey", (0.5, 0.5, 0.5), 0.0, 0.5)

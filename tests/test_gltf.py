@@ -1,4 +1,4 @@
-"""glTF 2.0 import (compare.scene.gltf): accessors, hierarchy, materials, cameras, lights, and [[include]]."""
+"""glTF 2.0 import (compare.scene.gltf_read): accessors, hierarchy, materials, cameras, lights, and [[include]]."""
 
 from __future__ import annotations
 
@@ -15,7 +15,8 @@ import pytest
 
 from compare.scene import geometry
 from compare.util.errors import SceneError
-from compare.scene.gltf import GltfError, GltfWriter, load_gltf
+from compare.scene.gltf_read import GltfError, load_gltf
+from compare.scene.gltf_write import GltfWriter
 from compare.scene.loader import load_scene
 
 # A 2×2 PNG (red, green / blue, white), 8-bit RGB.
@@ -475,7 +476,7 @@ def test_texture_transform_and_sampler_are_imported_and_exported(tmp_path, make_
     np.testing.assert_allclose(mat.uv_transform() @ [1.0, 0.0, 1.0], [0.25, 0.5 - 2.0, 1.0], atol=1e-12)
     (tmp_path / "out").mkdir()
     out = export_gltf(s, tmp_path / "out" / "scene.gltf")
-    from compare.scene.gltf import load_gltf
+    from compare.scene.gltf_read import load_gltf
 
     again = next(m for m in load_gltf(out).materials if m.base_color_image is not None)
     t = again.texture_settings
@@ -497,7 +498,7 @@ def test_a_factor_beside_a_map_is_baked_into_it(tmp_path):
     rgba[...] = (200, 100, 50, 128)
     Image.fromarray(rgba, "RGBA").save(tmp_path / "c.png")
     Image.fromarray(np.full((4, 4, 3), (0, 200, 100), dtype=np.uint8)).save(tmp_path / "mr.png")
-    from compare.scene.gltf import GltfWriter
+    from compare.scene.gltf_write import GltfWriter
     from compare.scene.geometry import quad
 
     w = GltfWriter()

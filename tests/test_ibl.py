@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 
 from compare.brdf import alpha_from_roughness, directional_albedo, ggx_d
-from compare.scene.environments import procedural_map, sample_equirect
+from compare.scene.procedural_env import procedural_map
+from compare.scene.equirect import sample_equirect
 from compare.ibl import IBL_VERSION, preprocess, split_sum
 from compare.ibl.atlas import build_atlas, sample_levels
 from compare.ibl.cubemap import face_coordinates, padded_directions, sample_faces, texel_solid_angles
@@ -259,7 +260,7 @@ void main() {
 
 def test_glsl_mappings_equal_numpy(gl_ctx):
     from compare.image.encodings import octahedral_encode
-    from compare.scene.environments import direction_to_uv
+    from compare.scene.equirect import direction_to_uv
 
     d = unit_vectors(4096, seed=7)
     d = np.concatenate([d, np.eye(3), -np.eye(3)])

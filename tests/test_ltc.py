@@ -13,6 +13,7 @@ import pytest
 
 from compare.brdf import ALPHA_MIN, directional_albedo, eval_brdf_lobes, pdf_ggx_vndf_reflection
 from compare.brdf import ltc
+from tools import fit_ltc
 from compare.util.errors import MissingComponentError
 
 NORMAL = np.array([0.0, 0.0, 1.0])
@@ -105,7 +106,7 @@ def test_table_loads(table):
     with np.load(ltc.TABLE_PATH) as data:
         assert int(data["n"]) == 64
         assert data["fit_error"].shape == (64, 64) and np.all(np.isfinite(data["fit_error"]))
-        # A table fitted for another ALPHA_MIN is stale: rerun `python -m compare.brdf.ltc`.
+        # A table fitted for another ALPHA_MIN is stale: rerun `python -m tools.fit_ltc`.
         assert float(data["alpha_min"]) == ALPHA_MIN
 
 
@@ -115,7 +116,7 @@ def test_lobe_is_the_brdf():
     l = rng.normal(size=(2000, 3))  # noqa: E741
     l /= np.linalg.norm(l, axis=1, keepdims=True)
     for roughness, cos_theta in ((0.0, 0.9), (0.4, 0.5), (1.0, 0.05)):
-        f, pdf = ltc._Lobe(roughness, cos_theta).eval(l)
+        f, pdf = fit_ltc._Lobe(roughness, cos_theta).eval(l)
         v = view(cos_theta)
         spec, _ = eval_brdf_lobes(NORMAL, v, l, np.ones(3), 1.0, roughness)
         np.testing.assert_allclose(f, spec[:, 0] * np.maximum(l[:, 2], 0.0), rtol=1e-12, atol=0)
@@ -205,9 +206,9 @@ def test_refit_reproduces_the_table(table):
     """The first cells of the fit's order (each starts from the previous one) refitted."""
     with np.load(ltc.TABLE_PATH) as data:
         fit_error = data["fit_error"]
-    first = ltc.fit_cell(64, 0, 63, ltc.START_PARAMS)
-    for (j, i), fit in (((0, 63), first), ((1, 63), ltc.fit_cell(64, 1, 63, first.params)),
-                        ((0, 62), ltc.fit_cell(64, 0, 62, first.params))):
+    first = fit_ltc.fit_cell(64, 0, 63, fit_ltc.START_PARAMS)
+    for (j, i), fit in (((0, 63), first), ((1, 63), fit_ltc.fit_cell(64, 1, 63, first.params)),
+                        ((0, 62), fit_ltc.fit_cell(64, 0, 62, first.params))):
         np.testing.assert_allclose(fit.entries, table[j, i], rtol=1e-5, atol=1e-6)
         assert fit.fit_error == pytest.approx(fit_error[j, i], rel=1e-5)
 
@@ -237,4 +238,4 @@ def test_bad_file_is_one_clear_error(tmp_path, write):
         write(path)
     with pytest.raises(MissingComponentError) as info:
         ltc.load_table(path)
-    assert str(path) in str(info.value) and "python -m compare.brdf.ltc" in str(info.value)
+    assert str(path) in str(info.value) and "python -m tools.fit_ltc" in str(info.value)

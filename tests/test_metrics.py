@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from scipy.ndimage import gaussian_filter
 
+from compare.image.maps import save_maps
 from compare.metrics import images as M
 from compare.util.errors import ImageError
 
@@ -256,24 +257,24 @@ def test_error_maps_and_png_output(reference, tmp_path):
     assert np.array_equal(maps["flip"], M.flip(reference, t)[1])
 
     out = tmp_path / "maps"
-    written = M.save_error_maps(out, maps, prefix="noisy_")
+    written = save_maps(out, maps, ranges=M.ERROR_MAP_RANGES, prefix="noisy_")
     assert sorted(p.name for p in out.iterdir()) == ["noisy_flip.png", "noisy_one_minus_ssim.png", "noisy_relmse.png"]
     for name, path in written.items():
         img = iio.imread(path)
         assert img.shape == (H, W, 3) and img.dtype == np.uint8, name
     # Zero error maps to magma's darkest colour, full error to its brightest.
-    written = M.save_error_maps(out, {"ramp": np.linspace(0, 1, 64).reshape(8, 8)})
+    written = save_maps(out, {"ramp": np.linspace(0, 1, 64).reshape(8, 8)})
     ramp = iio.imread(written["ramp"]).astype(int)
     assert ramp[0, 0].sum() < 20 and ramp[-1, -1].sum() > 600
 
 
 def test_save_error_maps_refuses_bad_maps(tmp_path):
     with pytest.raises(ImageError, match="non-finite"):
-        M.save_error_maps(tmp_path, {"flip": np.array([[0.0, np.nan]])})
+        save_maps(tmp_path, {"flip": np.array([[0.0, np.nan]])})
     with pytest.raises(ImageError, match=r"\(H, W\)"):
-        M.save_error_maps(tmp_path, {"flip": np.zeros((2, 2, 3))})
+        save_maps(tmp_path, {"flip": np.zeros((2, 2, 3))})
     with pytest.raises(ValueError, match="file name"):
-        M.save_error_maps(tmp_path, {"../escape": np.zeros((2, 2))})
+        save_maps(tmp_path, {"../escape": np.zeros((2, 2))})
     assert list(tmp_path.iterdir()) == []
 
 

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from compare.brdf import multiscatter as ms
+from tools import fit_multiscatter
 
 # Values read from Cycles' table_ggx_E (Blender 5.0, scene/shader.tables): row mu = j/31, column roughness = i/31.
 CYCLES_GGX_E = {
@@ -27,7 +28,7 @@ def test_tables_reproduce_cycles():
 
 
 def test_stored_tables_are_what_energy_tables_computes():
-    e, e_avg = ms.energy_tables(samples=96, avg_nodes=32)
+    e, e_avg = fit_multiscatter.energy_tables(samples=96, avg_nodes=32)
     np.testing.assert_allclose(e, ms.GGX_E_TABLE, atol=3e-4)
     np.testing.assert_allclose(e_avg, ms.GGX_EAVG_TABLE, atol=3e-4)
 

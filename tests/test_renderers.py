@@ -289,7 +289,7 @@ def test_read_checkpoints_refuses_bad_timings(tmp_path):
 
 
 def test_job_gltf_holds_the_scene_in_world_space(tmp_path):
-    from compare.scene.gltf import load_gltf
+    from compare.scene.gltf_read import load_gltf
 
     scene = load_scene(CORNELL)
     doc = load_gltf(export_gltf(scene, tmp_path / "scene.gltf"))

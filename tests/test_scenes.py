@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from compare.scene.gltf import load_gltf
+from compare.scene.gltf_read import load_gltf
 from compare.scene.loader import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent

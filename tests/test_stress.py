@@ -164,7 +164,7 @@ def test_grazing_views_rasterizer_energy(gl_ctx, area_model, what):
 
 def _sun_scene_expectation(s):
     """(floor radiance expected for a white Lambert floor, mask of floor pixels far from the sphere's influence)."""
-    from compare.scene.environments import direction_to_uv, uv_to_direction
+    from compare.scene.equirect import direction_to_uv, uv_to_direction
     from compare.image.exr import read_exr
 
     env, _ = read_exr(s.environment.file)

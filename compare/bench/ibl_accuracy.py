@@ -195,13 +195,13 @@ def atlas_table(envs: dict[str, dict] | None = None, *, ibl_size: int = DEFAULT_
     """Each storage of the prefiltered chain against the exact value and against the float cube, per level.
 
     The exact value at a direction is :func:`compare.ibl.prefilter.prefilter` evaluated
-    there (level 0: the map itself, :func:`compare.scene.environments.sample_equirect`); the
+    there (level 0: the map itself, :func:`compare.scene.equirect.sample_equirect`); the
     storages are read as the shader reads them (:func:`compare.ibl.atlas.sample_levels`):
     float cube atlas, RGBM (sqrt, range 7) cube atlas filtered before decoding, float
     octahedral atlas.
     """
     from compare.image.encodings import RGBM_SQRT7, rgbm_decode, rgbm_encode
-    from compare.scene.environments import sample_equirect
+    from compare.scene.equirect import sample_equirect
     from compare.ibl.cubemap import texel_solid_angles
     from compare.ibl.prefilter import prefilter
 

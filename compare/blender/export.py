@@ -279,7 +279,7 @@ def environment_lookup_matrix(rotation_deg: float) -> np.ndarray:
     World → map frame (undo the scene's rotation about +Y, as Mitsuba's
     ``to_world``), then map frame → Blender's lookup frame (:data:`ENV_TO_BLENDER`).
     """
-    from compare.scene.environments import rotation_matrix
+    from compare.scene.equirect import rotation_matrix
 
     return ENV_TO_BLENDER @ rotation_matrix(rotation_deg).T
 
@@ -290,7 +290,7 @@ def blender_environment_map(image: np.ndarray) -> np.ndarray:
     Row j of the result holds Mitsuba's interpolated radiance at v = (j + ½)/H,
     column i at u = (i + ½)/W (the same in both).
     """
-    from compare.scene.environments import sample_equirect, uv_to_direction
+    from compare.scene.equirect import sample_equirect, uv_to_direction
 
     h, w = image.shape[:2]
     u = (np.arange(w) + 0.5) / w

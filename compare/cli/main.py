@@ -193,7 +193,8 @@ def cmd_renderers(args: argparse.Namespace) -> int:
 def cmd_diff(args: argparse.Namespace) -> int:
     """``compare diff``: metrics of TEST against REF, optionally with error maps."""
     from compare.image.exr import read_exr
-    from compare.metrics.images import compare_images, error_maps, save_error_maps
+    from compare.image.maps import save_maps
+    from compare.metrics.images import ERROR_MAP_RANGES, compare_images, error_maps
 
     if args.ztest:
         return _ztest(args)
@@ -207,7 +208,8 @@ def cmd_diff(args: argparse.Namespace) -> int:
     test, _ = read_exr(args.test)
     metrics = compare_images(ref, test, exposure=args.exposure, operator=args.tonemap)
     if args.maps:
-        save_error_maps(args.maps, error_maps(ref, test, exposure=args.exposure, operator=args.tonemap))
+        save_maps(args.maps, error_maps(ref, test, exposure=args.exposure, operator=args.tonemap),
+                  ranges=ERROR_MAP_RANGES)
     if args.json:
         print(json.dumps(metrics, indent=2, sort_keys=True))
     else:

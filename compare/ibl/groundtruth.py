@@ -2,7 +2,7 @@
 
 ``L_o(n, v) = ∫ L_env(l) f(n, v, l) (n·l) dl`` for the shared BRDF
 (:func:`compare.brdf.eval_brdf`) and an equirectangular map read exactly as
-Mitsuba reads it (:func:`compare.scene.environments.sample_equirect`), by Monte Carlo
+Mitsuba reads it (:func:`compare.scene.equirect.sample_equirect`), by Monte Carlo
 with multiple importance sampling (balance heuristic) of two techniques:
 
 * environment sampling: a cell around a texel of the map chosen in proportion
@@ -22,7 +22,7 @@ import numpy as np
 
 from compare.brdf import (alpha_from_roughness, eval_brdf, pdf_ggx_vndf_reflection, sample_ggx_vndf,
                     specular_sampling_probability)
-from compare.scene.environments import direction_to_uv, rotation_matrix, sample_equirect
+from compare.scene.equirect import direction_to_uv, rotation_matrix, sample_equirect
 
 __all__ = ["EnvSampler", "reflected_radiance"]
 

@@ -4,7 +4,7 @@ Source chain
 ------------
 Level 0 of the source is the equirectangular map resampled onto cube faces
 (``sub × sub`` supersampled bilinear lookups per texel with
-:func:`compare.scene.environments.sample_equirect`, so that the rasterizer sees the
+:func:`compare.scene.equirect.sample_equirect`, so that the rasterizer sees the
 map exactly as Mitsuba interpolates it); every further source level halves the
 faces by solid-angle-weighted 2×2 means, down to 1×1.
 
@@ -84,7 +84,7 @@ def source_chain(equirect: np.ndarray, size: int, *, sub: int | None = None) -> 
     ``sub`` × ``sub`` lookups per texel of level 0; default ``clamp(ceil(W / (4 size)), 2, 8)``
     (about one lookup per map texel).
     """
-    from compare.scene.environments import sample_equirect
+    from compare.scene.equirect import sample_equirect
 
     if size < 1 or size & (size - 1):
         raise ValueError(f"size: expected a power of two, got {size}")

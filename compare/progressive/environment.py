@@ -26,7 +26,8 @@ import time
 
 import numpy as np
 
-from compare.scene.environments import environment_image, rotation_matrix
+from compare.scene.environments import environment_image
+from compare.scene.equirect import rotation_matrix
 from compare.ibl import DEFAULT_LEVELS, DEFAULT_SAMPLES, DEFAULT_SIZE, ENV_FORMATS, build_atlas, preprocess, split_sum
 from compare.ibl.irradiance import SH_BAND_FACTORS
 from compare.progressive.shaders import load_program, set_uniform

@@ -48,7 +48,7 @@ def export_gltf(scene, path: Path) -> Path:
     perspective camera node looking down its −Z. Area lights are not meshes of
     the file: the job lists them (glTF has no rectangular light).
     """
-    from compare.scene.gltf import GltfWriter
+    from compare.scene.gltf_write import GltfWriter
 
     path = Path(path)
     w = GltfWriter(generator="compare job")

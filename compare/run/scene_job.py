@@ -469,10 +469,11 @@ def _measure(gt: np.ndarray, image: np.ndarray, settings: RunSettings, what: str
 
 
 def _maps(unit: _Unit, gt: np.ndarray, image: np.ndarray, settings: RunSettings) -> dict[str, str]:
-    from compare.metrics.images import error_maps, save_error_maps
+    from compare.image.maps import save_maps
+    from compare.metrics.images import ERROR_MAP_RANGES, error_maps
 
     maps = error_maps(gt, image, exposure=settings.exposure, operator=settings.tonemap)
-    written = save_error_maps(unit.dir / "maps", maps)
+    written = save_maps(unit.dir / "maps", maps, ranges=ERROR_MAP_RANGES)
     return {name: unit.rel(path) for name, path in written.items()}
 
 
@@ -480,7 +481,8 @@ def _layers(unit: _Unit, truth: dict[str, np.ndarray], record: dict, out: Path, 
             what: str) -> dict[str, dict]:
     """Errors per kind of light of a run that gives layers, with a FLIP map per layer; {} otherwise."""
     from compare.metrics.layers import layer_metrics
-    from compare.metrics.images import flip, save_error_maps
+    from compare.image.maps import save_maps
+    from compare.metrics.images import ERROR_MAP_RANGES, flip
 
     paths = record.get("layers") or {}
     if not truth or not paths:
@@ -491,7 +493,7 @@ def _layers(unit: _Unit, truth: dict[str, np.ndarray], record: dict, out: Path, 
         zero = np.zeros_like(next(iter(truth.values())))
         for name, entry in result.items():
             fmap = flip(truth[name], run.get(name, zero), exposure=settings.exposure, operator=settings.tonemap)[1]
-            written = save_error_maps(unit.dir / "maps", {f"layer-{name}-flip": fmap})
+            written = save_maps(unit.dir / "maps", {f"layer-{name}-flip": fmap}, ranges=ERROR_MAP_RANGES)
             entry["map"] = unit.rel(next(iter(written.values())))
     except ImageError as e:
         raise ImageError(f"{what} layers: {e}") from e

@@ -1,6 +1,6 @@
 """``[[include]]`` of a scene file: a glTF file's meshes, materials, lights and camera as scene objects.
 
-The reader is :mod:`compare.scene.gltf`; the objects are :mod:`compare.scene.model`'s;
+The reader is :mod:`compare.scene.gltf_read`; the objects are :mod:`compare.scene.model`'s;
 every error names the scene file and the field (:mod:`compare.scene.fields`).
 """
 
@@ -19,7 +19,7 @@ from compare.scene import fields as sf
 from compare.scene import model as sm
 from compare.scene.geometry import TriangleMesh
 from compare.scene.textures import factor_map, texture_problem
-from compare.scene.gltf import (DEFAULT_CAMERA_WIDTH, DEFAULT_PUNCTUAL_SIZE, WATTS_PER_LUMEN, GltfCamera, GltfError, GltfLight,
+from compare.scene.gltf_read import (DEFAULT_CAMERA_WIDTH, DEFAULT_PUNCTUAL_SIZE, WATTS_PER_LUMEN, GltfCamera, GltfError, GltfLight,
                    load_gltf)
 
 

@@ -246,11 +246,11 @@ def _light(ctx: _Ctx, k: int, raw: Any) -> AreaLight:
 
 
 def _environment(ctx: _Ctx, raw: Any) -> Environment:
-    from compare.scene import environments
+    from compare.scene import environments, procedural_env
 
     sources = ("constant", "file", "procedural", "blender")
     kind = raw.get("procedural") if isinstance(raw, dict) else None
-    params = set(environments.PROCEDURAL[kind][0]) if kind in environments.PROCEDURAL else set()
+    params = set(procedural_env.PROCEDURAL[kind][0]) if kind in procedural_env.PROCEDURAL else set()
     t = _table(ctx, "environment", raw, {*sources, "intensity", "rotation"} | params)
     if sum(k in t for k in sources) != 1:
         raise ctx.err("environment", "give exactly one of 'constant' (radiance), 'file' (equirectangular map), "
@@ -262,10 +262,10 @@ def _environment(ctx: _Ctx, raw: Any) -> Environment:
     env = Environment(constant, file, intensity, rotation)
     try:
         if "procedural" in t:
-            if kind not in environments.PROCEDURAL:
-                raise ValueError(f"procedural: expected one of {', '.join(map(repr, environments.PROCEDURAL))}, "
+            if kind not in procedural_env.PROCEDURAL:
+                raise ValueError(f"procedural: expected one of {', '.join(map(repr, procedural_env.PROCEDURAL))}, "
                                  f"got {_fmt(kind)}")
-            full = environments.validate_procedural(kind, {k: t[k] for k in params if k in t})
+            full = procedural_env.validate_procedural(kind, {k: t[k] for k in params if k in t})
             env = dataclasses.replace(env, procedural=kind, parameters=tuple(sorted(full.items())))
         elif "blender" in t:
             if not isinstance(t["blender"], str):

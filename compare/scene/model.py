@@ -258,7 +258,7 @@ class Environment:
     intensity: float = 1.0
     rotation: float = 0.0
     procedural: str | None = None
-    """``"sky"``, ``"studio"`` or ``"axes"`` (:data:`compare.scene.environments.PROCEDURAL`)."""
+    """``"sky"``, ``"studio"`` or ``"axes"`` (:data:`compare.scene.procedural_env.PROCEDURAL`)."""
     parameters: tuple[tuple[str, Any], ...] = ()
     """The procedural map's parameters, complete (defaults filled in), sorted by name."""
     blender: str | None = None

@@ -1,0 +1,1 @@
+"""Offline tools: fitters that write the tables the runtime package serves (``python -m tools.<name>``)."""
