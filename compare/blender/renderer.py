@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 
+from compare.blender.export import CYCLES_PAPER_SAMPLES, EEVEE_PAPER_SAMPLES
 from compare.renderers.base import Checkpoint, RenderContext, Renderer, Rendering
 from compare.renderers.options import parse_spec
 
@@ -139,7 +140,7 @@ class BlenderRenderer(Renderer):
 class CyclesRenderer(BlenderRenderer):
     """Blender Cycles on the CPU: the paper's reference (1024 spp)."""
 
-    default_budget = 1024
+    default_budget = CYCLES_PAPER_SAMPLES
     budget_flag = "--cycles-spp"
     VARIANTS = ("cycles:ggx",)
 
@@ -147,6 +148,6 @@ class CyclesRenderer(BlenderRenderer):
 class EeveeRenderer(BlenderRenderer):
     """Blender EEVEE: the paper's rasterizer comparator (64 samples)."""
 
-    default_budget = 64
+    default_budget = EEVEE_PAPER_SAMPLES
     budget_flag = "--eevee-samples"
     VARIANTS = ("eevee:ggx",)

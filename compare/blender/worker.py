@@ -26,7 +26,7 @@ def _matrix(rows):
     return Matrix([list(r) for r in rows])
 
 
-def _principled(bpy, name: str, mat: dict, folder: str):
+def _principled(bpy, name: str, mat: dict):
     """A material with one Principled BSDF set from the glTF parameters (see export.py)."""
     m = bpy.data.materials.new(name)
     if getattr(m, "node_tree", None) is None:
@@ -53,7 +53,7 @@ def _principled(bpy, name: str, mat: dict, folder: str):
                                      mat["base_color_texture_colorspace"])
         links.new(tex.outputs["Color"], inp["Base Color"])
     if mat.get("alpha_mask"):
-        _alpha_mask(bpy, m, nodes, links, inp["Alpha"], mat["alpha_mask"], base_tex)
+        _alpha_mask(m, nodes, links, inp["Alpha"], mat["alpha_mask"], base_tex)
     if mat.get("metallic_roughness_texture"):
         # glTF's channels, as Blender's own glTF importer wires them: G = roughness, B = metallic.
         tex = _image_node(bpy, nodes, links, mat, mat["metallic_roughness_texture"], "Non-Color")
@@ -91,7 +91,7 @@ def _principled(bpy, name: str, mat: dict, folder: str):
     return m
 
 
-def _alpha_mask(bpy, m, nodes, links, socket, mask: dict, base_tex) -> None:
+def _alpha_mask(m, nodes, links, socket, mask: dict, base_tex) -> None:
     """glTF's alpha mask on the Principled BSDF's Alpha: 1 where alpha × the base-colour map's alpha is
     at least the cutoff, 0 (a hole, for camera rays, light and shadows in both engines) elsewhere."""
     alpha, cutoff = float(mask["alpha"]), float(mask["cutoff"])
@@ -301,7 +301,7 @@ def build(bpy, np, job: dict, folder: str):
     sc.collection.objects.link(cam)
     sc.camera = cam
 
-    mats = {name: _principled(bpy, name, m, folder) for name, m in job["materials"].items()}
+    mats = {name: _principled(bpy, name, m) for name, m in job["materials"].items()}
     arrays = np.load(os.path.join(folder, "meshes.npz"))
     for mesh in job["meshes"]:
         k = mesh["key"]

@@ -33,13 +33,6 @@ float brdf_ggx_d(float n_dot_h, float sin2_theta_h, float alpha) {
     return k * k * (1.0 / BRDF_PI);
 }
 
-// Smith G1 for GGX (no cosine floor; used by the visible-normal pdf).
-float brdf_smith_g1(float cos_theta, float alpha) {
-    float c = max(cos_theta, 0.0);
-    float a2 = alpha * alpha;
-    return 2.0 * c / (c + sqrt(c * c * (1.0 - a2) + a2));
-}
-
 // Height-correlated Smith visibility V = G2 / (4 n.l n.v), cosines floored at BRDF_COS_MIN.
 float brdf_smith_v_height_correlated(float n_dot_v, float n_dot_l, float alpha) {
     float nv = max(n_dot_v, BRDF_COS_MIN);

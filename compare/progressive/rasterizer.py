@@ -57,6 +57,7 @@ for (:meth:`Rasterizer.image`).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 import warnings
@@ -68,27 +69,23 @@ import numpy as np
 from compare import __version__
 from compare.renderers.base import Checkpoint
 from compare.progressive.accumulate import AccumulatePass, ComposePass, PingPong, Target
+from compare.progressive.config import DEFAULT_D_OCC_FRACTION, RasterizerOptions
 from compare.progressive.context import check_image_size, create_context, gl_renderer_name
-from compare.progressive.direct import AREA_MODELS, SUPPORTED_MATERIALS, DirectPass
-from compare.progressive.environment import (ENV_DIFFUSE, MAX_SAMPLES_PER_FRAME, EnvironmentLighting, EnvOcclusionPass,
+from compare.progressive.direct import DirectPass
+from compare.progressive.environment import (MAX_SAMPLES_PER_FRAME, EnvironmentLighting, EnvOcclusionPass,
                           EnvOcclusionTargets)
-from compare.ibl import DEFAULT_LEVELS, DEFAULT_SAMPLES, DEFAULT_SIZE
 from compare.progressive.budget import BudgetScheduler, FrameCosts
 from compare.progressive.distributor import DEFAULT_DIRECT_FRACTION, DEFAULT_FRAMES, FramePlan, Plan, plan
-from compare.progressive.first_frame import FIRST_FRAME_MODES, FirstFramePass, auto_scale, check_scale
+from compare.progressive.first_frame import FirstFramePass, auto_scale
 from compare.progressive.gbuffer import GBuffer
 from compare.progressive.indirect import IndirectPass
 from compare.progressive.ltc import LTC_DIRECT_FRACTION, LtcLights, ltc_texture
 from compare.progressive.gpu_scene import CameraSetup, GpuScene, mat_bytes
 from compare.progressive.probes import ProbeVolume, indirect_options
 from compare.progressive.readback import read_rgb
-from compare.progressive.shadow import DEFAULT_BIAS, DEFAULT_SHADOW_SIZE, SHADOW_FILTERS, ShadowAtlas
+from compare.progressive.shadow import ShadowAtlas
 
 
-#: Default occlusion distance d_occ as a fraction of the diagonal of the scene's bounds.
-DEFAULT_D_OCC_FRACTION = 0.1
-#: Default depth bias of the occlusion test, as a fraction of d_occ.
-DEFAULT_OCCLUSION_BIAS = 0.01
 
 
 @dataclass
@@ -118,112 +115,22 @@ class Rasterizer:
     ----------
     scene : compare.scene.loader.Scene
         The scene; its camera resolution is the image size.
-    frames : int, keyword-only
-        Frames m to accumulate (paper default 128).
-    seed : int, keyword-only
-        Selects the jitter and light-sample offsets; a fixed seed gives the same image.
-    area_model : {"radiometric", "paper", "ltc"}, keyword-only
-        Light-sample contribution; see :mod:`compare.progressive.direct`; ``"ltc"``:
-        the closed-form unshadowed light times a shadow ratio (:mod:`compare.progressive.ltc`).
-    materials : {"shared", "diffuse"}, keyword-only
-        The shared glTF BRDF, or Lambert only (for closed-form validation; same
-        meaning as in :mod:`compare.mitsuba.scene_dict`).
-    direct_fraction : float or None, keyword-only
-        f_d: light samples start at frame round(f_d·m); None uses the paper's 0.3, or 0 with
-        ``area_model="ltc"`` (:data:`compare.progressive.ltc.LTC_DIRECT_FRACTION`: its light
-        is exact from the first frame, and only its shadows wait for samples).
-    samples_per_light : int or sequence of int, keyword-only
-        n_i; None uses the paper's round(m / lights / 4).
-    shadow_size : int, keyword-only
-        Face resolution S of the shadow atlas (3S × S texels).
-    shadow_bias : (float, float, float), keyword-only
-        (normal offset, constant, slope-scaled) in shadow texels; see :mod:`.shadow`.
-    shadow_filter : {"hard", "vsm"}, keyword-only
-        Visibility of a light sample: a hard depth test, or variance shadow maps
-        filtered to about the penumbra of the sample's share of the light (the
-        atlas then has at most ``shadow_size`` texels a side); see :mod:`.shadow`.
-    d_occ : float, keyword-only
-        Occlusion distance of the environment's screen-space occlusion, in
-        world units; 0 turns occlusion off (no samples, no pass); None uses
-        :data:`DEFAULT_D_OCC_FRACTION` × the diagonal of the scene's bounds.
-    env_samples : int, keyword-only
-        N environment occlusion samples (half diffuse, half specular); None
-        uses the paper's N = frames.
-    occlusion_bias : float, keyword-only
-        Depth bias of the occlusion test as a fraction of d_occ.
-    env_format : {"float", "rgbm", "octahedral"}, keyword-only
-        Storage of the prefiltered environment (:mod:`compare.ibl.atlas`).
-    env_diffuse : {"cube", "sh9"}, keyword-only
-        Diffuse irradiance from the convolved cube or from 9 SH coefficients.
-    ibl_size, ibl_levels, ibl_samples : int, keyword-only
-        Cube face size, prefiltered levels and GGX samples per texel of the
-        environment preprocessing (:func:`compare.ibl.preprocess`).
-    cache_dir : path, None or False, keyword-only
-        Cache root of the environment preprocessing (None: the default cache; False: none).
-    warm_up : bool, keyword-only
-        Draw frame 0 and the first light frame once before timing starts, so
-        that lazy shader compilation is not counted in frame 1 (default True).
-    indirect : {"none", "probes"} or None, keyword-only
-        Indirect diffuse light: none (the paper's technique) or an irradiance
-        volume (:mod:`compare.progressive.probes`); None uses the scene's
-        ``[render] indirect``.
-    probe_grid : (int, int, int) or None, keyword-only
-        Probes along x, y, z; None uses the scene's ``probe_grid``.
-    probe_bounces : int or None, keyword-only
-        Diffuse bounces baked into the probes; None uses the scene's ``probe_bounces``.
-    first_frame : {"forward", "gbuffer"}, keyword-only
-        How frame 0 (display only) is drawn: one forward-shaded pass
-        (:mod:`compare.progressive.first_frame`, the cheap first frame) or the
-        G-buffer and full-screen passes of every other frame. The forward pass
-        is used when frame 0 carries no samples (its preview then has no
-        indirect light of probes: that needs the G-buffer).
-    first_frame_scale : float or None, keyword-only
-        Fraction of each axis at which the forward frame 0 is drawn; None (default)
-        picks it (:func:`compare.progressive.first_frame.auto_scale`: 0.5, a quarter
-        of the pixels, from 320×240 up, else 1). Below 1 frame 0 is a preview only,
-        upsampled for display, and frame 1 draws the full-size unshadowed preview;
-        1 draws it at full size as the first value of the every-frame mean.
-    frame_budget_ms : float or None, keyword-only
-        A per-frame time budget: each frame evaluates as many of the plan's
-        samples as a measured cost model says fit (:mod:`compare.progressive.budget`),
-        at least one, so the render takes as many frames as it needs; None
-        keeps the paper's fixed plan of ``frames`` frames.
+    options : RasterizerOptions, optional
+        Every other setting (:class:`compare.progressive.config.RasterizerOptions`); keywords
+        replace single fields of it (``Rasterizer(scene, frames=16, area_model="ltc")``).
     ctx : moderngl.Context, keyword-only
         A context to use (not released here); None creates a headless one.
     """
 
-    def __init__(self, scene, *, frames: int = DEFAULT_FRAMES, seed: int = 0, area_model: str = "radiometric",
-                 materials: str = "shared", direct_fraction: float | None = None,
-                 samples_per_light: int | Sequence[int] | None = None, shadow_size: int = DEFAULT_SHADOW_SIZE,
-                 shadow_bias: tuple[float, float, float] = DEFAULT_BIAS, shadow_filter: str = "hard",
-                 d_occ: float | None = None, env_samples: int | None = None,
-                 occlusion_bias: float = DEFAULT_OCCLUSION_BIAS,
-                 env_format: str = "float", env_diffuse: str = "cube", ibl_size: int = DEFAULT_SIZE,
-                 ibl_levels: int = DEFAULT_LEVELS, ibl_samples: int = DEFAULT_SAMPLES, cache_dir=None,
-                 warm_up: bool = True, indirect: str | None = None, probe_grid: Sequence[int] | None = None,
-                 probe_bounces: int | None = None, first_frame: str = "forward",
-                 first_frame_scale: float | None = None,
-                 frame_budget_ms: float | None = None, ctx=None):
-        if area_model not in AREA_MODELS:
-            raise ValueError(f"area_model: expected one of {', '.join(map(repr, AREA_MODELS))}, got {area_model!r}")
-        if materials not in SUPPORTED_MATERIALS:
-            raise ValueError(f"materials: expected one of {', '.join(map(repr, SUPPORTED_MATERIALS))}, got {materials!r}")
-        if len(tuple(shadow_bias)) != 3 or not all(np.isfinite(b) and b >= 0 for b in shadow_bias):
-            raise ValueError(f"shadow_bias: expected three non-negative numbers, got {shadow_bias!r}")
-        if first_frame_scale is not None:
-            check_scale(first_frame_scale)
-        if first_frame not in FIRST_FRAME_MODES:
-            raise ValueError(f"first_frame: expected one of {', '.join(map(repr, FIRST_FRAME_MODES))}, "
-                             f"got {first_frame!r}")
-        if shadow_filter not in SHADOW_FILTERS:
-            raise ValueError(f"shadow_filter: expected one of {', '.join(map(repr, SHADOW_FILTERS))}, "
-                             f"got {shadow_filter!r}")
-        if env_diffuse not in ENV_DIFFUSE:
-            raise ValueError(f"env_diffuse: expected one of {', '.join(map(repr, ENV_DIFFUSE))}, got {env_diffuse!r}")
-        if d_occ is not None and not (np.isfinite(d_occ) and d_occ >= 0):
-            raise ValueError(f"d_occ: expected a non-negative distance (0 turns occlusion off), got {d_occ!r}")
-        if not (np.isfinite(occlusion_bias) and 0 <= occlusion_bias < 1):
-            raise ValueError(f"occlusion_bias: expected a fraction of d_occ in [0, 1), got {occlusion_bias!r}")
+    def __init__(self, scene, options: RasterizerOptions | None = None, *, ctx=None, **keywords):
+        o = options or RasterizerOptions()
+        if keywords:
+            o = dataclasses.replace(o, **keywords)  # TypeError names an unknown keyword; ValueError a bad value
+        self.options = o
+        frames, seed, area_model, materials = o.frames, o.seed, o.area_model, o.materials
+        shadow_bias, shadow_filter, d_occ = o.shadow_bias, o.shadow_filter, o.d_occ
+        direct_fraction, frame_budget_ms = o.direct_fraction, o.frame_budget_ms
+        indirect, probe_grid, probe_bounces = o.indirect, o.probe_grid, o.probe_bounces
         self.indirect, self.probe_grid, self.probe_bounces = indirect_options(scene, indirect, probe_grid,
                                                                               probe_bounces)
         self.scene = scene
@@ -237,19 +144,15 @@ class Rasterizer:
             lo, hi = scene.extent()
             d_occ = DEFAULT_D_OCC_FRACTION * float(np.linalg.norm(hi - lo))
         self.d_occ = float(d_occ) if has_env else 0.0
-        self.occlusion_bias = float(occlusion_bias)
+        self.occlusion_bias = float(o.occlusion_bias)
         if direct_fraction is None:
             direct_fraction = LTC_DIRECT_FRACTION if area_model == "ltc" else DEFAULT_DIRECT_FRACTION
         self.plan = plan(scene, frames, seed=seed, direct_fraction=direct_fraction,
-                         samples_per_light=samples_per_light,
-                         env_samples=env_samples if self.d_occ > 0 else 0)
+                         samples_per_light=o.samples_per_light,
+                         env_samples=o.env_samples if self.d_occ > 0 else 0)
         self.notes: list[str] = list(self.plan.notes)
         self.scheduler = None
         if frame_budget_ms is not None:
-            if isinstance(frame_budget_ms, bool) or not (isinstance(frame_budget_ms, (int, float))
-                                                          and np.isfinite(frame_budget_ms) and frame_budget_ms > 0):
-                raise ValueError(f"frame_budget_ms: expected a positive number of milliseconds, "
-                                 f"got {frame_budget_ms!r}")
             self.scheduler = BudgetScheduler(self.plan, frame_budget_ms / 1000.0,
                                              max_env_per_frame=MAX_SAMPLES_PER_FRAME)
         self._check_features()
@@ -262,81 +165,7 @@ class Rasterizer:
         self.size = size
         self._objects: list = []
         try:
-            check_image_size(ctx, size, str(scene.path))
-            self.camera = CameraSetup(scene)
-            self.gpu_scene = self._keep(GpuScene(ctx, scene))
-            self.gbuffer = self._keep(GBuffer(ctx, self.gpu_scene, size))
-            # Leave out what the scene does not need: no environment work without an environment.
-            self.environment = self.env_occlusion = self.env_acc = None
-            if has_env:
-                self.environment = self._keep(EnvironmentLighting(
-                    ctx, scene, env_format=env_format, env_diffuse=env_diffuse, ibl_size=ibl_size,
-                    ibl_levels=ibl_levels, ibl_samples=ibl_samples, cache_dir=cache_dir))
-                if self.plan.env_frames > 0:
-                    self.env_occlusion = self._keep(EnvOcclusionPass(ctx, self.environment, materials,
-                                                                     occlusion=self.gpu_scene.occluded))
-                    self.env_acc = self._keep(EnvOcclusionTargets(ctx, size))
-            # No probe work unless indirect = "probes"; the bake is part of setup (timed on its own too).
-            self.probes = None
-            if self.indirect == "probes":
-                self.probes = self._keep(ProbeVolume(
-                    ctx, scene, self.gpu_scene, grid=self.probe_grid, bounces=self.probe_bounces,
-                    shadow_bias=self.shadow_bias, environment=self.environment, materials=materials, seed=seed,
-                    cache_dir=cache_dir))
-            self.accumulate = self._keep(AccumulatePass(ctx, self.environment, materials,
-                                                        occlusion=self.gpu_scene.occluded))
-            self.indirect_pass = None
-            if self.probes is not None:
-                self.indirect_pass = self._keep(IndirectPass(ctx, self.probes, size, materials,
-                                                             occlusion=self.gpu_scene.occluded))
-            self.base = self._keep(PingPong(ctx, size, attachments=self.accumulate.attachments))
-            self.compose = self._keep(ComposePass(ctx, size))
-            has_lights = bool(scene.lights)
-            # Frame 0 is forward-shaded when it carries no samples (first_frame.py).
-            fp0 = self.plan[0]
-            forward_first = first_frame == "forward" and not fp0.light_samples and not fp0.env_samples
-            # Leave out what the scene does not need: no shadow or direct-light work without area lights.
-            self.shadow = self.direct = self.direct_acc = self.partial = self.preview = None
-            self.ltc = self.ltc_table = None
-            if has_lights:
-                lo, hi = scene.extent()
-                self.shadow = self._keep(ShadowAtlas(ctx, self.gpu_scene, size=shadow_size,
-                                                     extent=float(np.linalg.norm(hi - lo)), filter=shadow_filter,
-                                                     lights=scene.lights,
-                                                     samples_per_light=self.plan.samples_per_light))
-                self.direct = self._keep(DirectPass(ctx, area_model=area_model, materials=materials,
-                                                    shadows=self.plan.light_frames > 0,
-                                                    shadow_filter=shadow_filter, cache_dir=cache_dir))
-                if area_model == "ltc":
-                    # Per-light sums instead of one running mean (ltc.py); no partial sums.
-                    self.ltc_table = self._keep(ltc_texture(ctx))
-                    self.direct.ltc_table = self.ltc_table
-                    gbuffer_frames = len(self.plan) - int(forward_first)
-                    self.ltc = self._keep(LtcLights(ctx, size, scene.lights, materials=materials,
-                                                    lut_texture=self.direct.lut_texture, table=self.ltc_table,
-                                                    gbuffer_frames=max(gbuffer_frames, 1)))
-                else:
-                    self.direct_acc = self._keep(PingPong(ctx, size))
-                    if self.scheduler is not None or any(fp.shadow_passes > 1 for fp in self.plan):
-                        self.partial = self._keep(Target(ctx, size))
-            self.first = None
-            if forward_first:
-                scale = first_frame_scale
-                if scale is None:
-                    # A reduced frame 0 is only a preview: without a later frame it would be the result.
-                    later = (len(self.plan) > 1 if self.scheduler is None
-                             else bool(self.scheduler.lights or self.scheduler.envs))
-                    scale = auto_scale(size) if later else 1.0
-                self.first = self._keep(FirstFramePass(
-                    ctx, self.gpu_scene, self.base, scene.lights, environment=self.environment, area_model=area_model,
-                    materials=materials, lut_texture=self.direct.lut_texture if self.direct is not None else None,
-                    ltc_table=self.ltc_table, scale=float(scale)))
-            # A reduced frame 0 is a preview only: frame 1 draws the full-size one from its G-buffer
-            # (with ltc every G-buffer frame has the closed-form unshadowed light: no preview).
-            if (has_lights and self.ltc is None and (self.first is None or self._reduced_first)
-                    and any(fp.preview for fp in self.plan)):
-                self.preview = self._keep(Target(ctx, size))
-            self.query = ctx.query(time=True)  # moderngl queries have no release(); freed with the context
+            self._build_passes(has_env)
         except BaseException:
             self.release()
             raise
@@ -354,7 +183,7 @@ class Rasterizer:
         if self.scheduler is not None:
             for jitter in self.scheduler.jitter:
                 self._matrices((float(jitter[0]), float(jitter[1])))
-        if warm_up or self.scheduler is not None:
+        if o.warm_up or self.scheduler is not None:
             try:
                 self._warm_up()
                 if self.scheduler is not None:
@@ -366,6 +195,90 @@ class Rasterizer:
         """Seconds for context, upload, shader compilation and warm-up (not in :attr:`seconds`)."""
 
     # ------------------------------------------------------------------ setup helpers
+
+
+    def _build_passes(self, has_env: bool) -> None:
+        """Make every pass and target the scene needs, and no other (the pass graph)."""
+        o, scene, ctx, size = self.options, self.scene, self.ctx, self.size
+        materials, area_model, shadow_filter, seed = o.materials, o.area_model, o.shadow_filter, o.seed
+        env_format, env_diffuse, cache_dir = o.env_format, o.env_diffuse, o.cache_dir
+        ibl_size, ibl_levels, ibl_samples = o.ibl_size, o.ibl_levels, o.ibl_samples
+        shadow_size, first_frame, first_frame_scale = o.shadow_size, o.first_frame, o.first_frame_scale
+        check_image_size(ctx, size, str(scene.path))
+        self.camera = CameraSetup(scene)
+        self.gpu_scene = self._keep(GpuScene(ctx, scene))
+        self.gbuffer = self._keep(GBuffer(ctx, self.gpu_scene, size))
+        # Leave out what the scene does not need: no environment work without an environment.
+        self.environment = self.env_occlusion = self.env_acc = None
+        if has_env:
+            self.environment = self._keep(EnvironmentLighting(
+                ctx, scene, env_format=env_format, env_diffuse=env_diffuse, ibl_size=ibl_size,
+                ibl_levels=ibl_levels, ibl_samples=ibl_samples, cache_dir=cache_dir))
+            if self.plan.env_frames > 0:
+                self.env_occlusion = self._keep(EnvOcclusionPass(ctx, self.environment, materials,
+                                                                 occlusion=self.gpu_scene.occluded))
+                self.env_acc = self._keep(EnvOcclusionTargets(ctx, size))
+        # No probe work unless indirect = "probes"; the bake is part of setup (timed on its own too).
+        self.probes = None
+        if self.indirect == "probes":
+            self.probes = self._keep(ProbeVolume(
+                ctx, scene, self.gpu_scene, grid=self.probe_grid, bounces=self.probe_bounces,
+                shadow_bias=self.shadow_bias, environment=self.environment, materials=materials, seed=seed,
+                cache_dir=cache_dir))
+        self.accumulate = self._keep(AccumulatePass(ctx, self.environment, materials,
+                                                    occlusion=self.gpu_scene.occluded))
+        self.indirect_pass = None
+        if self.probes is not None:
+            self.indirect_pass = self._keep(IndirectPass(ctx, self.probes, size, materials,
+                                                         occlusion=self.gpu_scene.occluded))
+        self.base = self._keep(PingPong(ctx, size, attachments=self.accumulate.attachments))
+        self.compose = self._keep(ComposePass(ctx, size))
+        has_lights = bool(scene.lights)
+        # Frame 0 is forward-shaded when it carries no samples (first_frame.py).
+        fp0 = self.plan[0]
+        forward_first = first_frame == "forward" and not fp0.light_samples and not fp0.env_samples
+        # Leave out what the scene does not need: no shadow or direct-light work without area lights.
+        self.shadow = self.direct = self.direct_acc = self.partial = self.preview = None
+        self.ltc = self.ltc_table = None
+        if has_lights:
+            lo, hi = scene.extent()
+            self.shadow = self._keep(ShadowAtlas(ctx, self.gpu_scene, size=shadow_size,
+                                                 extent=float(np.linalg.norm(hi - lo)), filter=shadow_filter,
+                                                 lights=scene.lights,
+                                                 samples_per_light=self.plan.samples_per_light))
+            self.direct = self._keep(DirectPass(ctx, area_model=area_model, materials=materials,
+                                                shadows=self.plan.light_frames > 0,
+                                                shadow_filter=shadow_filter, cache_dir=cache_dir))
+            if area_model == "ltc":
+                # Per-light sums instead of one running mean (ltc.py); no partial sums.
+                self.ltc_table = self._keep(ltc_texture(ctx))
+                self.direct.ltc_table = self.ltc_table
+                gbuffer_frames = len(self.plan) - int(forward_first)
+                self.ltc = self._keep(LtcLights(ctx, size, scene.lights, materials=materials,
+                                                lut_texture=self.direct.lut_texture, table=self.ltc_table,
+                                                gbuffer_frames=max(gbuffer_frames, 1)))
+            else:
+                self.direct_acc = self._keep(PingPong(ctx, size))
+                if self.scheduler is not None or any(fp.shadow_passes > 1 for fp in self.plan):
+                    self.partial = self._keep(Target(ctx, size))
+        self.first = None
+        if forward_first:
+            scale = first_frame_scale
+            if scale is None:
+                # A reduced frame 0 is only a preview: without a later frame it would be the result.
+                later = (len(self.plan) > 1 if self.scheduler is None
+                         else bool(self.scheduler.lights or self.scheduler.envs))
+                scale = auto_scale(size) if later else 1.0
+            self.first = self._keep(FirstFramePass(
+                ctx, self.gpu_scene, self.base, scene.lights, environment=self.environment, area_model=area_model,
+                materials=materials, lut_texture=self.direct.lut_texture if self.direct is not None else None,
+                ltc_table=self.ltc_table, scale=float(scale)))
+        # A reduced frame 0 is a preview only: frame 1 draws the full-size one from its G-buffer
+        # (with ltc every G-buffer frame has the closed-form unshadowed light: no preview).
+        if (has_lights and self.ltc is None and (self.first is None or self._reduced_first)
+                and any(fp.preview for fp in self.plan)):
+            self.preview = self._keep(Target(ctx, size))
+        self.query = ctx.query(time=True)  # moderngl queries have no release(); freed with the context
 
     def _keep(self, obj):
         self._objects.append(obj)
@@ -394,10 +307,6 @@ class Rasterizer:
         return (0.0, 0.0, 0.0)
 
     # ------------------------------------------------------------------ rendering
-
-    @property
-    def frames_total(self) -> int:
-        return len(self.plan)
 
     @property
     def seconds(self) -> float:

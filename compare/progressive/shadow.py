@@ -135,8 +135,6 @@ import numpy as np
 from compare.progressive.gpu_scene import frustum, look_at, mat_bytes
 from compare.progressive.shaders import load_program, set_uniform
 
-#: Face order, as in direct.glsl.
-FACES = ("+n", "+t", "-t", "+b", "-b")
 #: Default bias in texels: (normal offset, constant, slope-scaled).
 DEFAULT_BIAS = (1.0, 1.0, 1.0)
 #: Default face resolution S.

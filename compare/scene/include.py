@@ -41,12 +41,42 @@ INCLUDE_FIELDS = {"file", "translate", "rotate", "scale", "prefix", "emissive_qu
                   "light_scale", "camera"}
 
 
+@dataclass(frozen=True)
+class _Settings:
+    """One ``[[include]]`` table, validated."""
+
+    path: Path
+    given: str
+    prefix: str
+    quads: str
+    punctual: str
+    punctual_size: float
+    light_scale: float
+    camera: Any
+    xf: np.ndarray
+
+
 def include(ctx, where: str, raw: Any) -> Included:
     """Validate one ``[[include]]`` table of a scene file and map its glTF file onto scene objects.
 
     ``ctx`` is :mod:`compare.scene.loader`'s loading context (file name for messages,
     scene folder for paths); errors name ``where`` and the field.
     """
+    st = _settings(ctx, where, raw)
+    try:
+        doc = load_gltf(st.path, root=ctx.root)
+    except GltfError as exc:  # name the file as the scene does, relative to its folder
+        raise ctx.err(f"{where}.file", str(exc).replace(str(st.path), st.given, 1)) from exc
+    notes = list(doc.warnings)
+    materials = _Materials(ctx, where, st, doc)
+    meshes, lights = _objects(st, doc, materials, notes)
+    camera = _camera(ctx, where, st, doc)
+    for note in notes:
+        warnings.warn(f"{ctx.path}: {where}: {st.path.name}: {note}", stacklevel=4)
+    return Included(materials.made, meshes, lights, camera, [*doc.files], notes)
+
+
+def _settings(ctx, where: str, raw: Any) -> _Settings:
     t = sf.table(ctx, where, raw, INCLUDE_FIELDS)
     given = sf.require(ctx, where, t, "file")
     path = sf.file_field(ctx, f"{where}.file", given, (".gltf", ".glb"))
@@ -74,92 +104,104 @@ def include(ctx, where: str, raw: Any) -> Included:
         raise ctx.err(f"{where}.scale", f"expected non-zero scale factors, got {sf.fmt(scale)}")
     xf = geometry.transform_matrix(sf.vector(ctx, f"{where}.translate", t.get("translate", [0, 0, 0]), 3),
                                    sf.vector(ctx, f"{where}.rotate", t.get("rotate", [0, 0, 0]), 3), sv)
-    try:
-        doc = load_gltf(path, root=ctx.root)
-    except GltfError as exc:  # name the file as the scene does, relative to its folder
-        raise ctx.err(f"{where}.file", str(exc).replace(str(path), given, 1)) from exc
+    return _Settings(path, given, prefix, quads, punctual, size, light_scale, cam_sel, xf)
 
-    notes = list(doc.warnings)
-    materials: dict[str, Any] = {}
 
-    def material_name(index: int | None) -> str:
+class _Materials:
+    """The scene model's materials of a glTF document's, made as primitives name them."""
+
+    def __init__(self, ctx, where: str, st: _Settings, doc):
+        self.ctx, self.where, self.st, self.doc = ctx, where, st, doc
+        self.made: dict[str, Any] = {}
+
+    def name(self, index: int | None) -> str:
+        """The scene material of glTF material ``index`` (None: glTF's default material), made on first use."""
+        doc, prefix, made = self.doc, self.st.prefix, self.made
         if index is None:
             name = f"{prefix}default"
-            materials.setdefault(name, sm.Material(name=name, base_color=(1.0, 1.0, 1.0), metallic=1.0,
-                                                   roughness=1.0))
+            made.setdefault(name, sm.Material(name=name, base_color=(1.0, 1.0, 1.0), metallic=1.0, roughness=1.0))
             return name
         if not 0 <= index < len(doc.materials):
-            raise ctx.err(f"{where}.file", f"{given}: primitive material index {index} out of range")
+            raise self.ctx.err(f"{self.where}.file", f"{self.st.given}: primitive material index {index} out of range")
         m = doc.materials[index]
         same = [i for i, o in enumerate(doc.materials) if o.name == m.name]
         name = f"{prefix}{m.name}" + (f"#{index}" if len(same) > 1 else "")
-        if name not in materials:
-            def tex(i):
-                path = doc.images[i] if i is not None and 0 <= i < len(doc.images) else None
-                problem = texture_problem(path) if path is not None else None
-                if problem:
-                    raise ctx.err(f"{where}.file", f"{given}: materials[{index}]: image {i}: {problem}")
-                return path
-
-            base_map, mr_map = tex(m.base_color_image), tex(m.metallic_roughness_image)
-            # glTF multiplies a map by its factor; in the scene model a map replaces it: a factor other
-            # than 1 is baked into the map
-            if base_map is not None and any(c != 1.0 for c in m.base_color):
-                base_map = factor_map(base_map, m.base_color, srgb=True)
-            if mr_map is not None and (m.metallic, m.roughness) != (1.0, 1.0):
-                mr_map = factor_map(mr_map, (1.0, m.roughness, m.metallic), srgb=False)
-            materials[name] = sm.Material(name=name, base_color=m.base_color, metallic=m.metallic,
-                                          roughness=m.roughness, emission=m.emission,
-                                          base_color_texture=base_map,
-                                          metallic_roughness_texture=mr_map,
-                                          emissive_texture=tex(m.emissive_image),
-                                          occlusion_texture=tex(m.occlusion_image),
-                                          occlusion_strength=m.occlusion_strength,
-                                          normal_texture=tex(m.normal_image), normal_scale=m.normal_scale,
-                                          alpha_mode=m.alpha_mode, alpha=m.alpha, alpha_cutoff=m.alpha_cutoff,
-                                          **m.texture_settings)
+        if name not in made:
+            made[name] = self._material(name, index, m)
         return name
 
+    def _texture(self, index: int, i: int | None) -> Path | None:
+        doc = self.doc
+        path = doc.images[i] if i is not None and 0 <= i < len(doc.images) else None
+        problem = texture_problem(path) if path is not None else None
+        if problem:
+            raise self.ctx.err(f"{self.where}.file", f"{self.st.given}: materials[{index}]: image {i}: {problem}")
+        return path
+
+    def _material(self, name: str, index: int, m):
+        tex = lambda i: self._texture(index, i)  # noqa: E731
+        base_map, mr_map = tex(m.base_color_image), tex(m.metallic_roughness_image)
+        # glTF multiplies a map by its factor; in the scene model a map replaces it: a factor other
+        # than 1 is baked into the map
+        if base_map is not None and any(c != 1.0 for c in m.base_color):
+            base_map = factor_map(base_map, m.base_color, srgb=True)
+        if mr_map is not None and (m.metallic, m.roughness) != (1.0, 1.0):
+            mr_map = factor_map(mr_map, (1.0, m.roughness, m.metallic), srgb=False)
+        return sm.Material(name=name, base_color=m.base_color, metallic=m.metallic, roughness=m.roughness,
+                           emission=m.emission, base_color_texture=base_map, metallic_roughness_texture=mr_map,
+                           emissive_texture=tex(m.emissive_image), occlusion_texture=tex(m.occlusion_image),
+                           occlusion_strength=m.occlusion_strength, normal_texture=tex(m.normal_image),
+                           normal_scale=m.normal_scale, alpha_mode=m.alpha_mode, alpha=m.alpha,
+                           alpha_cutoff=m.alpha_cutoff, **m.texture_settings)
+
+
+def _objects(st: _Settings, doc, materials: _Materials, notes: list[str]) -> tuple[list, list]:
+    """The document's meshes and lights: emissive rectangles and punctual lights as area lights."""
     meshes, lights = [], []
     used: dict[str, int] = {}
     for prim in doc.primitives:
-        mat = material_name(prim.material)
-        matrix = xf @ prim.matrix
-        base = f"{prefix}{prim.name}"
+        mat = materials.name(prim.material)
+        matrix = st.xf @ prim.matrix
+        base = f"{st.prefix}{prim.name}"
         used[base] = used.get(base, 0) + 1
         name = base if used[base] == 1 else f"{base}#{used[base]}"
         mesh = sm.Mesh(name=name, shape="gltf", material=mat, params={"triangles": prim.mesh}, transform=matrix,
-                       file=path)
+                       file=st.path)
         # A light has one radiance: a quad whose emission has a map stays a mesh (its map is drawn).
-        light_like = materials[mat].is_emissive and materials[mat].emissive_texture is None
-        rect = _emissive_rectangle(mesh.triangles()) if quads == "lights" and light_like else None
+        material = materials.made[mat]
+        light_like = material.is_emissive and material.emissive_texture is None
+        rect = _emissive_rectangle(mesh.triangles()) if st.quads == "lights" and light_like else None
         if rect is None:
             meshes.append(mesh)
         else:
             center, rsize, normal, tangent = rect
-            lights.append(sm.AreaLight(name, center, rsize, normal, tangent, materials[mat].emission))
-    if punctual == "area":
-        world_scale = abs(np.linalg.det(xf[:3, :3])) ** (1.0 / 3.0)
+            lights.append(sm.AreaLight(name, center, rsize, normal, tangent, material.emission))
+    if st.punctual == "area":
+        world_scale = abs(np.linalg.det(st.xf[:3, :3])) ** (1.0 / 3.0)
         for light in doc.lights:
-            lights.extend(_punctual_lights(sm, light, xf, size * world_scale, light_scale, prefix, notes))
+            lights.extend(_punctual_lights(sm, light, st.xf, st.punctual_size * world_scale, st.light_scale,
+                                           st.prefix, notes))
     elif doc.lights:
         notes.append(f"{len(doc.lights)} KHR_lights_punctual light(s) ignored (punctual = 'ignore')")
-    camera = None
-    if cam_sel is not False and doc.cameras:
-        if isinstance(cam_sel, str):
-            found = [c for c in doc.cameras if c.name == cam_sel]
-            if not found:
-                raise ctx.err(f"{where}.camera", f"no camera named {cam_sel!r} in {path.name} "
-                                                 f"(cameras: {', '.join(c.name for c in doc.cameras)})")
-            cam = found[0]
-        elif cam_sel < len(doc.cameras):
-            cam = doc.cameras[cam_sel]
-        else:
-            raise ctx.err(f"{where}.camera", f"index {cam_sel} out of range ({len(doc.cameras)} camera(s))")
-        camera = _camera_fields(cam, xf)
-    for note in notes:
-        warnings.warn(f"{ctx.path}: {where}: {path.name}: {note}", stacklevel=4)
-    return Included(materials, meshes, lights, camera, [*doc.files], notes)
+    return meshes, lights
+
+
+def _camera(ctx, where: str, st: _Settings, doc) -> dict | None:
+    """The camera fields of the glTF camera the table selects, or None."""
+    cam_sel = st.camera
+    if cam_sel is False or not doc.cameras:
+        return None
+    if isinstance(cam_sel, str):
+        found = [c for c in doc.cameras if c.name == cam_sel]
+        if not found:
+            raise ctx.err(f"{where}.camera", f"no camera named {cam_sel!r} in {st.path.name} "
+                                             f"(cameras: {', '.join(c.name for c in doc.cameras)})")
+        cam = found[0]
+    elif cam_sel < len(doc.cameras):
+        cam = doc.cameras[cam_sel]
+    else:
+        raise ctx.err(f"{where}.camera", f"index {cam_sel} out of range ({len(doc.cameras)} camera(s))")
+    return _camera_fields(cam, st.xf)
 
 
 def _camera_fields(cam: GltfCamera, xf: np.ndarray) -> dict:
