@@ -97,6 +97,11 @@ def test_report_shows_the_split_and_warns_within_the_noise_floor(tmp_path):
     settings = RunSettings(frames=4, spp=64, sizes=[[32, 24]], renderers=["mitsuba", "mitsuba+offset"], seeds=3)
     res = run_mod.run([CORNELL], tmp_path / "out", settings, progress=False, report=False,
                       cache_dir=tmp_path / "cache", renderers=[OffsetMitsuba()])
+    from compare.metrics.table import known
+
+    # every metric a run writes has its row in the one table (names, headings, directions)
+    written = {k for sc in res.scenes for r in sc.runs for p in r.points for k in p.metrics}
+    assert {"bias2", "rel_bias2_ci", "flip"} <= written and all(known(k) for k in written), sorted(k for k in written if not known(k))
     html = build_report(res, tmp_path / "out").read_text()
     assert "Bias against noise" in html and "biased" in html and (tmp_path / "out" / "plots").is_dir()
     assert any(p.name.endswith("-bias.png") for p in (tmp_path / "out" / "plots").iterdir())

@@ -1,14 +1,15 @@
 """The metrics the suite reports: name, heading, digits and direction, in one table.
 
-``compare check`` (which bound is a ceiling and which a floor), the report's tables
-and ``compare bench`` read their metrics from here, so a new metric is one row.
+The report's tables are made from it and ``compare check`` accepts the names in it
+(a bound on any other name is refused, naming the known ones); a test checks that
+every metric a run writes has its row. A new metric is one row.
 """
 
 from __future__ import annotations
 
 from typing import NamedTuple
 
-__all__ = ["METRICS", "Metric", "higher_is_better"]
+__all__ = ["METRICS", "Metric", "higher_is_better", "known"]
 
 
 class Metric(NamedTuple):
@@ -18,9 +19,11 @@ class Metric(NamedTuple):
     heading: str
     digits: int
     higher_is_better: bool = False
+    #: Whether the report's metric tables show it (the others are in results.json and ``check``).
+    shown: bool = True
 
 
-#: Every metric of the report's tables, in their order.
+#: Every metric of a checkpoint, the report's tables' in their order first.
 METRICS = (
     Metric("flip", "FLIP", 4),
     Metric("flip_median", "FLIP w. median", 4),
@@ -30,6 +33,21 @@ METRICS = (
     Metric("psnr", "PSNR (dB)", 2, higher_is_better=True),
     Metric("relmse", "relMSE", 4),
     Metric("mse", "MSE", 4),
+    # derived and diagnostic values (compare.report.results.metric_value, compare.metrics.images)
+    Metric("one_minus_ssim", "1 − SSIM", 4, shown=False),
+    Metric("ldr_range", "LDR range of the ground truth", 4, higher_is_better=True, shown=False),
+    # the split into bias and noise of runs with --seeds K (compare.metrics.bias)
+    Metric("mse_mean", "MSE, mean of the seeds", 4, shown=False),
+    Metric("variance", "variance", 4, shown=False),
+    Metric("bias2", "bias²", 4, shown=False),
+    Metric("bias2_ci", "bias² 95 % half-width", 4, shown=False),
+    Metric("relmse_mean", "relMSE, mean of the seeds", 4, shown=False),
+    Metric("rel_variance", "relative variance", 4, shown=False),
+    Metric("rel_bias2", "relative bias²", 4, shown=False),
+    Metric("rel_bias2_ci", "relative bias² 95 % half-width", 4, shown=False),
+    Metric("truth_variance", "the ground truth's own variance", 4, shown=False),
+    Metric("rel_truth_variance", "the ground truth's own relative variance", 4, shown=False),
+    Metric("seeds", "seeds", 0, higher_is_better=True, shown=False),
 )
 _BY_NAME = {m.name: m for m in METRICS}
 
@@ -38,3 +56,8 @@ def higher_is_better(name: str) -> bool:
     """Whether a larger value of metric ``name`` is better (SSIM, PSNR); False for errors and unknown names."""
     m = _BY_NAME.get(name)
     return bool(m and m.higher_is_better)
+
+
+def known(name: str) -> bool:
+    """Whether ``name`` is a metric of the table."""
+    return name in _BY_NAME

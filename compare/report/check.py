@@ -40,6 +40,7 @@ from pathlib import Path
 from typing import Any
 
 from compare.util.errors import CompareError
+from compare.metrics.table import METRICS, known
 from compare.report.results import Point, RendererRun, Results, metric_value
 
 __all__ = [
@@ -98,6 +99,9 @@ def _bounds(raw: Any, where: str) -> tuple[tuple[str, float], ...]:
     for name, v in raw.items():
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(float(v)):
             raise ThresholdsError(f"{where}.{name}: expected a finite number, got {v!r}")
+        if not (known(str(name)) or name in _TIMINGS):
+            raise ThresholdsError(f"{where}.{name}: unknown metric; expected one of "
+                                  f"{', '.join([m.name for m in METRICS] + list(_TIMINGS))}")
         out.append((str(name), float(v)))
     return tuple(out)
 

@@ -70,7 +70,7 @@ _STATIC = ("report.css", "report.js")
 _HALF_MAX = 65504.0
 
 #: Metrics shown in tables, in order: (key for metric_value, heading, digits), from the one table.
-TABLE_METRICS = tuple((m.name, m.heading, m.digits) for m in METRICS)
+TABLE_METRICS = tuple((m.name, m.heading, m.digits) for m in METRICS if m.shown)
 
 _MAP_TITLES = {"flip": "FLIP (LDR)", "one_minus_ssim": "1 − SSIM", "relmse": "relMSE"}
 
