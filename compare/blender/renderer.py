@@ -142,6 +142,7 @@ class CyclesRenderer(BlenderRenderer):
 
     default_budget = CYCLES_PAPER_SAMPLES
     budget_flag = "--cycles-spp"
+    render_flag = "--spp"
     VARIANTS = ("cycles:ggx",)
 
 
@@ -150,4 +151,5 @@ class EeveeRenderer(BlenderRenderer):
 
     default_budget = EEVEE_PAPER_SAMPLES
     budget_flag = "--eevee-samples"
+    render_flag = "--samples"
     VARIANTS = ("eevee:ggx",)

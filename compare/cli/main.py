@@ -54,9 +54,9 @@ def _build_parser() -> argparse.ArgumentParser:
                    help="a renderer file with [renderer.<name>] tables (docs/renderers.md)")
     r.add_argument("--steps", type=positive_int, default=None,
                    help="the budget in the renderer's unit; default: --spp, --frames or --samples by its kind")
-    r.add_argument("--spp", type=positive_int, default=256, help="samples per pixel (mitsuba, cycles)")
+    r.add_argument("--spp", type=positive_int, default=256, help="samples per pixel (the reference, and renderers whose own budget it sets)")
     r.add_argument("--frames", type=positive_int, default=128, help="frames to accumulate (progressive)")
-    r.add_argument("--samples", type=positive_int, default=64, help="EEVEE samples")
+    r.add_argument("--samples", type=positive_int, default=64, help="samples of a renderer whose own budget it sets (`compare renderers`)")
     r.add_argument("--size", type=parse_size, default=None, help="WIDTHxHEIGHT; default: the scene's resolution")
     r.add_argument("--seed", type=int, default=0, help="random seed")
     r.add_argument("--materials", choices=[m for m in MATERIAL_MODES if m not in CLOSED_FORM_MODES], default="shared",
@@ -130,10 +130,8 @@ def cmd_render(args: argparse.Namespace) -> int:
 
     registry = Registry(args.renderer_config)
     spec = args.renderer
-    if args.variant:
-        if spec != "mitsuba":
-            raise UsageError(f"--variant picks Mitsuba's variant; --renderer {spec} is not mitsuba")
-        spec = f"mitsuba:{args.variant}"
+    if args.variant:  # one more option of the spec: the renderer's own grammar accepts or names it
+        spec += ("+" if ":" in spec else ":") + args.variant
     try:
         renderer = registry.get(spec)
     except ValueError as exc:
@@ -156,7 +154,8 @@ def cmd_render(args: argparse.Namespace) -> int:
     if args.max_depth is not None:
         scene = scene.with_max_depth(args.max_depth)
     settings = RunSettings(frames=args.frames, spp=args.spp, seed=args.seed, materials=args.materials,
-                           budgets={"cycles": args.spp, "eevee": args.samples}, likeness=False)
+                           budgets={renderer.name: getattr(args, renderer.render_flag[2:])} if renderer.render_flag
+                           else {}, likeness=False)
     steps = args.steps or renderer.steps(settings)
     with RenderContext(settings, cache_dir=False if args.no_cache else None, progress=True) as context:
         rendering = check_rendering(renderer, renderer.render(scene, steps=steps, checkpoints=[steps], seed=args.seed,

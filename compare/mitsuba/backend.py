@@ -82,7 +82,7 @@ def configure_llvm() -> str | None:
 
 
 #: The variants the suite renders with, in the order of preference of :func:`load_mitsuba`.
-VARIANTS = ("cuda_ad_rgb", "llvm_ad_rgb", "scalar_rgb")
+MITSUBA_VARIANTS = ("cuda_ad_rgb", "llvm_ad_rgb", "scalar_rgb")
 
 
 def load_mitsuba(variant: str | None = None):

@@ -8,7 +8,7 @@ with one checkpoint reuses the passes of a convergence ladder and the reference 
 from __future__ import annotations
 
 from compare.renderers.base import RenderContext, Renderer, Rendering
-from compare.mitsuba.backend import VARIANTS
+from compare.mitsuba.backend import MITSUBA_VARIANTS
 from compare.renderers.options import parse_spec
 
 __all__ = ["MitsubaRenderer", "bench_wrapper_overhead"]
@@ -50,7 +50,7 @@ class MitsubaRenderer(Renderer):
     unit = "spp"
     default_budget = "spp"
 
-    OPTIONS = {v: f"Mitsuba's {v} variant instead of the best available" for v in VARIANTS}
+    OPTIONS = {v: f"Mitsuba's {v} variant instead of the best available" for v in MITSUBA_VARIANTS}
 
     def __init__(self, spec: str | None = None):
         spec = spec or self.name  # a subclass may name itself

@@ -166,6 +166,8 @@ class Renderer(abc.ABC):
     #: ``"spp"`` for the run's ``--frames`` / ``--spp``; and a ``compare run`` flag of its own that sets it.
     default_budget: ClassVar[int | str] = "frames"
     budget_flag: ClassVar[str | None] = None
+    #: The ``compare render`` flag (``--spp``, ``--frames`` or ``--samples``) that sets a budget of its own.
+    render_flag: ClassVar[str | None] = None
 
     @classmethod
     def from_spec(cls, spec: str) -> "Renderer":

@@ -72,14 +72,10 @@ class Registry:
             self._objects[r.name] = r
         self._cache: dict[str, Renderer] = {}
         self._classes: dict[str, type[Renderer]] = {}
-        self._builtin: dict[str, metadata.EntryPoint] = {}
-        self._plugins: dict[str, metadata.EntryPoint] = {}
-        for ep in _entry_points():
-            if _is_builtin(ep):
-                self._builtin[ep.name] = ep
-        for ep in _entry_points():
-            if not _is_builtin(ep) and ep.name not in self._builtin:
-                self._plugins[ep.name] = ep
+        eps = _entry_points()
+        self._builtin = {ep.name: ep for ep in eps if _is_builtin(ep)}
+        # a plug-in may not take a built-in's name
+        self._plugins = {ep.name: ep for ep in eps if not _is_builtin(ep) and ep.name not in self._builtin}
         self._tables = self._load_config(self.config) if self.config else {}
 
     # -- sources ------------------------------------------------------------------------------
