@@ -47,12 +47,28 @@ def _materials_of(scene_toml: Path) -> dict[str, dict]:
 
 
 def stand_in_glb(parts: list[pm.Part], materials: dict[str, dict], generator: str) -> bytes:
-    """One node per part, materials by name from the scene's TOML."""
+    """One node per part, materials by name from the scene's TOML, with their maps embedded (so that the
+    file looks right in any glTF viewer, and its compressed variants carry maps to compress)."""
     w = GltfWriter(generator=generator)
     index = {}
     for name, m in materials.items():
         index[name] = w.material(name, m.get("base_color", [0.8, 0.8, 0.8]), m.get("metallic", 0.0),
                                  m.get("roughness", 0.5), m.get("emission", [0.0, 0.0, 0.0]))
+        doc = w.doc["materials"][index[name]]
+        scale = m.get("texture_scale")
+        if "base_color_texture" in m:  # glTF multiplies a map by its factor; the TOML's map replaces it
+            doc["pbrMetallicRoughness"]["baseColorTexture"] = w.texture(TEXTURE_OUTPUTS[m["base_color_texture"]](),
+                                                                        scale=scale)
+            doc["pbrMetallicRoughness"]["baseColorFactor"][:3] = [1.0, 1.0, 1.0]
+        if "normal_texture" in m:
+            doc["normalTexture"] = {**w.texture(TEXTURE_OUTPUTS[m["normal_texture"]](), scale=scale),
+                                    "scale": float(m.get("normal_scale", 1.0))}
+        if "metallic_roughness_texture" in m:
+            doc["pbrMetallicRoughness"]["metallicRoughnessTexture"] = w.texture(
+                TEXTURE_OUTPUTS[m["metallic_roughness_texture"]](), scale=scale)
+            doc["pbrMetallicRoughness"].update(metallicFactor=1.0, roughnessFactor=1.0)
+        if m.get("alpha_mode") == "mask":
+            doc.update(alphaMode="MASK", alphaCutoff=float(m.get("alpha_cutoff", 0.5)))
     for name, mesh, material in parts:
         if material not in index:
             raise KeyError(f"part {name!r} uses material {material!r}, which the scene file does not define")
@@ -74,6 +90,94 @@ def coupe_glb() -> bytes:
 def outputs() -> dict[str, Callable[[], bytes]]:
     """Relative path → function returning the file's bytes."""
     return {"kitchen/kitchen.glb": kitchen_glb, "car/coupe.glb": coupe_glb, **TEXTURE_OUTPUTS, **STRESS_OUTPUTS}
+
+
+# ----------------------------------------------------------------------------- compressed variants
+
+#: The car as web-optimised downloads ship it, one file per decode path of compare.scene.gltf_decode. Written by
+#: real tools (``--compressed``: gltfpack and glTF-Transform from scenes/package.json, Pillow, and alktx2 from
+#: the ``scenes`` extra), not checked byte for byte (encoders differ between builds): tests/test_gltf_decode.py
+#: checks that each decodes to coupe.glb within its codec's error.
+COMPRESSED = {
+    "car/coupe-meshopt.glb": ("gltfpack", ["-cc", "-kn", "-km"]),       # EXT_meshopt_compression + quantization
+    "car/coupe-draco.glb": ("gltf-transform", ["draco"]),               # KHR_draco_mesh_compression
+    "car/coupe-webp.glb": ("EXT_texture_webp", "image/webp"),
+    "car/coupe-ktx2.glb": ("KHR_texture_basisu", "image/ktx2"),
+}
+
+
+def _node_tool(tool: str, args: list[str], src: Path, dst: Path) -> None:
+    import subprocess
+
+    binary = HERE / "node_modules" / ".bin" / tool
+    if not binary.exists():
+        subprocess.run(["npm", "ci", "--prefix", str(HERE), "--no-audit", "--no-fund"], check=True)
+    cmd = [str(binary), "-i", str(src), "-o", str(dst), *args] if tool == "gltfpack" else \
+        [str(binary), *args, str(src), str(dst)]
+    subprocess.run(cmd, check=True, capture_output=True)
+
+
+def recode_images(glb: bytes, extension: str, mime: str, encode: Callable[[bytes, bool], bytes]) -> bytes:
+    """``glb`` with every embedded image re-encoded by ``encode(png, srgb)`` and named by ``extension``
+    (required: no fallback image), as a texture-compression tool writes it."""
+    from compare.scene.glb import pack_glb, parse_glb
+
+    doc, binary = parse_glb(glb)
+    srgb = set()
+    for m in doc.get("materials", []):
+        info = m.get("pbrMetallicRoughness", {}).get("baseColorTexture")
+        for t in [info, m.get("emissiveTexture")]:
+            if t:
+                srgb.add(doc["textures"][t["index"]]["source"])
+    out, views = bytearray(), []
+    recoded = {}
+    for i, img in enumerate(doc.get("images", [])):
+        v = doc["bufferViews"][img["bufferView"]]
+        recoded[img["bufferView"]] = encode(binary[v["byteOffset"]: v["byteOffset"] + v["byteLength"]], i in srgb)
+        img["mimeType"] = mime
+    for i, v in enumerate(doc["bufferViews"]):
+        data = recoded.get(i, binary[v.get("byteOffset", 0): v.get("byteOffset", 0) + v["byteLength"]])
+        out += b"\0" * (-len(out) % 4)
+        views.append({**v, "byteOffset": len(out), "byteLength": len(data)})
+        out += data
+    doc["bufferViews"], doc["buffers"] = views, [{"byteLength": len(out)}]
+    for tex in doc.get("textures", []):
+        tex.setdefault("extensions", {})[extension] = {"source": tex.pop("source")}
+    for key in ("extensionsUsed", "extensionsRequired"):
+        doc[key] = sorted(set(doc.get(key, [])) | {extension})
+    return pack_glb(doc, bytes(out))
+
+
+def _webp(png: bytes, srgb: bool) -> bytes:
+    import io
+
+    from PIL import Image
+
+    buf = io.BytesIO()
+    with Image.open(io.BytesIO(png)) as im:
+        im.save(buf, format="WEBP", quality=90, method=6)
+    return buf.getvalue()
+
+
+def _ktx2(png: bytes, srgb: bool) -> bytes:
+    import alktx2  # the `scenes` extra: Basis Universal's encoder
+
+    # UASTC, as glTF-Transform's `uastc` writes maps that must stay sharp; one thread for a repeatable file
+    return alktx2.encode_bytes_to_ktx2(png, mime="png", codec="uastc", srgb=srgb, linear=not srgb, threads=1,
+                                       zstd_supercompression_level=18, mipmaps=False)
+
+
+def write_compressed(out: Path) -> None:
+    """Write :data:`COMPRESSED` from the committed ``car/coupe.glb``."""
+    src = HERE / "car" / "coupe.glb"
+    for rel, (tool, arg) in COMPRESSED.items():
+        dst = out / rel
+        dst.parent.mkdir(parents=True, exist_ok=True)
+        if tool.startswith(("EXT_", "KHR_")):
+            dst.write_bytes(recode_images(src.read_bytes(), tool, arg, _webp if "webp" in rel else _ktx2))
+        else:
+            _node_tool(tool, arg, src, dst)
+        print(f"wrote {dst} ({dst.stat().st_size / 1024:.0f} KiB)")
 
 
 # ----------------------------------------------------------------------------- material maps
@@ -123,7 +227,12 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--check", action="store_true", help="only report files that differ from what would be written")
     ap.add_argument("--out", type=Path, default=HERE, help="folder to write into (default: scenes/)")
+    ap.add_argument("--compressed", action="store_true",
+                    help="write the car's compressed variants (needs npm and the `scenes` extra)")
     args = ap.parse_args(argv)
+    if args.compressed:
+        write_compressed(args.out)
+        return 0
     stale = []
     for rel, make in outputs().items():
         data = make()

@@ -69,7 +69,6 @@ import base64
 import json
 import math
 import os
-import struct
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -77,12 +76,11 @@ from typing import Any
 import numpy as np
 
 from compare.scene import geometry
+from compare.scene.gltf_decode import DECODED_EXTENSIONS, DecodeError, decoded_glb, used
+from compare.scene.glb import CHUNK_BIN, CHUNK_JSON, GLB_MAGIC, GlbError, parse_glb  # noqa: F401 (re-exported)
 from compare.util.files import sha256_bytes, write_bytes_atomic
 from compare.scene.geometry import MeshFileError, TriangleMesh
 
-GLB_MAGIC = 0x46546C67  # "glTF"
-CHUNK_JSON = 0x4E4F534A
-CHUNK_BIN = 0x004E4942
 COMPONENT_TYPES = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32,
                    5126: np.float32}
 TYPE_SIZES = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
@@ -201,13 +199,45 @@ class _Reader:
         version = str(self.doc.get("asset", {}).get("version", ""))
         if not version.startswith("2."):
             raise self.err("asset.version", f"only glTF 2.x is supported, got {version or 'none'!r}")
-        required = [e for e in self.doc.get("extensionsRequired", []) if e not in SUPPORTED_EXTENSIONS]
+        known = set(SUPPORTED_EXTENSIONS) | set(DECODED_EXTENSIONS)
+        required = [e for e in self.doc.get("extensionsRequired", []) if e not in known]
         if required:
             raise self.err("extensionsRequired", f"unsupported required extension(s): {', '.join(required)}")
-        ignored = sorted(set(self.doc.get("extensionsUsed", [])) - set(SUPPORTED_EXTENSIONS))
+        ignored = sorted(set(self.doc.get("extensionsUsed", [])) - known)
         if ignored:
             self.notes.append(f"ignored extension(s): {', '.join(ignored)}")
         self._buffers: dict[int, bytes] = {}
+        self.decoded: list[str] = used(self.doc)
+        if self.decoded:
+            self._decode(raw)
+
+    def _decode(self, raw: bytes) -> None:
+        """Replace the compressed document by its plain decoded GLB (cached by content)."""
+        hashed = [raw]
+        for i, b in enumerate(self.doc.get("buffers", [])):
+            if isinstance(b, dict) and isinstance(b.get("uri"), str) and not b["uri"].startswith("data:"):
+                hashed.append(self.buffer(i, f"buffers[{i}]"))
+        for i, img in enumerate(self.doc.get("images", [])):
+            if isinstance(img, dict) and isinstance(img.get("uri"), str) and not img["uri"].startswith("data:"):
+                hashed.append(self._read(self.external(img["uri"], f"images[{i}].uri")))
+
+        def buffer(index: int) -> bytes:
+            return self.buffer(index, "bufferViews")
+
+        def image_bytes(index: int) -> bytes:
+            img = self.item("images", index, "textures")
+            if "uri" in img:
+                decoded = self.data_uri(img["uri"])
+                return decoded[1] if decoded else self._read(self.external(img["uri"], f"images[{index}].uri"))
+            buf, start, length, _ = self.view_bytes(img.get("bufferView", -1), f"images[{index}].bufferView")
+            return buf[start:start + length]
+
+        try:
+            plain = decoded_glb(self.doc, self.bin, buffer, image_bytes, sha256_bytes(*hashed))
+        except DecodeError as exc:
+            raise self.err(exc.where, str(exc)) from None
+        self.doc, self.bin = parse_glb(plain.read_bytes())
+        self._buffers = {}
 
     def err(self, where: str, msg: str) -> GltfError:
         return GltfError(f"{self.path}: {where + ': ' if where else ''}{msg}")
@@ -219,29 +249,10 @@ class _Reader:
             raise GltfError(f"{path}: cannot read glTF file: {exc}") from exc
 
     def _parse_glb(self, raw: bytes) -> dict:
-        if len(raw) < 20:
-            raise self.err("", "truncated GLB header")
-        magic, version, length = struct.unpack_from("<III", raw, 0)
-        if magic != GLB_MAGIC or version != 2:
-            raise self.err("", f"GLB version {version} is not supported (expected 2)")
-        if length > len(raw):
-            raise self.err("", f"GLB header says {length} bytes, the file has {len(raw)}")
-        off, doc = 12, None
-        while off + 8 <= length:
-            size, kind = struct.unpack_from("<II", raw, off)
-            body = raw[off + 8: off + 8 + size]
-            if len(body) != size:
-                raise self.err("", f"truncated GLB chunk at byte {off}")
-            if kind == CHUNK_JSON and doc is None:
-                try:
-                    doc = json.loads(body.decode("utf-8"))
-                except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-                    raise self.err("", f"GLB JSON chunk is malformed: {exc}") from exc
-            elif kind == CHUNK_BIN and self.bin is None:
-                self.bin = body
-            off += 8 + size + (-size % 4)
-        if doc is None:
-            raise self.err("", "GLB file has no JSON chunk")
+        try:
+            doc, self.bin = parse_glb(raw)
+        except GlbError as exc:
+            raise self.err("", str(exc)) from None
         return doc
 
     # -- helpers over the JSON --------------------------------------------------------------
@@ -607,12 +618,17 @@ def _read_document(path: Path, r: "_Reader") -> GltfDocument:
     lights: list[GltfLight] = []
     mesh_cache: dict[int, list[tuple[int, TriangleMesh | None, int | None]]] = {}
 
-    def visit(index: int, parent: np.ndarray, stack: tuple[int, ...]) -> None:
+    def visit(index: int, parent: np.ndarray, stack: tuple[int, ...], inherited: str | None) -> None:
         if index in stack:
             raise r.err(f"nodes[{index}]", "the node hierarchy has a cycle")
         node = r.item("nodes", index, f"nodes[{stack[-1]}].children" if stack else "scene.nodes")
         world = parent @ _node_matrix(node)
-        name = str(node.get("name") or f"node{index}")
+        # A part's name: its node's, else its mesh's, else its nearest named ancestor's (optimisers such as
+        # gltfpack put a mesh on an unnamed child node that holds the dequantisation transform).
+        own = node.get("name") or None
+        if own is None and "mesh" in node:
+            own = r.item("meshes", node["mesh"], f"nodes[{index}].mesh").get("name") or None
+        name = str(own or inherited or f"node{index}")
         if "mesh" in node:
             mi = node["mesh"]
             if mi not in mesh_cache:
@@ -645,10 +661,10 @@ def _read_document(path: Path, r: "_Reader") -> GltfDocument:
                                     tuple(float(c) for c in d.get("color", [1, 1, 1])),  # type: ignore[arg-type]
                                     float(d.get("intensity", 1.0)), world))
         for child in node.get("children", []):
-            visit(child, world, stack + (index,))
+            visit(child, world, stack + (index,), str(own) if own else inherited)
 
     for root_index in roots:
-        visit(root_index, np.eye(4), ())
+        visit(root_index, np.eye(4), (), None)
     materials = [r.material(i) for i in range(len(doc.get("materials", [])))]
     images = [r.image(i) for i in range(len(doc.get("images", [])))]
     return GltfDocument(path, primitives, materials, images, cameras, lights, r.files, r.notes)

@@ -10,14 +10,13 @@ import base64
 import json
 import math
 import os
-import struct
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from compare.scene.geometry import TriangleMesh
-from compare.scene.gltf_read import CHUNK_BIN, CHUNK_JSON, GLB_MAGIC
+from compare.scene.glb import pack_glb
 from compare.util.files import write_bytes_atomic
 
 __all__ = ["GltfWriter"]
@@ -82,6 +81,20 @@ class GltfWriter:
             else:
                 m["emissiveFactor"] = e
         return self._add("materials", m)
+
+    def texture(self, data: bytes, mime: str = "image/png", *, scale=None) -> dict:
+        """A texture info over the image bytes ``data``, embedded once however often it is used;
+        ``scale``: a ``KHR_texture_transform`` scale of the texture coordinates."""
+        images = getattr(self, "_images", None)
+        if images is None:
+            images = self._images = {}
+        if data not in images:
+            images[data] = self._add("images", {"bufferView": self.view(data), "mimeType": mime})
+        info: dict[str, Any] = {"index": self._add("textures", {"source": images[data]})}
+        if scale is not None and tuple(scale) != (1.0, 1.0):
+            info["extensions"] = {"KHR_texture_transform": {"scale": [float(v) for v in scale]}}
+            self._use("KHR_texture_transform")
+        return info
 
     def _use(self, ext: str) -> None:
         used = self.doc.setdefault("extensionsUsed", [])
@@ -153,13 +166,7 @@ class GltfWriter:
         return doc
 
     def glb(self) -> bytes:
-        js = json.dumps(self.document(), separators=(",", ":")).encode("utf-8")
-        js += b" " * (-len(js) % 4)
-        body = bytes(self.bin) + b"\0" * (-len(self.bin) % 4)
-        out = struct.pack("<II", len(js), CHUNK_JSON) + js
-        if body:
-            out += struct.pack("<II", len(body), CHUNK_BIN) + body
-        return struct.pack("<III", GLB_MAGIC, 2, 12 + len(out)) + out
+        return pack_glb(self.document(), self.bin)
 
     def write(self, path: str | os.PathLike) -> Path:
         """Write ``.glb`` (binary) or ``.gltf`` (JSON with the buffer as a data URI), atomically."""
