@@ -63,7 +63,7 @@ MALFORMED = [
     (("radiance = [10, 10, 10]", "radiance = [0, 0, 0]"), "lights[0].radiance: a light must emit something (all zero)"),
     (("target = [0, 0, 0]", "target = [0, 1, 3]"), "camera.target: must differ from camera.position"),
     (("fov = 40", "fov = 40\nfocal = 35"),
-     "camera.focal: unknown field (allowed: fov, position, resolution, target, up)"),
+     "camera.focal: unknown field (allowed: fov, orbit, position, resolution, target, up)"),
     (("size = [2, 2]", 'size = "big"'), "meshes[0].size: expected two positive numbers, got 'big'"),
     (("position = [0, 1, 3]", "position = [0, 1, nan]"), "camera.position: expected three numbers, got [0, 1, nan]"),
 ]

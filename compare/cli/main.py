@@ -1,4 +1,4 @@
-"""Command-line interface: ``compare render | diff | run | measure | renderers | report | check | bench``.
+"""Command-line interface: ``compare render | diff | run | measure | renderers | report | check | inspect | bench``.
 
 Every user error (bad scene, bad image, missing system component) ends in one
 line on stderr, ``compare: error: …``, and exit status 2, with nothing
@@ -105,6 +105,7 @@ def _build_parser() -> argparse.ArgumentParser:
 
     from compare.cli.bench import add_bench_parser
     from compare.cli.check import add_check_parser
+    from compare.cli.inspect import add_inspect_parser
     from compare.cli.measure import add_measure_parser
     from compare.cli.report import add_report_parser
     from compare.cli.run import add_run_parser
@@ -113,6 +114,7 @@ def _build_parser() -> argparse.ArgumentParser:
     add_measure_parser(sub)
     add_report_parser(sub)
     add_check_parser(sub)
+    add_inspect_parser(sub)
     add_bench_parser(sub)
     return p
 

@@ -297,8 +297,8 @@ class _Decoder:
             if tex.faces != 1 or tex.layers != 1:
                 raise DecodeError(where, "KHR_texture_basisu allows 2D textures only")
             image = tex.transcode(basisu.Target.RGBA8, level=0)
-        except basisu.BasisuError as exc:
-            raise DecodeError(where, f"not a valid KTX 2 file ({exc})") from None
+        except (basisu.BasisuError, basisu.UnsupportedError, ValueError) as exc:
+            raise DecodeError(where, f"not a valid KTX 2 file with a Basis Universal payload ({exc})") from None
         pixels = np.asarray(image.data, dtype=np.uint8).reshape(image.height, image.width, 4)
         if math.prod(pixels.shape) and not tex.has_alpha:
             pixels = pixels[..., :3]

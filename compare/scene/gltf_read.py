@@ -174,6 +174,13 @@ class GltfDocument:
     files: list[Path] = field(default_factory=list)
     """External files the document references (buffers, images), for the scene hash."""
     warnings: list[str] = field(default_factory=list)
+    extensions: list[str] = field(default_factory=list)
+    """Every extension the file uses or requires, as published (before decoding)."""
+
+    def extension_fates(self) -> dict[str, str]:
+        """What becomes of each extension of the file: read, decoded (by what), or ignored."""
+        return {e: ("read" if e in SUPPORTED_EXTENSIONS else
+                    DECODED_EXTENSIONS[e] if e in DECODED_EXTENSIONS else "ignored") for e in self.extensions}
 
 
 # ----------------------------------------------------------------------------- reading
@@ -199,6 +206,7 @@ class _Reader:
         version = str(self.doc.get("asset", {}).get("version", ""))
         if not version.startswith("2."):
             raise self.err("asset.version", f"only glTF 2.x is supported, got {version or 'none'!r}")
+        self.extensions = sorted(set(self.doc.get("extensionsUsed", [])) | set(self.doc.get("extensionsRequired", [])))
         known = set(SUPPORTED_EXTENSIONS) | set(DECODED_EXTENSIONS)
         required = [e for e in self.doc.get("extensionsRequired", []) if e not in known]
         if required:
@@ -667,4 +675,4 @@ def _read_document(path: Path, r: "_Reader") -> GltfDocument:
         visit(root_index, np.eye(4), (), None)
     materials = [r.material(i) for i in range(len(doc.get("materials", [])))]
     images = [r.image(i) for i in range(len(doc.get("images", [])))]
-    return GltfDocument(path, primitives, materials, images, cameras, lights, r.files, r.notes)
+    return GltfDocument(path, primitives, materials, images, cameras, lights, r.files, r.notes, r.extensions)

@@ -38,7 +38,11 @@ class Included:
 
 
 INCLUDE_FIELDS = {"file", "translate", "rotate", "scale", "prefix", "emissive_quads", "punctual", "punctual_size",
-                  "light_scale", "camera"}
+                  "light_scale", "camera", "units"}
+#: ``units`` of an include: metres per unit of the file (glTF says metres; many downloads are not).
+UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254, "ft": 0.3048}
+#: Sizes (metres across) outside which a model read as metres is probably in other units.
+PLAUSIBLE_SIZE = (0.005, 1000.0)
 
 
 @dataclass(frozen=True)
@@ -54,6 +58,7 @@ class _Settings:
     light_scale: float
     camera: Any
     xf: np.ndarray
+    units: str | None
 
 
 def include(ctx, where: str, raw: Any) -> Included:
@@ -102,9 +107,13 @@ def _settings(ctx, where: str, raw: Any) -> _Settings:
     sv = sf.vector(ctx, f"{where}.scale", scale, 3)
     if any(abs(s) < 1e-12 for s in sv):
         raise ctx.err(f"{where}.scale", f"expected non-zero scale factors, got {sf.fmt(scale)}")
+    units = t.get("units")
+    if units is not None and units not in UNITS:
+        raise ctx.err(f"{where}.units", f"expected one of {', '.join(repr(u) for u in UNITS)}, got {sf.fmt(units)}")
+    sv = tuple(v * UNITS[units or "m"] for v in sv)
     xf = geometry.transform_matrix(sf.vector(ctx, f"{where}.translate", t.get("translate", [0, 0, 0]), 3),
                                    sf.vector(ctx, f"{where}.rotate", t.get("rotate", [0, 0, 0]), 3), sv)
-    return _Settings(path, given, prefix, quads, punctual, size, light_scale, cam_sel, xf)
+    return _Settings(path, given, prefix, quads, punctual, size, light_scale, cam_sel, xf, units)
 
 
 class _Materials:
@@ -176,6 +185,12 @@ def _objects(st: _Settings, doc, materials: _Materials, notes: list[str]) -> tup
         else:
             center, rsize, normal, tangent = rect
             lights.append(sm.AreaLight(name, center, rsize, normal, tangent, material.emission))
+    if st.units is None and doc.primitives:
+        lo = np.min([_world_bounds(st.xf @ p.matrix, p.mesh)[0] for p in doc.primitives], axis=0)
+        hi = np.max([_world_bounds(st.xf @ p.matrix, p.mesh)[1] for p in doc.primitives], axis=0)
+        note = units_note(float(np.max(hi - lo)))
+        if note:
+            notes.append(note)
     if st.punctual == "area":
         world_scale = abs(np.linalg.det(st.xf[:3, :3])) ** (1.0 / 3.0)
         for light in doc.lights:
@@ -184,6 +199,23 @@ def _objects(st: _Settings, doc, materials: _Materials, notes: list[str]) -> tup
     elif doc.lights:
         notes.append(f"{len(doc.lights)} KHR_lights_punctual light(s) ignored (punctual = 'ignore')")
     return meshes, lights
+
+
+def units_note(size: float) -> str | None:
+    """A note suggesting ``units`` when a model ``size`` metres across is implausible for metres, else None."""
+    if PLAUSIBLE_SIZE[0] <= size <= PLAUSIBLE_SIZE[1]:
+        return None
+    return (f"the model is {size:.4g} m across when read as metres (glTF's unit); if it was authored in other "
+            f"units, set units = \"cm\", \"mm\" or \"in\" in its [[include]] (it would be {size * UNITS['cm']:.3g} m, "
+            f"{size * UNITS['mm']:.3g} m or {size * UNITS['in']:.3g} m across)")
+
+
+def _world_bounds(matrix: np.ndarray, tri: TriangleMesh) -> tuple[np.ndarray, np.ndarray]:
+    """World-space bounds of ``tri`` under ``matrix``: the transformed corners of its local bounds."""
+    lo, hi = tri.positions.min(0), tri.positions.max(0)
+    corners = np.array([[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    world = corners @ matrix.T
+    return world[:, :3].min(0), world[:, :3].max(0)
 
 
 def _camera(ctx, where: str, st: _Settings, doc) -> dict | None:

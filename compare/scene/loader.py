@@ -19,12 +19,13 @@ from __future__ import annotations
 import dataclasses
 import math
 import tomllib
+import warnings
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
-from compare.scene import geometry
+from compare.scene import framing, geometry
 from compare.brdf.multiscatter import DEFAULT_DISTRIBUTION, DISTRIBUTIONS
 
 #: Texture sampling settings of a material (glTF samplers: wrapS/T and magFilter).
@@ -42,10 +43,39 @@ from compare.scene.model import (DEFAULT_PROBE_BOUNCES, DEFAULT_PROBE_GRID, ENV_
                           AreaLight, Camera, Environment, Material, Mesh, Scene)
 
 
-def _camera(ctx: _Ctx, raw: Any) -> Camera:
-    t = _table(ctx, "camera", raw, {"position", "target", "up", "fov", "resolution"})
-    pos = _vector(ctx, "camera.position", _require(ctx, "camera", t, "position"), 3)
-    target = _vector(ctx, "camera.target", _require(ctx, "camera", t, "target"), 3)
+def _camera(ctx: _Ctx, raw: Any, framed: Callable[[], tuple[np.ndarray, np.ndarray]]) -> Camera:
+    """The ``[camera]`` table: a position, or an ``orbit`` about a target (:mod:`compare.scene.framing`);
+    ``framed()`` gives the bounds that ``target = "auto"`` and ``radius = "auto"`` frame."""
+    t = _table(ctx, "camera", raw, {"position", "target", "up", "fov", "resolution", "orbit"})
+    fov = _number(ctx, "camera.fov", t.get("fov", 45.0))
+    if not 0 < fov < 180:
+        raise ctx.err("camera.fov", f"expected a vertical field of view in degrees in (0, 180), got {_fmt(t['fov'])}")
+    res = t.get("resolution", [320, 240])
+    if not (isinstance(res, list) and len(res) == 2 and all(isinstance(x, int) and not isinstance(x, bool) and x > 0
+                                                            for x in res)):
+        raise ctx.err("camera.resolution", f"expected two positive integers, got {_fmt(res)}")
+    if "orbit" in t and "position" in t:
+        raise ctx.err("camera.orbit", "give either a position or an orbit, not both")
+    if t.get("target") == "auto":
+        target = tuple(float(v) for v in framing.bounds_center(*framed()))
+    else:
+        target = _vector(ctx, "camera.target", _require(ctx, "camera", t, "target"), 3)
+    if "orbit" in t:
+        orbit = _table(ctx, "camera.orbit", t["orbit"], {"theta", "phi", "radius"})
+        theta = _number(ctx, "camera.orbit.theta", orbit.get("theta", framing.DEFAULT_ORBIT[0]))
+        phi = _number(ctx, "camera.orbit.phi", orbit.get("phi", framing.DEFAULT_ORBIT[1]))
+        if not 0 < phi < 180:
+            raise ctx.err("camera.orbit.phi", f"expected degrees from +Y in (0, 180), got {_fmt(orbit['phi'])}")
+        radius = orbit.get("radius", "auto")
+        if radius == "auto":
+            radius = framing.fit_radius(*framed(), target, fov, res[0] / res[1])
+        else:
+            radius = _number(ctx, "camera.orbit.radius", radius)
+            if not radius > 0:
+                raise ctx.err("camera.orbit.radius", f'expected metres > 0 or "auto", got {_fmt(orbit["radius"])}')
+        pos = tuple(float(v) for v in framing.orbit_position(target, theta, phi, radius))
+    else:
+        pos = _vector(ctx, "camera.position", _require(ctx, "camera", t, "position"), 3)
     for field, v in (("position", pos), ("target", target)):
         problem = geometry.world_range_problem(max(abs(x) for x in v))
         if problem:
@@ -56,14 +86,16 @@ def _camera(ctx: _Ctx, raw: Any) -> Camera:
     fwd = np.subtract(target, pos)
     if np.linalg.norm(np.cross(fwd / np.linalg.norm(fwd), up)) < 1e-6:
         raise ctx.err("camera.up", f"is parallel to the viewing direction, got {_fmt(t.get('up', [0, 1, 0]))}")
-    fov = _number(ctx, "camera.fov", t.get("fov", 45.0))
-    if not 0 < fov < 180:
-        raise ctx.err("camera.fov", f"expected a vertical field of view in degrees in (0, 180), got {_fmt(t['fov'])}")
-    res = t.get("resolution", [320, 240])
-    if not (isinstance(res, list) and len(res) == 2 and all(isinstance(x, int) and not isinstance(x, bool) and x > 0
-                                                            for x in res)):
-        raise ctx.err("camera.resolution", f"expected two positive integers, got {_fmt(res)}")
     return Camera(pos, target, up, fov, (res[0], res[1]))  # type: ignore[arg-type]
+
+
+def _mesh_bounds(meshes) -> tuple[np.ndarray, np.ndarray]:
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    for m in meshes:
+        p = m.triangles().positions
+        if len(p):
+            lo, hi = np.minimum(lo, p.min(0)), np.maximum(hi, p.max(0))
+    return lo, hi
 
 
 def _material(ctx: _Ctx, name: str, raw: Any) -> Material:
@@ -293,9 +325,14 @@ def parse_scene(data: dict[str, Any], path: Path) -> Scene:
     includes = _includes(ctx, data.get("include", []))
     cam_raw = data.get("camera")
     included_cam = next((inc.camera for inc in includes if inc.camera), None)
-    if included_cam is not None and (cam_raw is None or (isinstance(cam_raw, dict) and "position" not in cam_raw)):
+    if included_cam is not None and (cam_raw is None or (isinstance(cam_raw, dict)
+                                                         and not {"position", "orbit"} & set(cam_raw))):
         cam_raw = {**included_cam, **(cam_raw or {})}  # the TOML's own [camera] fields win
-    camera = _camera(ctx, cam_raw if cam_raw is not None else _require(ctx, "", data, "camera"))
+    # A camera that frames nothing is checked first (its errors come before the meshes'); one that frames
+    # the models ("auto") after them.
+    framed = cam_raw is None or (isinstance(cam_raw, dict) and (cam_raw.get("target") == "auto" or (
+        isinstance(cam_raw.get("orbit"), dict) and cam_raw["orbit"].get("radius", "auto") == "auto")))
+    camera = None if framed else _camera(ctx, cam_raw, lambda: _mesh_bounds(()))
     mats_raw = data.get("materials", {})
     if not isinstance(mats_raw, dict):
         raise ctx.err("materials", f"expected a table of named materials, got {_fmt(mats_raw)}")
@@ -308,6 +345,19 @@ def parse_scene(data: dict[str, Any], path: Path) -> Scene:
     meshes += tuple(m for inc in includes for m in inc.meshes)
     if not meshes:
         raise ctx.err("meshes", "a scene needs at least one mesh")
+    # "auto" frames the included models (a floor or backdrop the TOML adds around them does not count), or
+    # every mesh of a scene without includes
+    subject = [m for inc in includes for m in inc.meshes] or list(meshes)
+    if camera is None and cam_raw is None:
+        if not includes:
+            _require(ctx, "", data, "camera")
+        cam_raw = {"target": "auto", "orbit": {}}
+        warnings.warn(f"{ctx.path}: no [camera] and no camera in the included file(s): framed by an orbit "
+                      f"(theta {framing.DEFAULT_ORBIT[0]:g}°, phi {framing.DEFAULT_ORBIT[1]:g}°) about the models' "
+                      "bounds; set [camera] orbit = { theta = …, phi = …, radius = … } to choose the view "
+                      "(`compare inspect` prints the bounds)", stacklevel=3)
+    if camera is None:
+        camera = _camera(ctx, cam_raw, lambda: _mesh_bounds(subject))
     lights_raw = data.get("lights", [])
     if not isinstance(lights_raw, list):
         raise ctx.err("lights", "expected an array of tables ([[lights]])")

@@ -1,0 +1,31 @@
+"""``compare inspect``: what a scene or a glTF file holds (the library: :mod:`compare.scene.inspect`)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+
+def add_inspect_parser(subparsers) -> argparse.ArgumentParser:
+    """Add ``compare inspect`` to an argparse subparsers object; returns the new parser."""
+    p = subparsers.add_parser(
+        "inspect", help="print what a scene or glTF file holds: bounds, triangles, materials, extensions, maps, "
+                        "lights, cameras",
+        description="Print what a user needs to place a camera and choose units for a scene (TOML) or a glTF "
+                    "file: its bounds in metres, triangle and material counts, the extensions it uses and what "
+                    "becomes of each, its maps with their sizes, its lights and cameras.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    p.add_argument("scene", type=Path, help="scene file (TOML) or glTF file (.gltf, .glb)")
+    p.add_argument("--json", action="store_true", help="print JSON instead of text")
+    p.set_defaults(func=cmd_inspect)
+    return p
+
+
+def cmd_inspect(args: argparse.Namespace) -> int:
+    """``compare inspect``; returns 0."""
+    from compare.scene.inspect import format_inspection, inspect_path
+
+    info = inspect_path(args.scene)
+    print(json.dumps(info, indent=1) if args.json else format_inspection(info))
+    return 0

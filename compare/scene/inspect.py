@@ -1,0 +1,133 @@
+"""What a scene or a glTF file holds, for placing a camera and choosing units (``compare inspect``).
+
+Bounds, triangle and material counts, the extensions the file uses and what becomes of each,
+its maps with their sizes, its lights and cameras, and a note where the bounds are implausible
+for metres.
+"""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["inspect_path", "format_inspection"]
+
+
+def _bounds(parts) -> tuple[np.ndarray, np.ndarray]:
+    """World bounds of (matrix, TriangleMesh) pairs."""
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    for matrix, tri in parts:
+        if len(tri.positions) == 0:
+            continue
+        p = tri.positions @ matrix[:3, :3].T + matrix[:3, 3]
+        lo, hi = np.minimum(lo, p.min(0)), np.maximum(hi, p.max(0))
+    return lo, hi
+
+
+def _image_size(path: Path | None) -> str:
+    if path is None:
+        return "unusable"
+    if path.suffix.lower() == ".exr":
+        from compare.image.exr import read_exr
+
+        h, w = read_exr(path)[0].shape[:2]
+        return f"{w}×{h} float"
+    from PIL import Image
+
+    with Image.open(path) as im:  # the header only
+        return f"{im.width}×{im.height} {im.mode}"
+
+
+def _gltf_info(path: Path) -> dict:
+    from compare.scene.gltf_read import load_gltf
+
+    doc = load_gltf(path)
+    roles: dict[int, list[str]] = {}
+    for m in doc.materials:
+        for role in ("base_color", "metallic_roughness", "normal", "occlusion", "emissive"):
+            i = getattr(m, f"{role}_image")
+            if i is not None:
+                roles.setdefault(i, [])
+                if role not in roles[i]:
+                    roles[i].append(role)
+    lo, hi = _bounds([(p.matrix, p.mesh) for p in doc.primitives])
+    info = {
+        "file": str(path), "bounds": (lo.tolist(), hi.tolist()),
+        "triangles": int(sum(p.mesh.triangle_count for p in doc.primitives)),
+        "parts": len(doc.primitives), "materials": len(doc.materials),
+        "extensions": doc.extension_fates(),
+        "maps": [{"image": i, "size": _image_size(p), "used as": ", ".join(roles.get(i, [])) or "unused"}
+                 for i, p in enumerate(doc.images)],
+        "lights": [{"name": light.name, "type": light.kind, "color": list(light.color), "intensity": light.intensity}
+                   for light in doc.lights],
+        "cameras": [c.name for c in doc.cameras],
+        "notes": list(doc.warnings),
+    }
+    from compare.scene.include import units_note
+
+    note = units_note(float(np.max(hi - lo))) if doc.primitives else None
+    if note:
+        info["notes"].append(note)
+    return info
+
+
+def inspect_path(path: str | Path) -> dict:
+    """What the scene file (TOML) or glTF file ``path`` holds, as a JSON-ready dict."""
+    path = Path(path)
+    if path.suffix.lower() in (".gltf", ".glb"):
+        from compare.scene.geometry import MeshFileError
+        from compare.util.errors import SceneError
+
+        try:
+            info = _gltf_info(path)
+        except MeshFileError as exc:  # the message names the file and the JSON path
+            raise SceneError(str(exc)) from None
+    else:
+        from compare.scene.loader import load_scene
+
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            scene = load_scene(path)
+        lo, hi = scene.bounds()
+        files = sorted({m.file for m in scene.meshes if m.shape == "gltf" and m.file is not None})
+        info = {"file": str(path), "bounds": (lo.tolist(), hi.tolist()),
+                "triangles": int(sum(m.triangles().triangle_count for m in scene.meshes)),
+                "parts": len(scene.meshes), "materials": len(scene.materials),
+                "lights": [{"name": light.name, "type": "rectangle", "size": list(light.size)}
+                           for light in scene.lights],
+                "camera": {"position": list(scene.camera.position), "target": list(scene.camera.target),
+                           "fov": scene.camera.fov},
+                "includes": [_gltf_info(f) for f in files],
+                "notes": [str(w.message) for w in caught]}
+    return info
+
+
+def format_inspection(info: dict, indent: str = "") -> str:
+    """``inspect_path``'s dict as the lines ``compare inspect`` prints."""
+    lo, hi = info["bounds"]
+    size = np.subtract(hi, lo).tolist()
+    fmt = lambda v: "[" + ", ".join(f"{x:.4g}" for x in v) + "]"  # noqa: E731
+    lines = [f"{indent}{info['file']}",
+             f"{indent}  bounds       {fmt(lo)} … {fmt(hi)} m (size {fmt(size)}, centre "
+             f"{fmt((np.add(lo, hi) / 2).tolist())})",
+             f"{indent}  triangles    {info['triangles']:,} in {info['parts']} part(s), {info['materials']} material(s)"]
+    if "camera" in info:
+        c = info["camera"]
+        lines.append(f"{indent}  camera       at {fmt(c['position'])} looking at {fmt(c['target'])}, "
+                     f"fov {c['fov']:.4g}°")
+    if info.get("cameras") is not None:
+        lines.append(f"{indent}  cameras      {', '.join(info['cameras']) or 'none (frame one with [camera] orbit)'}")
+    for name, fate in info.get("extensions", {}).items():
+        lines.append(f"{indent}  extension    {name}: {fate}")
+    for m in info.get("maps", []):
+        lines.append(f"{indent}  map          image {m['image']}: {m['size']}, {m['used as']}")
+    for light in info["lights"]:
+        desc = ", ".join(f"{k} {fmt(v) if isinstance(v, list) else v}" for k, v in light.items() if k != "name")
+        lines.append(f"{indent}  light        {light['name']}: {desc}")
+    for note in info.get("notes", []):
+        lines.append(f"{indent}  note         {note}")
+    for inc in info.get("includes", []):
+        lines.append(format_inspection(inc, indent + "  "))
+    return "\n".join(lines)
