@@ -23,6 +23,8 @@ import numpy as np
 from compare.progressive.shaders import set_uniform
 
 
+#: OpenGL internal formats of 8-bit maps: colour (sRGB-encoded) and factors (linear).
+GL_SRGB8, GL_SRGB8_ALPHA8, GL_RGB8, GL_RGBA8 = 0x8C41, 0x8C43, 0x8051, 0x8058
 #: First texture unit of the material maps (above every unit a pass binds for its own textures;
 #: the five maps take 11 … 15, the last of the 16 a fragment shader is guaranteed).
 MAP_UNIT = 11
@@ -203,42 +205,58 @@ class GpuScene:
                 raise
         return programs
 
-    def _preserve_coverage(self, tex, rgba: np.ndarray, cutoff: float) -> None:
-        """Rewrite the alpha of ``tex``'s mip levels (built by GL) so that each keeps level 0's coverage,
-        the fraction of texels at or above ``cutoff``: Castaño's coverage-preserving mipmaps. Averaged
-        alpha drifts towards its mean, so plain mips make alpha-tested foliage thin out with distance,
-        where a path tracer (which does not mipmap) keeps it."""
+    def _preserve_coverage(self, tex, alpha: np.ndarray, cutoff: float) -> None:
+        """Rewrite the alpha of ``tex``'s mip levels (built by GL) so that each keeps level 0's coverage
+        (``alpha``, float in [0, 1]), the fraction of texels at or above ``cutoff``: Castaño's
+        coverage-preserving mipmaps. Averaged alpha drifts towards its mean, so plain mips make
+        alpha-tested foliage thin out with distance, where a path tracer (which does not mipmap) keeps it."""
         from compare.progressive.mipmaps import coverage_preserving_alpha
 
-        h, w = rgba.shape[:2]
-        for level, alpha in enumerate(coverage_preserving_alpha(rgba[..., 3], cutoff), start=1):
+        h, w = alpha.shape
+        eight = tex.dtype == "f1"
+        for level, a in enumerate(coverage_preserving_alpha(alpha, cutoff), start=1):
             lw, lh = max(w >> level, 1), max(h >> level, 1)
-            texels = np.frombuffer(tex.read(level=level, alignment=1), dtype=np.float16).reshape(lh, lw, 4).copy()
-            texels[..., 3] = alpha.reshape(lh, lw)
+            texels = np.frombuffer(tex.read(level=level, alignment=1), dtype=np.uint8 if eight else np.float16)
+            texels = texels.reshape(lh, lw, 4).copy()
+            texels[..., 3] = np.rint(a.reshape(lh, lw) * 255.0) if eight else a.reshape(lh, lw)
             tex.write(texels.tobytes(), level=level, alignment=1)
 
     def _map(self, path, mat, *, srgb: bool, alpha: bool = False):
-        """One map file as a linear RGBA16F texture, mipmapped unless the material samples it
-        ``nearest`` (uploaded once per file, kind and sampler settings); ``alpha``: with the file's
-        alpha channel (an alpha mask's), else alpha 1."""
-        from compare.scene.textures import load_alpha, load_texture
+        """One map file as a texture, mipmapped by the GPU unless the material samples it ``nearest``
+        (uploaded once per file, kind and sampler settings); ``alpha``: with the file's alpha channel (an
+        alpha mask's), else without. An 8-bit file stays 8 bits per channel, an sRGB texture for colour
+        (decoded to linear by the sampler, before filtering) and a linear one for factors and normals;
+        only float files (EXR, 16-bit PNG) are uploaded as RGBA16F."""
+        from compare.scene.textures import load_alpha, load_texels8, load_texture
 
         key = (str(path), srgb, mat.texture_wrap == "repeat", mat.texture_filter,
                (mat.alpha_cutoff / max(mat.alpha, 1e-9)) if alpha else None)
         if key not in self._maps:
-            rgb = load_texture(path, srgb=srgb)
-            h, w = rgb.shape[:2]
+            texels = load_texels8(path, alpha=alpha)
+            if texels is not None:
+                h, w, n = texels.shape
+                internal = (GL_SRGB8_ALPHA8 if n == 4 else GL_SRGB8) if srgb else (GL_RGBA8 if n == 4 else GL_RGB8)
+                coverage = texels[..., 3].astype(np.float32) / np.float32(255.0) if alpha else None
+            else:
+                rgb = load_texture(path, srgb=srgb)
+                h, w = rgb.shape[:2]
+                a = load_alpha(path)[..., None] if alpha else np.ones((h, w, 1), dtype=np.float32)
+                texels = np.ascontiguousarray(np.concatenate([rgb, a], axis=2), dtype=np.float16)
+                coverage = a[..., 0] if alpha else None
+                n = 4
             largest = int(self.ctx.info.get("GL_MAX_TEXTURE_SIZE", 16384))
             if max(h, w) > largest:
                 from compare.util.errors import ImageError
 
                 raise ImageError(f"{path}: {w} x {h} texels, more than this OpenGL's largest texture "
                                  f"({largest} on a side): the rasterizer cannot upload it; scale the map down")
-            a = load_alpha(path)[..., None] if alpha else np.ones((h, w, 1), dtype=np.float32)
-            rgba = np.concatenate([rgb, a], axis=2)
             # Rows top first: texture coordinate t = 0 is the image's top row, as glTF's v = 0 (and
             # Mitsuba's bitmap lookup) is. Linear values are filtered, never encoded ones.
-            tex = self.ctx.texture((w, h), 4, np.ascontiguousarray(rgba, dtype=np.float16).tobytes(), dtype="f2")
+            if texels.dtype == np.uint8:
+                tex = self.ctx.texture((w, h), n, np.ascontiguousarray(texels), dtype="f1", alignment=1,
+                                       internal_format=internal)
+            else:
+                tex = self.ctx.texture((w, h), 4, texels, dtype="f2")
             # "mirror" is wrapped in the shader; its samplers clamp, which at a mirror's seam is exact
             tex.repeat_x = tex.repeat_y = mat.texture_wrap == "repeat"
             if mat.texture_filter == "nearest":
@@ -247,7 +265,7 @@ class GpuScene:
                 tex.build_mipmaps()
                 tex.filter = (self.ctx.LINEAR_MIPMAP_LINEAR, self.ctx.LINEAR)
                 if alpha and mat.alpha > 0:
-                    self._preserve_coverage(tex, rgba, mat.alpha_cutoff / mat.alpha)
+                    self._preserve_coverage(tex, coverage, mat.alpha_cutoff / mat.alpha)
             self._maps[key] = tex
         return self._maps[key]
 

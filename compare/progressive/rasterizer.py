@@ -71,6 +71,7 @@ from compare.renderers.base import Checkpoint
 from compare.progressive.accumulate import AccumulatePass, ComposePass, PingPong, Target
 from compare.progressive.config import DEFAULT_D_OCC_FRACTION, RasterizerOptions
 from compare.progressive.context import check_image_size, create_context, gl_renderer_name
+from compare.progressive.srgb_probe import srgb_decode_error
 from compare.progressive.direct import DirectPass
 from compare.progressive.environment import (MAX_SAMPLES_PER_FRAME, EnvironmentLighting, EnvOcclusionPass,
                           EnvOcclusionTargets)
@@ -538,6 +539,8 @@ class Rasterizer:
             "setup_seconds": float(self.setup_seconds),
             "gpu_seconds": float(np.nansum(self.gpu_frame_seconds)),
             "gl_renderer": gl_renderer_name(self.ctx),
+            # how far this OpenGL's sampler is from the exact sRGB curve, on the 8-bit colour maps
+            "gl_srgb_decode_error": srgb_decode_error(self.ctx),
             "area_model": self.area_model,
             "materials": self.materials,
             "jitter": "R2",

@@ -96,8 +96,9 @@ class ProgressiveRenderer(Renderer):
                                                                     "textures")}
 
     def facts(self, metadata: dict) -> dict[str, str]:
-        g = metadata.get("gl_renderer")
-        return {"gl_renderer": g} if isinstance(g, str) else {}
+        g, e = metadata.get("gl_renderer"), metadata.get("gl_srgb_decode_error")
+        return {**({"gl_renderer": g} if isinstance(g, str) else {}),
+                **({"gl_srgb_decode_error": f"{e:.2g}"} if isinstance(e, float) else {})}
 
 
 def _own_bench(name: str, scene, *, frames: int, spp: int, repeats: int, context) -> list:

@@ -11,8 +11,11 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["coverage_map", "emission_map", "factor_map", "load_alpha", "load_texture", "normal_map", "opacity_map",
-           "split_metallic_roughness", "texture_problem"]
+__all__ = ["coverage_map", "emission_map", "factor_map", "load_alpha", "load_texels8", "load_texture", "normal_map",
+           "opacity_map", "split_metallic_roughness", "texture_problem"]
+
+#: Pillow modes whose samples are 8 bits: what a GPU takes as RGB(A)8 texels as they are.
+EIGHT_BIT_MODES = {"1", "L", "LA", "La", "P", "PA", "RGB", "RGBA", "RGBa", "RGBX", "CMYK", "YCbCr"}
 
 
 def texture_problem(path: Path) -> str | None:
@@ -67,6 +70,22 @@ def load_texture(path: Path, *, srgb: bool) -> np.ndarray:
     with Image.open(path) as im:
         data = np.asarray(im.convert("RGB"), dtype=np.float64) / 255.0
     return np.ascontiguousarray(srgb_decode(data) if srgb else data, dtype=np.float32)
+
+
+def load_texels8(path: Path, *, alpha: bool) -> np.ndarray | None:
+    """An 8-bit map file's texels as they are stored, uint8 (H, W, 3), or (H, W, 4) with ``alpha`` (its
+    alpha channel, 255 where it has none); None for a file that is not 8 bits per sample (EXR, 16-bit or
+    float PNG), which :func:`load_texture` reads as floats. Row 0 is the top of the image. The values
+    are the file's codes: an sRGB map is decoded by whoever samples it (an sRGB texture)."""
+    path = Path(path)
+    if path.suffix.lower() == ".exr":
+        return None
+    from PIL import Image
+
+    with Image.open(path) as im:
+        if im.mode not in EIGHT_BIT_MODES:
+            return None
+        return np.asarray(im.convert("RGBA" if alpha else "RGB"), dtype=np.uint8)
 
 
 def load_alpha(path: Path) -> np.ndarray:
