@@ -73,3 +73,26 @@ def test_bench_equal_error_times_fresh_renders(tmp_path, gl_ctx, monkeypatch):
     ladders = [c for c in calls if c[0] == "mitsuba" and c[1] is not None]  # the truths have no ladder
     assert len(ladders) == 4 and all(cache is False for *_, cache in ladders)
     assert any(c[0] == "mitsuba" and c[2] is not False for c in calls)  # the ground truths may come from the cache
+
+
+def test_setup_items_measure_every_renderer_on_the_car_and_the_scaled_scenes(tmp_path):
+    """setup-seconds and setup-rss: per renderer, the car and the generated scene's growth over 1x (tiny
+    sizes here: the real item uses 62,500 triangles and a 4096² map per x)."""
+    from compare.bench.setup_cost import SCALES, bench_setup, scaled_scene
+    from compare.scene.gltf_read import load_gltf
+
+    root = Path(__file__).resolve().parent.parent
+    scene = scaled_scene(4, tmp_path, triangles=200, map_size=32)
+    doc = load_gltf(scene.with_suffix(".glb"))
+    assert len(doc.primitives) == 4 and len(doc.images) == 4
+    assert 4 * 150 <= sum(p.mesh.triangle_count for p in doc.primitives) <= 4 * 250
+    figures = bench_setup(root / "scenes" / "car.toml", tmp_path, size=(32, 24), repeats=1,
+                          renderers=["mitsuba"], triangles=200, map_size=32)
+    assert [(f.name, f.a) for f in figures] == [
+        ("setup-seconds", "mitsuba car"), ("setup-rss", "mitsuba car"),
+        *[(name, f"mitsuba {s}x") for s in SCALES[1:] for name in ("setup-seconds", "setup-rss")]]
+    for f in figures:
+        assert f.b == "mitsuba 1x" and math.isfinite(f.ratio) and f.a_median > 0 and f.b_median > 0
+    rss = [f for f in figures if f.name == "setup-rss"]
+    assert all(50 < f.a_median < 4000 for f in rss)  # MiB of a process that imported Mitsuba
+    assert "growth (linear: 16)" in figures[-1].note

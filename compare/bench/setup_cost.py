@@ -36,11 +36,11 @@ TRIANGLES_PER_SCALE = 62_500
 MAP_SIZE = 4096
 
 
-def _map(seed: int) -> bytes:
-    """A 4096² JPEG base-colour map: a checker over a colour ramp, different per seed."""
+def _map(seed: int, size: int) -> bytes:
+    """A size² JPEG base-colour map: a checker over a colour ramp, different per seed."""
     from PIL import Image
 
-    y, x = np.mgrid[0:MAP_SIZE, 0:MAP_SIZE].astype(np.float32) / MAP_SIZE
+    y, x = np.mgrid[0:size, 0:size].astype(np.float32) / size
     check = ((np.floor(x * 32) + np.floor(y * 32)) % 2).astype(np.float32)
     hue = (seed * 0.618) % 1.0
     rgb = np.stack([0.3 + 0.5 * x, 0.3 + 0.4 * ((y + hue) % 1.0), 0.3 + 0.5 * (1 - x)], axis=-1)
@@ -50,30 +50,32 @@ def _map(seed: int) -> bytes:
     return buf.getvalue()
 
 
-def scaled_scene(scale: int, folder: Path) -> Path:
-    """The generated scene at ``scale`` × (a GLB and a TOML around it) in ``folder``, written once."""
+def scaled_scene(scale: int, folder: Path, *, triangles: int = TRIANGLES_PER_SCALE, map_size: int = MAP_SIZE) -> Path:
+    """The generated scene at ``scale`` × (a GLB and a TOML around it) in ``folder``, written once: ``scale``
+    spheres of ``triangles`` triangles, each with its own ``map_size``² base-colour map."""
     from compare.scene import geometry
     from compare.scene.gltf_write import GltfWriter
     from compare.util.files import write_bytes_atomic, write_text_atomic
 
-    toml = folder / f"scaled-{scale}x.toml"
+    stem = f"scaled-{scale}x-{triangles}-{map_size}"
+    toml = folder / f"{stem}.toml"
     if toml.is_file():
         return toml
     w = GltfWriter(generator="compare bench setup-seconds")
-    # a sphere of TRIANGLES_PER_SCALE triangles: 2 · segments · (rings − 1)
-    rings = 126
-    segments = TRIANGLES_PER_SCALE // (2 * (rings - 1))
+    # a UV sphere of about `triangles` triangles (2 · segments · rings, segments = 2 · rings)
+    rings = max(2, round(np.sqrt(triangles / 4)))
+    segments = max(3, round(triangles / (2 * rings)))
     side = int(np.ceil(np.sqrt(scale)))
     for k in range(scale):
         mesh = geometry.sphere(1.0, segments, rings)
         mat = w.material(f"m{k}", (1.0, 1.0, 1.0), 0.0, 0.5)
-        w.doc["materials"][mat]["pbrMetallicRoughness"]["baseColorTexture"] = w.texture(_map(k), "image/jpeg")
+        w.doc["materials"][mat]["pbrMetallicRoughness"]["baseColorTexture"] = w.texture(_map(k, map_size), "image/jpeg")
         translation = [2.5 * (k % side), 1.0, 2.5 * (k // side)]
         w.node(f"sphere {k}", mesh=w.mesh(f"sphere {k}", [(mesh, mat)], uvs=True), translation=translation)
-    write_bytes_atomic(folder / f"scaled-{scale}x.glb", w.glb())
+    write_bytes_atomic(folder / f"{stem}.glb", w.glb())
     write_text_atomic(toml, f"""name = "generated, {scale}x"
 [[include]]
-file = "scaled-{scale}x.glb"
+file = "{stem}.glb"
 
 [camera]
 target = "auto"
@@ -97,7 +99,7 @@ imported = time.perf_counter()
 scene = load_scene(path).with_resolution(width, height)
 loaded = time.perf_counter()
 renderer = Registry().get(spec)
-with RenderContext(RunSettings(frames=1, spp=1)) as context:
+with RenderContext(RunSettings(frames=1, spp=1), cache_dir=False) as context:
     rendering = renderer.render(scene, steps=1, checkpoints=[1], seed=0, context=context)
 own = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 children = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
@@ -118,9 +120,10 @@ def probe(spec: str, scene: Path, size: tuple[int, int]) -> dict:
 
 
 def bench_setup(car: Path, folder: Path, *, size: tuple[int, int], repeats: int, renderers: list[str],
-                progress=None) -> list[Figure]:
-    """The ``setup-seconds`` and ``setup-rss`` figures of every renderer in ``renderers``."""
-    scenes = {"car": car, **{f"{s}x": scaled_scene(s, folder) for s in SCALES}}
+                progress=None, **scene_size) -> list[Figure]:
+    """The ``setup-seconds`` and ``setup-rss`` figures of every renderer in ``renderers``; ``scene_size``:
+    :func:`scaled_scene`'s ``triangles`` and ``map_size`` per ×."""
+    scenes = {"car": car, **{f"{s}x": scaled_scene(s, folder, **scene_size) for s in SCALES}}
     figures = []
     for spec in renderers:
         runs: dict[str, list[dict]] = {}

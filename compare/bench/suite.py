@@ -54,6 +54,11 @@ each figure:
 ``eevee``
     progressive (all frames) ÷ EEVEE (64 samples) render seconds, when the
     ``blender`` extra is installed (the paper's Table 1 comparison).
+``setup-seconds``, ``setup-rss``
+    per available renderer, the seconds before the first image (scene load + the renderer's set-up)
+    and the peak resident memory of a one-step render in a process of its own, on the built-in car
+    (``--setup-scene``) and on a generated scene at 1×, 4× and 16× (62,500 triangles and one 4096² map
+    per ×): the ratios are the growth over 1× (linear: 4 and 16). See :mod:`compare.bench.setup_cost`.
 """
 
 from __future__ import annotations
@@ -67,7 +72,9 @@ from pathlib import Path
 from compare.util.figures import Figure, median as _median, time_to_error
 
 ITEMS = ("first-frame", "depth-floor", "area-models", "textures", "wrapper-overhead", "equal-error", "frame-budget", "peak-rss",
-         "eevee")
+         "eevee", "setup-seconds", "setup-rss")
+#: The items measured together by one series of runs (compare.bench.setup_cost).
+SETUP_ITEMS = ("setup-seconds", "setup-rss")
 #: Per-frame budgets (ms) of the frame-budget item.
 BUDGETS_MS = (16.0, 100.0)
 
@@ -276,8 +283,19 @@ def _renderer_items(registry) -> dict:
     return items
 
 
+def _bench_setup(setup_scene, size, repeats: int, registry) -> list[Figure]:
+    from compare.bench.setup_cost import bench_setup
+    from compare.util.cache import default_cache_dir
+
+    renderers = [name for name in registry.builtins() if registry.get(name).available()[0]]
+    folder = default_cache_dir() / "bench-scenes"
+    folder.mkdir(parents=True, exist_ok=True)
+    return bench_setup(Path(setup_scene), folder, size=size, repeats=repeats, renderers=renderers)
+
+
 def run_bench(scene_path: str | Path, *, size: tuple[int, int], frames: int, spp: int, repeats: int,
-              items: tuple[str, ...] = ITEMS, progress: bool = True) -> dict:
+              items: tuple[str, ...] = ITEMS, progress: bool = True,
+              setup_scene: str | Path = "scenes/car.toml") -> dict:
     """Run the chosen benchmark items; returns a JSON-ready dict (figures, skipped items, machine).
 
     Every renderer is reached through the registry: the items that compare renderers render through
@@ -293,6 +311,7 @@ def run_bench(scene_path: str | Path, *, size: tuple[int, int], frames: int, spp
     registry = Registry()
     own = _renderer_items(registry)
     figures: list[Figure] = []
+    setup_figures: list[Figure] | None = None
     skipped: dict[str, str] = {}
     with RenderContext(RunSettings(frames=frames, spp=spp), progress=False) as context:
         for item in tqdm(items, desc="bench", disable=not progress):
@@ -309,6 +328,10 @@ def run_bench(scene_path: str | Path, *, size: tuple[int, int], frames: int, spp
                     figures += bench_peak_rss(str(scene_path), frames=frames, spp=spp)
                 elif item == "eevee":
                     figures += bench_eevee(scene, frames=frames, repeats=repeats, registry=registry, context=context)
+                elif item in SETUP_ITEMS:  # one series of runs gives both
+                    if setup_figures is None:
+                        setup_figures = _bench_setup(setup_scene, size, repeats, registry)
+                    figures += [f for f in setup_figures if f.name == item]
                 else:
                     raise ValueError(f"unknown benchmark item {item!r} (known: {', '.join(ITEMS)})")
             except RuntimeError as exc:

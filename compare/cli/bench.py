@@ -24,6 +24,8 @@ def add_bench_parser(subparsers) -> None:
     p.add_argument("--frames", type=int, default=128, help="progressive frames")
     p.add_argument("--spp", type=int, default=256, help="reference samples per pixel (equal-error ladder)")
     p.add_argument("--repeats", type=int, default=5, help="repeated runs per side (medians)")
+    p.add_argument("--setup-scene", type=Path, default=Path("scenes/car.toml"),
+                   help="the scene of the setup-seconds and setup-rss items beside the generated ones")
     p.add_argument("--only", default=",".join(ITEMS), help=f"comma-separated items of: {', '.join(ITEMS)}")
     p.add_argument("-o", "--output", type=Path, default=Path("reports/bench.json"), help="JSON output")
     p.set_defaults(func=_cmd_bench)
@@ -39,7 +41,7 @@ def _cmd_bench(args) -> int:
 
     check_outputs({"-o": args.output}, inputs=(args.scene,), suffixes={"-o": ".json"})
     result = run_bench(args.scene, size=args.size, frames=args.frames, spp=args.spp, repeats=args.repeats,
-                       items=items)
+                       items=items, setup_scene=args.setup_scene)
     write_text_atomic(args.output, json.dumps(result, indent=2))
     print(format_table(result))
     print(f"written {args.output}")
