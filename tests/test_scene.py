@@ -335,3 +335,43 @@ def test_bad_texture_settings_name_file_and_field(make_scene, field, value, mess
     with pytest.raises(SceneError, match=f"materials.white.{message}".replace("[", r"\[").replace("]", r"\]")
                        .replace("(", r"\(").replace(")", r"\)").replace(".", r"\.")):
         load_scene(make_scene(text))
+
+
+@pytest.mark.parametrize("fmt", ["ascii", "binary_little_endian", "binary_big_endian"])
+def test_ply_faces_of_one_size_and_of_mixed_sizes_read_alike(tmp_path, fmt):
+    """Triangles and quads, all of one size (read at once) or mixed (read one by one), fan-triangulated
+    the same way."""
+    import struct
+
+    from compare.scene.geometry import MeshFileError, load_ply
+
+    p = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [2, 0, 0], [2, 1, 0]], dtype=np.float32)
+    cases = {"tris": [[0, 1, 2], [0, 2, 3], [1, 4, 5], [1, 5, 2]], "quads": [[0, 1, 2, 3], [1, 4, 5, 2]],
+             "mixed": [[0, 1, 2, 3], [1, 4, 5], [1, 5, 2]]}
+    loaded = {}
+    for name, faces in cases.items():
+        head = (f"ply\nformat {fmt} 1.0\nelement vertex {len(p)}\nproperty float x\nproperty float y\n"
+                f"property float z\nelement face {len(faces)}\nproperty list uchar int vertex_indices\nend_header\n")
+        if fmt == "ascii":
+            body = "".join(" ".join(map(str, v)) + "\n" for v in p) + "".join(
+                f"{len(f)} {' '.join(map(str, f))}\n" for f in faces)
+            data = head.encode() + body.encode()
+        else:
+            e = "<" if fmt == "binary_little_endian" else ">"
+            data = head.encode() + p.astype(e + "f4").tobytes() + b"".join(
+                struct.pack(f"{e}B{len(f)}i", len(f), *f) for f in faces)
+        (tmp_path / f"{name}.ply").write_bytes(data)
+        loaded[name] = load_ply(tmp_path / f"{name}.ply")
+    area = lambda m: 0.5 * np.linalg.norm(np.cross(m.positions[m.indices[:, 1]] - m.positions[m.indices[:, 0]],  # noqa: E731
+                                                   m.positions[m.indices[:, 2]] - m.positions[m.indices[:, 0]]), axis=1)
+    for name, mesh in loaded.items():
+        assert mesh.triangle_count == 4, name
+        assert area(mesh).sum() == pytest.approx(2.0), name
+    np.testing.assert_array_equal(np.sort(loaded["tris"].indices.ravel()), np.sort(loaded["quads"].indices.ravel()))
+    # a bad index in faces of one size is one error naming the face
+    bad = tmp_path / "bad.ply"
+    bad.write_bytes((tmp_path / "tris.ply").read_bytes().replace(b"3 1 5 2", b"3 1 9 2") if fmt == "ascii"
+                    else (tmp_path / "tris.ply").read_bytes()[:-4] + struct.pack(
+                        ("<" if fmt == "binary_little_endian" else ">") + "i", 9))
+    with pytest.raises(MeshFileError, match=r"bad.ply: PLY face \[1, [59], [29]\] is invalid for 6 vertices"):
+        load_ply(bad)

@@ -302,11 +302,21 @@ def _load_ply(path: Path) -> TriangleMesh:
             pos = 0
             for name, count, props in elements:
                 if props and props[0][0] == "list":
-                    rows = []
-                    for _ in range(count):
-                        k = int(tokens[pos])
-                        rows.append([int(t) for t in tokens[pos + 1:pos + 1 + k]])
-                        pos += 1 + k
+                    k = int(tokens[pos]) if count else 0
+                    try:
+                        block = np.array(tokens[pos:pos + (1 + k) * count], dtype=np.int64) if count else None
+                    except ValueError:  # not all integers: lists of other lengths, read one by one below
+                        block = None
+                    if block is not None and len(block) == (1 + k) * count and \
+                            np.all(block.reshape(count, 1 + k)[:, 0] == k):
+                        rows = block.reshape(count, 1 + k)[:, 1:]  # every list as long: all at once
+                        pos += (1 + k) * count
+                    else:  # lists of different lengths: each one's length says where the next starts
+                        rows = []
+                        for _ in range(count):
+                            k = int(tokens[pos])
+                            rows.append([int(t) for t in tokens[pos + 1:pos + 1 + k]])
+                            pos += 1 + k
                     if name == "face":
                         faces = rows
                 else:
@@ -320,12 +330,20 @@ def _load_ply(path: Path) -> TriangleMesh:
             for name, count, props in elements:
                 if props and props[0][0] == "list":
                     ct, it = endian + types[props[0][1]], endian + types[props[0][2]]
-                    rows = []
-                    for _ in range(count):
-                        k = int(np.frombuffer(body, ct, 1, off)[0])
-                        off += np.dtype(ct).itemsize
-                        rows.append(np.frombuffer(body, it, k, off).astype(np.int64).tolist())
-                        off += k * np.dtype(it).itemsize
+                    k = int(np.frombuffer(body, ct, 1, off)[0]) if count else 0
+                    uniform = np.dtype([("n", ct), ("v", it, (k,))]) if count else None
+                    block = (np.frombuffer(body, uniform, count, off)
+                             if count and off + uniform.itemsize * count <= len(body) else None)
+                    if block is not None and np.all(block["n"] == k):
+                        rows = block["v"].astype(np.int64)  # every list as long (triangles): all at once
+                        off += uniform.itemsize * count
+                    else:  # lists of different lengths: each one's length says where the next starts
+                        rows = []
+                        for _ in range(count):
+                            k = int(np.frombuffer(body, ct, 1, off)[0])
+                            off += np.dtype(ct).itemsize
+                            rows.append(np.frombuffer(body, it, k, off).astype(np.int64).tolist())
+                            off += k * np.dtype(it).itemsize
                     if name == "face":
                         faces = rows
                 else:
@@ -339,12 +357,20 @@ def _load_ply(path: Path) -> TriangleMesh:
     if verts is None or faces is None or not all(k in verts for k in "xyz"):
         raise MeshFileError(f"{path}: PLY file needs a vertex element with x, y, z and a face element")
     p = np.stack([verts["x"], verts["y"], verts["z"]], 1)
-    idx = []
-    for f in faces:
-        if len(f) < 3 or max(f) >= len(p) or min(f) < 0:
-            raise MeshFileError(f"{path}: PLY face {f} is invalid for {len(p)} vertices")
-        idx.extend([f[0], f[k], f[k + 1]] for k in range(1, len(f) - 1))
-    i = np.array(idx, dtype=np.int64)
+    if isinstance(faces, np.ndarray):  # all faces of k corners: a fan of k - 2 triangles each, at once
+        if faces.shape[1] < 3 or (faces.size and (faces.max() >= len(p) or faces.min() < 0)):
+            bad = faces[(faces.max(1) >= len(p)) | (faces.min(1) < 0)][0] if faces.size and faces.shape[1] >= 3 \
+                else faces[0] if len(faces) else []
+            raise MeshFileError(f"{path}: PLY face {list(map(int, bad))} is invalid for {len(p)} vertices")
+        fan = np.arange(1, faces.shape[1] - 1)
+        i = np.stack([np.repeat(faces[:, :1], len(fan), 1), faces[:, fan], faces[:, fan + 1]], -1).reshape(-1, 3)
+    else:
+        idx = []
+        for f in faces:
+            if len(f) < 3 or max(f) >= len(p) or min(f) < 0:
+                raise MeshFileError(f"{path}: PLY face {f} is invalid for {len(p)} vertices")
+            idx.extend([f[0], f[k], f[k + 1]] for k in range(1, len(f) - 1))
+        i = np.array(idx, dtype=np.int64)
     if all(k in verts for k in ("nx", "ny", "nz")):
         n = np.stack([verts["nx"], verts["ny"], verts["nz"]], 1)
     else:

@@ -1,7 +1,8 @@
 """glTF 2.0 import (``.gltf`` and ``.glb``) into the scene model, and a small GLB writer.
 
-Only ``json``, ``struct`` and numpy: the reader decodes accessors (strided,
-normalized, sparse), walks the node hierarchy of the default scene, and returns
+The reader decodes accessors (strided, normalized, sparse; quantised ones as they are) with
+numpy, hands compressed files (meshopt, Draco, WebP, KTX 2) to :mod:`compare.scene.gltf_decode`
+first, walks the node hierarchy of the default scene, and returns
 world-space parts that :func:`include` maps onto :mod:`compare.scene.loader` objects.
 A TOML scene pulls a file in with ``[[include]]`` (see ``scenes/README.md``)
 and may add lights, an environment and a camera around it.
