@@ -375,3 +375,39 @@ def test_ply_faces_of_one_size_and_of_mixed_sizes_read_alike(tmp_path, fmt):
                         ("<" if fmt == "binary_little_endian" else ">") + "i", 9))
     with pytest.raises(MeshFileError, match=r"bad.ply: PLY face \[1, [59], [29]\] is invalid for 6 vertices"):
         load_ply(bad)
+
+
+@pytest.mark.parametrize("form", ["{v}", "{v}/{t}", "{v}/{t}/{n}", "{v}//{n}"])
+def test_obj_read_at_once_equals_the_line_reader(tmp_path, monkeypatch, form):
+    """The whole-file OBJ reader (no loop per face) gives the line reader's triangles, corners and welding,
+    for each corner form, with triangles, quads and a pentagon; a file it does not take falls back."""
+    from compare.scene import geometry
+
+    rng = np.random.default_rng(3)
+    lines = [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in rng.normal(size=(12, 3))]
+    lines += [f"vt {u:.4f} {v:.4f}" for u, v in rng.random((12, 2))]
+    lines += [f"vn {x:.4f} {y:.4f} {z:.4f}" for x, y, z in rng.normal(size=(12, 3))]
+    lines += ["o part", "usemtl x", "s off"]
+    for corners in ([0, 1, 2], [2, 3, 4, 5], [5, 6, 7], [7, 8, 9, 10, 11], [0, 2, 4]):
+        lines.append("f " + " ".join(form.format(v=c + 1, t=(c * 5) % 12 + 1, n=(c * 7) % 12 + 1) for c in corners))
+    path = tmp_path / "m.obj"
+    path.write_text("\n".join(lines) + "\n")
+    fast = geometry.load_obj(path)
+    monkeypatch.setattr(geometry, "_obj_at_once", lambda data: None)
+    slow = geometry.load_obj(path)
+    assert fast.triangle_count == slow.triangle_count == 1 + 2 + 1 + 3 + 1
+
+    def corners(m):
+        return np.concatenate([m.positions[m.indices], m.normals[m.indices], m.uvs[m.indices]], axis=2)
+
+    np.testing.assert_allclose(corners(fast), corners(slow), atol=1e-6)
+    assert len(fast.positions) == len(slow.positions)  # the same welding
+
+
+def test_an_obj_the_fast_reader_refuses_still_names_its_bad_line(tmp_path):
+    from compare.scene.geometry import MeshFileError, load_obj
+
+    path = tmp_path / "bad.obj"
+    path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 7\n")
+    with pytest.raises(MeshFileError, match=r"bad.obj:5: malformed OBJ line 'f 1 2 7': index 7 out of range"):
+        load_obj(path)

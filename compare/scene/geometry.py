@@ -197,8 +197,75 @@ def load_obj(path: Path) -> TriangleMesh:
         raise MeshFileError(f"{path}: malformed OBJ file ({type(exc).__name__}: {exc})") from None
 
 
+#: A face's corner in each of OBJ's four forms (positive indices), for the whole-file reader.
+_OBJ_CORNER = {0: rb"\d+", 1: rb"\d+/\d+", 2: rb"\d+/\d+/\d+", 3: rb"\d+//\d+"}
+
+
+def _obj_at_once(data: bytes) -> TriangleMesh | None:
+    """An OBJ file read with whole-file regular expressions and numpy, no Python loop per face: for files
+    whose faces all use one corner form with positive indices in range, single-spaced (what exporters
+    write). None for any other file: :func:`_load_obj` then reads it line by line and names a bad line."""
+    import re
+
+    data = data.replace(b"\r\n", b"\n")
+    num = rb"(\S+)"
+    v = re.findall(rb"^v[ \t]+" + num + rb"[ \t]+" + num + rb"[ \t]+" + num, data, re.M)
+    vt = re.findall(rb"^vt[ \t]+" + num + rb"[ \t]+" + num, data, re.M)
+    vn = re.findall(rb"^vn[ \t]+" + num + rb"[ \t]+" + num + rb"[ \t]+" + num, data, re.M)
+    counts = [len(re.findall(rb"^" + k + rb"[ \t]", data, re.M)) for k in (b"v", b"vt", b"vn")]
+    faces = re.findall(rb"^f[ \t]+([^\n#]*?)[ \t]*$", data, re.M)
+    if [len(v), len(vt), len(vn)] != counts or not faces or not v:
+        return None
+    joined = b" ".join(faces)
+    first = joined.split(b" ", 1)[0]
+    form = 3 if b"//" in first else first.count(b"/")
+    if form not in _OBJ_CORNER or not re.fullmatch(rb"(?:" + _OBJ_CORNER[form] + rb" )*" + _OBJ_CORNER[form], joined):
+        return None
+    fields = {0: 1, 1: 2, 2: 3, 3: 2}[form]
+    corners = np.array(joined.replace(b"//", b" ").replace(b"/", b" ").split(), dtype=np.int64).reshape(-1, fields) - 1
+    sizes = np.char.count(np.array(faces), b" ") + 1
+    if sizes.min() < 3 or sizes.sum() != len(corners):
+        return None
+    pos = np.array(v, dtype=np.float64)
+    tex = np.array(vt, dtype=np.float64) if vt else np.zeros((0, 2))
+    nor = np.array(vn, dtype=np.float64) if vn else np.zeros((0, 3))
+    vi = corners[:, 0]
+    ti = corners[:, 1] if form in (1, 2) else None
+    ni = corners[:, 2] if form == 2 else corners[:, 1] if form == 3 else None
+    for index, table in ((vi, pos), (ti, tex), (ni, nor)):
+        if index is not None and (index.min() < 0 or index.max() >= len(table)):
+            return None
+    # one output vertex per distinct (position, texture, normal) corner, as the line reader welds them
+    key = np.stack([vi, ti if ti is not None else np.zeros_like(vi), ni if ni is not None else np.zeros_like(vi)], 1)
+    unique, inverse = np.unique(key, axis=0, return_inverse=True)
+    inverse = inverse.ravel()
+    # fan each face (k corners: k - 2 triangles) about its first corner, faces of one size at a time
+    starts = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+    tris = []
+    for k in np.unique(sizes):  # a handful of polygon sizes, not one pass per face
+        s = starts[sizes == k]
+        fan = np.arange(1, k - 1)
+        tris.append(np.stack([np.repeat(s[:, None], len(fan), 1), s[:, None] + fan, s[:, None] + fan + 1], -1))
+    order = np.concatenate([t.reshape(-1, 3) for t in tris])
+    # triangles in file order, as the line reader makes them
+    order = order[np.argsort(order[:, 0], kind="stable")]
+    idx = inverse[order]
+    p = pos[unique[:, 0]]
+    if not np.all(np.isfinite(p)):
+        return None
+    uv = tex[unique[:, 1]] if ti is not None else np.zeros((len(unique), 2))
+    n = nor[unique[:, 2]] if ni is not None else vertex_normals(p, idx)
+    return _mesh(p, n, uv, idx)
+
+
 def _load_obj(path: Path) -> TriangleMesh:
     """Read a Wavefront OBJ (v, vt, vn, f with any of v, v/t, v//n, v/t/n; polygons fanned)."""
+    try:
+        fast = _obj_at_once(path.read_bytes())
+    except (OSError, ValueError):
+        fast = None  # the line reader below says what is wrong
+    if fast is not None:
+        return fast
     pos, tex, nor = [], [], []
     out_p, out_t, out_n, idx = [], [], [], []
     cache: dict[tuple, int] = {}
