@@ -220,3 +220,14 @@ def test_variants_render_alike_in_every_available_renderer(spec, tmp_path, make_
     assert means[0] > 0
     for name, m in zip(names[1:], means[1:]):
         assert m == pytest.approx(means[0], rel=0.02), (name, means)
+
+
+def test_a_ktx2_header_claiming_a_huge_map_is_one_error(tmp_path):
+    doc, binary = parse_glb((CAR / "coupe-ktx2.glb").read_bytes())
+    binary = bytearray(binary)
+    v = doc["bufferViews"][doc["images"][0]["bufferView"]]
+    start = v.get("byteOffset", 0)
+    binary[start + 20: start + 28] = struct.pack("<II", 100_000, 100_000)  # pixelWidth, pixelHeight
+    (tmp_path / "huge.glb").write_bytes(pack_glb(doc, binary))
+    with pytest.raises(GltfError, match=r"huge.glb: images\[0\]: "):
+        load_gltf(tmp_path / "huge.glb")

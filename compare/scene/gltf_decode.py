@@ -44,6 +44,8 @@ _DISTRIBUTIONS = {"EXT_meshopt_compression": ("meshopt", "meshopt"),
 _COMPONENT = {np.dtype(np.int8): 5120, np.dtype(np.uint8): 5121, np.dtype(np.int16): 5122,
               np.dtype(np.uint16): 5123, np.dtype(np.uint32): 5125, np.dtype(np.float32): 5126}
 _TYPES = {1: "SCALAR", 2: "VEC2", 3: "VEC3", 4: "VEC4"}
+#: The most texels a transcoded map may have: the largest texture of common GPUs.
+MAX_TEXELS = 16384 * 16384
 
 
 class DecodeError(ValueError):
@@ -296,6 +298,9 @@ class _Decoder:
             tex = basisu.open(bytes(data))
             if tex.faces != 1 or tex.layers != 1:
                 raise DecodeError(where, "KHR_texture_basisu allows 2D textures only")
+            if tex.width * tex.height > MAX_TEXELS:  # checked on the header, before anything is allocated
+                raise DecodeError(where, f"{tex.width} × {tex.height} texels is more than the {MAX_TEXELS:,} "
+                                         "(16384²) a map may have")
             image = tex.transcode(basisu.Target.RGBA8, level=0)
         except (basisu.BasisuError, basisu.UnsupportedError, ValueError) as exc:
             raise DecodeError(where, f"not a valid KTX 2 file with a Basis Universal payload ({exc})") from None
