@@ -254,8 +254,12 @@ def test_include_maps_materials_camera_and_lights(tmp_path, make_scene):
     np.testing.assert_allclose(lamp.center, [0, 2, 0], atol=1e-7)
     np.testing.assert_allclose(lamp.normal, [0, -1, 0], atol=1e-7)
     assert lamp.radiance == pytest.approx((5.0, 4.0, 3.0))
-    # The point light (683 cd = 1 W/sr) became a closed cube of six lights emitting 4π W in all.
-    cube = s.lights[1:]
+    # The point light (683 cd = 1 W/sr) is a point light; a renderer with area lights only gets a closed
+    # cube of six lights emitting its 4π W in all.
+    (bulb,) = s.punctual
+    assert bulb.kind == "point" and bulb.intensity == pytest.approx((1.0, 1.0, 1.0))
+    assert len(s.lights) == 1
+    cube = s.with_punctual_as_area()[0].lights[1:]
     assert len(cube) == 6
     total = sum(light.power for light in cube)
     np.testing.assert_allclose(total, 4 * math.pi, rtol=1e-9)
@@ -300,23 +304,27 @@ def test_spot_and_directional_lights(tmp_path, make_scene):
            rotation=(-math.sqrt(0.5), 0, 0, math.sqrt(0.5)))  # −Z turned to −Y
     w.node("sun", light=w.light("sun", "directional", 5.0))
     w.write(tmp_path / "l.glb")
-    with pytest.warns(UserWarning) as record:
-        s = load_scene(make_scene("""
-            [camera]
-            position = [0, 2, 5]
-            target = [0, 0, 0]
+    s = load_scene(make_scene("""
+        [camera]
+        position = [0, 2, 5]
+        target = [0, 0, 0]
 
-            [[include]]
-            file = "l.glb"
-            punctual_size = 0.1
-        """))
-    notes = [str(w.message) for w in record]
-    assert any("directional light 'sun' skipped" in n for n in notes)
-    assert any("spot light 'spot'" in n and "cone not reproduced" in n for n in notes)
-    (spot,) = s.lights
-    np.testing.assert_allclose(spot.normal, [0, -1, 0], atol=1e-9)
-    # On-axis intensity L·A = 2 W/sr.
-    assert spot.radiance[0] * spot.area == pytest.approx(2.0)
+        [[include]]
+        file = "l.glb"
+        punctual_size = 0.1
+    """))
+    spot, sun = s.punctual
+    assert (spot.kind, sun.kind) == ("spot", "directional") and not s.lights
+    np.testing.assert_allclose(spot.direction, [0, -1, 0], atol=1e-9)
+    np.testing.assert_allclose(sun.intensity, [5 / 683] * 3)  # lux at 1/683 W/lm: W/m²
+    # where only area lights are drawn: the spot as one square of on-axis intensity L·A = 2 W/sr, no sun
+    (square,) = s.with_punctual_as_area()[0].lights
+    np.testing.assert_allclose(square.normal, [0, -1, 0], atol=1e-9)
+    assert square.radiance[0] * square.area == pytest.approx(2.0) and square.size == pytest.approx((0.1, 0.1))
+    with pytest.warns(UserWarning, match="directional light 'sun' skipped"):
+        area = load_scene(make_scene('[camera]\nposition = [0, 2, 5]\ntarget = [0, 0, 0]\n'
+                                     '[[include]]\nfile = "l.glb"\npunctual = "area"\n', name="area.toml"))
+    assert len(area.lights) == 1 and not area.punctual
 
 
 @pytest.mark.parametrize("text, message", [

@@ -100,7 +100,7 @@ scene = load_scene(path).with_resolution(width, height)
 loaded = time.perf_counter()
 renderer = Registry().get(spec)
 with RenderContext(RunSettings(frames=1, spp=1), cache_dir=False) as context:
-    rendering = renderer.render(scene, steps=1, checkpoints=[1], seed=0, context=context)
+    rendering = renderer.render(renderer.prepare(scene)[0], steps=1, checkpoints=[1], seed=0, context=context)
 own = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 children = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
 print(json.dumps({"import": imported - start, "load": loaded - imported, "setup": rendering.setup_seconds,

@@ -85,7 +85,7 @@ def _render(registry, spec: str, scene, *, steps: int, checkpoints=None, seed: i
 
     r = registry.get(spec)
     cps = list(checkpoints or [steps])
-    return check_rendering(r, r.render(scene, steps=steps, checkpoints=cps, seed=seed, context=context),
+    return check_rendering(r, r.render(r.prepare(scene)[0], steps=steps, checkpoints=cps, seed=seed, context=context),
                            scene=scene, checkpoints=cps)
 
 

@@ -159,8 +159,11 @@ def cmd_render(args: argparse.Namespace) -> int:
                            budgets={renderer.name: getattr(args, renderer.render_flag[2:])} if renderer.render_flag
                            else {}, likeness=False)
     steps = args.steps or renderer.steps(settings)
+    given, changed = renderer.prepare(scene)
+    for note in changed:
+        print(f"{renderer.name}: {note}", file=sys.stderr)
     with RenderContext(settings, cache_dir=False if args.no_cache else None, progress=True) as context:
-        rendering = check_rendering(renderer, renderer.render(scene, steps=steps, checkpoints=[steps], seed=args.seed,
+        rendering = check_rendering(renderer, renderer.render(given, steps=steps, checkpoints=[steps], seed=args.seed,
                                                               context=context), scene=scene, checkpoints=[steps])
     last = rendering.checkpoints[-1]
     unit = {"frame": "frames", "spp": "spp", "sample": "samples"}.get(renderer.unit, renderer.unit)
@@ -168,7 +171,8 @@ def cmd_render(args: argparse.Namespace) -> int:
 
     meta = {**rendering.metadata, "renderer": renderer.name, unit: last.step, "seed": args.seed,
             "seconds": last.seconds, "setup_seconds": rendering.setup_seconds, "scene": str(args.scene),
-            "scene_hash": scene.hash, "package": __version__}
+            "scene_hash": scene.hash, "package": __version__,
+            **({"scene_changed": "; ".join(changed)} if changed else {})}
     write_exr(args.output, last.image, metadata=exr_metadata(meta))
     write_png(png, last.image, exposure=args.exposure, operator=args.tonemap)
     print(f"{args.output}: {scene.camera.width}x{scene.camera.height}, {renderer.label}, {last.step} {unit} in "

@@ -49,6 +49,7 @@ class MitsubaRenderer(Renderer):
     name = "mitsuba"
     unit = "spp"
     default_budget = "spp"
+    renders = frozenset({"punctual_lights"})
 
     OPTIONS = {v: f"Mitsuba's {v} variant instead of the best available" for v in MITSUBA_VARIANTS}
 

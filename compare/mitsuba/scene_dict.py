@@ -96,7 +96,8 @@ def world_scale(scene: Scene) -> float:
     so a scene smaller than :data:`MIN_EXTENT` is rendered scaled by the power of
     ten that brings its extent to [1, 10).
     """
-    pts = np.array([*scene.extent(), scene.camera.position, scene.camera.target], dtype=np.float64)
+    pts = np.array([*scene.extent(), scene.camera.position, scene.camera.target,
+                    *[p.position for p in scene.punctual if p.kind != "directional"]], dtype=np.float64)
     pts = pts[np.isfinite(pts).all(axis=1)]  # a scene without meshes has infinite mesh bounds
     extent = float(np.linalg.norm(pts.max(0) - pts.min(0)))
     if not (np.isfinite(extent) and 0 < extent < MIN_EXTENT):
@@ -226,6 +227,46 @@ def light_dict(light: AreaLight, scale: float = 1.0) -> dict:
     }
 
 
+#: Texels a side of the spot lights' cone profile (compare.mitsuba.scene_dict.punctual_dict).
+SPOT_PROFILE_SIZE = 1024
+
+
+def spot_profile(light) -> np.ndarray:
+    """glTF's spot cone falloff as the texture Mitsuba's ``spot`` multiplies its intensity by: texel (u, v) of
+    [0, 1]² looks along local (x, y, 1) with x, y = (2u − 1, 2v − 1) · tan(outer cone) (Mitsuba's
+    ``direction_to_uv``), so the square of glTF's clamped ramp in cos θ is reproduced to the texture's
+    bilinear interpolation, where Mitsuba's own falloff is linear in the angle."""
+    n = SPOT_PROFILE_SIZE
+    t = math.tan(math.radians(light.outer_cone))
+    c = (np.arange(n) + 0.5) / n * 2.0 - 1.0
+    x, y = np.meshgrid(c * t, c * t)
+    values = light.falloff(1.0 / np.sqrt(1.0 + x * x + y * y)).astype(np.float32)
+    return np.repeat(values[..., None], 3, axis=2)
+
+
+def punctual_dict(light, scale: float = 1.0) -> dict:
+    """Mitsuba's own emitter for a point (``point``), spot (``spot`` with glTF's cone, :func:`spot_profile`)
+    or directional (``directional``) light. Positions × ``scale``; an intensity (W/sr) × ``scale``², so that
+    the irradiance it gives at the scaled distances is the scene's."""
+    import mitsuba as mi
+
+    rgb = lambda v: {"type": "rgb", "value": [float(x) for x in v]}  # noqa: E731
+    intensity = [c * scale * scale for c in light.intensity]
+    position = [scale * x for x in light.position]
+    if light.kind == "point":
+        return {"type": "point", "position": position, "intensity": rgb(intensity)}
+    if light.kind == "directional":
+        return {"type": "directional", "direction": list(light.direction), "irradiance": rgb(light.intensity)}
+    d = np.asarray(light.direction, dtype=np.float64)
+    up = [0.0, 1.0, 0.0] if abs(d[1]) < 0.9 else [1.0, 0.0, 0.0]
+    target = (np.asarray(position) + d).tolist()
+    return {"type": "spot", "to_world": mi.ScalarTransform4f().look_at(origin=position, target=target, up=up),
+            "intensity": rgb(intensity), "cutoff_angle": float(light.outer_cone),
+            "beam_width": float(light.outer_cone),  # no falloff of Mitsuba's own: the profile is glTF's
+            "texture": {"type": "bitmap", "bitmap": mi.Bitmap(spot_profile(light)), "raw": True,
+                        "filter_type": "bilinear", "wrap_mode": "clamp"}}
+
+
 def environment_dict(scene: Scene) -> dict | None:
     """Mitsuba emitter for the scene's environment, or None.
 
@@ -315,6 +356,8 @@ def scene_dict(scene: Scene, *, spp: int, materials: str = "shared", sampler: st
         d[f"mesh{k:03d}"] = mesh_object(f"mesh{k:03d}", scene, k, materials, scale)
     for k, light in enumerate(scene.lights):
         d[f"light{k:03d}"] = light_dict(light, scale)
+    for k, light in enumerate(scene.punctual):
+        d[f"punctual{k:03d}"] = punctual_dict(light, scale)
     env = environment_dict(scene)
     if env is not None:
         d["environment"] = env

@@ -168,6 +168,9 @@ class Renderer(abc.ABC):
     budget_flag: ClassVar[str | None] = None
     #: The ``compare render`` flag (``--spp``, ``--frames`` or ``--samples``) that sets a budget of its own.
     render_flag: ClassVar[str | None] = None
+    #: Scene features it draws as they are, beyond area lights and opaque metallic-roughness materials
+    #: (names of :class:`compare.scene.model.Features`): :meth:`prepare` adapts a scene's others.
+    renders: ClassVar[frozenset[str]] = frozenset()
 
     @classmethod
     def from_spec(cls, spec: str) -> "Renderer":
@@ -208,6 +211,14 @@ class Renderer(abc.ABC):
             return code_fingerprint(type(self).__module__)
         except (ModuleNotFoundError, ValueError, OSError, SyntaxError):
             return None
+
+    def prepare(self, scene) -> tuple[Any, list[str]]:
+        """The scene as this renderer gets it, and what that changed or left out, one phrase each (the
+        run records them): without ``punctual_lights`` in :attr:`renders`, point and spot lights become
+        stand-in squares and directional lights are left out."""
+        if "punctual_lights" in self.renders:
+            return scene, []
+        return scene.with_punctual_as_area()
 
     def preflight(self, scene, context: RenderContext) -> None:
         """Refuse, before any work of a run, a scene this renderer cannot render here (e.g. a size

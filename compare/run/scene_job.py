@@ -281,9 +281,10 @@ class SceneJob:
         if bar is not None:
             what = "ground truth" if truth else spec
             bar.set_postfix_str(f"{scene.name[:30]} {what} {steps} {r.unit}")
-        rendering = check_rendering(r, r.render(scene, steps=steps, checkpoints=cps, seed=seed,
+        given, changed = r.prepare(scene)
+        rendering = check_rendering(r, r.render(given, steps=steps, checkpoints=cps, seed=seed,
                                                 context=self.context), scene=scene, checkpoints=cps)
-        meta = flat_metadata(rendering.metadata)
+        meta = flat_metadata({**rendering.metadata, **({"scene_changed": "; ".join(changed)} if changed else {})})
         self._note_facts(r, meta)
         points = []
         for c in rendering.checkpoints:

@@ -159,6 +159,10 @@ class GltfLight:
     color: tuple[float, float, float]
     intensity: float
     matrix: np.ndarray
+    inner_cone: float = 0.0
+    """A spot's cone half-angles in radians (glTF's ``spot.innerConeAngle`` and ``outerConeAngle``)."""
+    outer_cone: float = math.pi / 4
+    range: float | None = None
 
 
 @dataclass
@@ -666,9 +670,20 @@ def _read_document(path: Path, r: "_Reader") -> GltfDocument:
             if isinstance(li, bool) or not isinstance(li, int) or not 0 <= li < len(light_defs):
                 raise r.err(f"nodes[{index}].extensions.KHR_lights_punctual.light", f"index {li!r} out of range")
             d = light_defs[li]
-            lights.append(GltfLight(str(d.get("name") or f"light{li}"), str(d.get("type", "point")),
+            kind = d.get("type")
+            where = f"extensions.KHR_lights_punctual.lights[{li}]"
+            if kind not in ("point", "spot", "directional"):
+                raise r.err(f"{where}.type", f"expected 'point', 'spot' or 'directional', got {kind!r}")
+            spot = d.get("spot", {}) if kind == "spot" else {}
+            inner, outer = float(spot.get("innerConeAngle", 0.0)), float(spot.get("outerConeAngle", math.pi / 4))
+            if kind == "spot" and not 0 <= inner < outer <= math.pi / 2:
+                raise r.err(f"{where}.spot", f"expected 0 <= innerConeAngle < outerConeAngle <= pi/2, got {inner} "
+                                             f"and {outer}")
+            rng = d.get("range")
+            lights.append(GltfLight(str(d.get("name") or f"light{li}"), kind,
                                     tuple(float(c) for c in d.get("color", [1, 1, 1])),  # type: ignore[arg-type]
-                                    float(d.get("intensity", 1.0)), world))
+                                    float(d.get("intensity", 1.0)), world, inner, outer,
+                                    None if rng is None else float(rng)))
         for child in node.get("children", []):
             visit(child, world, stack + (index,), str(own) if own else inherited)
 

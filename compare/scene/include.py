@@ -91,9 +91,9 @@ def _settings(ctx, where: str, raw: Any) -> _Settings:
     quads = t.get("emissive_quads", "lights")
     if quads not in ("lights", "meshes"):
         raise ctx.err(f"{where}.emissive_quads", f"expected 'lights' or 'meshes', got {sf.fmt(quads)}")
-    punctual = t.get("punctual", "area")
-    if punctual not in ("area", "ignore"):
-        raise ctx.err(f"{where}.punctual", f"expected 'area' or 'ignore', got {sf.fmt(punctual)}")
+    punctual = t.get("punctual", "lights")
+    if punctual not in ("lights", "area", "ignore"):
+        raise ctx.err(f"{where}.punctual", f"expected 'lights', 'area' or 'ignore', got {sf.fmt(punctual)}")
     size = sf.number(ctx, f"{where}.punctual_size", t.get("punctual_size", DEFAULT_PUNCTUAL_SIZE), positive=True)
     light_scale = sf.number(ctx, f"{where}.light_scale", t.get("light_scale", WATTS_PER_LUMEN), positive=True)
     cam_sel = t.get("camera", 0)
@@ -191,11 +191,15 @@ def _objects(st: _Settings, doc, materials: _Materials, notes: list[str]) -> tup
         note = units_note(float(np.max(hi - lo)))
         if note:
             notes.append(note)
-    if st.punctual == "area":
+    if st.punctual != "ignore":
         world_scale = abs(np.linalg.det(st.xf[:3, :3])) ** (1.0 / 3.0)
         for light in doc.lights:
-            lights.extend(_punctual_lights(sm, light, st.xf, st.punctual_size * world_scale, st.light_scale,
-                                           st.prefix, notes))
+            made = _punctual_light(light, st.xf, st.punctual_size * world_scale, st.light_scale, st.prefix, notes)
+            if made is not None:
+                lights.extend(made.stand_ins() if st.punctual == "area" else [made])
+                if st.punctual == "area" and made.kind == "directional":
+                    notes.append(f"directional light {light.name!r} skipped (punctual = 'area' has no stand-in "
+                                 "for it)")
     elif doc.lights:
         notes.append(f"{len(doc.lights)} KHR_lights_punctual light(s) ignored (punctual = 'ignore')")
     return meshes, lights
@@ -285,37 +289,19 @@ def _emissive_rectangle(tri: TriangleMesh):
             tuple(float(x) for x in e0 / l0))
 
 
-def _punctual_lights(sc, light: GltfLight, xf: np.ndarray, side: float, light_scale: float, prefix: str,
-                     notes: list[str]) -> list:
+def _punctual_light(light: GltfLight, xf: np.ndarray, side: float, light_scale: float, prefix: str,
+                    notes: list[str]):
+    """The scene's :class:`~compare.scene.model.PunctualLight` of a glTF light (None if it emits nothing)."""
     m = xf @ light.matrix
-    pos = m[:3, 3]
-    intensity = np.asarray(light.color) * light.intensity * light_scale  # W/sr
-    name = f"{prefix}{light.name}"
-    if light.kind == "directional":
-        notes.append(f"directional light {light.name!r} skipped: add a sun to the [environment] instead")
-        return []
-    if max(intensity) <= 0:
-        notes.append(f"light {light.name!r} emits nothing; skipped")
-        return []
-
-    def frame(direction):
-        d = direction / np.linalg.norm(direction)
-        helper = np.array([0.0, 1.0, 0.0]) if abs(d[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
-        t = np.cross(helper, d)
-        return d, t / np.linalg.norm(t)
-
-    out = []
-    if light.kind == "spot":
-        n, t = frame(m[:3, :3] @ np.array([0.0, 0.0, -1.0]))
-        radiance = intensity / side**2
-        out.append(sm.AreaLight(name, tuple(pos), (side, side), tuple(n), tuple(t), tuple(radiance)))
-        notes.append(f"spot light {light.name!r}: a {side:g} m square facing its direction (cone not reproduced)")
-    else:
-        radiance = 2.0 * intensity / (3.0 * side**2)
-        for axis, label in zip(np.vstack([np.eye(3), -np.eye(3)]), ("+x", "+y", "+z", "-x", "-y", "-z")):
-            n, t = frame(axis)
-            out.append(sm.AreaLight(f"{name}{label}", tuple(pos + n * side / 2), (side, side), tuple(n), tuple(t),
-                                    tuple(radiance)))
-    return out
+    intensity = np.asarray(light.color) * light.intensity * light_scale  # W/sr, or W/m² for a directional light
+    if not np.all(np.isfinite(intensity)) or max(intensity) <= 0 or min(intensity) < 0:
+        notes.append(f"light {light.name!r} has colour × intensity {intensity.tolist()}: skipped (lights must be "
+                     "finite, non-negative and emit something)")
+        return None
+    d = m[:3, :3] @ np.array([0.0, 0.0, -1.0])  # a glTF light shines down its node's -Z
+    d = d / np.linalg.norm(d)
+    return sm.PunctualLight(f"{prefix}{light.name}", light.kind, tuple(float(x) for x in m[:3, 3]),
+                            tuple(float(x) for x in d), tuple(float(x) for x in intensity),
+                            math.degrees(light.inner_cone), math.degrees(light.outer_cone), light.range, side)
 
 

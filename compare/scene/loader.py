@@ -40,7 +40,8 @@ from compare.scene.fields import unit_vector as _unit, vector as _vector
 from compare.scene.model import *  # noqa: F403 - the model is this module's face
 from compare.scene.model import (DEFAULT_PROBE_BOUNCES, DEFAULT_PROBE_GRID, ENV_FILE_SUFFIXES,
                           INDIRECT_MODES, MAX_PROBES_PER_AXIS, MESH_FILE_SUFFIXES, MESH_SHAPES, TEXTURE_SUFFIXES,
-                          AreaLight, Camera, Environment, Material, Mesh, Scene)
+                          DEFAULT_STAND_IN_SIZE, PUNCTUAL_KINDS, AreaLight, Camera, Environment, Material, Mesh,
+                          PunctualLight, Scene)
 
 
 def _camera(ctx: _Ctx, raw: Any, framed: Callable[[], tuple[np.ndarray, np.ndarray]]) -> Camera:
@@ -236,12 +237,63 @@ def _mesh(ctx: _Ctx, k: int, raw: Any, materials: dict[str, Material]) -> Mesh:
     return mesh
 
 
-def _light(ctx: _Ctx, k: int, raw: Any) -> AreaLight:
+#: W/lm at 555 nm: what a punctual light's intensity (cd, or lux for a directional light) is multiplied by.
+WATTS_PER_LUMEN = 1.0 / 683.0
+
+
+def _punctual(ctx: _Ctx, k: int, t: dict, kind: str) -> PunctualLight:
+    """A ``[[lights]]`` table of type point, spot or directional."""
     w = f"lights[{k}]"
+    fields = {"name", "type", "color", "intensity", "light_scale", "range", "stand_in_size"}
+    fields |= {"position"} if kind == "point" else {"position", "direction", "inner_cone", "outer_cone"} \
+        if kind == "spot" else {"direction"}
+    t = _table(ctx, w, t, fields)
+    position = (_vector(ctx, f"{w}.position", _require(ctx, w, t, "position"), 3) if kind != "directional"
+                else (0.0, 0.0, 0.0))
+    direction = (tuple(_unit(ctx, f"{w}.direction", _require(ctx, w, t, "direction"))) if kind != "point"
+                 else (0.0, -1.0, 0.0))
+    color = _color(ctx, f"{w}.color", t.get("color", [1.0, 1.0, 1.0]))
+    intensity = _number(ctx, f"{w}.intensity", _require(ctx, w, t, "intensity"))
+    scale = _number(ctx, f"{w}.light_scale", t.get("light_scale", WATTS_PER_LUMEN))
+    if not (intensity >= 0 and scale > 0):
+        raise ctx.err(f"{w}.intensity", f"expected an intensity >= 0 and a light_scale > 0, got {_fmt(intensity)} "
+                                        f"and {_fmt(scale)}")
+    radiometric = tuple(c * intensity * scale for c in color)
+    if max(radiometric) <= 0:
+        raise ctx.err(f"{w}.intensity", "a light must emit something (all zero)")
+    for r in radiometric:
+        problem = _float32_problem(r)
+        if problem:
+            raise ctx.err(f"{w}.intensity", f"gives a radiometric intensity of which {problem}")
+    inner = _number(ctx, f"{w}.inner_cone", t.get("inner_cone", 0.0))
+    outer = _number(ctx, f"{w}.outer_cone", t.get("outer_cone", 45.0))
+    if not 0 <= inner < outer <= 90:
+        raise ctx.err(f"{w}.outer_cone", f"expected 0 <= inner_cone < outer_cone <= 90 (degrees from the axis), got "
+                                         f"{_fmt(inner)} and {_fmt(outer)}")
+    rng = t.get("range")
+    if rng is not None and not (_number(ctx, f"{w}.range", rng) > 0):
+        raise ctx.err(f"{w}.range", f"expected metres > 0, got {_fmt(rng)}")
+    size = _number(ctx, f"{w}.stand_in_size", t.get("stand_in_size", DEFAULT_STAND_IN_SIZE))
+    if not size > 0:
+        raise ctx.err(f"{w}.stand_in_size", f"expected metres > 0, got {_fmt(size)}")
+    problem = geometry.world_range_problem(float(np.max(np.abs(position))))
+    if problem:
+        raise ctx.err(f"{w}.position", f"reaches {problem}")
+    name = t.get("name", f"light{k}")
+    if not isinstance(name, str):
+        raise ctx.err(f"{w}.name", f"expected a string, got {_fmt(name)}")
+    return PunctualLight(name, kind, tuple(position), direction, radiometric, inner, outer,  # type: ignore[arg-type]
+                         None if rng is None else float(rng), size)
+
+
+def _light(ctx: _Ctx, k: int, raw: Any) -> AreaLight | PunctualLight:
+    w = f"lights[{k}]"
+    kind = raw.get("type", "rect") if isinstance(raw, dict) else "rect"
+    if kind in PUNCTUAL_KINDS:
+        return _punctual(ctx, k, raw, kind)
     t = _table(ctx, w, raw, {"name", "type", "center", "size", "normal", "tangent", "radiance", "power"})
-    kind = t.get("type", "rect")
     if kind != "rect":
-        raise ctx.err(f"{w}.type", f"only rectangular area lights ('rect') are supported, got {_fmt(kind)}")
+        raise ctx.err(f"{w}.type", f"expected 'rect' (the default), 'point', 'spot' or 'directional', got {_fmt(kind)}")
     center = _vector(ctx, f"{w}.center", _require(ctx, w, t, "center"), 3)
     size = _vector(ctx, f"{w}.size", _require(ctx, w, t, "size"), 2, positive=True)
     normal = _unit(ctx, f"{w}.normal", _require(ctx, w, t, "normal"))
@@ -361,8 +413,10 @@ def parse_scene(data: dict[str, Any], path: Path) -> Scene:
     lights_raw = data.get("lights", [])
     if not isinstance(lights_raw, list):
         raise ctx.err("lights", "expected an array of tables ([[lights]])")
-    lights = tuple(_light(ctx, k, v) for k, v in enumerate(lights_raw))
-    lights += tuple(light for inc in includes for light in inc.lights)
+    parsed = [_light(ctx, k, v) for k, v in enumerate(lights_raw)]
+    parsed += [light for inc in includes for light in inc.lights]
+    lights = tuple(light for light in parsed if isinstance(light, AreaLight))
+    punctual = tuple(light for light in parsed if isinstance(light, PunctualLight))
     ctx.files.extend(f for inc in includes for f in inc.files)
     env = _environment(ctx, data["environment"]) if "environment" in data else None
     render = _table(ctx, "render", data.get("render", {}), {"max_depth", "indirect", "probe_grid", "probe_bounces",
@@ -377,7 +431,7 @@ def parse_scene(data: dict[str, Any], path: Path) -> Scene:
     emissive = any(materials[m.material].is_emissive for m in meshes)
     # A map file or a procedural map counts as emitting; a zero constant or intensity does not.
     env_emits = env is not None and env.intensity > 0 and (env.constant is None or max(env.constant) > 0)
-    if not (any(max(lt.radiance) > 0 for lt in lights) or env_emits or emissive):
+    if not (any(max(lt.radiance) > 0 for lt in lights) or punctual or env_emits or emissive):
         # Every renderer would draw black, and a black image cannot be told from a black ground truth.
         raise ctx.err("lights", "the scene has no light: add [[lights]] with radiance > 0, an [environment] above "
                                 "zero or an emissive material")
@@ -385,7 +439,7 @@ def parse_scene(data: dict[str, Any], path: Path) -> Scene:
     indirect, probe_grid, probe_bounces = _indirect(ctx, render)
     return Scene(ctx.path, name, camera, materials, meshes, lights, env, max_depth, files,
                  file_hash=_content_hash(ctx.path, files, data), indirect=indirect, probe_grid=probe_grid,
-                 probe_bounces=probe_bounces, reference_spp=reference_spp)
+                 probe_bounces=probe_bounces, reference_spp=reference_spp, punctual=punctual)
 
 
 def _indirect(ctx: _Ctx, render: dict[str, Any]) -> tuple[str, tuple[int, int, int], int]:

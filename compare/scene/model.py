@@ -265,6 +265,73 @@ class Environment:
     """Name of a Blender studio light (``"interior"``, ``"courtyard"``, ...)."""
 
 
+#: Kinds of KHR_lights_punctual lights.
+PUNCTUAL_KINDS = ("point", "spot", "directional")
+#: Side (m) of the squares that stand in for point and spot lights in renderers with area lights only.
+DEFAULT_STAND_IN_SIZE = 0.05
+
+
+@dataclass(frozen=True)
+class PunctualLight:
+    """A point, spot or directional light, as ``KHR_lights_punctual`` defines them.
+
+    ``intensity`` is radiometric and per channel: W/sr for point and spot lights, the irradiance in
+    W/m² on a surface facing a directional light. ``direction`` is where the light travels (spot,
+    directional). A spot's cone falls off as glTF's: the square of a clamped linear ramp in cos θ from
+    ``outer_cone`` (0) to ``inner_cone`` (1), both half-angles in degrees. ``range`` is glTF's hint for
+    where a light may be cut off; every renderer here ignores it (glTF allows it) and keeps the
+    inverse-square law. ``stand_in_size``: the side of the squares it becomes in a renderer that has area
+    lights only (:meth:`stand_ins`).
+    """
+
+    name: str
+    kind: str
+    position: tuple[float, float, float]
+    direction: tuple[float, float, float]
+    intensity: tuple[float, float, float]
+    inner_cone: float = 0.0
+    outer_cone: float = 45.0
+    range: float | None = None
+    stand_in_size: float = DEFAULT_STAND_IN_SIZE
+
+    def falloff(self, cos_theta) -> np.ndarray:
+        """glTF's spot cone factor at cos θ from the axis (1 for point and directional lights)."""
+        cos_theta = np.asarray(cos_theta, dtype=np.float64)
+        if self.kind != "spot":
+            return np.ones_like(cos_theta)
+        ci, co = math.cos(math.radians(self.inner_cone)), math.cos(math.radians(self.outer_cone))
+        scale = 1.0 / max(1e-3, ci - co)  # the specification's own guard against inner == outer
+        return np.clip((cos_theta - co) * scale, 0.0, 1.0) ** 2
+
+    def stand_ins(self) -> list["AreaLight"]:
+        """The squares that stand in for this light where only area lights are drawn: a spot one square
+        facing along its direction with L = I / s² (its on-axis intensity; the cone is lost), a point a
+        closed cube of six outward squares with L = 2I / (3s²) (its power 4πI; the intensity of a cube
+        depends on direction). A directional light has none."""
+        side = self.stand_in_size
+        intensity = np.asarray(self.intensity, dtype=np.float64)
+        pos = np.asarray(self.position, dtype=np.float64)
+
+        def frame(direction):
+            d = np.asarray(direction, dtype=np.float64) / np.linalg.norm(direction)
+            helper = np.array([0.0, 1.0, 0.0]) if abs(d[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
+            t = np.cross(helper, d)
+            return tuple(d), tuple(t / np.linalg.norm(t))
+
+        if self.kind == "spot":
+            n, t = frame(self.direction)
+            return [AreaLight(self.name, tuple(pos), (side, side), n, t, tuple(intensity / side ** 2))]
+        if self.kind == "point":
+            radiance = tuple(2.0 * intensity / (3.0 * side ** 2))
+            out = []
+            for axis, label in zip(np.vstack([np.eye(3), -np.eye(3)]), ("+x", "+y", "+z", "-x", "-y", "-z")):
+                n, t = frame(axis)
+                out.append(AreaLight(f"{self.name}{label}", tuple(pos + axis * side / 2), (side, side), n, t,
+                                     radiance))
+            return out
+        return []
+
+
 @dataclass(frozen=True)
 class Features:
     """What a scene needs, so renderers and reports can leave out the rest."""
@@ -276,6 +343,7 @@ class Features:
     textures: bool
     emissive_meshes: bool
     alpha_mask: bool = False
+    punctual_lights: bool = False
 
     def names(self) -> list[str]:
         """Names of the features present."""
@@ -320,6 +388,8 @@ class Scene:
     reference_spp: int | None = None
     """Samples per pixel this scene's ground truth needs (``compare run --spp auto``), chosen so that its
     noise floor stays below a fraction of the errors it judges; None: the run's ``--spp``."""
+    punctual: tuple[PunctualLight, ...] = ()
+    """Point, spot and directional lights (KHR_lights_punctual), beside the area lights."""
 
     def features(self) -> Features:
         """What this scene needs (environment, area lights, glossy materials, textures, ...)."""
@@ -332,6 +402,7 @@ class Scene:
             textures=any(m.has_maps for m in used),
             emissive_meshes=any(m.is_emissive for m in used),
             alpha_mask=any(m.is_masked for m in used),
+            punctual_lights=bool(self.punctual),
         )
 
     @cached_property
@@ -354,6 +425,22 @@ class Scene:
                                         alpha_mode="opaque")
                  for k, m in self.materials.items()}
         return dataclasses.replace(self, materials=plain)
+
+    def with_punctual_as_area(self) -> tuple["Scene", list[str]]:
+        """The scene for a renderer that draws area lights only: point and spot lights as their stand-in
+        squares (:meth:`PunctualLight.stand_ins`), directional lights left out; and what was changed, one
+        phrase each (empty when the scene has no punctual lights)."""
+        if not self.punctual:
+            return self, []
+        squares = tuple(sq for light in self.punctual for sq in light.stand_ins())
+        kinds = {k: sum(light.kind == k for light in self.punctual) for k in PUNCTUAL_KINDS}
+        notes = []
+        if kinds["point"] or kinds["spot"]:
+            notes.append(f"{kinds['point'] + kinds['spot']} point/spot light(s) drawn as stand-in squares "
+                         f"({len(squares)} area lights; a point light's cube, a spot light's cone lost)")
+        if kinds["directional"]:
+            notes.append(f"{kinds['directional']} directional light(s) not rendered")
+        return dataclasses.replace(self, lights=self.lights + squares, punctual=()), notes
 
     def with_max_depth(self, max_depth: int) -> "Scene":
         """The same scene with another path depth for the reference (2 = direct light only)."""

@@ -1,0 +1,191 @@
+"""Point, spot and directional lights (KHR_lights_punctual) as what they are: the scene model, the glTF
+import, the stand-in squares of renderers that have area lights only, and closed forms."""
+
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+import pytest
+
+from compare.mitsuba.reference import ReferenceRenderer
+from compare.scene.loader import load_scene
+from compare.util.errors import SceneError
+
+ALBEDO = 0.8
+PLANE = """
+[camera]
+position = [0.0, 5.0, 5.0]
+target = [0.0, 0.0, 0.0]
+fov = 60.0
+resolution = [96, 72]
+
+[materials.white]
+base_color = [0.8, 0.8, 0.8]
+roughness = 1.0
+
+[[meshes]]
+name = "plane"
+shape = "quad"
+size = [40.0, 40.0]
+material = "white"
+"""
+
+
+def _plane_points(scene, dx: float = 0.5, dy: float = 0.5):
+    """World points of the plane y = 0 seen through each pixel at (dx, dy) in it, (H, W, 3), and a mask of
+    hits."""
+    cam = scene.camera
+    x, y = np.meshgrid(np.arange(cam.width) + dx, np.arange(cam.height) + dy)
+    d = cam.ray_directions(x, y)
+    o = np.asarray(cam.position)
+    t = -o[1] / d[..., 1]
+    p = o + t[..., None] * d
+    hit = (t > 0) & (np.abs(p[..., 0]) < 19.0) & (np.abs(p[..., 2]) < 19.0)
+    return p, hit
+
+
+def closed_form(scene, light, n: int = 8) -> tuple[np.ndarray, np.ndarray]:
+    """Radiance of a Lambert plane y = 0 (albedo 0.8, normal +Y) lit by one punctual light alone, averaged
+    over an n × n grid in each pixel (the reference's box filter); and its spread within each pixel (the
+    standard deviation over the grid), which sets the pixel-sampling noise of a render."""
+    grid = (np.arange(n) + 0.5) / n
+    samples = np.array([_closed_form_at(scene, light, _plane_points(scene, dx, dy)[0]) for dx in grid for dy in grid])
+    return samples.mean(0), samples.std(0)
+
+
+def _closed_form_at(scene, light, p) -> np.ndarray:
+    if light.kind == "directional":
+        cos_n = max(-light.direction[1], 0.0)
+        e = np.asarray(light.intensity) * cos_n
+        return np.broadcast_to(ALBEDO / math.pi * e, p.shape).copy()
+    v = np.asarray(light.position) - p
+    dist = np.linalg.norm(v, axis=-1)
+    w = v / dist[..., None]
+    cos_n = np.clip(w[..., 1], 0.0, None)
+    cone = light.falloff((-w) @ np.asarray(light.direction))
+    return ALBEDO / math.pi * (cos_n * cone / dist ** 2)[..., None] * np.asarray(light.intensity)
+
+
+LIGHTS = {
+    "point": '[[lights]]\ntype = "point"\nposition = [0.3, 2.0, 0.2]\nintensity = 40.0\nlight_scale = 1.0\n',
+    "spot": '[[lights]]\ntype = "spot"\nposition = [0.0, 3.0, 0.0]\ndirection = [0.3, -1.0, 0.1]\nintensity = 60.0\n'
+            'light_scale = 1.0\ninner_cone = 10.0\nouter_cone = 30.0\ncolor = [1.0, 0.5, 0.25]\n',
+    "directional": '[[lights]]\ntype = "directional"\ndirection = [0.5, -0.8660254, 0.0]\nintensity = 3.0\n'
+                   'light_scale = 1.0\n',
+}
+
+
+@pytest.mark.parametrize("kind", LIGHTS)
+def test_reference_matches_the_closed_form_of_each_punctual_light(tmp_path, make_scene, kind):
+    """A white Lambert plane under one light: the reference within 2 % per pixel (1e-3 of the peak where
+    the spot's cone goes to zero), with glTF's own spot falloff (not Mitsuba's linear-in-angle one)."""
+    scene = load_scene(make_scene(PLANE, LIGHTS[kind]))
+    (light,) = scene.punctual
+    assert light.kind == kind and not scene.lights
+    spp = 256
+    image = ReferenceRenderer(scene, materials="diffuse", cache_dir=False, progress=False).render(spp).image
+    want, spread = closed_form(scene, light)
+    _, hit = _plane_points(scene)
+    got, want, spread = image[hit], want[hit], spread[hit]
+    peak = want.max()
+    assert peak > 0
+    # 2 % of the closed form, beyond the pixel-sampling noise of a box filter of `spp` samples (4 standard
+    # errors: where the light's gradient crosses a pixel, e.g. on the cone's edge) and 1e-3 of the peak
+    bound = 0.02 * want + 4 * spread / math.sqrt(spp) + 1e-3 * peak
+    worst = np.abs(got - want) - bound
+    assert worst.max() <= 0, (worst.argmax(), got.ravel()[worst.argmax()], want.ravel()[worst.argmax()])
+    # and the mean over the lit pixels within 0.5 %
+    lit = want[:, 0] > 0.05 * peak
+    assert got[lit].sum() == pytest.approx(want[lit].sum(), rel=5e-3)
+    if kind == "spot":  # the cone edge crosses the image: lit and dark pixels both
+        assert (want[:, 0] == 0).sum() > 20 and (want[:, 0] > 0.5 * peak).sum() > 20
+
+
+def test_the_spot_falloff_is_gltfs_squared_ramp_in_cos_theta():
+    from compare.scene.model import PunctualLight
+
+    spot = PunctualLight("s", "spot", (0, 0, 0), (0, -1, 0), (1, 1, 1), inner_cone=20.0, outer_cone=40.0)
+    ci, co = math.cos(math.radians(20)), math.cos(math.radians(40))
+    for angle in (0.0, 19.9, 25.0, 30.0, 39.0, 40.1, 80.0):
+        c = math.cos(math.radians(angle))
+        want = min(max((c - co) / (ci - co), 0.0), 1.0) ** 2
+        assert spot.falloff(c) == pytest.approx(want, abs=1e-12)
+
+
+def test_stand_ins_keep_a_points_power_and_a_spots_axis_intensity():
+    from compare.scene.model import PunctualLight
+
+    point = PunctualLight("p", "point", (1, 2, 3), (0, -1, 0), (2.0, 1.0, 0.5), stand_in_size=0.1)
+    squares = point.stand_ins()
+    assert len(squares) == 6
+    power = sum(sq.power for sq in squares)
+    np.testing.assert_allclose(power, 4 * math.pi * np.array([2.0, 1.0, 0.5]), rtol=1e-12)
+    spot = PunctualLight("s", "spot", (0, 0, 0), (0, -1, 0), (3.0, 3.0, 3.0), stand_in_size=0.1)
+    (sq,) = spot.stand_ins()
+    np.testing.assert_allclose(np.asarray(sq.radiance) * sq.area, [3.0, 3.0, 3.0])  # on-axis intensity
+    assert PunctualLight("d", "directional", (0, 0, 0), (0, -1, 0), (1, 1, 1)).stand_ins() == []
+
+
+def test_a_renderer_with_area_lights_only_gets_stand_ins_and_says_so(tmp_path, make_scene):
+    from compare.renderers import Registry
+
+    scene = load_scene(make_scene(PLANE, LIGHTS["point"], LIGHTS["directional"]))
+    given, changed = Registry().get("progressive").prepare(scene)
+    assert not given.punctual and len(given.lights) == 6
+    assert changed == ["1 point/spot light(s) drawn as stand-in squares (6 area lights; a point light's cube, "
+                       "a spot light's cone lost)", "1 directional light(s) not rendered"]
+    same, nothing = Registry().get("mitsuba").prepare(scene)
+    assert same is scene and nothing == []
+
+
+def test_gltf_punctual_lights_become_lights(tmp_path, make_scene):
+    from compare.scene.gltf_write import GltfWriter
+
+    w = GltfWriter()
+    grey = w.material("grey", (0.5, 0.5, 0.5), 0.0, 1.0)
+    from compare.scene import geometry
+
+    w.node("floor", mesh=w.mesh("floor", [(geometry.quad((4.0, 4.0)), grey)]))
+    for name, kind in (("bulb", "point"), ("lamp", "spot"), ("sun", "directional")):
+        index = w.light(name, kind, 683.0, (1.0, 0.5, 0.25))
+        if kind == "spot":
+            w.doc["extensions"]["KHR_lights_punctual"]["lights"][index]["spot"] = {"innerConeAngle": 0.2,
+                                                                                   "outerConeAngle": 0.6}
+            w.doc["extensions"]["KHR_lights_punctual"]["lights"][index]["range"] = 12.0
+        # -Z of a node turned -90 deg about X points down
+        w.node(name, light=index, translation=[0.0, 2.0, 0.0], rotation=[-math.sin(math.pi / 4), 0, 0,
+                                                                          math.cos(math.pi / 4)])
+    w.write(tmp_path / "lit.glb")
+    scene = load_scene(make_scene('include = "lit.glb"\n[camera]\nposition = [0, 3, 3]\ntarget = [0, 0, 0]\n'))
+    lights = {p.name: p for p in scene.punctual}
+    assert sorted(lights) == ["lit/bulb", "lit/lamp", "lit/sun"]
+    lamp = lights["lit/lamp"]
+    np.testing.assert_allclose(lamp.intensity, [1.0, 0.5, 0.25])  # 683 cd at 1/683 W/lm
+    np.testing.assert_allclose(lamp.direction, [0, -1, 0], atol=1e-12)
+    np.testing.assert_allclose(lamp.position, [0, 2, 0])
+    assert (lamp.inner_cone, lamp.outer_cone, lamp.range) == pytest.approx((math.degrees(0.2), math.degrees(0.6),
+                                                                            12.0))
+    area = load_scene(make_scene('[[include]]\nfile = "lit.glb"\npunctual = "area"\n'
+                                 '[camera]\nposition = [0, 3, 3]\ntarget = [0, 0, 0]\n', name="area.toml"))
+    assert not area.punctual and len(area.lights) == 7  # a cube and a square; the sun has none
+
+
+@pytest.mark.parametrize("light, field, message", [
+    ('type = "point"\nintensity = 1.0', "lights[0].position", "missing required field"),
+    ('type = "spot"\nposition = [0, 1, 0]\ndirection = [0, -1, 0]\nintensity = 1.0\nouter_cone = 95.0',
+     "lights[0].outer_cone", r"expected 0 <= inner_cone < outer_cone <= 90"),
+    ('type = "point"\nposition = [0, 1, 0]\nintensity = -1.0', "lights[0].intensity", "expected an intensity >= 0"),
+    ('type = "point"\nposition = [0, 1, 0]\nintensity = 1.0\ncolor = [1.0, -1.0, 1.0]', "lights[0].color", ""),
+    ('type = "directional"\ndirection = [0, 0, 0]\nintensity = 1.0', "lights[0].direction", ""),
+    ('type = "point"\nposition = [0, 1, 0]\nintensity = 1.0\ndirection = [0, -1, 0]', "lights[0].direction",
+     "unknown field"),
+    ('type = "laser"\ncenter = [0, 1, 0]', "lights[0].type", "expected 'rect' .*'point', 'spot' or 'directional'"),
+])
+def test_bad_punctual_lights_name_the_field(tmp_path, make_scene, light, field, message):
+    with pytest.raises(SceneError, match=rf"scene.toml: {re.escape(field)}: .*{message}"):
+        load_scene(make_scene(PLANE, "[[lights]]\n" + light + "\n"))
+
+
+
