@@ -125,13 +125,18 @@ def bench_setup(car: Path, folder: Path, *, size: tuple[int, int], repeats: int,
     :func:`scaled_scene`'s ``triangles`` and ``map_size`` per ×."""
     scenes = {"car": car, **{f"{s}x": scaled_scene(s, folder, **scene_size) for s in SCALES}}
     figures = []
+    failed = []
     for spec in renderers:
         runs: dict[str, list[dict]] = {}
-        for label, path in scenes.items():
-            probe(spec, path, size)  # warm-up: fills the decoded-file and image caches
-            runs[label] = [probe(spec, path, size) for _ in range(max(repeats, 1))]
-            if progress:
-                progress(f"{spec} {label}")
+        try:
+            for label, path in scenes.items():
+                probe(spec, path, size)  # warm-up: fills the decoded-file and image caches
+                runs[label] = [probe(spec, path, size) for _ in range(max(repeats, 1))]
+                if progress:
+                    progress(f"{spec} {label}")
+        except RuntimeError as exc:  # one renderer's failure leaves the others' figures
+            failed.append(str(exc))
+            continue
         seconds = {k: [r["load"] + r["setup"] for r in v] for k, v in runs.items()}
         rss = {k: [r["rss_mib"] for r in v] for k, v in runs.items()}
         note = lambda k: (f"scene load {median([r['load'] for r in runs[k]]):.2f} s + set-up "  # noqa: E731
@@ -147,4 +152,10 @@ def bench_setup(car: Path, folder: Path, *, size: tuple[int, int], repeats: int,
                                   seconds[k], seconds["1x"]))
             figures.append(Figure("setup-rss", f"{spec} {k}", f"{spec} 1x", median(rss[k]), median(rss["1x"]),
                                   "MiB", repeats, f"growth (linear: {s})", rss[k], rss["1x"]))
+    if failed and not figures:
+        raise RuntimeError("; ".join(failed))
+    for why in failed:
+        import warnings
+
+        warnings.warn(f"setup-seconds: {why}", stacklevel=2)
     return figures

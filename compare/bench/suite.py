@@ -290,7 +290,11 @@ def _bench_setup(setup_scene, size, repeats: int, registry) -> list[Figure]:
     renderers = [name for name in registry.builtins() if registry.get(name).available()[0]]
     folder = default_cache_dir() / "bench-scenes"
     folder.mkdir(parents=True, exist_ok=True)
-    return bench_setup(Path(setup_scene), folder, size=size, repeats=repeats, renderers=renderers)
+    from tqdm.auto import tqdm
+
+    with tqdm(total=len(renderers) * 4, desc="set-up runs", leave=False) as bar:
+        return bench_setup(Path(setup_scene), folder, size=size, repeats=repeats, renderers=renderers,
+                           progress=lambda what: (bar.set_postfix_str(what), bar.update()))
 
 
 def run_bench(scene_path: str | Path, *, size: tuple[int, int], frames: int, spp: int, repeats: int,

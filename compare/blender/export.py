@@ -174,7 +174,7 @@ from compare.mitsuba.layers import MAX_HOLES
 from compare.scene.loader import AreaLight, Camera, Scene
 
 #: Version of the job format shared by this module and the worker.
-JOB_VERSION = 1
+JOB_VERSION = 2
 #: Material models: the glTF → Principled mapping, or Lambert only.
 #: The material modes (compare.brdf.SUPPORTED_MATERIALS) Blender is given: its Principled BSDF, or Lambert only.
 SUPPORTED_MATERIALS = ("cycles", "diffuse")
@@ -261,6 +261,33 @@ def light_matrix(light: AreaLight) -> np.ndarray:
     m[:3, 2] = -np.asarray(light.normal)
     m[:3, 3] = light.center
     return m
+
+
+def punctual_light(light) -> dict:
+    """A point, spot or directional light as Blender's POINT, SPOT or SUN light of zero size, in the units of
+    Blender's own glTF importer: a point or spot light's power is 4π × its intensity (W/sr; Blender defines a
+    spot's power as that of the point light it is cut from), a sun's strength its irradiance (W/m²). The
+    spot's cone is ``spot_size`` = 2 × the outer angle with ``spot_blend`` = 1 − inner / outer, the importer's
+    mapping; Blender's smoothstep blend is not glTF's squared ramp, so the two differ inside the ramp."""
+    peak = max(light.intensity)
+    color = [c / peak for c in light.intensity]
+    d = np.asarray(light.direction, dtype=np.float64)
+    # Blender's lights shine down their local -Z: a frame whose third column is -d
+    z = -d / np.linalg.norm(d)
+    helper = np.array([0.0, 1.0, 0.0]) if abs(z[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    x = np.cross(helper, z)
+    x /= np.linalg.norm(x)
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = x, np.cross(z, x), z, light.position
+    out = {"name": light.name, "kind": light.kind, "color": color, "matrix": m.tolist()}
+    if light.kind == "directional":
+        out["energy"] = peak
+    else:
+        out["energy"] = 4.0 * math.pi * peak
+    if light.kind == "spot":
+        out["spot_size"] = math.radians(2.0 * light.outer_cone)
+        out["spot_blend"] = 1.0 - light.inner_cone / light.outer_cone
+    return out
 
 
 def light_power(light: AreaLight) -> tuple[list[float], float]:
@@ -498,6 +525,7 @@ def build_job(scene: Scene, *, engine: str, samples: int, seed: int, folder: Pat
         "material_model": materials,
         "meshes": meshes,
         "lights": lights,
+        "punctual": [punctual_light(light) for light in scene.punctual],
         "environment": environment,
         "settings": engine_settings,
         "overrides": overrides,

@@ -77,6 +77,7 @@ class BlenderRenderer(Renderer):
     """
 
     unit = "spp"
+    renders = frozenset({"punctual_lights"})
     OPTIONS = {"ggx": "GGX (single scattering) in every Principled BSDF",
                "multi_ggx": "Multiscatter GGX in every Principled BSDF"}
 

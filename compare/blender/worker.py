@@ -341,6 +341,24 @@ def build(bpy, np, job: dict, folder: str):
             quad.data.materials.append(black)
         sc.collection.objects.link(quad)
 
+    for light in job.get("punctual", []):
+        kind = {"point": "POINT", "spot": "SPOT", "directional": "SUN"}[light["kind"]]
+        data = bpy.data.lights.new(light["name"], kind)
+        data.color = light["color"]
+        data.energy = light["energy"]
+        data.use_shadow = True
+        if kind == "SUN":
+            data.angle = 0.0
+        else:
+            data.shadow_soft_size = 0.0  # a point: glTF's lights have no size
+        if kind == "SPOT":
+            data.spot_size = light["spot_size"]
+            data.spot_blend = light["spot_blend"]
+            data.show_cone = False
+        obj = bpy.data.objects.new(light["name"], data)
+        obj.matrix_world = _matrix(light["matrix"])
+        sc.collection.objects.link(obj)
+
     sc.world = _world(bpy, job["environment"], folder)
 
     settings = job["settings"]

@@ -31,12 +31,12 @@ from pathlib import Path
 
 from compare.util.files import sha256_bytes
 from compare.renderers.base import RenderContext, Renderer, RendererError, Rendering, UNITS
-from compare.renderers.job import read_checkpoints, write_job
+from compare.renderers.job import JOB_SCHEMAS, read_checkpoints, write_job
 
 __all__ = ["ExternalRenderer", "external_from_table"]
 
 _UNIT_WORDS = {"frames": "frame", "frame": "frame", "spp": "spp", "samples": "sample", "sample": "sample"}
-_KEYS = {"command", "label", "unit", "steps", "timeout", "checkpoints", "env"}
+_KEYS = {"command", "label", "unit", "steps", "timeout", "checkpoints", "env", "job_schema"}
 TAIL_LINES = 12
 
 
@@ -57,8 +57,13 @@ class ExternalRenderer(Renderer):
 
     def __init__(self, name: str, command: list[str], *, label: str, unit: str, steps: int, timeout: float,
                  checkpoints: list[int] | None = None, env: dict[str, str] | None = None, cwd: Path | None = None,
-                 source: str = ""):
+                 source: str = "", job_schema: int = 1):
         self.name = name
+        #: The job file it reads: 1 (area lights only: a scene's point and spot lights come as stand-in
+        #: squares) or 2 (with ``punctual`` lights).
+        self.job_schema = int(job_schema)
+        if self.job_schema >= 2:
+            self.renders = frozenset({"punctual_lights"})
         self.command = list(command)
         self.label = label
         self.unit = unit
@@ -108,6 +113,7 @@ class ExternalRenderer(Renderer):
             out = folder / "output"
             out.mkdir()
             job = write_job(scene, folder, renderer=self.name, unit=self.unit, checkpoints=checkpoints, seed=seed,
+                            schema=self.job_schema,
                             output_dir=out, cache_dir=context.cache_dir or None)
             argv = self._argv(job)
             stderr_path = folder / "stderr.txt"
@@ -185,5 +191,10 @@ def external_from_table(name: str, table, *, source: Path) -> ExternalRenderer:
     label = table.get("label", name)
     if not isinstance(label, str) or not label.strip():
         raise ConfigError(f"{where}.label: expected a non-empty string")
+    schema = table.get("job_schema", 1)
+    if schema not in JOB_SCHEMAS or isinstance(schema, bool):
+        raise ConfigError(f"{where}.job_schema: expected one of {', '.join(map(str, JOB_SCHEMAS))} (the job file it "
+                          f"reads, docs/renderers.md), got {schema!r}")
     return ExternalRenderer(name, command, label=label, unit=unit, steps=steps, timeout=float(timeout),
-                            checkpoints=cps, env=env, cwd=source.resolve().parent, source=str(source))
+                            checkpoints=cps, env=env, cwd=source.resolve().parent, source=str(source),
+                            job_schema=schema)

@@ -26,10 +26,17 @@ import numpy as np
 from compare.util.files import write_text_atomic
 from compare.renderers.base import Checkpoint, RendererError, Rendering
 
-__all__ = ["JOB_SCHEMA", "export_gltf", "read_checkpoints", "step_files", "write_job"]
+__all__ = ["JOB_SCHEMA", "JOB_SCHEMAS", "export_gltf", "read_checkpoints", "step_files", "write_job"]
 
-#: Version of ``job.json``; a change of meaning of any field moves it.
-JOB_SCHEMA = 1
+#: Version of ``job.json``; a change of meaning of any field moves it. 2 adds ``scene.punctual`` (point,
+#: spot and directional lights) and their ``KHR_lights_punctual`` in the glTF; a renderer that reads schema 1
+#: gets their stand-in squares among ``scene.lights`` instead (:meth:`Renderer.prepare`).
+JOB_SCHEMA = 2
+JOB_SCHEMAS = (1, 2)
+#: glTF's photometric unit: lm per W at 555 nm, by which the glTF's light intensities are the job's × 683.
+LUMENS_PER_WATT = 683.0
+SPOT_FALLOFF = ("glTF KHR_lights_punctual: clamp((cos t - cos outer) / (cos inner - cos outer), 0, 1)^2, t the "
+                "angle from direction")
 ORIENTATION = ("u = atan2(x, -z)/(2*pi) wrapped to [0,1), v = acos(y)/pi; row 0 = +Y; the map is turned by "
                "rotation_deg about +Y: a world direction d looks up the map at R^-1 d, with "
                "R = [[c,0,s],[0,1,0],[-s,0,c]], c = cos, s = sin of rotation_deg (Mitsuba's envmap convention)")
@@ -105,6 +112,22 @@ def export_gltf(scene, path: Path) -> Path:
         tri = mesh.triangles()
         uvs = tri.uvs is not None and len(tri.uvs) == len(tri.positions)
         w.node(mesh.name, mesh=w.mesh(mesh.name, [(tri, index[mesh.material])], uvs=uvs))
+    for light in scene.punctual:  # glTF's units (cd, lux) at 683 lm/W; the node's −Z along the light
+        peak = max(light.intensity)
+        index = w.light(light.name, light.kind, peak * LUMENS_PER_WATT, tuple(c / peak for c in light.intensity))
+        entry = w.doc["extensions"]["KHR_lights_punctual"]["lights"][index]
+        if light.kind == "spot":
+            entry["spot"] = {"innerConeAngle": math.radians(light.inner_cone),
+                             "outerConeAngle": math.radians(light.outer_cone)}
+        if light.range is not None:
+            entry["range"] = float(light.range)
+        z = -np.asarray(light.direction, dtype=np.float64)
+        helper = np.array([0.0, 1.0, 0.0]) if abs(z[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
+        x = np.cross(helper, z)
+        x /= np.linalg.norm(x)
+        frame = np.eye(4)
+        frame[:3, 0], frame[:3, 1], frame[:3, 2], frame[:3, 3] = x, np.cross(z, x), z, light.position
+        w.node(light.name, light=index, matrix=frame)
     cam = scene.camera
     m = np.linalg.inv(cam.view_matrix())  # camera → world: glTF cameras look down their −Z, +Y up
     w.node("camera", camera=w.camera("camera", cam.fov, aspect=cam.aspect), matrix=m)
@@ -112,8 +135,12 @@ def export_gltf(scene, path: Path) -> Path:
 
 
 def write_job(scene, folder: Path, *, renderer: str, unit: str, checkpoints: list[int], seed: int,
-              output_dir: Path, cache_dir=None) -> Path:
-    """Write ``job.json``, ``scene.gltf`` and the environment into ``folder``; returns the job's path."""
+              output_dir: Path, cache_dir=None, schema: int = JOB_SCHEMA) -> Path:
+    """Write ``job.json`` (of ``schema``), ``scene.gltf`` and the environment into ``folder``; returns the
+    job's path. A scene with point, spot or directional lights needs schema 2 (:meth:`Renderer.prepare`
+    turns them into area lights for a schema-1 renderer first)."""
+    if scene.punctual and schema < 2:
+        raise ValueError(f"job schema {schema} has no point, spot or directional lights: prepare the scene first")
     from compare.scene.environments import environment_image
     from compare.image.exr import write_exr
 
@@ -130,7 +157,8 @@ def write_job(scene, folder: Path, *, renderer: str, unit: str, checkpoints: lis
                "rotation_deg": float(scene.environment.rotation), "orientation": ORIENTATION}
     cam = scene.camera
     job = {
-        "schema": JOB_SCHEMA,
+        "schema": int(schema),
+        **({"lumens_per_watt": LUMENS_PER_WATT} if schema >= 2 else {}),
         "renderer": renderer,
         "scene": {
             "name": scene.name,
@@ -141,6 +169,12 @@ def write_job(scene, folder: Path, *, renderer: str, unit: str, checkpoints: lis
                         "tangent": _vec(l.tangent), "bitangent": _vec(l.bitangent),
                         "corners": [_vec(c) for c in l.corners()], "radiance": _vec(l.radiance),
                         "two_sided": False} for l in scene.lights],
+            **({"punctual": [{"name": p.name, "kind": p.kind, "position": _vec(p.position),
+                              "direction": _vec(p.direction), "intensity": _vec(p.intensity),
+                              "intensity_unit": "W/m^2" if p.kind == "directional" else "W/sr",
+                              "inner_cone_deg": float(p.inner_cone), "outer_cone_deg": float(p.outer_cone),
+                              "range": p.range, "falloff": SPOT_FALLOFF if p.kind == "spot" else None}
+                             for p in scene.punctual]} if schema >= 2 else {}),
             "environment": env,
             "max_depth": int(scene.max_depth),
         },

@@ -126,6 +126,8 @@ class WebRenderer(Renderer):
         self.options = {o: True for o in opts}
         self.pathtracer = engine == "threejs-pathtracer"
         self.unit = "spp" if self.pathtracer else "frame"
+        if not self.pathtracer:  # three's PointLight, SpotLight and DirectionalLight, from the glTF
+            self.renders = frozenset({"punctual_lights"})
         self.variant_of = "threejs" if opts else None
         self.variant_note = ", ".join(opts)
         what = ("shadow-mapped spot lights" if "shadows" in opts else "RectAreaLight") + ", PMREM" \

@@ -42,6 +42,39 @@ async function buildScene(renderer, job, base, options) {
   const scene = new THREE.Scene();
   const gltf = await new GLTFLoader().loadAsync(base + 'scene.gltf');
   scene.add(gltf.scene);
+  // KHR_lights_punctual (job schema 2): three's own lights, made by the loader in glTF's units (cd, lux at
+  // 683 lm/W); back to the suite's W/sr and W/m², range ignored as everywhere in the suite; hard shadow maps
+  // (a cube for a point light, a perspective map for a spot, an orthographic one fitted to the scene for
+  // the sun)
+  const bounds = new THREE.Box3().setFromObject(gltf.scene);
+  const diag = bounds.getSize(new THREE.Vector3()).length() || 1;
+  const centre = bounds.getCenter(new THREE.Vector3());
+  const lights = [];
+  gltf.scene.traverse((o) => { if (o.isLight) lights.push(o); });
+  for (const o of lights) {
+    o.intensity /= job.lumens_per_watt;
+    if (o.distance !== undefined) o.distance = 0;
+    o.castShadow = true;
+    o.shadow.mapSize.set(1024, 1024);
+    o.shadow.bias = -1e-4;
+    o.shadow.camera.near = diag * 1e-3;
+    o.shadow.camera.far = diag * 4;
+    if (o.isDirectionalLight) {
+      // its shadow camera sits at the light's position: back along its direction from the scene's centre
+      const from = o.getWorldPosition(new THREE.Vector3());
+      const travel = o.target.getWorldPosition(new THREE.Vector3()).sub(from).normalize();
+      scene.attach(o);
+      o.position.copy(centre).addScaledVector(travel, -diag);
+      o.target = new THREE.Object3D();
+      o.target.position.copy(centre);
+      scene.add(o.target);
+      const c = o.shadow.camera;
+      c.left = c.bottom = -diag / 2;
+      c.right = c.top = diag / 2;
+    }
+    o.shadow.camera.updateProjectionMatrix();
+  }
+  const punctual = (job.scene.punctual || []).length > 0;
   RectAreaLightUniformsLib.init();
   for (const l of job.scene.lights) {
     const [color, k] = linear(l.radiance);
@@ -97,7 +130,7 @@ async function buildScene(renderer, job, base, options) {
   } else {
     scene.background = new THREE.Color(0, 0, 0);
   }
-  if (options.shadows) {
+  if (options.shadows || punctual) {
     renderer.shadowMap.enabled = true;
     renderer.shadowMap.type = THREE.PCFSoftShadowMap;
     scene.traverse((o) => { if (o.isMesh && !o.userData.isLightFace) { o.castShadow = true; o.receiveShadow = true; } });
