@@ -202,24 +202,33 @@ def _blender():
 @pytest.mark.parametrize("engine", ["cycles", "eevee"])
 @pytest.mark.parametrize("kind", LIGHTS)
 def test_blender_matches_the_closed_form_of_each_punctual_light(tmp_path, make_scene, kind, engine):
-    """Blender's own point, spot and sun lights within 5 % per pixel of the closed form (outside a spot's
-    ramp, where Blender's smoothstep blend is not glTF's squared ramp: there the mean is within 15 %)."""
+    """Blender's own point, spot and sun lights within 5 % per pixel of the closed form. A spot's ramp is
+    Blender's smoothstep over glTF's span (compare.blender.export.punctual_light), not glTF's square: the
+    closed form here uses Blender's curve, and the difference of the two curves is a property of Blender's
+    light, measured below."""
+    import dataclasses
+
+    from compare.blender.export import blender_spot_falloff
     from compare.blender.render import render_blender
 
     scene = load_scene(make_scene(PLANE.replace("[96, 72]", "[48, 36]"), LIGHTS[kind]))
     (light,) = scene.punctual
     image = render_blender(scene, engine=engine, samples=64, materials="diffuse").image
-    want, spread = closed_form(scene, light)
+
+    class Blenders(type(light)):  # the same light with Blender's cone curve
+        def falloff(self, cos_theta):
+            return blender_spot_falloff(self, cos_theta) if self.kind == "spot" else super().falloff(cos_theta)
+
+    theirs = Blenders(**{f.name: getattr(light, f.name) for f in dataclasses.fields(light)})
+    want, spread = closed_form(scene, theirs)
     _, hit = _plane_points(scene)
-    p, _ = _plane_points(scene)
-    cone = light.falloff(((p - np.asarray(light.position)) /
-                          np.linalg.norm(p - np.asarray(light.position), axis=-1, keepdims=True)) @ np.asarray(
-        light.direction)) if kind == "spot" else np.ones(hit.shape)
-    flat = hit & ((cone >= 1.0) | (cone <= 0.0))
     peak = want[hit].max()
     bound = 0.05 * want + 4 * spread / 8.0 + 2e-3 * peak
-    worst = (np.abs(image - want) - bound)[flat]
+    worst = (np.abs(image - want) - bound)[hit]
     assert worst.max() <= 0, worst.max()
-    if kind == "spot":
-        ramp = hit & (cone > 0) & (cone < 1)
-        assert image[ramp].sum() == pytest.approx(want[ramp].sum(), rel=0.15)
+    if kind == "spot":  # glTF's squared ramp against Blender's smoothstep: what Blender cannot reproduce
+        gltf, _ = closed_form(scene, light)
+        ratio = want[hit].sum() / gltf[hit].sum()
+        # smoothstep averages 1/2 over the ramp, the square 1/3: Blender is brighter, by less than 1.5x
+        # over the whole cone (measured: 1.37 for this 10-30 degree spot)
+        assert 1.0 < ratio < 1.5, ratio

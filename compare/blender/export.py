@@ -267,8 +267,10 @@ def punctual_light(light) -> dict:
     """A point, spot or directional light as Blender's POINT, SPOT or SUN light of zero size, in the units of
     Blender's own glTF importer: a point or spot light's power is 4π × its intensity (W/sr; Blender defines a
     spot's power as that of the point light it is cut from), a sun's strength its irradiance (W/m²). The
-    spot's cone is ``spot_size`` = 2 × the outer angle with ``spot_blend`` = 1 − inner / outer, the importer's
-    mapping; Blender's smoothstep blend is not glTF's squared ramp, so the two differ inside the ramp."""
+    spot's cone is ``spot_size`` = 2 × the outer angle; Blender blends with smoothstep((cos θ − cos outer) /
+    ((1 − cos outer) · spot_blend)), so ``spot_blend`` = (cos inner − cos outer) / (1 − cos outer) spans glTF's
+    ramp exactly (the importer's 1 − inner / outer does not). Inside the ramp smoothstep is not glTF's square
+    (:func:`blender_spot_falloff`): Blender is brighter there, by design of its light."""
     peak = max(light.intensity)
     color = [c / peak for c in light.intensity]
     d = np.asarray(light.direction, dtype=np.float64)
@@ -286,8 +288,21 @@ def punctual_light(light) -> dict:
         out["energy"] = 4.0 * math.pi * peak
     if light.kind == "spot":
         out["spot_size"] = math.radians(2.0 * light.outer_cone)
-        out["spot_blend"] = 1.0 - light.inner_cone / light.outer_cone
+        out["spot_blend"] = spot_blend(light)
     return out
+
+
+def spot_blend(light) -> float:
+    """Blender's ``spot_blend`` whose ramp spans glTF's, from cos(outer) to cos(inner)."""
+    ci, co = math.cos(math.radians(light.inner_cone)), math.cos(math.radians(light.outer_cone))
+    return (ci - co) / (1.0 - co)
+
+
+def blender_spot_falloff(light, cos_theta):
+    """The cone factor Blender's SPOT light of :func:`punctual_light` gives at cos θ from its axis."""
+    co = math.cos(math.radians(light.outer_cone))
+    x = np.clip((np.asarray(cos_theta, dtype=np.float64) - co) / ((1.0 - co) * spot_blend(light)), 0.0, 1.0)
+    return np.where(np.asarray(cos_theta) > co, x * x * (3.0 - 2.0 * x), 0.0)
 
 
 def light_power(light: AreaLight) -> tuple[list[float], float]:
