@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -68,6 +69,14 @@ def _closed_form_at(scene, light, p) -> np.ndarray:
     return ALBEDO / math.pi * (cos_n * cone / dist ** 2)[..., None] * np.asarray(light.intensity)
 
 
+EFFECTS = Path(__file__).resolve().parent.parent / "scenes" / "effects"
+
+
+def _effect(kind: str):
+    """The generated closed-form scene of one kind of light (scenes/effects/, scenes/generate.py)."""
+    return load_scene(EFFECTS / f"{kind}_light.toml")
+
+
 LIGHTS = {
     "point": '[[lights]]\ntype = "point"\nposition = [0.3, 2.0, 0.2]\nintensity = 40.0\nlight_scale = 1.0\n',
     "spot": '[[lights]]\ntype = "spot"\nposition = [0.0, 3.0, 0.0]\ndirection = [0.3, -1.0, 0.1]\nintensity = 60.0\n'
@@ -81,7 +90,7 @@ LIGHTS = {
 def test_reference_matches_the_closed_form_of_each_punctual_light(tmp_path, make_scene, kind):
     """A white Lambert plane under one light: the reference within 2 % per pixel (1e-3 of the peak where
     the spot's cone goes to zero), with glTF's own spot falloff (not Mitsuba's linear-in-angle one)."""
-    scene = load_scene(make_scene(PLANE, LIGHTS[kind]))
+    scene = _effect(kind)
     (light,) = scene.punctual
     assert light.kind == kind and not scene.lights
     spp = 256
@@ -211,7 +220,7 @@ def test_blender_matches_the_closed_form_of_each_punctual_light(tmp_path, make_s
     from compare.blender.export import blender_spot_falloff
     from compare.blender.render import render_blender
 
-    scene = load_scene(make_scene(PLANE.replace("[96, 72]", "[48, 36]"), LIGHTS[kind]))
+    scene = _effect(kind).with_resolution(48, 36)
     (light,) = scene.punctual
     image = render_blender(scene, engine=engine, samples=64, materials="diffuse").image
 
@@ -232,3 +241,48 @@ def test_blender_matches_the_closed_form_of_each_punctual_light(tmp_path, make_s
         # smoothstep averages 1/2 over the ramp, the square 1/3: Blender is brighter, by less than 1.5x
         # over the whole cone (measured: 1.37 for this 10-30 degree spot)
         assert 1.0 < ratio < 1.5, ratio
+
+
+def _web():
+    from compare.web.renderer import WebRenderer
+
+    ok, why = WebRenderer("threejs").available()
+    return pytest.mark.skipif(not ok, reason=f"web engines unavailable: {why}")
+
+
+@_web()
+@pytest.mark.parametrize("kind", LIGHTS)
+def test_threejs_draws_each_punctual_light_as_the_reference_does(tmp_path, make_scene, kind):
+    """three.js's own point, spot and directional lights (from the job glTF's KHR_lights_punctual) within
+    5 % per pixel of the reference on a rough white plane (the same metallic-roughness material in both).
+    three's spot blends with smoothstep over glTF's span (its glTF loader's penumbra): the reference
+    here is given that curve, and the difference of the two curves is three's, not the suite's."""
+    import dataclasses
+
+    from compare.renderers import Registry, RenderContext
+    from compare.report.results import RunSettings
+
+    scene = _effect(kind).with_resolution(48, 36)
+    (light,) = scene.punctual
+    renderer = Registry().get("threejs")
+    given, changed = renderer.prepare(scene)
+    assert given is scene and not changed
+    with RenderContext(RunSettings(frames=16)) as context:
+        image = renderer.render(scene, steps=16, checkpoints=[16], seed=0, context=context).checkpoints[-1].image
+
+    class Threes(type(light)):  # three's SpotLight: smoothstep(cos outer, cos inner, cos t)
+        def falloff(self, cos_theta):
+            if self.kind != "spot":
+                return super().falloff(cos_theta)
+            ci, co = math.cos(math.radians(self.inner_cone)), math.cos(math.radians(self.outer_cone))
+            x = np.clip((np.asarray(cos_theta, dtype=np.float64) - co) / (ci - co), 0.0, 1.0)
+            return x * x * (3.0 - 2.0 * x)
+
+    theirs = dataclasses.replace(scene, punctual=(Threes(**{f.name: getattr(light, f.name)
+                                                            for f in dataclasses.fields(light)}),))
+    ref = ReferenceRenderer(theirs, cache_dir=False, progress=False).render(256).image
+    _, hit = _plane_points(scene)
+    peak = ref[hit].max()
+    assert peak > 0
+    worst = (np.abs(image - ref) - (0.05 * ref + 5e-3 * peak))[hit]
+    assert worst.max() <= 0, worst.max()

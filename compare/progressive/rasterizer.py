@@ -128,6 +128,9 @@ class Rasterizer:
         if keywords:
             o = dataclasses.replace(o, **keywords)  # TypeError names an unknown keyword; ValueError a bad value
         self.options = o
+        if scene.punctual:  # not drawn as they are yet: their stand-in squares, said (ProgressiveRenderer.prepare)
+            scene, changed = scene.with_punctual_as_area()
+            warnings.warn(f"{scene.path}: the rasterizer draws area lights only: {'; '.join(changed)}", stacklevel=2)
         frames, seed, area_model, materials = o.frames, o.seed, o.area_model, o.materials
         shadow_bias, shadow_filter, d_occ = o.shadow_bias, o.shadow_filter, o.d_occ
         direct_fraction, frame_budget_ms = o.direct_fraction, o.frame_budget_ms
