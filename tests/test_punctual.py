@@ -286,3 +286,16 @@ def test_threejs_draws_each_punctual_light_as_the_reference_does(tmp_path, make_
     assert peak > 0
     worst = (np.abs(image - ref) - (0.05 * ref + 5e-3 * peak))[hit]
     assert worst.max() <= 0, worst.max()
+
+
+def test_reference_puts_punctual_light_into_its_own_layer():
+    """Error by kind of light: a point or directional light's light is the direct_punctual layer (a
+    directional light is 'infinite' to Mitsuba, but not environment light)."""
+    for kind in ("point", "directional"):
+        scene = _effect(kind).with_resolution(24, 18)
+        image, layers, _ = ReferenceRenderer(scene, materials="diffuse", cache_dir=False,
+                                             progress=False).render_layers(16, 0)
+        assert layers["direct_punctual"].max() > 0
+        np.testing.assert_allclose(layers["direct_punctual"], image, rtol=1e-5, atol=1e-7)
+        for other in ("direct_area", "direct_env", "emission"):
+            assert layers[other].max() == 0, (kind, other)

@@ -733,3 +733,24 @@ def test_cornell_error_by_kind_of_light(tmp_path, gl_ctx):
     html = build_report(res, tmp_path / "out").read_text()
     assert "Error by kind of light" in html and "most error: indirect diffuse" in html
     assert "Measured on the full image only (they give no layers): " in html
+
+
+def test_report_leaves_out_a_kind_of_light_the_scene_does_not_have():
+    """No column or map for a layer that is dark in the ground truth and that no run adds light to."""
+    from compare.report import html as report_html
+
+    class Run:
+        def __init__(self, label, layers):
+            self.label, self.layers, self.renderer = label, layers, label
+
+    dark = {"flip": 0.0, "relmse": 0.0, "mean_ratio": None, "share": 0.0, "rendered": True}
+    lit = {"flip": 0.1, "relmse": 0.2, "mean_ratio": 0.9, "share": 0.6, "rendered": True}
+    extra = {"flip": 0.1, "relmse": 0.2, "mean_ratio": None, "share": 0.4, "rendered": True}  # light the truth lacks
+
+    class Scene:
+        runs = [Run("progressive", {"direct_area": lit, "direct_env": dark, "direct_punctual": extra})]
+        reference = Run("mitsuba", {})
+
+    table = report_html._layers(Scene())
+    assert table["names"] == ["direct, area lights", "direct, point, spot and directional lights"]
+    assert len(table["rows"][0]["cells"]) == 2

@@ -24,7 +24,7 @@ from compare.metrics.images import LUMINANCE_WEIGHTS, RELMSE_EPS, compare_images
 __all__ = ["EXTRA_LAYERS", "LAYERS", "SUM_LAYERS", "layer_metrics"]
 
 #: The layers that sum to the image, in order.
-SUM_LAYERS = ("emission", "direct_area", "direct_env", "indirect_diffuse", "indirect_specular")
+SUM_LAYERS = ("emission", "direct_area", "direct_env", "direct_punctual", "indirect_diffuse", "indirect_specular")
 #: Layers beside the sum.
 EXTRA_LAYERS = ("direct_area_unshadowed",)
 #: Every layer a renderer may give (:attr:`compare.renderers.base.Rendering.layers`).

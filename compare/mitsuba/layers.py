@@ -3,7 +3,7 @@
 The layers (:data:`compare.metrics.layers.LAYERS`) split the image by where its light comes from, so that a
 renderer's error can be attributed to the approximation that causes it::
 
-    image = emission + direct_area + direct_env + indirect_diffuse + indirect_specular
+    image = emission + direct_area + direct_env + direct_punctual + indirect_diffuse + indirect_specular
 
 ``emission``
     light reaching the camera straight from an emitter: area lights, emissive
@@ -11,6 +11,9 @@ renderer's error can be attributed to the approximation that causes it::
 ``direct_area`` / ``direct_env``
     light of emitting surfaces (area lights, emissive meshes) / of the
     environment, reflected once at the first surface the camera sees (shadowed).
+``direct_punctual``
+    light of point, spot and directional lights (Mitsuba's delta emitters: a directional light is
+    "infinite" too, but its light is here, not in ``direct_env``), reflected once at the first surface.
 ``indirect_diffuse`` / ``indirect_specular``
     all light that bounced more than once, split by the lobe the path's first
     bounce sampled at that first surface (diffuse, or glossy/specular).
@@ -83,10 +86,19 @@ def mis_weight(pdf_a, pdf_b):
 
 
 def infinite(emitter):
-    """Whether ``emitter`` (an EmitterPtr) is an environment."""
+    """Whether ``emitter`` (an EmitterPtr) is an environment (or a directional light: see :func:`punctual`)."""
     import mitsuba as mi
 
     return mi.has_flag(emitter.flags(), mi.EmitterFlags.Infinite)
+
+
+def punctual(emitter):
+    """Whether ``emitter`` (an EmitterPtr) is a point, spot or directional light (a delta in position or
+    direction)."""
+    import mitsuba as mi
+
+    flags = emitter.flags()
+    return mi.has_flag(flags, mi.EmitterFlags.DeltaPosition) | mi.has_flag(flags, mi.EmitterFlags.DeltaDirection)
 
 
 def _make_class(mi):
@@ -161,6 +173,7 @@ def _trace(mi, dr, limit, rr_depth, scene, sampler, ray, active, transmittance):
     emission = mi.Spectrum(0.0)
     d_area = mi.Spectrum(0.0)
     d_env = mi.Spectrum(0.0)
+    d_punct = mi.Spectrum(0.0)
     i_diff = mi.Spectrum(0.0)
     i_spec = mi.Spectrum(0.0)
     d_unshadowed = mi.Spectrum(0.0)
@@ -209,8 +222,11 @@ def _trace(mi, dr, limit, rr_depth, scene, sampler, ray, active, transmittance):
         mis_em = dr.select(ds_em.delta, 1.0, mis_weight(ds_em.pdf, bsdf_pdf))
         lr = dr.select(active_em, beta * mis_em * bsdf_val * em_weight, 0.0)
         em_env = infinite(ds_em.emitter)
+        em_punctual = punctual(ds_em.emitter)
         if bounce == 0:
-            if em_env:
+            if em_punctual:
+                d_punct += lr
+            elif em_env:
                 d_env += lr
             else:
                 d_area += lr
@@ -253,7 +269,7 @@ def _trace(mi, dr, limit, rr_depth, scene, sampler, ray, active, transmittance):
         active = active_next
 
     aovs = []
-    for layer in (emission, d_area, d_env, i_diff, i_spec, d_unshadowed):
+    for layer in (emission, d_area, d_env, d_punct, i_diff, i_spec, d_unshadowed):
         aovs += [layer[0], layer[1], layer[2]]
     return L, mi.Bool(True), aovs
 

@@ -249,6 +249,7 @@ MATERIALS_NOTES = {
 
 #: Layer headings of the per-effect table (compare.mitsuba.layers).
 LAYER_TITLES = {"emission": "emission", "direct_area": "direct, area lights", "direct_env": "direct, environment",
+                "direct_punctual": "direct, point, spot and directional lights",
                 "indirect_diffuse": "indirect diffuse", "indirect_specular": "indirect specular",
                 "direct_area_unshadowed": "direct, area lights, unshadowed"}
 
@@ -259,6 +260,10 @@ def _layers(scene: SceneResult) -> dict | None:
     names = next((list(r.layers) for r in scene.runs if r.layers), None)
     if names is None:
         return None
+    # A kind of light the scene does not have (dark in the ground truth, mean ratio undefined) and no run
+    # adds (no share of the error) gets no column and no map.
+    names = [n for n in names if any(r.layers.get(n, {}).get("mean_ratio") is not None
+                                     or (r.layers.get(n, {}).get("share") or 0.0) != 0.0 for r in scene.runs)]
     rows = []
     for run in scene.runs:
         if not run.layers:
