@@ -284,8 +284,12 @@ def test_threejs_draws_each_punctual_light_as_the_reference_does(tmp_path, make_
     _, hit = _plane_points(scene)
     peak = ref[hit].max()
     assert peak > 0
-    worst = (np.abs(image - ref) - (0.05 * ref + 5e-3 * peak))[hit]
+    # beyond 5 %: the pixel-sampling error of 16 jittered frames where the light's gradient crosses a pixel
+    _, spread = closed_form(scene, theirs.punctual[0])
+    worst = (np.abs(image - ref) - (0.05 * ref + 4 * spread / math.sqrt(16) + 5e-3 * peak))[hit]
     assert worst.max() <= 0, worst.max()
+    lit = ref[hit][:, 0] > 0.3 * peak
+    assert image[hit][lit].sum() == pytest.approx(ref[hit][lit].sum(), rel=0.02)
 
 
 def test_reference_puts_punctual_light_into_its_own_layer():
