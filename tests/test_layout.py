@@ -120,3 +120,19 @@ def test_no_import_circle_and_no_import_upwards():
         if module not in state:
             visit(module, [module])
     assert len(LAYERS) <= 9
+
+
+def test_the_command_line_imports_no_renderer_or_decoder_until_a_command_needs_it():
+    """``import compare`` and building ``compare``'s parser load no renderer (Mitsuba, Dr.Jit, moderngl), no
+    decoder of compressed glTF and no plotting: each command imports what it uses (the set-up bench
+    measures the memory this keeps down)."""
+    import subprocess
+    import sys
+
+    code = ("import sys, compare.cli.main as m; m._build_parser(); "
+            "print(','.join(sorted({n.split('.')[0] for n in sys.modules})))")
+    loaded = set(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+                 .stdout.strip().split(","))
+    heavy = {"mitsuba", "drjit", "moderngl", "matplotlib", "skimage", "flip_evaluator", "meshopt", "DracoPy",
+             "opengl_basisu", "PIL", "jinja2", "playwright", "scipy", "dask"}
+    assert not loaded & heavy, sorted(loaded & heavy)
