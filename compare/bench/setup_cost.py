@@ -7,8 +7,9 @@ Two ``compare bench`` items:
     (glTF decoding, maps) plus the renderer's own set-up (:attr:`Rendering.setup_seconds`), median of
     ``--repeats`` warm runs (the decoded-file and image caches filled by a first run).
 ``setup-rss``
-    the peak resident memory (MiB) of the same run: of its own process, or of the largest process it
-    started (Blender, the browser) where that is larger.
+    the peak resident memory (MiB) of the same run: of its own process (``VmHWM``), or of the largest
+    process it started and waited for (Blender's) where that is larger. The browser of the web engines is
+    not waited for by this process (Playwright's driver starts it), so their figure is the Python side.
 
 Each is measured per available renderer, each run in a process of its own, on the built-in car and on
 a generated scene at 1×, 4× and 16× (:func:`scaled_scene`: 62,500 triangles and one 4096² map per ×,
@@ -101,10 +102,13 @@ loaded = time.perf_counter()
 renderer = Registry().get(spec)
 with RenderContext(RunSettings(frames=1, spp=1), cache_dir=False) as context:
     rendering = renderer.render(renderer.prepare(scene)[0], steps=1, checkpoints=[1], seed=0, context=context)
-own = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+# VmHWM, not ru_maxrss: Linux carries ru_maxrss over exec, so a child of a large parent would report the
+# parent's size; the high-water mark of this process's own memory starts afresh at exec
+own = next((int(line.split()[1]) for line in open("/proc/self/status") if line.startswith("VmHWM:")),
+           resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)
 children = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
 print(json.dumps({"import": imported - start, "load": loaded - imported, "setup": rendering.setup_seconds,
-                  "rss_mib": max(own, children) / 1024.0}))
+                  "rss_mib": max(own, children) / 1024.0, "own_mib": own / 1024.0, "children_mib": children / 1024.0}))
 """
 
 
