@@ -303,3 +303,31 @@ def test_reference_puts_punctual_light_into_its_own_layer():
         np.testing.assert_allclose(layers["direct_punctual"], image, rtol=1e-5, atol=1e-7)
         for other in ("direct_area", "direct_env", "emission"):
             assert layers[other].max() == 0, (kind, other)
+
+
+def test_job_schema_2_carries_punctual_lights_and_schema_1_renderers_get_stand_ins(tmp_path):
+    import json
+
+    from compare.renderers.external import ConfigError, external_from_table
+    from compare.renderers.job import write_job
+    from compare.scene.gltf_read import load_gltf
+
+    scene = _effect("spot")
+    job = json.loads(write_job(scene, tmp_path / "job", renderer="mine", unit="frame", checkpoints=[1], seed=0,
+                               output_dir=tmp_path / "out").read_text())
+    assert job["schema"] == 2 and job["lumens_per_watt"] == 683.0
+    (p,) = job["scene"]["punctual"]
+    assert p["kind"] == "spot" and p["intensity"] == [60.0, 30.0, 15.0] and p["intensity_unit"] == "W/sr"
+    assert (p["inner_cone_deg"], p["outer_cone_deg"]) == (10.0, 30.0) and p["falloff"].startswith("glTF KHR_lights_punctual")
+    # the glTF holds the same light in glTF's units, which the suite's own reader turns back into W/sr
+    (light,) = load_gltf(job["scene"]["gltf"]).lights
+    assert light.kind == "spot" and light.intensity * np.asarray(light.color) / 683.0 == pytest.approx([60, 30, 15])
+    with pytest.raises(ValueError, match="job schema 1 has no point, spot or directional lights"):
+        write_job(scene, tmp_path / "job1", renderer="old", unit="frame", checkpoints=[1], seed=0,
+                  output_dir=tmp_path / "out", schema=1)
+    table = {"command": ["{python}", "r.py", "{job}"], "steps": 4}
+    old = external_from_table("old", table, source=tmp_path / "r.toml")
+    new = external_from_table("new", {**table, "job_schema": 2}, source=tmp_path / "r.toml")
+    assert old.prepare(scene)[0].punctual == () and new.prepare(scene)[0] is scene
+    with pytest.raises(ConfigError, match=r"renderer.bad.job_schema: expected one of 1, 2"):
+        external_from_table("bad", {**table, "job_schema": 3}, source=tmp_path / "r.toml")
