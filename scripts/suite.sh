@@ -143,6 +143,17 @@ setup_blender() {
         touch "$stamp"  # only a complete install counts: an interrupted one is redone
     fi
     export COMPARE_BLENDER_PYTHON="$BLENDER_VENV/bin/python"
+    # recorded for `compare` run from anywhere, without the variable (compare/util/installed.py)
+    "$VENV/bin/python" - "$BLENDER_VENV/bin/python" <<'PY'
+import json, sys
+from pathlib import Path
+record = Path(sys.prefix) / "compare-environment.json"
+data = json.loads(record.read_text()) if record.is_file() else {}
+data["blender_python"] = sys.argv[1]
+tmp = record.with_suffix(".json.part")
+tmp.write_text(json.dumps(data, indent=1) + "\n")
+tmp.replace(record)
+PY
 }
 
 setup() { setup_system; setup_python; setup_web; }

@@ -221,9 +221,31 @@ def test_missing_bpy_is_reported(monkeypatch):
     with pytest.raises(MissingComponentError, match="bpy"):
         render_blender(load_scene(CORNELL), engine="cycles", samples=1)
     monkeypatch.delenv("COMPARE_BLENDER_PYTHON")
+    monkeypatch.setattr("compare.util.installed.RECORD", Path("/nonexistent/compare-environment.json"))
     monkeypatch.setattr("importlib.util.find_spec", lambda name: None)
     py, why = blender_python()
     assert py is None and "pip install" in why
+
+
+def test_the_blender_environment_the_set_up_recorded_is_found_without_a_variable(tmp_path, monkeypatch):
+    """scripts/suite.sh records .venv-blender beside the suite's environment: `compare` finds it from any
+    folder without $COMPARE_BLENDER_PYTHON, which still overrides it; a record of a removed one is ignored."""
+    python = tmp_path / "venv-blender" / "bin" / "python"
+    python.parent.mkdir(parents=True)
+    python.write_text("")
+    record = tmp_path / "compare-environment.json"
+    record.write_text(json.dumps({"blender_python": str(python)}))
+    monkeypatch.setattr("compare.util.installed.RECORD", record)
+    monkeypatch.delenv("COMPARE_BLENDER_PYTHON", raising=False)
+    monkeypatch.chdir(tmp_path)
+    py, why = blender_python()
+    assert py == str(python) and str(record) in why
+    monkeypatch.setenv("COMPARE_BLENDER_PYTHON", "/usr/bin/python3")
+    assert blender_python()[0] == "/usr/bin/python3"
+    monkeypatch.delenv("COMPARE_BLENDER_PYTHON")
+    python.unlink()
+    monkeypatch.setattr("importlib.util.find_spec", lambda name: None)
+    assert blender_python()[0] is None
 
 
 def test_region_masks_of_the_cornell_box():

@@ -269,6 +269,7 @@ def test_blender_studio_lights_are_found_in_bpys_own_environment(tmp_path, monke
     (world / "forest.exr").write_bytes(b"")
     monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None)
     monkeypatch.delenv("COMPARE_BLENDER_PYTHON", raising=False)
+    monkeypatch.setattr("compare.util.installed.RECORD", tmp_path / "no-record.json")
     assert blender_studio_lights() == {}
     monkeypatch.setenv("COMPARE_BLENDER_PYTHON", str(env / "bin" / "python"))
     assert blender_studio_lights() == {"forest": world / "forest.exr"}

@@ -7,7 +7,8 @@ folder (JSON + npz), an EXR and a JSON of timings come back.
 
 Which interpreter: ``$COMPARE_BLENDER_PYTHON`` if set (a Python 3.11 with
 ``bpy`` installed, e.g. a separate virtual environment: bpy 5.0.1 pins
-``numpy<2``), else this interpreter when it can import bpy.
+``numpy<2``), else the one the set-up recorded (:mod:`compare.util.installed`:
+``.venv-blender``), else this interpreter when it can import bpy.
 """
 
 from __future__ import annotations
@@ -91,6 +92,11 @@ def blender_python() -> tuple[str | None, str]:
         if not Path(env).is_file():
             return None, f"${PYTHON_ENV}={env} does not exist"
         return env, f"${PYTHON_ENV}"
+    from compare.util.installed import RECORD, installed
+
+    recorded = installed("blender_python")
+    if recorded:
+        return recorded, f"the set-up's environment ({RECORD})"
     if importlib.util.find_spec("bpy") is None:
         return None, f"bpy is not installed in {sys.executable}; {INSTALL_HINT}"
     return sys.executable, "this interpreter"

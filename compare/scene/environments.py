@@ -150,7 +150,8 @@ def blender_studio_lights() -> dict[str, Path]:
 
     Found from the installed package's location without importing bpy (which
     is slow and starts Blender): in this interpreter, else in the environment of
-    ``$COMPARE_BLENDER_PYTHON`` (bpy's own environment, as the test command sets up).
+    ``$COMPARE_BLENDER_PYTHON`` or the one the set-up recorded (bpy's own environment,
+    :mod:`compare.util.installed`).
     """
     roots: list[str] = []
     try:
@@ -161,7 +162,9 @@ def blender_studio_lights() -> dict[str, Path]:
         roots = list(spec.submodule_search_locations or [])
         if not roots and spec.origin:
             roots = [str(Path(spec.origin).parent)]
-    other = os.environ.get("COMPARE_BLENDER_PYTHON")
+    from compare.util.installed import installed
+
+    other = os.environ.get("COMPARE_BLENDER_PYTHON") or installed("blender_python")
     if not roots and other:
         # <env>/bin/python → <env>/lib/python3.X/{site,dist}-packages/bpy (not resolved: a venv's python
         # is a link to the base interpreter, whose own packages are elsewhere)
