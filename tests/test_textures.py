@@ -405,3 +405,29 @@ def test_a_gltf_with_every_map_round_trips_and_renders_as_the_reference(tmp_path
     # the holes are holes in both: the patch under the card is seen through them, lit through them
     hole = ref[regions["card hole"]].mean(0)
     assert abs(hole[0] - hole[1]) < 0.05 * hole.mean() and hole.mean() > 0.01
+
+
+def test_a_16_bit_grey_map_reads_alike_in_both_renderers(tmp_path, make_scene, gl_ctx):
+    """A 16-bit grey PNG (Pillow's I;16) is its full range in every renderer: code 32768 of 65535 is
+    sRGB 0.5 (0.214 linear) in Mitsuba (which reads the file) and in the rasterizer (load_texture), where
+    converting to 8-bit RGB made it white."""
+    from PIL import Image
+
+    from compare.image.tonemap import srgb_decode
+    from compare.progressive.rasterizer import render_progressive
+    from compare.scene.loader import load_scene
+    from compare.scene.textures import load_texture
+
+    Image.fromarray(np.full((8, 8), 32768, dtype=np.uint16)).save(tmp_path / "g16.png")
+    assert Image.open(tmp_path / "g16.png").mode == "I;16"
+    want = float(srgb_decode(np.array(32768 / 65535)))
+    np.testing.assert_allclose(load_texture(tmp_path / "g16.png", srgb=True), want, rtol=1e-6)
+    scene = load_scene(make_scene(camera={"position": [0, 2, 0.001], "target": [0, 0, 0], "fov": 30.0,
+                                          "resolution": [16, 16]},
+                                  materials={"m": {"base_color_texture": "g16.png", "roughness": 1.0}},
+                                  meshes=[{"name": "q", "shape": "quad", "size": [4.0, 4.0], "material": "m"}],
+                                  environment={"constant": [1.0, 1.0, 1.0]}))
+    ref = ReferenceRenderer(scene, materials="diffuse", cache_dir=False, progress=False).render(16).image
+    raster = render_progressive(scene, frames=4, materials="diffuse", ctx=gl_ctx).image
+    assert float(ref.mean()) == pytest.approx(want, rel=0.02)  # a white Lambert floor under a white sky
+    assert float(raster.mean()) == pytest.approx(float(ref.mean()), rel=0.02)

@@ -14,6 +14,8 @@ import numpy as np
 __all__ = ["coverage_map", "emission_map", "factor_map", "load_alpha", "load_texels8", "load_texture", "normal_map",
            "opacity_map", "split_metallic_roughness", "texture_problem"]
 
+#: Pillow's modes of a 16-bit grey PNG (converting them to RGB would clip every value above 255 to white).
+SIXTEEN_BIT_MODES = {"I;16", "I;16B", "I;16L", "I"}
 #: Pillow modes whose samples are 8 bits: what a GPU takes as RGB(A)8 texels as they are.
 EIGHT_BIT_MODES = {"1", "L", "LA", "La", "P", "PA", "RGB", "RGBA", "RGBa", "RGBX", "CMYK", "YCbCr"}
 
@@ -68,7 +70,11 @@ def load_texture(path: Path, *, srgb: bool) -> np.ndarray:
     from PIL import Image
 
     with Image.open(path) as im:
-        data = np.asarray(im.convert("RGB"), dtype=np.float64) / 255.0
+        if im.mode in SIXTEEN_BIT_MODES:  # 16-bit grey: the full range, as Mitsuba's bitmap reads it
+            grey = np.asarray(im, dtype=np.float64) / 65535.0
+            data = np.repeat(np.clip(grey, 0.0, 1.0)[..., None], 3, axis=2)
+        else:
+            data = np.asarray(im.convert("RGB"), dtype=np.float64) / 255.0
     return np.ascontiguousarray(srgb_decode(data) if srgb else data, dtype=np.float32)
 
 
