@@ -543,3 +543,23 @@ def test_a_factor_beside_a_map_is_baked_into_it(tmp_path):
     export_gltf(load_scene(tmp_path / "t.toml"), tmp_path / "out" / "s.gltf")
     pbr = json.loads((tmp_path / "out" / "s.gltf").read_text())["materials"][0]["pbrMetallicRoughness"]
     assert pbr["baseColorFactor"][:3] == [1.0, 1.0, 1.0] and pbr["metallicFactor"] == pbr["roughnessFactor"] == 1.0
+
+
+def test_a_deep_node_chain_loads_and_a_cycle_without_scenes_is_an_error(tmp_path):
+    """Node graphs are walked without recursion: a 5000-deep chain (valid glTF) loads, with its transforms
+    composed; a file whose nodes are all each other's children, without scenes, is a cycle, not an
+    empty model."""
+    w = GltfWriter()
+    mesh = w.mesh("tri", [(geometry.quad((1.0, 1.0)), w.material("grey"))])
+    depth = 5000
+    leaf = w.node("leaf", mesh=mesh)
+    child = leaf
+    for k in range(depth):
+        child = w.node(f"n{k}", translation=(0.001, 0.0, 0.0), children=(child,))
+    w.write(tmp_path / "deep.glb")
+    (prim,) = load_gltf(tmp_path / "deep.glb").primitives
+    assert prim.matrix[0, 3] == pytest.approx(depth * 0.001)
+    doc = {"asset": {"version": "2.0"}, "nodes": [{"children": [1]}, {"children": [0]}]}
+    (tmp_path / "cycle.gltf").write_text(json.dumps(doc))
+    with pytest.raises(GltfError, match=r"cycle.gltf: nodes: the node hierarchy has a cycle"):
+        load_gltf(tmp_path / "cycle.gltf")

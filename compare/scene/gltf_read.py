@@ -624,6 +624,9 @@ def _read_document(path: Path, r: "_Reader") -> GltfDocument:
     else:  # no scenes: every node that is nobody's child
         children = {c for n in nodes for c in n.get("children", [])}
         roots = [i for i in range(len(nodes)) if i not in children]
+        if nodes and not roots:  # every node is somebody's child: the hierarchy is a cycle
+            raise r.err("nodes", "the node hierarchy has a cycle (every node is another's child, and the file has "
+                                 "no scenes to say where it starts)")
     light_defs = doc.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", [])
 
     primitives: list[GltfPrimitive] = []
@@ -631,10 +634,11 @@ def _read_document(path: Path, r: "_Reader") -> GltfDocument:
     lights: list[GltfLight] = []
     mesh_cache: dict[int, list[tuple[int, TriangleMesh | None, int | None]]] = {}
 
-    def visit(index: int, parent: np.ndarray, stack: tuple[int, ...], inherited: str | None) -> None:
-        if index in stack:
+    def visit(index: int, parent: np.ndarray, parent_index: int | None, inherited: str | None) -> list:
+        """One node's parts; returns its children to visit, as (index, world, its index, inherited name)."""
+        if index in on_path:
             raise r.err(f"nodes[{index}]", "the node hierarchy has a cycle")
-        node = r.item("nodes", index, f"nodes[{stack[-1]}].children" if stack else "scene.nodes")
+        node = r.item("nodes", index, f"nodes[{parent_index}].children" if parent_index is not None else "scene.nodes")
         world = parent @ _node_matrix(node)
         # A part's name: its node's, else its mesh's, else its nearest named ancestor's (optimisers such as
         # gltfpack put a mesh on an unnamed child node that holds the dequantisation transform).
@@ -684,11 +688,21 @@ def _read_document(path: Path, r: "_Reader") -> GltfDocument:
                                     tuple(float(c) for c in d.get("color", [1, 1, 1])),  # type: ignore[arg-type]
                                     float(d.get("intensity", 1.0)), world, inner, outer,
                                     None if rng is None else float(rng)))
-        for child in node.get("children", []):
-            visit(child, world, stack + (index,), str(own) if own else inherited)
+        return [(child, world, index, str(own) if own else inherited) for child in node.get("children", [])]
 
-    for root_index in roots:
-        visit(root_index, np.eye(4), (), None)
+    # Depth first without recursion (a chain of thousands of nodes is valid glTF); `on_path` holds the
+    # ancestors of the node being visited, so a cycle is found whatever the depth.
+    on_path: set[int] = set()
+    todo: list = [("enter", (root, np.eye(4), None, None)) for root in reversed(roots)]
+    while todo:
+        what, item = todo.pop()
+        if what == "exit":
+            on_path.discard(item)
+            continue
+        children = visit(*item)
+        on_path.add(item[0])
+        todo.append(("exit", item[0]))
+        todo.extend(("enter", child) for child in reversed(children))
     materials = [r.material(i) for i in range(len(doc.get("materials", [])))]
     images = [r.image(i) for i in range(len(doc.get("images", [])))]
     return GltfDocument(path, primitives, materials, images, cameras, lights, r.files, r.notes, r.extensions)
