@@ -563,3 +563,22 @@ def test_a_deep_node_chain_loads_and_a_cycle_without_scenes_is_an_error(tmp_path
     (tmp_path / "cycle.gltf").write_text(json.dumps(doc))
     with pytest.raises(GltfError, match=r"cycle.gltf: nodes: the node hierarchy has a cycle"):
         load_gltf(tmp_path / "cycle.gltf")
+
+
+def test_duplicate_material_names_are_addressable_and_a_restyle_that_matches_nothing_is_an_error(tmp_path,
+                                                                                                 make_scene):
+    w = GltfWriter()
+    a, b = w.material("red", (0.8, 0.1, 0.1)), w.material("red", (0.6, 0.1, 0.1))
+    w.node("one", mesh=w.mesh("one", [(geometry.quad((1.0, 1.0)), a)]))
+    w.node("two", mesh=w.mesh("two", [(geometry.box((0.2, 0.2, 0.2)), b)]), translation=(0, 0.5, 0))
+    w.write(tmp_path / "m.glb")
+    cam = '[camera]\nposition = [0, 2, 3]\ntarget = [0, 0, 0]\n[environment]\nconstant = [1, 1, 1]\n'
+    s = load_scene(make_scene('include = "m.glb"\n', cam))
+    assert sorted(k for k in s.materials if k.startswith("m/")) == ["m/red#0", "m/red#1"]
+    s = load_scene(make_scene('include = "m.glb"\n', cam, '[materials."m/red#1"]\nbase_color = [0, 0, 1]\n',
+                              name="ok.toml"))
+    assert s.materials["m/red#1"].base_color == (0.0, 0.0, 1.0)
+    with pytest.raises(SceneError, match=r"bad.toml: materials.m/red: restyles no imported material and no mesh "
+                                         r"uses it \(the file has 2 materials of that name: m/red#0, m/red#1\)"):
+        load_scene(make_scene('include = "m.glb"\n', cam, '[materials."m/red"]\nbase_color = [0, 0, 1]\n',
+                              name="bad.toml"))

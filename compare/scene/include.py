@@ -35,6 +35,8 @@ class Included:
     """Camera fields (position, target, up, fov, resolution) for the TOML ``[camera]`` to fill in from."""
     files: list[Path]
     notes: list[str]
+    prefix: str = ""
+    """The names' prefix (``[[include]] prefix``), so that a TOML material meant to restyle one can be checked."""
 
 
 INCLUDE_FIELDS = {"file", "translate", "rotate", "scale", "prefix", "emissive_quads", "punctual", "punctual_size",
@@ -78,7 +80,7 @@ def include(ctx, where: str, raw: Any) -> Included:
     camera = _camera(ctx, where, st, doc)
     for note in notes:
         warnings.warn(f"{ctx.path}: {where}: {st.path.name}: {note}", stacklevel=4)
-    return Included(materials.made, meshes, lights, camera, [*doc.files], notes)
+    return Included(materials.made, meshes, lights, camera, [*doc.files], notes, st.prefix)
 
 
 def _settings(ctx, where: str, raw: Any) -> _Settings:

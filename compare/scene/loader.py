@@ -90,6 +90,23 @@ def _camera(ctx: _Ctx, raw: Any, framed: Callable[[], tuple[np.ndarray, np.ndarr
     return Camera(pos, target, up, fov, (res[0], res[1]))  # type: ignore[arg-type]
 
 
+def _check_restyles(ctx: _Ctx, includes, mats_raw: dict, used: set[str]) -> None:
+    """A TOML material named with an include's prefix restyles one of its materials: one that matches none
+    (and that no TOML mesh uses either) is an error naming the imported names it may have meant (a glTF
+    with two materials of one name has them as ``<name>#<index>``, by their index in the file)."""
+    for name in mats_raw:
+        if name in used or any(name in inc.materials for inc in includes):
+            continue
+        for inc in includes:
+            if inc.prefix and name.startswith(inc.prefix):
+                base = name.split("#", 1)[0]
+                near = sorted(n for n in inc.materials if n.split("#", 1)[0] == base)
+                hint = (f"the file has {len(near)} materials of that name: {', '.join(near)}" if near else
+                        f"its materials are {', '.join(sorted(inc.materials)[:8])}"
+                        + (", ..." if len(inc.materials) > 8 else ""))
+                raise ctx.err(f"materials.{name}", f"restyles no imported material and no mesh uses it ({hint})")
+
+
 def _mesh_bounds(meshes) -> tuple[np.ndarray, np.ndarray]:
     lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
     for m in meshes:
@@ -394,6 +411,7 @@ def parse_scene(data: dict[str, Any], path: Path) -> Scene:
     if not isinstance(meshes_raw, list):
         raise ctx.err("meshes", "expected an array of tables ([[meshes]])")
     meshes = tuple(_mesh(ctx, k, m, materials) for k, m in enumerate(meshes_raw))
+    _check_restyles(ctx, includes, mats_raw, {m.material for m in meshes})
     meshes += tuple(m for inc in includes for m in inc.meshes)
     if not meshes:
         raise ctx.err("meshes", "a scene needs at least one mesh")
