@@ -582,3 +582,29 @@ def test_duplicate_material_names_are_addressable_and_a_restyle_that_matches_not
                                          r"uses it \(the file has 2 materials of that name: m/red#0, m/red#1\)"):
         load_scene(make_scene('include = "m.glb"\n', cam, '[materials."m/red"]\nbase_color = [0, 0, 1]\n',
                               name="bad.toml"))
+
+
+def test_claims_that_no_bytes_back_are_refused_before_allocating(tmp_path, make_scene):
+    """An accessor of 10^12 elements without data, and a 100-byte PNG that claims 100000 x 100000 pixels (in
+    a GLB or beside a scene), are one error each naming the file, not a MemoryError or a traceback."""
+    import struct
+    import zlib
+
+    doc = {"asset": {"version": "2.0"}, "nodes": [{"mesh": 0}], "scenes": [{"nodes": [0]}],
+           "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+           "accessors": [{"componentType": 5126, "type": "VEC3", "count": 10 ** 12}]}
+    (tmp_path / "huge.gltf").write_text(json.dumps(doc))
+    with pytest.raises(GltfError, match=r"huge.gltf: accessors\[0\]: 1000000000000 elements without a bufferView"):
+        load_gltf(tmp_path / "huge.gltf")
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    bomb = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", 100000, 100000, 8, 2, 0, 0, 0))
+            + chunk(b"IDAT", zlib.compress(b"\0" * 64)) + chunk(b"IEND", b""))
+    (tmp_path / "bomb.png").write_bytes(bomb)
+    scene = make_scene('[camera]\nposition = [0, 2, 3]\ntarget = [0, 0, 0]\n[environment]\nconstant = [1, 1, 1]\n'
+                       '[materials.m]\nbase_color_texture = "bomb.png"\n'
+                       '[[meshes]]\nname = "q"\nshape = "quad"\nsize = [1.0, 1.0]\nmaterial = "m"\n')
+    with pytest.raises(SceneError, match=r"bomb.png.*refused before decoding: its header claims more pixels"):
+        load_scene(scene)

@@ -89,6 +89,8 @@ TYPE_SIZES = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9
 #: refused; others it merely uses are ignored with one warning.
 SUPPORTED_EXTENSIONS = ("KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_mesh_quantization",
                         "KHR_texture_transform")
+#: Components an accessor without a bufferView (zeros, or sparse) may have: 2^28, a billion bytes as float32.
+MAX_ZERO_ELEMENTS = 1 << 28
 #: glTF sampler codes → the scene model's texture_wrap and texture_filter.
 GL_WRAPS = {10497: "repeat", 33071: "clamp", 33648: "mirror"}
 GL_FILTERS = {9728: "nearest", 9729: "linear"}
@@ -345,7 +347,10 @@ class _Reader:
             raise self.err(w, f"negative count {count}")
         if "bufferView" in a:
             out = self._strided(a["bufferView"], int(a.get("byteOffset", 0)), dtype, n, count, w)
-        else:
+        else:  # all zeros (or sparse): no bytes back the count, so it is bounded here, before allocating
+            if count * n > MAX_ZERO_ELEMENTS:
+                raise self.err(w, f"{count} elements without a bufferView is more than the {MAX_ZERO_ELEMENTS:,} "
+                                  "components an accessor without data may have")
             out = np.zeros((count, n), dtype=dtype)
         out = out.astype(np.float64)
         sparse = a.get("sparse")

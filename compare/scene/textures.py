@@ -40,13 +40,21 @@ def texture_problem(path: Path) -> str | None:
             return (f"{int((image < 0).sum())} negative value(s) (first at row {r}, col {c}: "
                     f"{float(image[r, c].min()):g}); texture values are reflectances and factors >= 0")
         return None
+    import warnings
+
     from PIL import Image, UnidentifiedImageError
 
     try:
-        with Image.open(path) as im:
-            im.verify()  # the file's structure and checksums
-        with Image.open(path) as im:
-            im.load()  # and its pixels
+        with warnings.catch_warnings():
+            # Pillow warns of an image over its decompression-bomb limit and refuses one over twice it; both
+            # are decided on the header, before anything is decoded
+            warnings.simplefilter("error", Image.DecompressionBombWarning)
+            with Image.open(path) as im:
+                im.verify()  # the file's structure and checksums
+            with Image.open(path) as im:
+                im.load()  # and its pixels
+    except (Image.DecompressionBombError, Image.DecompressionBombWarning) as exc:
+        return f"refused before decoding: its header claims more pixels than a map may have ({exc})"
     except (OSError, UnidentifiedImageError, SyntaxError, ValueError) as exc:
         return f"unreadable image ({exc})"
     return None
