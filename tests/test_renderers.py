@@ -453,3 +453,34 @@ def test_budgets_come_from_the_renderer_unless_the_run_names_one():
     # results.json written before per-renderer budgets still reads
     old = RunSettings.from_json({"frames": 7, "spp": 9, "cycles_spp": 16, "eevee_samples": 4})
     assert old.budgets == {"cycles": 16, "eevee": 4}
+
+
+@pytest.mark.parametrize("name, message", [
+    ("reference", "taken by a built-in renderer, a group .* or the ground truth's folder"),
+    ("web", "taken by a built-in renderer, a group"),
+    ("all", "taken by a built-in renderer, a group"),
+    ("MINE", "a renderer's name is 1 to 64 lowercase letters"),
+    ("a/b", "a renderer's name is 1 to 64 lowercase letters"),
+    ("x" * 65, "a renderer's name is 1 to 64 lowercase letters"),
+])
+def test_renderer_names_that_would_corrupt_results_are_refused(tmp_path, name, message):
+    from compare.renderers import Registry
+    from compare.renderers.external import ConfigError
+
+    path = tmp_path / "r.toml"
+    path.write_text(f'[renderer."{name}"]\ncommand = ["{{python}}", "r.py", "{{job}}"]\n')
+    with pytest.raises(ConfigError, match=message):
+        Registry(path)
+
+
+def test_two_renderers_that_would_share_a_folder_are_refused_before_any_work(tmp_path):
+    """An external 'progressive-paper' beside the built-in progressive:paper, or 'mine-seed1' beside a second
+    seed of 'mine', would write into one folder: the run refuses, naming both."""
+    from compare.run.scene_job import check_unit_folders
+
+    check_unit_folders(["mitsuba", "progressive", "progressive:paper"], seeds=2)
+    with pytest.raises(ValueError, match=r"renderer 'progressive-paper' and renderer 'progressive:paper' would share "
+                                         r"the folder runs/<scene>/progressive-paper/"):
+        check_unit_folders(["progressive:paper", "progressive-paper"])
+    with pytest.raises(ValueError, match=r"renderer 'mine-seed1' and renderer 'mine' \(its seed 2\) would share"):
+        check_unit_folders(["mine", "mine-seed1"], seeds=2)

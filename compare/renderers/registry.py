@@ -24,6 +24,8 @@ take the name of one of the suite's renderers or of a group.
 
 from __future__ import annotations
 
+import re
+
 import tomllib
 from importlib import metadata
 from pathlib import Path
@@ -51,6 +53,13 @@ def _entry_points() -> list[metadata.EntryPoint]:
 
 def _is_builtin(ep: metadata.EntryPoint) -> bool:
     return ep.dist is not None and ep.dist.name == DIST
+
+
+#: The grammar of a renderer's name (a spec adds ``:option[+option]``): it names a folder of the results, so it
+#: is lowercase (two names that differ in case would share one) and has no path separator.
+NAME = re.compile(r"[a-z0-9][a-z0-9_-]{0,63}")
+#: The folder of the ground truth's render in each scene's folder of a run: no renderer may be named so.
+TRUTH_FOLDER = "reference"
 
 
 class Registry:
@@ -81,7 +90,7 @@ class Registry:
     # -- sources ------------------------------------------------------------------------------
 
     def _reserved(self) -> set[str]:
-        return set(self._builtin) | set(self.groups())
+        return set(self._builtin) | set(self.groups()) | {TRUTH_FOLDER}
 
     def _load_config(self, path: Path) -> dict[str, Renderer]:
         try:
@@ -101,9 +110,12 @@ class Registry:
         out = {}
         reserved = self._reserved()
         for name, table in tables.items():
-            if name in reserved or ":" in name:
-                raise ConfigError(f"{path}: renderer.{name}: the name is taken by a built-in renderer or a group, "
-                                  "or holds ':'")
+            if name in reserved:
+                raise ConfigError(f"{path}: renderer.{name}: the name is taken by a built-in renderer, a group "
+                                  f"({', '.join(sorted(self.groups()))}) or the ground truth's folder (reference)")
+            if not NAME.fullmatch(name):
+                raise ConfigError(f"{path}: renderer.{name!r}: a renderer's name is 1 to 64 lowercase letters, digits, "
+                                  "'-' or '_', starting with a letter or digit (it names a folder of the results)")
             out[name] = external_from_table(name, table, source=path)
         return out
 

@@ -107,6 +107,10 @@ def _check_settings(settings: RunSettings, registry: Registry) -> None:
     if bad:
         raise ValueError(f"budgets must be positive integers, got {bad}")
     registry.get(settings.ground_truth)
+    from compare.run.scene_job import check_unit_folders
+
+    check_unit_folders([s for s in dict.fromkeys(settings.renderers) if s != settings.ground_truth],
+                       seeds=settings.seeds)
     missing = []
     for spec in dict.fromkeys([settings.ground_truth, *settings.renderers]):
         ok, why = registry.get(spec).available()

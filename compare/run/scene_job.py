@@ -45,10 +45,36 @@ from compare.util.errors import ImageError
 from compare.image.exr import read_exr, write_exr
 from compare.util.files import sha256_bytes, write_text_atomic
 from compare.renderers import RenderContext, Registry, Renderer, check_layers, check_rendering
+from compare.renderers.registry import TRUTH_FOLDER
 from compare.report.results import NoiseFloor, Point, Reference, RendererRun, RunSettings, SceneResult, check_json_finite
 from compare.scene.loader import Scene
 
 __all__ = ["SceneJob", "cpu_model", "exr_metadata", "flat_metadata", "scene_id"]
+
+
+
+def unit_name(spec: str, *, truth: bool = False, replica: int = 0) -> str:
+    """The name of one render of a run: the ground truth's, a renderer's, or its ``replica``-th further
+    independent run's."""
+    return TRUTH_FOLDER if truth else spec if not replica else f"{spec}-seed{replica}"
+
+
+def unit_folder(name: str) -> str:
+    """The folder of a render named ``name`` (:func:`unit_name`): "progressive:paper" -> "progressive-paper"."""
+    return re.sub(r"[^a-z0-9_-]+", "-", name.lower())
+
+
+def check_unit_folders(specs, *, seeds: int = 1) -> None:
+    """Refuse, before any work, two renders of a run that would share a folder (the ground truth's, each
+    renderer's and each further seed's): ValueError naming both."""
+    seen: dict[str, tuple] = {unit_folder(TRUTH_FOLDER): (None, 0, "the ground truth")}
+    for spec in dict.fromkeys(specs):
+        for replica in range(max(int(seeds), 1)):
+            folder = unit_folder(unit_name(spec, replica=replica))
+            what = f"renderer {spec!r}" + (f" (its seed {replica + 1})" if replica else "")
+            other = seen.setdefault(folder, (spec, replica, what))
+            if other[:2] != (spec, replica):
+                raise ValueError(f"{what} and {other[2]} would share the folder runs/<scene>/{folder}/: rename one")
 
 def cpu_model() -> str:
     """The CPU's model name (timings belong to a machine)."""
@@ -213,8 +239,7 @@ class SceneJob:
         self._done: dict[tuple[str, str, bool, int], tuple[str, dict]] = {}
 
     def _unit(self, sid: str, name: str) -> _Unit:
-        safe = re.sub(r"[^a-z0-9_-]+", "-", name.lower())  # "progressive:paper" -> "progressive-paper"
-        return _Unit(self.out, self.out / "runs" / sid / safe)
+        return _Unit(self.out, self.out / "runs" / sid / unit_folder(name))
 
     def settings_for(self, scene: Scene) -> RunSettings:
         """The run's settings for ``scene``: with ``scene_spp`` (``--spp auto``), its ``reference_spp``."""
@@ -262,7 +287,7 @@ class SceneJob:
     def _find_or_render(self, scene: Scene, sid: str, spec: str, *, truth: bool, bar,
                         replica: int = 0) -> tuple[str, dict]:
         r, steps, cps, seed = self._plan(scene, spec, truth=truth, replica=replica)
-        unit = self._unit(sid, "reference" if truth else spec if not replica else f"{spec}-seed{replica}")
+        unit = self._unit(sid, unit_name(spec, truth=truth, replica=replica))
         key = self._render_key(scene, r, steps, cps, seed)
         if not self.fresh:
             stored = unit.rendered(key)
