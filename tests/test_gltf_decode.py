@@ -172,7 +172,8 @@ def _builtins():
     from compare.renderers import Registry
 
     # The browser path tracer's set-up (its shaders on SwiftShader, a BVH of five cars) is about a minute.
-    return [pytest.param(name, marks=pytest.mark.slow) if name == "threejs-pathtracer" else name
+    # EEVEE's renders are slow (about a second a sample, whatever the size), as in tests/test_blender.py.
+    return [pytest.param(name, marks=pytest.mark.slow) if name in ("threejs-pathtracer", "eevee") else name
             for name in Registry().builtins()]
 
 
