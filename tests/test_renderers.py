@@ -71,6 +71,9 @@ SCRIPT = textwrap.dedent('''
     if mode == "hang":
         print("rendering forever", file=sys.stderr, flush=True)
         time.sleep(60)
+    if mode == "chatty":  # a 20 MB progress bar on one line, then the error
+        sys.stderr.write("\\r".join(f"{k:8d}" for k in range(2_000_000)) + "\\nout of memory\\n")
+        sys.exit(1)
     seconds = {}
     for k, step in enumerate(job["checkpoints"]):
         if mode == "missing" and k == len(job["checkpoints"]) - 1:
@@ -209,6 +212,8 @@ def test_another_renderer_can_be_the_ground_truth(tmp_path):
     ("missing", r"^renderer 'mine': .*/output/step-4\.exr is missing \(every checkpoint of \[1, 2, 4\] must be "
                 r"written\)$"),
     ("tiny", r"^renderer 'mine': step-1\.exr is 2x2, the scene is 16x12$"),
+    # 20 MB of stderr on one line: the message quotes its last lines, bounded in bytes
+    ("chatty", r"^renderer 'mine' exited with status 1; the last lines of its stderr:\n(.|\n){0,4200}out of memory$"),
     ("nan", r"^renderer 'mine': step-1\.exr: 1 pixel\(s\) are NaN or infinite$"),
 ])
 def test_bad_external_renderer_is_one_clear_error(tmp_path, mode, message):

@@ -249,13 +249,10 @@ def _run(py: str, scene: Scene, opts: dict, timeout: float | None, folder: Path)
 
 
 def _tail(path: Path, lines: int = 40) -> str:
-    try:
-        text = path.read_text(errors="replace").splitlines()
-    except OSError:
-        return "(no log)"
+    from compare.util.files import log_tail
+
     # EEVEE on Mesa prints harmless EGL_BAD_MATCH lines while it probes for a context.
-    text = [t for t in text if "EGL_BAD_MATCH" not in t]
-    return "\n".join(text[-lines:])
+    return log_tail(path, lines, drop="EGL_BAD_MATCH") or "(no log)"
 
 
 __all__ = ["ENGINES", "BlenderError", "BlenderResult", "blender_available", "blender_python", "render_blender"]

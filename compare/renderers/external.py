@@ -45,11 +45,9 @@ class ConfigError(RendererError, ValueError):
 
 
 def _tail(path: Path, lines: int = TAIL_LINES) -> str:
-    try:
-        text = path.read_text(encoding="utf-8", errors="replace")
-    except OSError:
-        return ""
-    return "\n".join(text.rstrip().splitlines()[-lines:])
+    from compare.util.files import log_tail
+
+    return log_tail(path, lines)
 
 
 class ExternalRenderer(Renderer):

@@ -192,3 +192,26 @@ def folder_lock(folder: str | os.PathLike, what: str) -> Iterator[None]:
     finally:
         f.close()  # closing releases the lock
 
+
+#: The most of a log an error message quotes: its last lines, and at most this many bytes of them.
+TAIL_BYTES = 4096
+
+
+def log_tail(path: str | os.PathLike, lines: int = 12, *, drop: str | None = None) -> str:
+    """The last ``lines`` lines of the log file ``path`` (without those containing ``drop``), at most
+    :data:`TAIL_BYTES` bytes of them: a program that writes one endless line (a ``\\r`` progress bar)
+    makes no endless message. Only the file's end is read; "" when it cannot be read."""
+    try:
+        with open(path, "rb") as f:
+            f.seek(0, os.SEEK_END)
+            size = f.tell()
+            f.seek(max(size - 16 * TAIL_BYTES, 0))
+            data = f.read()
+    except OSError:
+        return ""
+    text = data.decode("utf-8", errors="replace").replace("\r", "\n")
+    kept = [t for t in text.rstrip().splitlines() if t.strip() and (drop is None or drop not in t)][-lines:]
+    out = "\n".join(kept)
+    if len(out.encode("utf-8")) > TAIL_BYTES:
+        out = "…" + out.encode("utf-8")[-TAIL_BYTES:].decode("utf-8", errors="ignore")
+    return out
