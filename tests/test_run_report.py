@@ -754,3 +754,19 @@ def test_report_leaves_out_a_kind_of_light_the_scene_does_not_have():
     table = report_html._layers(Scene())
     assert table["names"] == ["direct, area lights", "direct, point, spot and directional lights"]
     assert len(table["rows"][0]["cells"]) == 2
+
+
+def test_a_results_file_of_an_unknown_schema_is_never_overwritten_without_fresh(tmp_path):
+    """A folder whose results.json this version cannot read (another version's schema, or damaged) is
+    refused, the file left as it was; --fresh replaces it."""
+    from compare.util.errors import OutputError
+
+    out = tmp_path / "out"
+    out.mkdir()
+    future = json.dumps({**_results().to_json(), "schema": 99, "settings": {"frames": 3}})
+    (out / "results.json").write_text(future)
+    settings = RunSettings(frames=2, spp=2, sizes=[[8, 6]], renderers=["mitsuba"])
+    with pytest.raises(OutputError, match=r"holds a results.json this version cannot read \(.*schema 99.*\); use "
+                                          r"--fresh to replace it"):
+        run_mod.run([CORNELL], out, settings, progress=False, report=False)
+    assert (out / "results.json").read_text() == future

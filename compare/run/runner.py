@@ -233,8 +233,9 @@ def _prepare_folder(out: Path, settings: RunSettings, jobs: dict, *, fresh: bool
         return
     try:
         old = Results.load(held)
-    except ResultsError:
-        return  # unreadable: this run writes a good one
+    except ResultsError as exc:  # another version's (a schema this one does not know) or damaged: keep it
+        raise OutputError(f"{out}: holds a results.json this version cannot read ({exc}); use --fresh to replace "
+                          "it, or another folder") from None
     changes = _settings_changes(old, settings, list(jobs))
     if changes:
         raise OutputError(f"{out}: holds the results of other settings ({'; '.join(changes)}); use --fresh to "
