@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import sys
 import textwrap
+import time
 from pathlib import Path
 
 import numpy as np
@@ -71,6 +72,10 @@ SCRIPT = textwrap.dedent('''
     if mode == "hang":
         print("rendering forever", file=sys.stderr, flush=True)
         time.sleep(60)
+    if mode == "orphan":  # leaves a process running behind it, and exits as if all went well
+        import os, subprocess
+        child = subprocess.Popen(["sleep", "300"])
+        open(os.path.join(os.path.dirname(os.path.abspath(sys.argv[0])), "orphan.pid"), "w").write(str(child.pid))
     if mode == "chatty":  # a 20 MB progress bar on one line, then the error
         sys.stderr.write("\\r".join(f"{k:8d}" for k in range(2_000_000)) + "\\nout of memory\\n")
         sys.exit(1)
@@ -133,7 +138,7 @@ def test_toml_renderer_is_measured_beside_mitsuba(tmp_path):
     again = run_mod.run([CORNELL], tmp_path / "out", settings, progress=False, report=False)
     assert again.scenes[0].run("mine").key == mine.key
     # nothing of the job is left in the temporary folder
-    assert not list(Path(tempfile_dir()).glob("compare-mine-*"))
+    assert not list(Path(tempfile_dir()).glob("compare-job-mine-*"))
 
 
 @pytest.fixture(autouse=True)
@@ -224,7 +229,7 @@ def test_bad_external_renderer_is_one_clear_error(tmp_path, mode, message):
         run_mod.run([CORNELL], out, settings, progress=False, renderers=[GreyRenderer()])
     assert not (out / "results.json").exists()
     assert not list(out.rglob("runs/*/mine/*"))  # nothing half-written kept as a result
-    assert not list(Path(tempfile_dir()).glob("compare-mine-*"))
+    assert not list(Path(tempfile_dir()).glob("compare-job-mine-*"))
 
 
 def test_bad_renderer_file_names_file_and_field(tmp_path, capsys):
@@ -489,3 +494,78 @@ def test_two_renderers_that_would_share_a_folder_are_refused_before_any_work(tmp
         check_unit_folders(["progressive:paper", "progressive-paper"])
     with pytest.raises(ValueError, match=r"renderer 'mine-seed1' and renderer 'mine' \(its seed 2\) would share"):
         check_unit_folders(["mine", "mine-seed1"], seeds=2)
+
+
+def test_what_an_external_renderer_leaves_running_is_stopped_with_it(tmp_path):
+    """A renderer runs in a process group of its own; when it exits, what it started goes too."""
+    import os
+
+    config = renderer_toml(tmp_path, "orphan")
+    settings = _settings(["mine"], renderer_config=str(config), ground_truth="grey")
+    run_mod.run([CORNELL], tmp_path / "out", settings, progress=False, renderers=[GreyRenderer()])
+    pid = int((tmp_path / "tools" / "orphan.pid").read_text())
+    for _ in range(50):  # reaped by init: gone once it has been killed
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            break
+        with open(f"/proc/{pid}/stat") as f:
+            if f.read().split()[2] == "Z":
+                break
+        time.sleep(0.1)
+    else:
+        os.kill(pid, 9)
+        pytest.fail("the renderer's child was still running after the run")
+
+
+def test_sigterm_to_compare_stops_the_external_renderer_and_removes_its_job_folder(tmp_path):
+    """SIGTERM to `compare` unwinds it as Ctrl-C does: the renderer's process group is killed and its job
+    folder removed."""
+    import os
+    import signal
+    import subprocess
+
+    config = renderer_toml(tmp_path, "hang", name="hangs")
+    temp = tmp_path / "temp"
+    temp.mkdir()
+    proc = subprocess.Popen([sys.executable, "-m", "compare.cli.main", "render", "--scene", str(CORNELL),
+                             "--renderer", "hangs", "--renderer-config", str(config), "--size", "16x12",
+                             "-o", str(tmp_path / "x.exr")], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            env={**os.environ, "TMPDIR": str(temp)})
+    for _ in range(400):  # until the renderer has started
+        started = list(temp.glob("compare-job-hangs-*"))
+        if started and any((f / "stderr.txt").is_file() and (f / "stderr.txt").stat().st_size for f in started):
+            break
+        time.sleep(0.05)
+    else:
+        proc.kill()
+        pytest.fail(f"the renderer did not start: {proc.communicate()[1].decode()[-500:]}")
+    (folder,) = started
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=30)
+    assert proc.returncode != 0 and b"Traceback" not in err
+    assert not folder.exists()
+    alive = [p for p in Path("/proc").iterdir() if p.name.isdigit() and (p / "cmdline").is_file()
+             and str(tmp_path).encode() in (p / "cmdline").read_bytes()]
+    for p in alive:
+        os.kill(int(p.name), signal.SIGKILL)
+    assert not alive, "the renderer outlived compare"
+
+
+def test_a_job_folder_that_a_killed_run_left_is_swept_at_the_next_run(tmp_path, monkeypatch):
+    import subprocess
+    import tempfile
+
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    dead = subprocess.Popen(["true"])
+    dead.wait()
+    left = tmp_path / "compare-job-mine-x1"
+    left.mkdir()
+    (left / "owner.pid").write_text(str(dead.pid))
+    mine = tmp_path / "compare-job-mine-x2"  # this process's, in use
+    mine.mkdir()
+    (mine / "owner.pid").write_text(str(__import__("os").getpid()))
+    config = renderer_toml(tmp_path, "good")
+    settings = _settings(["mine"], renderer_config=str(config), ground_truth="grey")
+    run_mod.run([CORNELL], tmp_path / "out", settings, progress=False, renderers=[GreyRenderer()])
+    assert not left.exists() and mine.exists()

@@ -247,10 +247,25 @@ def _ztest(args: argparse.Namespace) -> int:
     return 0 if res.passed else 1
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM or SIGHUP: unwound like Ctrl-C, so that every ``finally`` runs (an external renderer's process
+    group is killed, its job folder removed, nothing half-written kept)."""
+
+
+def _terminate(signum, frame) -> None:
+    raise Terminated(signum)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``compare`` console script."""
+    import signal
+    import threading
+
     parser = _build_parser()
     args = parser.parse_args(argv)
+    if threading.current_thread() is threading.main_thread():
+        for sig in (signal.SIGTERM, signal.SIGHUP):
+            signal.signal(sig, _terminate)
     try:
         return args.func(args)
     except CompareError as exc:

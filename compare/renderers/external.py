@@ -106,7 +106,9 @@ class ExternalRenderer(Renderer):
 
     def render(self, scene, *, steps: int, checkpoints: list[int], seed: int, context: RenderContext) -> Rendering:
         who = f"renderer {self.name!r}"
-        folder = Path(tempfile.mkdtemp(prefix=f"compare-{self.name[:20]}-"))
+        _sweep_job_folders()
+        folder = Path(tempfile.mkdtemp(prefix=f"{JOB_PREFIX}{self.name[:20]}-"))
+        (folder / OWNER).write_text(str(os.getpid()))
         try:
             out = folder / "output"
             out.mkdir()
@@ -133,6 +135,7 @@ class ExternalRenderer(Renderer):
                     _kill(proc)  # an interrupted run leaves no renderer behind
                     raise
                 wall = time.perf_counter() - t0
+                _kill(proc)  # it exited: anything it left running in its group goes with it
             if code != 0:
                 why = f"was killed by signal {-code}" if code < 0 else f"exited with status {code}"
                 raise RendererError(f"{who} {why}; the last lines of its stderr:\n{_tail(stderr_path)}")
@@ -142,6 +145,22 @@ class ExternalRenderer(Renderer):
             return rendering
         finally:
             shutil.rmtree(folder, ignore_errors=True)
+
+
+#: Job folders are ``<temp>/compare-job-<name>-*`` and hold the pid of the process that made them.
+JOB_PREFIX, OWNER = "compare-job-", "owner.pid"
+
+
+def _sweep_job_folders() -> None:
+    """Remove the job folders of processes that are gone (a SIGKILL leaves its folder behind)."""
+    for folder in Path(tempfile.gettempdir()).glob(f"{JOB_PREFIX}*"):
+        try:
+            pid = int((folder / OWNER).read_text())
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            shutil.rmtree(folder, ignore_errors=True)
+        except (OSError, ValueError):
+            continue  # not ours to judge (unreadable, or a process of another user)
 
 
 def _kill(proc: subprocess.Popen) -> None:
