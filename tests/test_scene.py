@@ -411,3 +411,50 @@ def test_an_obj_the_fast_reader_refuses_still_names_its_bad_line(tmp_path):
     path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 7\n")
     with pytest.raises(MeshFileError, match=r"bad.obj:5: malformed OBJ line 'f 1 2 7': index 7 out of range"):
         load_obj(path)
+
+
+@pytest.mark.parametrize("side", [1e-7, 1e-10])
+def test_a_light_below_what_renderers_resolve_is_floored_with_its_power_and_both_renderers_agree(tmp_path, side,
+                                                                                                   gl_ctx):
+    """A light of 0.1 µm or 1e-10 m (which made the rasterizer thousands of times too bright and the
+    reference black) is drawn as a 10 µm square of the same power, with a warning, in every renderer."""
+    import math
+
+    from compare.mitsuba.reference import ReferenceRenderer
+    from compare.progressive.rasterizer import render_progressive
+    from compare.scene.model import LIGHT_SIDE_FLOOR
+
+    power = 2.0
+    path = tmp_path / "tiny.toml"
+    path.write_text(f"""
+[camera]
+position = [0, 2.5, 0.001]
+target = [0, 0, 0]
+fov = 40.0
+resolution = [24, 24]
+[materials.white]
+base_color = [0.8, 0.8, 0.8]
+roughness = 1.0
+[[meshes]]
+name = "floor"
+shape = "quad"
+size = [2.0, 2.0]
+material = "white"
+[[lights]]
+center = [0.0, 1.0, 0.0]
+size = [{side}, {side}]
+normal = [0.0, -1.0, 0.0]
+power = [{power}, {power}, {power}]
+""")
+    with pytest.warns(UserWarning, match=r"lights\[0\]: light 'light0' is .* below the 1e-05 m every renderer can "
+                                         r"resolve: drawn as 1e-05 x 1e-05 m with the same power"):
+        scene = load_scene(path)
+    (light,) = scene.lights
+    assert light.size == (LIGHT_SIDE_FLOOR, LIGHT_SIDE_FLOOR)
+    assert float(light.power[0]) == pytest.approx(power, rel=1e-6)
+    ref = ReferenceRenderer(scene, materials="diffuse", cache_dir=False, progress=False).render(16).image
+    raster = render_progressive(scene, frames=8, materials="diffuse", ctx=gl_ctx).image
+    # straight below: E = I / d^2 with the Lambertian emitter's on-axis intensity I = P / pi
+    centre = 0.8 / math.pi * power / math.pi
+    assert float(ref[11:13, 11:13, 0].mean()) == pytest.approx(centre, rel=0.03)
+    assert float(raster[11:13, 11:13, 0].mean()) == pytest.approx(centre, rel=0.03)

@@ -186,7 +186,10 @@ def _objects(st: _Settings, doc, materials: _Materials, notes: list[str]) -> tup
             meshes.append(mesh)
         else:
             center, rsize, normal, tangent = rect
-            lights.append(sm.AreaLight(name, center, rsize, normal, tangent, material.emission))
+            light, note = sm.floored_light(sm.AreaLight(name, center, rsize, normal, tangent, material.emission))
+            lights.append(light)
+            if note:
+                notes.append(note)
     if st.units is None and doc.primitives:
         lo = np.min([_world_bounds(st.xf @ p.matrix, p.mesh)[0] for p in doc.primitives], axis=0)
         hi = np.max([_world_bounds(st.xf @ p.matrix, p.mesh)[1] for p in doc.primitives], axis=0)

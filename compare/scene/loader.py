@@ -41,7 +41,7 @@ from compare.scene.model import *  # noqa: F403 - the model is this module's fac
 from compare.scene.model import (DEFAULT_PROBE_BOUNCES, DEFAULT_PROBE_GRID, ENV_FILE_SUFFIXES,
                           INDIRECT_MODES, MAX_PROBES_PER_AXIS, MESH_FILE_SUFFIXES, MESH_SHAPES, TEXTURE_SUFFIXES,
                           DEFAULT_STAND_IN_SIZE, PUNCTUAL_KINDS, AreaLight, Camera, Environment, Material, Mesh,
-                          PunctualLight, Scene)
+                          PunctualLight, Scene, floored_light)
 
 
 def _camera(ctx: _Ctx, raw: Any, framed: Callable[[], tuple[np.ndarray, np.ndarray]]) -> Camera:
@@ -343,7 +343,10 @@ def _light(ctx: _Ctx, k: int, raw: Any) -> AreaLight | PunctualLight:
     name = t.get("name", f"light{k}")
     if not isinstance(name, str):
         raise ctx.err(f"{w}.name", f"expected a string, got {_fmt(name)}")
-    return AreaLight(name, center, size, tuple(normal), tuple(tangent), radiance)  # type: ignore[arg-type]
+    light, note = floored_light(AreaLight(name, center, size, tuple(normal), tuple(tangent), radiance))  # type: ignore[arg-type]
+    if note:
+        warnings.warn(f"{ctx.path}: {w}: {note}", stacklevel=4)
+    return light
 
 
 def _environment(ctx: _Ctx, raw: Any) -> Environment:

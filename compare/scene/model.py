@@ -265,6 +265,24 @@ class Environment:
     """Name of a Blender studio light (``"interior"``, ``"courtyard"``, ...)."""
 
 
+#: The smallest side (m) of an area light: below it float32 positions cannot tell its corners apart in every
+#: renderer (the rasterizer's samples and solid angle, the reference's sampling), so a smaller light is drawn
+#: as a square of this side with the same power, with a warning.
+LIGHT_SIDE_FLOOR = 1e-5
+
+
+def floored_light(light: "AreaLight") -> tuple["AreaLight", str | None]:
+    """``light`` with each side at least :data:`LIGHT_SIDE_FLOOR`, its power kept (radiance × old area / new
+    area), and a note saying so; the light itself and None when it is large enough."""
+    if min(light.size) >= LIGHT_SIDE_FLOOR:
+        return light, None
+    size = (max(light.size[0], LIGHT_SIDE_FLOOR), max(light.size[1], LIGHT_SIDE_FLOOR))
+    k = light.size[0] * light.size[1] / (size[0] * size[1])
+    note = (f"light {light.name!r} is {light.size[0]:.3g} x {light.size[1]:.3g} m, below the {LIGHT_SIDE_FLOOR:g} m "
+            f"every renderer can resolve: drawn as {size[0]:.3g} x {size[1]:.3g} m with the same power")
+    return dataclasses.replace(light, size=size, radiance=tuple(r * k for r in light.radiance)), note
+
+
 #: Kinds of KHR_lights_punctual lights.
 PUNCTUAL_KINDS = ("point", "spot", "directional")
 #: Side (m) of the squares that stand in for point and spot lights in renderers with area lights only.
