@@ -770,3 +770,19 @@ def test_a_results_file_of_an_unknown_schema_is_never_overwritten_without_fresh(
                                           r"--fresh to replace it"):
         run_mod.run([CORNELL], out, settings, progress=False, report=False)
     assert (out / "results.json").read_text() == future
+
+
+def test_a_huge_scene_name_is_shortened_in_plots_and_kept_whole_in_the_results(tmp_path):
+    """A 100 kB scene name (which made matplotlib lay out a 100 kB title for seconds to minutes) is 80
+    characters in the plots; results.json keeps the name whole."""
+    import dataclasses
+
+    from compare.report import plots
+
+    res = _results()
+    name = "kitchen " * 12_500
+    res = dataclasses.replace(res, scenes=[dataclasses.replace(res.scenes[0], name=name)])
+    assert len(plots._short(name)) == plots.MAX_TEXT and plots._short(name).endswith("…")
+    made = plots.make_plots(res, tmp_path / "plots")
+    assert made and all(Path(p).is_file() for d in made.values() for p in d.values())
+    assert Results.load(res.save(tmp_path / "results.json")).scenes[0].name == name

@@ -42,9 +42,19 @@ PLOT_METRICS: tuple[tuple[str, str], ...] = (
 _STYLES = ("o-", "s-", "^-", "D-", "v-", "P-")
 
 
+#: The most characters of a user's name (a scene's, a renderer's label) a plot shows; results.json keeps it whole.
+MAX_TEXT = 80
+
+
+def _short(name: str) -> str:
+    """A user's name shortened to :data:`MAX_TEXT` characters for a plot."""
+    return name if len(name) <= MAX_TEXT else name[:MAX_TEXT - 1] + "…"
+
+
 def _text(s: str) -> str:
-    """User text for matplotlib: '$' would start mathtext, so escape it."""
-    return s.replace("$", r"\$")
+    """User text for matplotlib: at most :data:`MAX_TEXT` characters (a 100 kB scene name would take
+    matplotlib's layout seconds to minutes), and '$', which would start mathtext, escaped."""
+    return _short(s).replace("$", r"\$") if len(s) > 2 * MAX_TEXT else s.replace("$", r"\$")
 
 
 @dataclass
@@ -155,7 +165,7 @@ def error_figure(scene: SceneResult, path: str | Path) -> Path:
         ax.set_title(label)
         ax.grid(True, which="both", alpha=0.25)
     axes[0].legend(fontsize=7, loc="best")
-    fig.suptitle(_text(f"{scene.name} — {scene.size}: error against time"), fontsize=11)
+    fig.suptitle(_text(f"{_short(scene.name)} — {scene.size}: error against time"), fontsize=11)
     _save(fig, path)
     return path
 
@@ -225,7 +235,7 @@ def equal_figure(scene: SceneResult, path: str | Path, metric: str = "flip") -> 
         # Explicit handles: the first bar of a series may be hatched, which must not define its legend entry.
         handles = [Patch(color=f"C{k}", label=_text(run.label)) for k, run in enumerate(scene.runs)]
         fig.legend(handles=handles, loc="outside lower center", ncols=min(len(scene.runs), 3), fontsize=8)
-    fig.suptitle(_text(f"{scene.name} — {scene.size}"), fontsize=11)
+    fig.suptitle(_text(f"{_short(scene.name)} — {scene.size}"), fontsize=11)
     _save(fig, path)
     return path
 
@@ -270,7 +280,7 @@ def bias_figure(scene: SceneResult, path: str | Path) -> Path | None:
                      fontsize=9)
         ax.grid(True, which="both", alpha=0.25)
     axes[0].legend(fontsize=7, loc="best")
-    fig.suptitle(_text(f"{scene.name} — {scene.size}: bias against noise"), fontsize=11)
+    fig.suptitle(_text(f"{_short(scene.name)} — {scene.size}: bias against noise"), fontsize=11)
     _save(fig, path)
     return path
 
