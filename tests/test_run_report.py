@@ -786,3 +786,30 @@ def test_a_huge_scene_name_is_shortened_in_plots_and_kept_whole_in_the_results(t
     made = plots.make_plots(res, tmp_path / "plots")
     assert made and all(Path(p).is_file() for d in made.values() for p in d.values())
     assert Results.load(res.save(tmp_path / "results.json")).scenes[0].name == name
+
+
+def test_results_and_report_are_replaced_together_or_not_at_all(tmp_path, monkeypatch):
+    """A full disk while the report is written leaves the previous results.json and index.html as they
+    were (not the new results beside the old report), and says so."""
+    import errno
+
+    from compare.report import html as report_html
+    from compare.util.errors import OutputError
+
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "results.json").write_text("old results")
+    (out / "index.html").write_text("old report")
+
+    def full(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(report_html, "build_report", full)
+    with pytest.raises(OutputError, match=r"could not write the new results and report \(No space left on device\); "
+                                          r"the previous results.json and index.html are as they were"):
+        run_mod._save_with_report(_results(), out, True)
+    assert (out / "results.json").read_text() == "old results" and (out / "index.html").read_text() == "old report"
+    assert sorted(p.name for p in out.iterdir()) == ["index.html", "results.json"]  # no part file left
+    monkeypatch.undo()
+    run_mod._save_with_report(_results(), out, False)  # without a report: results.json alone, replaced
+    assert Results.load(out / "results.json").scenes[0].name == "S"

@@ -460,7 +460,7 @@ def _colorbar(path: Path) -> None:
 
 
 def build_report(results: Results, out_dir: str | os.PathLike, *, source_dir: str | os.PathLike | None = None,
-                 plot_format: str = "png") -> Path:
+                 plot_format: str = "png", index_name: str = "index.html") -> Path:
     """Write the HTML report of ``results`` into ``out_dir``.
 
     Parameters
@@ -538,7 +538,7 @@ def build_report(results: Results, out_dir: str | os.PathLike, *, source_dir: st
         metric_headings=[h for _, h, _ in TABLE_METRICS],
         version=__version__,
     )
-    index = out / "index.html"
+    index = out / index_name  # another name: a caller that replaces index.html with results.json together
     write_text_atomic(index, html)
     if src.resolve() != out.resolve():
         results.save(out / "results.json")  # the copied report folder stands alone

@@ -294,12 +294,33 @@ def _run_held(jobs: dict, out: Path, settings: RunSettings, registry: Registry, 
         created=datetime.datetime.now(datetime.timezone.utc).replace(microsecond=0).isoformat().replace("+00:00", "Z"),
         compare_version=__version__,
     )
-    res.save(out / "results.json")
-    if report:
-        from compare.report.html import build_report
-
-        build_report(res, out)
+    _save_with_report(res, out, report)
     return res
+
+
+def _save_with_report(res: Results, out: Path, report: bool) -> None:
+    """Write results.json and the report's index.html so that they are replaced together or not at all:
+    both are written beside the old ones first (hidden part files), then renamed, which cannot run out of
+    space; a write that fails (a full disk) leaves the previous pair as it was and says so."""
+    from compare.util.errors import OutputError
+    from compare.util.files import PART_MARK
+
+    staged = {out / "results.json": out / f".results.json{PART_MARK}staged",
+              out / "index.html": out / f".index.html{PART_MARK}staged"}
+    try:
+        res.save(staged[out / "results.json"])
+        if report:
+            from compare.report.html import build_report
+
+            build_report(res, out, index_name=staged[out / "index.html"].name)
+    except OSError as exc:
+        for part in staged.values():
+            part.unlink(missing_ok=True)
+        raise OutputError(f"{out}: could not write the new results and report ({exc.strerror or exc}); "
+                          "the previous results.json and index.html are as they were") from None
+    if report:
+        os.replace(staged[out / "index.html"], out / "index.html")
+    os.replace(staged[out / "results.json"], out / "results.json")
 
 
 # --------------------------------------------------------------------------- CLI
