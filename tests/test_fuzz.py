@@ -351,3 +351,78 @@ def test_fuzz_results_files(tmp_path, data):
 def test_fuzz_command_lines(tmp_path, capsys, monkeypatch, argv):
     monkeypatch.chdir(tmp_path)  # whatever the arguments write lands here
     check_cli(tmp_path, argv, capsys)
+
+
+# --------------------------------------------------------------------------- node graphs, claimed sizes, headers, names
+
+
+@given(edges=st.lists(st.tuples(st.integers(0, 7), st.integers(0, 7)), max_size=16),
+       scenes=st.booleans(), roots=st.lists(st.integers(0, 7), max_size=3))
+def test_fuzz_gltf_node_graphs(template, case_dir, edges, scenes, roots):
+    """Any graph of parent → child links (cycles, shared children, self links), with or without scenes:
+    it loads, or it is one error naming the file (a cycle is never an empty model)."""
+    doc = _gltf()
+    mesh_node = doc["nodes"][0]
+    nodes = [dict(mesh_node) if k == 0 else {"name": f"n{k}"} for k in range(8)]
+    for parent, child in edges:
+        nodes[parent].setdefault("children", [])
+        if child not in nodes[parent]["children"]:
+            nodes[parent]["children"].append(child)
+    doc["nodes"] = nodes
+    if scenes:
+        doc["scenes"] = [{"nodes": sorted(set(roots)) or [0]}]
+    else:
+        doc.pop("scenes", None)
+        doc.pop("scene", None)
+    check_gltf(template, case_dir, doc)
+
+
+@given(count=st.one_of(st.integers(-5, 10), st.integers(10, 2**62)), offset=st.integers(-16, 2**40),
+       stride=st.one_of(st.none(), st.integers(-4, 2**20)), drop_view=st.booleans())
+def test_fuzz_gltf_claimed_sizes(template, case_dir, count, offset, stride, drop_view):
+    """Counts, offsets and strides that no bytes back are refused before anything is allocated."""
+    doc = _gltf()
+    acc = doc["accessors"][doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"]]
+    acc["count"], acc["byteOffset"] = count, offset
+    if drop_view:
+        acc.pop("bufferView", None)
+    elif stride is not None:
+        doc["bufferViews"][acc["bufferView"]]["byteStride"] = stride
+    check_gltf(template, case_dir, doc)
+
+
+def _png_claiming(width: int, height: int, depth: int, colour: int) -> bytes:
+    import struct
+    import zlib
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, depth, colour, 0, 0, 0))
+            + chunk(b"IDAT", zlib.compress(b"\0" * 16)) + chunk(b"IEND", b""))
+
+
+@given(width=st.integers(0, 2**31 - 1), height=st.integers(0, 2**31 - 1), depth=st.sampled_from([1, 2, 4, 8, 16, 3]),
+       colour=st.sampled_from([0, 2, 3, 4, 6, 5]))
+def test_fuzz_image_headers(template, case_dir, width, height, depth, colour):
+    """A PNG header claiming any size and format is read or refused on its header, one error naming it."""
+    check_mesh_bytes(template, case_dir, "tex.png", _png_claiming(width, height, depth, colour))
+
+
+@given(name=st.text(min_size=0, max_size=80))
+def test_fuzz_renderer_names(tmp_path_factory, name):
+    """Any name of a renderer file's table: refused with one error naming the file, or a name that is a
+    folder of its own (lowercase, no separator) and no reserved word."""
+    from compare.renderers import Registry
+    from compare.renderers.registry import NAME
+
+    folder = tmp_path_factory.mktemp("names")
+    path = folder / "r.toml"
+    path.write_text(f'[renderer.{json.dumps(name)}]\ncommand = ["x", "{{job}}"]\n', encoding="utf-8")
+    try:
+        registry = Registry(path)
+    except CompareError as exc:
+        assert str(path) in str(exc)
+        return
+    assert NAME.fullmatch(name) and name not in {"reference", "all", "web"}
+    assert name in registry.names()

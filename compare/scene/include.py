@@ -212,7 +212,7 @@ def _objects(st: _Settings, doc, materials: _Materials, notes: list[str]) -> tup
 
 def units_note(size: float) -> str | None:
     """A note suggesting ``units`` when a model ``size`` metres across is implausible for metres, else None."""
-    if PLAUSIBLE_SIZE[0] <= size <= PLAUSIBLE_SIZE[1]:
+    if PLAUSIBLE_SIZE[0] <= size <= PLAUSIBLE_SIZE[1] or not size > 0:  # 0: degenerate, not mis-scaled
         return None
     return (f"the model is {size:.4g} m across when read as metres (glTF's unit); if it was authored in other "
             f"units, set units = \"cm\", \"mm\" or \"in\" in its [[include]] (it would be {size * UNITS['cm']:.3g} m, "
