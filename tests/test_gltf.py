@@ -608,3 +608,33 @@ def test_claims_that_no_bytes_back_are_refused_before_allocating(tmp_path, make_
                        '[[meshes]]\nname = "q"\nshape = "quad"\nsize = [1.0, 1.0]\nmaterial = "m"\n')
     with pytest.raises(SceneError, match=r"bomb.png.*refused before decoding: its header claims more pixels"):
         load_scene(scene)
+
+
+def test_a_negative_or_non_finite_gltf_light_is_skipped_with_a_note(tmp_path, make_scene):
+    w = GltfWriter()
+    w.node("floor", mesh=w.mesh("floor", [(geometry.quad((4, 4)), w.material("white"))]))
+    w.node("bad", light=w.light("bad", "point", 683.0, (1.0, -1.0, 1.0)), translation=(0, 1, 0))
+    w.node("good", light=w.light("good", "point", 683.0), translation=(0, 2, 0))
+    w.write(tmp_path / "l.glb")
+    with pytest.warns(UserWarning, match=r"light 'bad' has colour × intensity \[1.0, -1.0, 1.0\]: skipped"):
+        s = load_scene(make_scene('include = "l.glb"\n[camera]\nposition = [0, 2, 5]\ntarget = [0, 0, 0]\n'))
+    assert [p.name for p in s.punctual] == ["l/good"]
+
+
+def test_a_png_bomb_inside_a_glb_is_one_error(tmp_path, make_scene):
+    import struct
+    import zlib
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    bomb = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", 100000, 100000, 8, 2, 0, 0, 0))
+            + chunk(b"IDAT", zlib.compress(b"\0" * 64)) + chunk(b"IEND", b""))
+    w = GltfWriter()
+    m = w.material("tex")
+    w.doc["materials"][m]["pbrMetallicRoughness"]["baseColorTexture"] = w.texture(bomb)
+    w.node("floor", mesh=w.mesh("floor", [(geometry.quad((4, 4)), m)], uvs=True))
+    w.write(tmp_path / "b.glb")
+    with pytest.raises(SceneError, match=r"include.file: b.glb: materials\[0\]: image 0: refused before decoding"):
+        load_scene(make_scene('include = "b.glb"\n[camera]\nposition = [0, 2, 5]\ntarget = [0, 0, 0]\n'
+                              '[environment]\nconstant = [1, 1, 1]\n'))
