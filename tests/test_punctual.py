@@ -12,26 +12,12 @@ import pytest
 
 from compare.mitsuba.reference import ReferenceRenderer
 from compare.scene.loader import load_scene
+from compare.scene.model import PUNCTUAL_KINDS
 from compare.util.errors import SceneError
+from test_blender import needs_bpy
+from test_web import needs_web
 
-ALBEDO = 0.8
-PLANE = """
-[camera]
-position = [0.0, 5.0, 5.0]
-target = [0.0, 0.0, 0.0]
-fov = 60.0
-resolution = [96, 72]
-
-[materials.white]
-base_color = [0.8, 0.8, 0.8]
-roughness = 1.0
-
-[[meshes]]
-name = "plane"
-shape = "quad"
-size = [40.0, 40.0]
-material = "white"
-"""
+ALBEDO = 0.8  # the white plane of scenes/effects
 
 
 def _plane_points(scene, dx: float = 0.5, dy: float = 0.5):
@@ -77,13 +63,10 @@ def _effect(kind: str):
     return load_scene(EFFECTS / f"{kind}_light.toml")
 
 
-LIGHTS = {
-    "point": '[[lights]]\ntype = "point"\nposition = [0.3, 2.0, 0.2]\nintensity = 40.0\nlight_scale = 1.0\n',
-    "spot": '[[lights]]\ntype = "spot"\nposition = [0.0, 3.0, 0.0]\ndirection = [0.3, -1.0, 0.1]\nintensity = 60.0\n'
-            'light_scale = 1.0\ninner_cone = 10.0\nouter_cone = 30.0\ncolor = [1.0, 0.5, 0.25]\n',
-    "directional": '[[lights]]\ntype = "directional"\ndirection = [0.5, -0.8660254, 0.0]\nintensity = 3.0\n'
-                   'light_scale = 1.0\n',
-}
+#: The effect scenes' plane (everything before their light) and each kind's light, from the generated files.
+PLANE = (EFFECTS / "point_light.toml").read_text().split("[[lights]]")[0]
+LIGHTS = {kind: "[[lights]]" + (EFFECTS / f"{kind}_light.toml").read_text().split("[[lights]]", 1)[1]
+          for kind in PUNCTUAL_KINDS}
 
 
 @pytest.mark.parametrize("kind", LIGHTS)
@@ -200,14 +183,7 @@ def test_bad_punctual_lights_name_the_field(tmp_path, make_scene, light, field, 
 
 
 
-def _blender():
-    from compare.blender.render import blender_available
-
-    ok, why = blender_available()
-    return pytest.mark.skipif(not ok, reason=f"Blender renders need bpy: {why}")
-
-
-@_blender()
+@needs_bpy
 @pytest.mark.parametrize("engine", ["cycles", pytest.param("eevee", marks=pytest.mark.slow)])  # EEVEE: ~1 s a sample
 @pytest.mark.parametrize("kind", LIGHTS)
 def test_blender_matches_the_closed_form_of_each_punctual_light(tmp_path, make_scene, kind, engine):
@@ -243,14 +219,7 @@ def test_blender_matches_the_closed_form_of_each_punctual_light(tmp_path, make_s
         assert 1.0 < ratio < 1.5, ratio
 
 
-def _web():
-    from compare.web.renderer import WebRenderer
-
-    ok, why = WebRenderer("threejs").available()
-    return pytest.mark.skipif(not ok, reason=f"web engines unavailable: {why}")
-
-
-@_web()
+@needs_web
 @pytest.mark.parametrize("kind", LIGHTS)
 def test_threejs_draws_each_punctual_light_as_the_reference_does(tmp_path, make_scene, kind):
     """three.js's own point, spot and directional lights (from the job glTF's KHR_lights_punctual) within

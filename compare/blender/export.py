@@ -273,15 +273,8 @@ def punctual_light(light) -> dict:
     (:func:`blender_spot_falloff`): Blender is brighter there, by design of its light."""
     peak = max(light.intensity)
     color = [c / peak for c in light.intensity]
-    d = np.asarray(light.direction, dtype=np.float64)
-    # Blender's lights shine down their local -Z: a frame whose third column is -d
-    z = -d / np.linalg.norm(d)
-    helper = np.array([0.0, 1.0, 0.0]) if abs(z[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
-    x = np.cross(helper, z)
-    x /= np.linalg.norm(x)
-    m = np.eye(4)
-    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = x, np.cross(z, x), z, light.position
-    out = {"name": light.name, "kind": light.kind, "color": color, "matrix": m.tolist()}
+    # Blender's lights shine down their local -Z, as glTF's do
+    out = {"name": light.name, "kind": light.kind, "color": color, "matrix": light.node_matrix().tolist()}
     if light.kind == "directional":
         out["energy"] = peak
     else:

@@ -20,6 +20,8 @@ GL_SRGB8 = 0x8C41
 
 def srgb_decode_table(ctx) -> np.ndarray:
     """float64 (256,): the linear value the sampler of ``ctx`` returns for each code of an sRGB8 texture."""
+    if ctx.extra is None:  # measured once per context, not per render
+        ctx.extra = {}
     cached = ctx.extra.get("srgb_decode_table") if isinstance(ctx.extra, dict) else None
     if cached is not None:
         return cached

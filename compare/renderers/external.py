@@ -32,6 +32,7 @@ from pathlib import Path
 from compare.util.files import sha256_bytes
 from compare.renderers.base import RenderContext, Renderer, RendererError, Rendering, UNITS
 from compare.renderers.job import JOB_SCHEMAS, read_checkpoints, write_job
+from compare.util.files import log_tail
 
 __all__ = ["ExternalRenderer", "external_from_table"]
 
@@ -42,12 +43,6 @@ TAIL_LINES = 12
 
 class ConfigError(RendererError, ValueError):
     """A renderer TOML file is malformed; the message names the file and the field."""
-
-
-def _tail(path: Path, lines: int = TAIL_LINES) -> str:
-    from compare.util.files import log_tail
-
-    return log_tail(path, lines)
 
 
 class ExternalRenderer(Renderer):
@@ -129,8 +124,8 @@ class ExternalRenderer(Renderer):
                 except subprocess.TimeoutExpired:
                     _kill(proc)
                     raise RendererError(f"{who} did not finish within {self.timeout:g} s (timeout in {self.source})"
-                                        f" and was stopped; the last lines of its stderr:\n{_tail(stderr_path)}") \
-                        from None
+                                        " and was stopped; the last lines of its stderr:\n"
+                                        + log_tail(stderr_path, TAIL_LINES)) from None
                 except BaseException:
                     _kill(proc)  # an interrupted run leaves no renderer behind
                     raise
@@ -138,7 +133,8 @@ class ExternalRenderer(Renderer):
                 _kill(proc)  # it exited: anything it left running in its group goes with it
             if code != 0:
                 why = f"was killed by signal {-code}" if code < 0 else f"exited with status {code}"
-                raise RendererError(f"{who} {why}; the last lines of its stderr:\n{_tail(stderr_path)}")
+                raise RendererError(f"{who} {why}; the last lines of its stderr:\n"
+                                    + log_tail(stderr_path, TAIL_LINES))
             rendering = read_checkpoints(out, who=who, size=scene.camera.resolution, checkpoints=checkpoints)
             rendering.metadata = {**rendering.metadata, "command": " ".join(self.command),
                                   "wall_seconds": round(wall, 6)}

@@ -121,13 +121,7 @@ def export_gltf(scene, path: Path) -> Path:
                              "outerConeAngle": math.radians(light.outer_cone)}
         if light.range is not None:
             entry["range"] = float(light.range)
-        z = -np.asarray(light.direction, dtype=np.float64)
-        helper = np.array([0.0, 1.0, 0.0]) if abs(z[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
-        x = np.cross(helper, z)
-        x /= np.linalg.norm(x)
-        frame = np.eye(4)
-        frame[:3, 0], frame[:3, 1], frame[:3, 2], frame[:3, 3] = x, np.cross(z, x), z, light.position
-        w.node(light.name, light=index, matrix=frame)
+        w.node(light.name, light=index, matrix=light.node_matrix())
     cam = scene.camera
     m = np.linalg.inv(cam.view_matrix())  # camera → world: glTF cameras look down their −Z, +Y up
     w.node("camera", camera=w.camera("camera", cam.fov, aspect=cam.aspect), matrix=m)

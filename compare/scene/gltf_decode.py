@@ -82,8 +82,7 @@ def _module(extension: str):
             from None
 
 
-def decoded_glb(doc: dict, binary: bytes | None, buffer: Callable[[int], bytes], image_bytes: Callable[[int], bytes],
-                key: str) -> Path:
+def decoded_glb(doc: dict, buffer: Callable[[int], bytes], image_bytes: Callable[[int], bytes], key: str) -> Path:
     """The plain GLB of the compressed document ``doc``, from the cache or decoded now.
 
     ``buffer(i)`` gives the bytes of buffer ``i`` (the GLB chunk, a data URI or an external

@@ -248,7 +248,7 @@ class _Reader:
             return buf[start:start + length]
 
         try:
-            plain = decoded_glb(self.doc, self.bin, buffer, image_bytes, sha256_bytes(*hashed))
+            plain = decoded_glb(self.doc, buffer, image_bytes, sha256_bytes(*hashed))
         except DecodeError as exc:
             raise self.err(exc.where, str(exc)) from None
         self.doc, self.bin = parse_glb(plain.read_bytes())

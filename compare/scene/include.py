@@ -191,8 +191,8 @@ def _objects(st: _Settings, doc, materials: _Materials, notes: list[str]) -> tup
             if note:
                 notes.append(note)
     if st.units is None and doc.primitives:
-        lo = np.min([_world_bounds(st.xf @ p.matrix, p.mesh)[0] for p in doc.primitives], axis=0)
-        hi = np.max([_world_bounds(st.xf @ p.matrix, p.mesh)[1] for p in doc.primitives], axis=0)
+        boxes = np.array([_world_bounds(st.xf @ p.matrix, p.mesh) for p in doc.primitives])  # (n, lo/hi, 3)
+        lo, hi = boxes[:, 0].min(0), boxes[:, 1].max(0)
         note = units_note(float(np.max(hi - lo)))
         if note:
             notes.append(note)

@@ -41,7 +41,7 @@ from compare.scene.model import *  # noqa: F403 - the model is this module's fac
 from compare.scene.model import (DEFAULT_PROBE_BOUNCES, DEFAULT_PROBE_GRID, ENV_FILE_SUFFIXES,
                           INDIRECT_MODES, MAX_PROBES_PER_AXIS, MESH_FILE_SUFFIXES, MESH_SHAPES, TEXTURE_SUFFIXES,
                           DEFAULT_STAND_IN_SIZE, PUNCTUAL_KINDS, AreaLight, Camera, Environment, Material, Mesh,
-                          PunctualLight, Scene, floored_light)
+                          PunctualLight, Scene, floored_light, mesh_bounds)
 
 
 def _camera(ctx: _Ctx, raw: Any, framed: Callable[[], tuple[np.ndarray, np.ndarray]]) -> Camera:
@@ -105,15 +105,6 @@ def _check_restyles(ctx: _Ctx, includes, mats_raw: dict, used: set[str]) -> None
                         f"its materials are {', '.join(sorted(inc.materials)[:8])}"
                         + (", ..." if len(inc.materials) > 8 else ""))
                 raise ctx.err(f"materials.{name}", f"restyles no imported material and no mesh uses it ({hint})")
-
-
-def _mesh_bounds(meshes) -> tuple[np.ndarray, np.ndarray]:
-    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
-    for m in meshes:
-        p = m.triangles().positions
-        if len(p):
-            lo, hi = np.minimum(lo, p.min(0)), np.maximum(hi, p.max(0))
-    return lo, hi
 
 
 def _material(ctx: _Ctx, name: str, raw: Any) -> Material:
@@ -404,7 +395,7 @@ def parse_scene(data: dict[str, Any], path: Path) -> Scene:
     # the models ("auto") after them.
     framed = cam_raw is None or (isinstance(cam_raw, dict) and (cam_raw.get("target") == "auto" or (
         isinstance(cam_raw.get("orbit"), dict) and cam_raw["orbit"].get("radius", "auto") == "auto")))
-    camera = None if framed else _camera(ctx, cam_raw, lambda: _mesh_bounds(()))
+    camera = None if framed else _camera(ctx, cam_raw, lambda: mesh_bounds(()))
     mats_raw = data.get("materials", {})
     if not isinstance(mats_raw, dict):
         raise ctx.err("materials", f"expected a table of named materials, got {_fmt(mats_raw)}")
@@ -430,7 +421,7 @@ def parse_scene(data: dict[str, Any], path: Path) -> Scene:
                       "bounds; set [camera] orbit = { theta = …, phi = …, radius = … } to choose the view "
                       "(`compare inspect` prints the bounds)", stacklevel=3)
     if camera is None:
-        camera = _camera(ctx, cam_raw, lambda: _mesh_bounds(subject))
+        camera = _camera(ctx, cam_raw, lambda: mesh_bounds(subject))
     lights_raw = data.get("lights", [])
     if not isinstance(lights_raw, list):
         raise ctx.err("lights", "expected an array of tables ([[lights]])")

@@ -208,6 +208,16 @@ class Mesh:
         return local.transformed(self.transform)
 
 
+def mesh_bounds(meshes) -> tuple[np.ndarray, np.ndarray]:
+    """World-space axis-aligned bounds (min, max) of ``meshes`` (infinite when they hold no vertex)."""
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    for m in meshes:
+        p = m.triangles().positions
+        if len(p):
+            lo, hi = np.minimum(lo, p.min(0)), np.maximum(hi, p.max(0))
+    return lo, hi
+
+
 @dataclass(frozen=True)
 class AreaLight:
     """A one-sided rectangular area light emitting along ``normal``.
@@ -320,6 +330,18 @@ class PunctualLight:
         ci, co = math.cos(math.radians(self.inner_cone)), math.cos(math.radians(self.outer_cone))
         scale = 1.0 / max(1e-3, ci - co)  # the specification's own guard against inner == outer
         return np.clip((cos_theta - co) * scale, 0.0, 1.0) ** 2
+
+    def node_matrix(self) -> np.ndarray:
+        """4×4 world matrix of the light as glTF and Blender place a light: at its position, shining down
+        its local −Z along :attr:`direction`."""
+        z = -np.asarray(self.direction, dtype=np.float64)
+        z /= np.linalg.norm(z)
+        helper = np.array([0.0, 1.0, 0.0]) if abs(z[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
+        x = np.cross(helper, z)
+        x /= np.linalg.norm(x)
+        m = np.eye(4)
+        m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = x, np.cross(z, x), z, self.position
+        return m
 
     def stand_ins(self) -> list["AreaLight"]:
         """The squares that stand in for this light where only area lights are drawn: a spot one square
@@ -466,11 +488,7 @@ class Scene:
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """World-space axis-aligned bounds (min, max) of all meshes."""
-        lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
-        for m in self.meshes:
-            p = m.triangles().positions
-            lo, hi = np.minimum(lo, p.min(0)), np.maximum(hi, p.max(0))
-        return lo, hi
+        return mesh_bounds(self.meshes)
 
     def extent(self) -> tuple[np.ndarray, np.ndarray]:
         """World-space axis-aligned bounds (min, max) of every mesh and light rectangle."""
