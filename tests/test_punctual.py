@@ -124,12 +124,13 @@ def test_a_renderer_with_area_lights_only_gets_stand_ins_and_says_so(tmp_path, m
     from compare.renderers import Registry
 
     scene = load_scene(make_scene(PLANE, LIGHTS["point"], LIGHTS["directional"]))
-    given, changed = Registry().get("progressive").prepare(scene)
+    given, changed = Registry().get("threejs-pathtracer").prepare(scene)
     assert not given.punctual and len(given.lights) == 6
     assert changed == ["1 point/spot light(s) drawn as stand-in squares (6 area lights; a point light's cube, "
                        "a spot light's cone lost)", "1 directional light(s) not rendered"]
-    same, nothing = Registry().get("mitsuba").prepare(scene)
-    assert same is scene and nothing == []
+    for native in ("mitsuba", "progressive"):
+        same, nothing = Registry().get(native).prepare(scene)
+        assert same is scene and nothing == []
 
 
 def test_gltf_punctual_lights_become_lights(tmp_path, make_scene):

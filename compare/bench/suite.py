@@ -71,8 +71,8 @@ from pathlib import Path
 
 from compare.util.figures import Figure, median as _median, time_to_error
 
-ITEMS = ("first-frame", "depth-floor", "area-models", "textures", "wrapper-overhead", "equal-error", "frame-budget", "peak-rss",
-         "eevee", "setup-seconds", "setup-rss")
+#: The items this module measures itself; renderers declare their own (:meth:`Renderer.benchmarks`).
+SUITE_ITEMS = ("equal-error", "frame-budget", "peak-rss", "eevee", "setup-seconds", "setup-rss")
 #: The items measured together by one series of runs (compare.bench.setup_cost).
 SETUP_ITEMS = ("setup-seconds", "setup-rss")
 #: Per-frame budgets (ms) of the frame-budget item.
@@ -297,8 +297,15 @@ def _bench_setup(setup_scene, size, repeats: int, registry) -> list[Figure]:
                            progress=lambda what: (bar.set_postfix_str(what), bar.update()))
 
 
+def all_items(registry=None) -> tuple[str, ...]:
+    """Every benchmark item: those the registry's renderers declare, then the suite's own."""
+    from compare.renderers import Registry
+
+    return tuple(_renderer_items(registry or Registry())) + SUITE_ITEMS
+
+
 def run_bench(scene_path: str | Path, *, size: tuple[int, int], frames: int, spp: int, repeats: int,
-              items: tuple[str, ...] = ITEMS, progress: bool = True,
+              items: tuple[str, ...] | None = None, progress: bool = True,
               setup_scene: str | Path = "scenes/car.toml") -> dict:
     """Run the chosen benchmark items; returns a JSON-ready dict (figures, skipped items, machine).
 
@@ -314,6 +321,8 @@ def run_bench(scene_path: str | Path, *, size: tuple[int, int], frames: int, spp
     scene = load_scene(scene_path).with_resolution(*size)
     registry = Registry()
     own = _renderer_items(registry)
+    if items is None:
+        items = all_items(registry)
     figures: list[Figure] = []
     setup_figures: list[Figure] | None = None
     skipped: dict[str, str] = {}
@@ -337,7 +346,7 @@ def run_bench(scene_path: str | Path, *, size: tuple[int, int], frames: int, spp
                         setup_figures = _bench_setup(setup_scene, size, repeats, registry)
                     figures += [f for f in setup_figures if f.name == item]
                 else:
-                    raise ValueError(f"unknown benchmark item {item!r} (known: {', '.join(ITEMS)})")
+                    raise ValueError(f"unknown benchmark item {item!r} (known: {', '.join(all_items(registry))})")
             except RuntimeError as exc:
                 skipped[item] = str(exc)
         from compare.progressive.renderer import _create_gl_context  # noqa: PLC2701 - the context the items used

@@ -142,7 +142,7 @@ class ComposePass:
         self.out = Target(ctx, size)
 
     def run(self, base: PingPong, direct_texture=None, env_visible=None, indirect_texture=None, *,
-            upsample: bool = False):
+            punctual_texture=None, upsample: bool = False):
         """Compose the display image.
 
         ``base`` is the every-frame ping-pong (a second attachment holds the
@@ -151,7 +151,8 @@ class ComposePass:
         (:class:`~compare.progressive.environment.EnvOcclusionTargets`) or None.
         The environment term is the unoccluded mean until both kinds have
         samples, then the two means of visible light. ``indirect_texture`` is
-        the irradiance volume's indirect light (:mod:`.indirect`), or None.
+        the irradiance volume's indirect light (:mod:`.indirect`), or None;
+        ``punctual_texture`` the punctual lights' running mean (:mod:`.punctual`), or None.
         ``upsample``: the sources are smaller than the output (a reduced first
         frame) and are sampled bilinearly.
         """
@@ -167,9 +168,12 @@ class ComposePass:
         (env_visible.current(0) if occluded else base.current).use(location=3)
         (env_visible.current(1) if occluded else base.current).use(location=4)
         (indirect_texture or base.current).use(location=5)
-        for loc, name in enumerate(("u_base", "u_direct", "u_env", "u_env_diffuse", "u_env_specular", "u_indirect")):
+        (punctual_texture or base.current).use(location=6)
+        for loc, name in enumerate(("u_base", "u_direct", "u_env", "u_env_diffuse", "u_env_specular", "u_indirect",
+                                    "u_punctual")):
             set_uniform(self.program, name, loc)
         set_uniform(self.program, "u_indirect_scale", 1.0 if indirect_texture is not None else 0.0)
+        set_uniform(self.program, "u_punctual_scale", 1.0 if punctual_texture is not None else 0.0)
         set_uniform(self.program, "u_direct_scale", 1.0 if direct_texture is not None else 0.0)
         set_uniform(self.program, "u_env_mode", env_mode)
         w, h = self.out.texture.size

@@ -10,7 +10,7 @@ import numpy as np
 
 from compare.util.figures import Figure, median as _median
 
-__all__ = ["bench_area_models", "bench_depth_floor", "bench_first_frame", "bench_textures"]
+__all__ = ["bench_area_models", "bench_depth_floor", "bench_first_frame", "bench_punctual", "bench_textures"]
 
 
 def bench_first_frame(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
@@ -105,6 +105,37 @@ def bench_textures(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
     return [Figure("textures", "mean frame with maps", "mean frame with factors only", _median(mean[0]),
                    _median(mean[1]), "s", repeats, f"{textured} of {len(used)} materials textured, {frames} frames",
                    mean[0], mean[1])]
+
+
+def bench_punctual(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
+    """The frame cost of one punctual light against one area light: the mean frame of the scene's
+    geometry lit by its N punctual lights (or, without any, point lights at its area lights' centres),
+    and by N squares in their places (a spot's stand-in: :meth:`~compare.scene.model.PunctualLight.stand_ins`;
+    a point light's faces down), each less the mean frame without lights, ÷ N; run for run alternating."""
+    import dataclasses
+
+    from compare.scene.model import PunctualLight
+
+    lights = scene.punctual or tuple(
+        PunctualLight(a.name, "point", tuple(a.center), (0.0, -1.0, 0.0), tuple(a.radiance)) for a in scene.lights)
+    if not lights:
+        raise RuntimeError("the scene has no lights to time")
+    squares = tuple(dataclasses.replace(p, kind="spot", direction=p.direction if p.kind == "spot" else
+                                        (0.0, -1.0, 0.0)).stand_ins()[0] if p.kind != "directional"
+                    else None for p in lights)
+    if any(s is None for s in squares):
+        raise RuntimeError("a directional light has no area light in its place: time a scene of point and spot lights")
+    variants = [dataclasses.replace(scene, lights=(), punctual=()),
+                dataclasses.replace(scene, lights=(), punctual=tuple(lights)),
+                dataclasses.replace(scene, lights=squares, punctual=())]
+    none, punctual, area = _alternating_mean_frames([{}, {}, {}], scene, frames=frames, repeats=repeats, ctx=ctx,
+                                                    scenes=variants)
+    n = len(lights)
+    per_punctual = [(p - z) / n for p, z in zip(punctual, none)]
+    per_area = [(a - z) / n for a, z in zip(area, none)]
+    return [Figure("punctual-light", "frame cost per punctual light", "per area light", _median(per_punctual),
+                   _median(per_area), "s", repeats, f"{n} light(s), {frames} frames, less the frame without lights",
+                   per_punctual, per_area)]
 
 
 def _alternating_mean_frames(options: list[dict], scene, *, frames: int, repeats: int, ctx,

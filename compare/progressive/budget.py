@@ -13,7 +13,8 @@ from a cost model of this device:
 
 ``c_0`` is a frame without samples (G-buffer, every-frame pass), ``c_l`` one
 light sample (its shadow atlas and direct pass), ``c_e`` one environment
-occlusion sample, all measured once after the shaders are compiled
+occlusion sample, ``c_p`` one punctual light's shadow map (``t`` adds ``k_p·c_p``),
+all measured once after the shaders are compiled
 (:meth:`Rasterizer._calibrate`); ``s`` follows the observed frame
 times (an exponential moving average of observed ÷ predicted), so the model
 keeps up with a device that speeds up or slows down. Each frame gets samples
@@ -22,6 +23,8 @@ behind as a fraction of its total, while the predicted time stays within the
 budget; every frame gets at least one sample, so the render always ends. Frame
 0 stays the cheap preview (no samples), and light samples start at frame 1,
 not at ``f_d·m``: with a budget the point is to reach the final image soonest.
+The punctual lights' shadow maps go first, as in the fixed plan (each is needed
+once and makes its light exact from then on).
 
 Weights: a frame may now fold any number k of light samples into the direct
 running mean, so the mean runs over *samples*, not frames: each sample's
@@ -53,9 +56,11 @@ class FrameCosts:
     base: float
     light: float
     env: float
+    punctual: float = 0.0
+    """One punctual light's shadow map."""
 
-    def predict(self, lights: int, envs: int) -> float:
-        return self.base + lights * self.light + envs * self.env
+    def predict(self, lights: int, envs: int, punctual: int = 0) -> float:
+        return self.base + lights * self.light + envs * self.env + punctual * self.punctual
 
 
 class BudgetScheduler:
@@ -81,23 +86,26 @@ class BudgetScheduler:
         counts = plan.samples_per_light
         self.lights = [replace(s, weight=total / counts[s.light]) for s in lights]
         self.envs = [s for fp in plan for s in fp.env_samples]
+        self.punctual = [k for fp in plan for k in fp.punctual]
         self.first = plan[0]
-        self.jitter = pixel_jitter(1 + len(self.lights) + len(self.envs), plan.seed)
+        self.jitter = pixel_jitter(1 + len(self.lights) + len(self.envs) + len(self.punctual), plan.seed)
         self.costs: FrameCosts | None = None
         self.scale = 1.0
         self.frame = 0
         self._next_light = 0
         self._next_env = 0
+        self._next_punctual = 0
 
     @property
     def done(self) -> bool:
         """All samples handed out (and frame 0 drawn)."""
-        return self.frame > 0 and self._next_light == len(self.lights) and self._next_env == len(self.envs)
+        return (self.frame > 0 and self._next_light == len(self.lights) and self._next_env == len(self.envs)
+                and self._next_punctual == len(self.punctual))
 
     def reset(self) -> None:
         """Start again from frame 0 (the cost model and its scale are kept)."""
         self.frame = 0
-        self._next_light = self._next_env = 0
+        self._next_light = self._next_env = self._next_punctual = 0
 
     def next(self) -> FramePlan:
         """The plan of the next frame."""
@@ -109,7 +117,11 @@ class BudgetScheduler:
             return self.first
         costs = self.costs or FrameCosts(0.0, 1.0, 1.0)  # uncalibrated: one sample per frame
         nl, ne = len(self.lights), len(self.envs)
-        kl = ke = 0
+        kl = ke = kp = 0
+        while self._next_punctual + kp < len(self.punctual):
+            if kp > 0 and self.scale * costs.predict(0, 0, kp + 1) > self.budget:
+                break
+            kp += 1
         while True:
             left_l = self._next_light + kl < nl
             left_e = self._next_env + ke < ne and ke < self.max_env
@@ -120,20 +132,23 @@ class BudgetScheduler:
             frac_e = (self._next_env + ke) / ne if ne else math.inf
             take_light = left_l and (not left_e or frac_l <= frac_e)
             trial = (kl + 1, ke) if take_light else (kl, ke + 1)
-            if kl + ke > 0 and self.scale * costs.predict(*trial) > self.budget:
+            if kl + ke + kp > 0 and self.scale * costs.predict(*trial, kp) > self.budget:
                 break
             kl, ke = trial
         lights = tuple(self.lights[self._next_light:self._next_light + kl])
         envs = tuple(self.envs[self._next_env:self._next_env + ke])
+        punctual = tuple(self.punctual[self._next_punctual:self._next_punctual + kp])
         self._next_light += kl
         self._next_env += ke
+        self._next_punctual += kp
         jx, jy = self.jitter[f]
-        return FramePlan(frame=f, jitter=(float(jx), float(jy)), light_samples=lights, env_samples=envs)
+        return FramePlan(frame=f, jitter=(float(jx), float(jy)), light_samples=lights, env_samples=envs,
+                         punctual=punctual)
 
     def observe(self, fp: FramePlan, seconds: float) -> None:
         """Fold the measured wall ``seconds`` of frame plan ``fp`` into the model's scale."""
         if self.costs is None or fp.frame == 0 or not math.isfinite(seconds) or seconds <= 0:
             return
-        raw = self.costs.predict(len(fp.light_samples), len(fp.env_samples))
+        raw = self.costs.predict(len(fp.light_samples), len(fp.env_samples), len(fp.punctual))
         if raw > 0:
             self.scale += SMOOTHING * (seconds / raw - self.scale)

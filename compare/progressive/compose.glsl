@@ -3,7 +3,8 @@
 // preview, plus the environment light: the unoccluded split sum's running mean (the
 // every-frame pass's second target) until both kinds of occlusion samples have run,
 // then the two running means of the visible diffuse and specular light (env_occlusion.glsl),
-// plus the irradiance volume's indirect light where the renderer has one (indirect.glsl).
+// plus the irradiance volume's indirect light where the renderer has one (indirect.glsl),
+// plus the punctual lights' running mean (punctual.glsl) where the scene has them.
 // The display after a reduced frame 0 (first_frame.py) composes that frame's own, smaller
 // targets, upsampled bilinearly.
 
@@ -21,6 +22,8 @@ uniform sampler2D u_env_specular;  // visible specular environment light
 uniform sampler2D u_indirect;      // indirect diffuse light of the irradiance volume (running mean)
 uniform float u_direct_scale;  // 1 to add u_direct, 0 when there is no direct light to show
 uniform float u_indirect_scale;  // 1 to add u_indirect
+uniform sampler2D u_punctual;      // the punctual lights' light (running mean)
+uniform float u_punctual_scale;  // 1 to add u_punctual
 uniform int u_env_mode;        // 0 no environment, 1 unoccluded, 2 occluded (both kinds have samples)
 uniform vec2 u_upsample;       // (0, 0): sources at the output's size; else 1 / the output's size
 
@@ -44,6 +47,9 @@ void main() {
     }
     if (u_indirect_scale > 0.0) {
         c += source(u_indirect);
+    }
+    if (u_punctual_scale > 0.0) {
+        c += source(u_punctual);
     }
     out_color = vec4(c, 1.0);
 }

@@ -21,6 +21,13 @@ A render of ``m`` frames (paper default 128) is planned before the first frame.
   (split sum without occlusion, no shadow maps: the cheap first frame of the
   paper's Algorithm 1). Each sample carries a point of the 3D R3 sequence of
   its kind (azimuth, polar angle, distance fraction).
+* **Punctual lights** (point, spot, directional): their light is exact and
+  unshadowed in every frame from the first; each needs one shadow map, which
+  stays valid (the scene is static) and is rendered once, in frame ``1 + k``
+  for light ``k`` (several per frame when there are more lights than frames
+  after frame 0), as early as possible: once every map exists, every later
+  frame adds the exact shadowed light at its own jitter
+  (:mod:`compare.progressive.punctual`).
 
 Weights
 -------
@@ -114,11 +121,13 @@ class FramePlan:
     env_samples: tuple[EnvSample, ...] = ()
     preview: bool = False
     """Frame 0 renders an unshadowed direct-light preview (display only)."""
+    punctual: tuple[int, ...] = ()
+    """Indices into ``scene.punctual`` whose shadow map this frame renders (once per light)."""
 
     @property
     def shadow_passes(self) -> int:
-        """Shadow maps this frame renders (one per light sample)."""
-        return len(self.light_samples)
+        """Shadow maps this frame renders (one per area-light sample, one per punctual light's map)."""
+        return len(self.light_samples) + len(self.punctual)
 
 
 @dataclass(frozen=True)
@@ -225,6 +234,7 @@ def plan(scene, frames: int = DEFAULT_FRAMES, *, seed: int = 0, direct_fraction:
     light_frames = sum(1 for f in per_frame if f)
 
     env_per_frame, env_counts, env_frames, env_notes = _env_plan(scene, frames, seed, env_samples)
+    punctual_per_frame = punctual_frames(len(getattr(scene, "punctual", ())), frames)
 
     jitter = pixel_jitter(frames, seed)
     plans = []
@@ -238,12 +248,28 @@ def plan(scene, frames: int = DEFAULT_FRAMES, *, seed: int = 0, direct_fraction:
             light_samples=samples,
             env_samples=tuple(env_per_frame[f]),
             preview=bool(f == 0 and lights and not samples),
+            punctual=tuple(punctual_per_frame[f]),
         ))
     notes: tuple[str, ...] = ()
     if frames == 1 and lights:
         notes = ("with a single frame, frame 0 evaluates the light samples itself (no cheap first frame)",)
     return Plan(tuple(plans), start, float(direct_fraction), tuple(counts), light_frames, int(seed),
                 notes + env_notes, env_counts, env_frames)
+
+
+def punctual_frames(count: int, frames: int) -> list[list[int]]:
+    """Which frame renders each of ``count`` punctual lights' shadow maps: light k in frame
+    ``1 + k``, or ``1 + ⌊k·(m−1)/count⌋`` when there are more lights than frames after frame 0
+    (frame 0 stays the cheap preview; a single frame renders them itself)."""
+    per_frame: list[list[int]] = [[] for _ in range(frames)]
+    for k in range(count):
+        if frames == 1:
+            per_frame[0].append(k)
+        elif count <= frames - 1:
+            per_frame[1 + k].append(k)
+        else:
+            per_frame[1 + (k * (frames - 1)) // count].append(k)
+    return per_frame
 
 
 def _env_plan(scene, frames: int, seed: int, env_samples: int | None):

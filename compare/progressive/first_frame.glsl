@@ -8,11 +8,13 @@
 // out_env:    (ENVIRONMENT) the unoccluded environment light, the split sum of
 //             compare/ibl/ibl.glsl;
 // out_direct: the unshadowed direct light of each area light from its centre
-//             (light_preview in area_light.glsl), shown until the first light frame.
+//             (light_preview in area_light.glsl), shown until the first light frame;
+// out_punctual: (PUNCTUAL > 0) the exact unshadowed light of the punctual lights
+//             (punctual_light.glsl), the first value of their running mean (punctual.py).
 //
 // A depth pre-pass runs first, so each pixel is shaded once.
 //
-// Defines: LIGHTS (number of area lights, 0 for none), ENVIRONMENT, AREA_MODEL_PAPER,
+// Defines: LIGHTS (number of area lights, 0 for none), PUNCTUAL (number of punctual lights), ENVIRONMENT, AREA_MODEL_PAPER,
 // AREA_MODEL_LTC (the preview is then the closed-form unshadowed light, ltc.glsl), MATERIALS_DIFFUSE.
 
 #if defined VERTEX_SHADER
@@ -64,8 +66,23 @@ layout(location = 0) out vec4 out_color;
 #if ENVIRONMENT
 layout(location = 1) out vec4 out_env;
 layout(location = 2) out vec4 out_direct;
+#if PUNCTUAL > 0
+layout(location = 3) out vec4 out_punctual;
+#endif
 #else
 layout(location = 1) out vec4 out_direct;
+#if PUNCTUAL > 0
+layout(location = 2) out vec4 out_punctual;
+#endif
+#endif
+
+#if PUNCTUAL > 0
+#include "punctual_light.glsl"
+uniform float u_punctual_kind[PUNCTUAL];
+uniform vec3 u_punctual_position[PUNCTUAL];
+uniform vec3 u_punctual_direction[PUNCTUAL];
+uniform vec3 u_punctual_intensity[PUNCTUAL];
+uniform vec2 u_punctual_cone[PUNCTUAL];
 #endif
 
 #if LIGHTS > 0
@@ -95,6 +112,9 @@ void main() {
         out_color = vec4(env_background_at_pixel(gl_FragCoord.xy, u_viewport, u_inv_view_proj), 1.0);
         out_env = vec4(0.0, 0.0, 0.0, 1.0);
         out_direct = vec4(0.0, 0.0, 0.0, 1.0);
+#if PUNCTUAL > 0
+        out_punctual = vec4(0.0, 0.0, 0.0, 1.0);
+#endif
         return;
     }
 #endif
@@ -104,6 +124,7 @@ void main() {
     vec3 c = dot(n, v) > 0.0 ? material_emission() : vec3(0.0);
     vec3 direct = vec3(0.0);
     vec3 env = vec3(0.0);
+    vec3 punctual = vec3(0.0);
     if (u_kind < 1.5) {
         n = material_normal(n);
         vec3 base_color = material_base_color();
@@ -127,12 +148,22 @@ void main() {
             direct += light_preview(v_position, n, v, base_color, metallic, roughness);
         }
 #endif
+#if PUNCTUAL > 0
+        for (int i = 0; i < PUNCTUAL; ++i) {
+            punctual += punctual_radiance(v_position, n, v, base_color, metallic, roughness, u_punctual_kind[i],
+                                          u_punctual_position[i], u_punctual_direction[i],
+                                          u_punctual_intensity[i], u_punctual_cone[i]);
+        }
+#endif
     }
     out_color = vec4(c, 1.0);
 #if ENVIRONMENT
     out_env = vec4(env, 1.0);
 #endif
     out_direct = vec4(direct, 1.0);
+#if PUNCTUAL > 0
+    out_punctual = vec4(punctual, 1.0);
+#endif
 }
 
 #endif

@@ -77,11 +77,15 @@ class FirstFramePass:
     :class:`~compare.progressive.environment.EnvironmentLighting` or None.
     ``scale`` in (0, 1]: 1 draws frame 0 at full size into the every-frame mean's
     next target; below 1 at that fraction of each axis into :attr:`targets`, a
-    preview only (:attr:`reduced`).
+    preview only (:attr:`reduced`). ``punctual`` (a
+    :class:`~compare.progressive.punctual.PunctualLights` or None): their exact
+    unshadowed light goes into their running mean's next target (reduced: into
+    :attr:`punctual_texture`).
     """
 
     def __init__(self, ctx, gpu_scene, base, lights, *, environment=None, area_model: str = "radiometric",
-                 materials: str = "shared", lut_texture=None, ltc_table=None, scale: float = 1.0):
+                 materials: str = "shared", lut_texture=None, ltc_table=None, scale: float = 1.0,
+                 punctual=None):
         self.scale = check_scale(scale)
         self.ctx = ctx
         self.scene = gpu_scene
@@ -95,7 +99,10 @@ class FirstFramePass:
         self.lights = tuple(lights)
         self.environment = environment
         self.lut_texture = lut_texture
+        self.punctual = punctual
+        self.punctual_texture = None
         defines = {"LIGHTS": len(self.lights), "ENVIRONMENT": int(environment is not None),
+                   "PUNCTUAL": len(punctual.lights) if punctual is not None else 0,
                    "AREA_MODEL_PAPER": int(area_model == "paper"), "AREA_MODEL_LTC": int(area_model == "ltc"),
                    "MATERIALS_DIFFUSE": int(materials == "diffuse"), **gpu_scene.defines()}
         if area_model == "ltc" and ltc_table is None and self.lights:
@@ -109,19 +116,25 @@ class FirstFramePass:
             self.background_vao = self._keep(ctx.vertex_array(self.program, []))
             self.direct = self._keep(ctx.texture(size, 4, dtype="f4"))
             self.depth = self._keep(ctx.depth_renderbuffer(size))
+            extra = []
             if self.reduced:
                 self.targets = self._keep(PingPong(ctx, size, attachments=len(base.textures[0])))
                 colour = list(self.targets.textures[1])
+                if punctual is not None:
+                    self.punctual_texture = self._keep(ctx.texture(size, 4, dtype="f4"))
+                    extra = [self.punctual_texture]
                 # Upsampled bilinearly for display (compose.glsl), clamped at the borders: the
                 # default wrap would blend in the opposite edge.
-                for tex in colour + [self.direct]:
+                for tex in colour + [self.direct] + extra:
                     tex.filter = (ctx.LINEAR, ctx.LINEAR)
                     tex.repeat_x = tex.repeat_y = False
             else:
                 # Frame 0 is the every-frame mean's first value: after reset() its next target is set 1.
                 colour = list(base.textures[1])
                 self.direct.filter = (ctx.NEAREST, ctx.NEAREST)
-            self.fbo = self._keep(ctx.framebuffer(colour + [self.direct], self.depth))
+                if punctual is not None:
+                    extra = [punctual.acc.textures[1][0]]  # likewise the punctual mean's first value
+            self.fbo = self._keep(ctx.framebuffer(colour + [self.direct] + extra, self.depth))
             # Depth pre-pass: with the nearest depth known, each pixel is shaded once, however
             # much the scene overdraws (docs/performance-notes.md).
             self.depth_fbo = self._keep(ctx.framebuffer(depth_attachment=self.depth))
@@ -138,6 +151,9 @@ class FirstFramePass:
         return obj
 
     def _set_lights(self) -> None:
+        if self.punctual is not None:
+            for name, values in self.punctual.uniform_arrays().items():
+                set_uniform(self.program, name, values)
         if not self.lights:
             return
         p = self.program
@@ -158,7 +174,8 @@ class FirstFramePass:
         into :attr:`targets` instead) and :attr:`direct`, the preview."""
         if self.reduced:
             self.targets.reset()
-        elif self.base.count != 0 or self.base.index != 0:
+        elif (self.base.count != 0 or self.base.index != 0
+              or (self.punctual is not None and (self.punctual.acc.count != 0 or self.punctual.acc.index != 0))):
             raise RuntimeError("the first frame must be drawn right after reset()")
         ctx = self.ctx
         p = self.program
@@ -190,6 +207,8 @@ class FirstFramePass:
             set_uniform(p, "u_viewport", tuple(float(x) for x in self.size))
             self.background_vao.render(vertices=3)
         (self.targets if self.reduced else self.base).swap()
+        if self.punctual is not None and not self.reduced:
+            self.punctual.acc.swap()
 
     def release(self) -> None:
         for program in [getattr(self, "program", None), *getattr(self, "depth_programs", {}).values()]:

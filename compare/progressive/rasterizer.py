@@ -17,7 +17,10 @@ One frame f of the :class:`~compare.progressive.distributor.Plan`:
 4. for each light sample of the frame: its shadow atlas (``shadow.glsl``, five
    faces) and its direct-light pass (``direct.glsl``); the last one folds the
    frame's sum into the direct-light running mean over light frames;
-5. frames with environment samples (1 … m−1, never frame 0): the screen-space
+5. with point, spot or directional lights (:mod:`compare.progressive.punctual`): the shadow
+   maps the frame's plan names (each light's once, kept), then every punctual light's exact
+   light, shadowed where its map exists, folded into its own running mean;
+6. frames with environment samples (1 … m−1, never frame 0): the screen-space
    occlusion of the environment light (``env_occlusion.glsl``): the visible
    light, folded into one running mean per kind (diffuse, specular) over that
    kind's samples.
@@ -37,7 +40,7 @@ frame 1 then draws the full-size unshadowed preview from its G-buffer.
 
 The displayed image (``compose.glsl``) is the every-frame mean plus the
 direct-light mean (or the preview until every light has a sample) plus the
-environment light: the unoccluded mean until both kinds of occlusion samples
+punctual lights' mean plus the environment light: the unoccluded mean until both kinds of occlusion samples
 have run, then the two means of visible light. After the last frame it is the full estimate; see
 ``distributor.py`` for why the weights make intermediate images nearly
 unbiased too and keep the preview out of the result. Frame 0 is the
@@ -84,6 +87,7 @@ from compare.progressive.ltc import LTC_DIRECT_FRACTION, LtcLights, ltc_texture
 from compare.progressive.gpu_scene import CameraSetup, GpuScene, mat_bytes
 from compare.progressive.probes import ProbeVolume, indirect_options
 from compare.progressive.readback import read_rgb
+from compare.progressive.punctual import PunctualLights
 from compare.progressive.shadow import ShadowAtlas
 
 
@@ -128,9 +132,6 @@ class Rasterizer:
         if keywords:
             o = dataclasses.replace(o, **keywords)  # TypeError names an unknown keyword; ValueError a bad value
         self.options = o
-        if scene.punctual:  # not drawn as they are yet: their stand-in squares, said (ProgressiveRenderer.prepare)
-            scene, changed = scene.with_punctual_as_area()
-            warnings.warn(f"{scene.path}: the rasterizer draws area lights only: {'; '.join(changed)}", stacklevel=2)
         frames, seed, area_model, materials = o.frames, o.seed, o.area_model, o.materials
         shadow_bias, shadow_filter, d_occ = o.shadow_bias, o.shadow_filter, o.d_occ
         direct_fraction, frame_budget_ms = o.direct_fraction, o.frame_budget_ms
@@ -240,7 +241,14 @@ class Rasterizer:
         has_lights = bool(scene.lights)
         # Frame 0 is forward-shaded when it carries no samples (first_frame.py).
         fp0 = self.plan[0]
-        forward_first = first_frame == "forward" and not fp0.light_samples and not fp0.env_samples
+        forward_first = (first_frame == "forward" and not fp0.light_samples and not fp0.env_samples
+                         and not fp0.punctual)
+        # Point, spot and directional lights: exact light every frame, one kept shadow map each (punctual.py).
+        self.punctual = None
+        if scene.punctual:
+            self.punctual = self._keep(PunctualLights(ctx, self.gpu_scene, scene, self.camera, size,
+                                                      shadow_size=shadow_size, materials=materials))
+            self.notes += self.punctual.notes
         # Leave out what the scene does not need: no shadow or direct-light work without area lights.
         self.shadow = self.direct = self.direct_acc = self.partial = self.preview = None
         self.ltc = self.ltc_table = None
@@ -263,7 +271,7 @@ class Rasterizer:
                                                 gbuffer_frames=max(gbuffer_frames, 1)))
             else:
                 self.direct_acc = self._keep(PingPong(ctx, size))
-                if self.scheduler is not None or any(fp.shadow_passes > 1 for fp in self.plan):
+                if self.scheduler is not None or any(len(fp.light_samples) > 1 for fp in self.plan):
                     self.partial = self._keep(Target(ctx, size))
         self.first = None
         if forward_first:
@@ -271,12 +279,12 @@ class Rasterizer:
             if scale is None:
                 # A reduced frame 0 is only a preview: without a later frame it would be the result.
                 later = (len(self.plan) > 1 if self.scheduler is None
-                         else bool(self.scheduler.lights or self.scheduler.envs))
+                         else bool(self.scheduler.lights or self.scheduler.envs or self.scheduler.punctual))
                 scale = auto_scale(size) if later else 1.0
             self.first = self._keep(FirstFramePass(
                 ctx, self.gpu_scene, self.base, scene.lights, environment=self.environment, area_model=area_model,
                 materials=materials, lut_texture=self.direct.lut_texture if self.direct is not None else None,
-                ltc_table=self.ltc_table, scale=float(scale)))
+                ltc_table=self.ltc_table, scale=float(scale), punctual=self.punctual))
         # A reduced frame 0 is a preview only: frame 1 draws the full-size one from its G-buffer
         # (with ltc every G-buffer frame has the closed-form unshadowed light: no preview).
         if (has_lights and self.ltc is None and (self.first is None or self._reduced_first)
@@ -301,6 +309,11 @@ class Rasterizer:
             if self.indirect == "probes":
                 msg = ("emissive meshes light other surfaces only through the irradiance volume in "
                        "compare.progressive (baked diffuse light; only [[lights]] rectangles are sampled)")
+            warnings.warn(msg, stacklevel=3)
+            self.notes.append(msg)
+        if self.scene.punctual and self.indirect == "probes":
+            msg = ("the irradiance volume bakes area lights and the environment: point, spot and directional "
+                   "lights add no indirect light in compare.progressive")
             warnings.warn(msg, stacklevel=3)
             self.notes.append(msg)
 
@@ -339,6 +352,10 @@ class Rasterizer:
             self._preview_valid = bool(self.scene.lights)
             return
         self.gbuffer.render(view_proj, cam_pos)
+        if self.punctual is not None:
+            for k in fp.punctual:
+                self.punctual.render_shadow(k)
+            self.punctual.run(self.gbuffer, cam_pos, self.shadow_bias)
         self.accumulate.run(self.base, self.gbuffer, self.background,
                             inv_view_proj=inv_view_proj, camera_position=cam_pos)
         if self.indirect_pass is not None:
@@ -388,6 +405,10 @@ class Rasterizer:
         light_frames = [fp for fp in self.plan if fp.light_samples]
         if light_frames and light_frames[0].frame not in done:
             self._draw(light_frames[0], -1)
+            done.add(light_frames[0].frame)
+        punctual_frames = [fp for fp in self.plan if fp.punctual]
+        if punctual_frames and punctual_frames[0].frame not in done:
+            self._draw(punctual_frames[0], -1)  # the shadow-map and shadowed programs
         env_frames = [fp for fp in self.plan if fp.env_samples]
         if env_frames and env_frames[0].frame not in done and not env_frames[0].light_samples:
             self._draw(env_frames[0], -1)
@@ -409,12 +430,14 @@ class Rasterizer:
 
         jitter = self.plan[min(1, len(self.plan) - 1)].jitter
         base = timed(FramePlan(1, jitter))
-        light = env = 0.0
+        light = env = punctual = 0.0
+        if self.scheduler.punctual:
+            punctual = max(timed(FramePlan(1, jitter, punctual=self.scheduler.punctual[:1])) - base, 1e-6)
         if self.scheduler.lights:
             light = max(timed(FramePlan(1, jitter, light_samples=self.scheduler.lights[:1])) - base, 1e-6)
         if self.scheduler.envs:
             env = max(timed(FramePlan(1, jitter, env_samples=self.scheduler.envs[:1])) - base, 1e-6)
-        self.scheduler.costs = FrameCosts(base, light, env)
+        self.scheduler.costs = FrameCosts(base, light, env, punctual)
         self.reset()
 
     def render_frame(self) -> float:
@@ -431,7 +454,7 @@ class Rasterizer:
         elapsed = self.query.elapsed
         # Some drivers answer the first query with an all-ones error value: record it as unknown.
         self.gpu_frame_seconds.append(elapsed * 1e-9 if 0 <= elapsed < 0xFFFFFFFF else float("nan"))
-        self.shadow_passes.append(len(fp.light_samples))
+        self.shadow_passes.append(fp.shadow_passes)
         self.frame += 1
         # Frame 1 after a reduced frame 0 also draws the full-size preview, which the cost model
         # does not know: it would read as the model's error.
@@ -462,10 +485,12 @@ class Rasterizer:
         what = f"progressive render of {self.scene.path} (frame {self.frame})"
         if self.frame == 1 and self._reduced_first:
             first = self.first
-            fbo = self.compose.run(first.targets, first.direct if self._preview_valid else None, upsample=True)
+            fbo = self.compose.run(first.targets, first.direct if self._preview_valid else None,
+                                   punctual_texture=first.punctual_texture, upsample=True)
             return read_rgb(self.ctx, fbo, what=what)
         fbo = self.compose.run(self.base, self._direct_texture(), self.env_acc,
-                               self.indirect_pass.texture if self.indirect_pass is not None else None)
+                               self.indirect_pass.texture if self.indirect_pass is not None else None,
+                               punctual_texture=self._punctual_texture())
         return read_rgb(self.ctx, fbo, what=what)
 
     def _direct_texture(self):
@@ -481,10 +506,17 @@ class Rasterizer:
             return self.preview.texture if self.preview is not None else self.first.direct
         return None
 
+    def _punctual_texture(self):
+        """The punctual lights' running mean, or None (no punctual lights)."""
+        if self.punctual is not None and self.punctual.acc.count > 0:
+            return self.punctual.texture
+        return None
+
     def layers(self) -> dict[str, np.ndarray]:
         """The displayed image split by kind of light (:mod:`compare.mitsuba.layers`), from the
         targets the renderer keeps: ``emission`` (the every-frame mean: emission and background),
-        ``direct_area`` (the direct light shown), ``direct_env`` (the environment light shown) and
+        ``direct_area`` (the direct light shown), ``direct_punctual`` (the point, spot and
+        directional lights' mean), ``direct_env`` (the environment light shown) and
         ``indirect_diffuse`` (the irradiance volume's, with probes). Light it does not render
         (indirect specular; indirect diffuse without probes) has no layer: it is zero. The
         layers sum to :meth:`image`. Empty after a reduced frame 0 alone (a preview, no means yet).
@@ -500,6 +532,9 @@ class Rasterizer:
         direct = self._direct_texture()
         if direct is not None:
             out["direct_area"] = read_texture_rgb(self.ctx, direct, what=what)
+        punctual = self._punctual_texture()
+        if punctual is not None:
+            out["direct_punctual"] = read_texture_rgb(self.ctx, punctual, what=what)
         if len(self.base.textures[0]) > 1:
             acc = self.env_acc
             if acc is not None and min(acc.counts) > 0:
@@ -522,6 +557,8 @@ class Rasterizer:
             self.ltc.reset()
         if self.env_acc is not None:
             self.env_acc.reset()
+        if self.punctual is not None:
+            self.punctual.reset()
         self._preview_valid = False
         self._lights_sampled: set[int] = set()
         self.frame = 0
@@ -566,6 +603,9 @@ class Rasterizer:
             meta.update({"shadow_projection": "half-cube (5 faces)", "shadow_size": int(self.shadow.size),
                          "shadow_bias": ",".join(f"{b:g}" for b in self.shadow_bias),
                          "shadow_filter": self.shadow_filter})
+        if self.punctual is not None:
+            meta.update(self.punctual.describe())
+            meta.setdefault("shadow_bias", ",".join(f"{b:g}" for b in self.shadow_bias))
         if self.ltc is not None:
             meta.update({"ltc_table": f"{self.ltc_table.size[0]}x{self.ltc_table.size[1]} (compare/brdf/ltc_table.npz)",
                          "ltc_stride": int(self.ltc.stride), "shadow_ratio": "per light, diffuse and specular"})

@@ -49,6 +49,7 @@ class ProgressiveRenderer(Renderer):
     """Otto et al.'s progressive rasterizer (moderngl), with the options of :mod:`compare.progressive.options`."""
 
     unit = "frame"
+    renders = frozenset({"punctual_lights"})
     #: A frame budget decides the frame count itself: its last checkpoint is the frames it rendered.
     open_ended = False
     OPTIONS = OPTIONS
@@ -93,7 +94,7 @@ class ProgressiveRenderer(Renderer):
         if self.name != "progressive":
             return {}
         return {name: functools.partial(_own_bench, name) for name in ("first-frame", "depth-floor", "area-models",
-                                                                    "textures")}
+                                                                    "textures", "punctual-lights")}
 
     def facts(self, metadata: dict) -> dict[str, str]:
         g, e = metadata.get("gl_renderer"), metadata.get("gl_srgb_decode_error")
@@ -107,6 +108,7 @@ def _own_bench(name: str, scene, *, frames: int, spp: int, repeats: int, context
 
     ctx = context.resource("gl", _create_gl_context, lambda c: c.release())
     fn = {"first-frame": bench.bench_first_frame, "depth-floor": bench.bench_depth_floor,
-          "area-models": bench.bench_area_models, "textures": bench.bench_textures}[name]
+          "area-models": bench.bench_area_models, "textures": bench.bench_textures,
+          "punctual-lights": bench.bench_punctual}[name]
     return fn(scene, frames=frames, repeats=repeats, ctx=ctx)
 

@@ -10,6 +10,9 @@
 // moments (d, d^2) of the distance d in world units to an RG32F colour attachment; the
 // depth test still keeps the nearest surface.
 //
+// Define ORTHO (a directional light's orthographic map, punctual.py): the depth is the distance
+// along u_direction from the plane through u_sample instead, the metric of a parallel projection.
+//
 // With ALPHA_MASK (and TEXTURES, material.glsl) the holes of alpha-masked materials let light through.
 
 #if defined VERTEX_SHADER
@@ -35,6 +38,9 @@ in vec3 v_position;
 
 uniform vec3 u_sample;
 uniform float u_inv_far;
+#if defined ORTHO
+uniform vec3 u_direction;
+#endif
 
 #if defined MOMENTS
 out vec2 out_moments;
@@ -42,7 +48,11 @@ out vec2 out_moments;
 
 void main() {
     alpha_test();
+#if defined ORTHO
+    gl_FragDepth = clamp(dot(v_position - u_sample, u_direction) * u_inv_far, 0.0, 1.0);
+#else
     gl_FragDepth = clamp(distance(v_position, u_sample) * u_inv_far, 0.0, 1.0);
+#endif
 #if defined MOMENTS
     float d = distance(v_position, u_sample);
     out_moments = vec2(d, d * d);
