@@ -220,6 +220,25 @@ def test_blender_matches_the_closed_form_of_each_punctual_light(tmp_path, make_s
         assert 1.0 < ratio < 1.5, ratio
 
 
+@needs_bpy
+@pytest.mark.slow  # EEVEE: ~1 s a sample
+def test_eevee_does_not_cull_a_weak_punctual_light():
+    """EEVEE drops a light beyond the distance where it falls under its light threshold; a point light
+    10⁴ times weaker must still light the plane as the closed form says (it lit a third of it)."""
+    import dataclasses
+
+    from compare.blender.render import render_blender
+
+    scene = _effect("point").with_resolution(32, 24)
+    (light,) = scene.punctual
+    weak = dataclasses.replace(light, intensity=tuple(c * 1e-4 for c in light.intensity))
+    scene = dataclasses.replace(scene, punctual=(weak,))
+    image = render_blender(scene, engine="eevee", samples=8, materials="diffuse").image
+    want, _ = closed_form(scene, weak)
+    _, hit = _plane_points(scene)
+    assert image[hit].sum() == pytest.approx(want[hit].sum(), rel=0.05)
+
+
 @needs_web
 @pytest.mark.parametrize("kind", LIGHTS)
 def test_threejs_draws_each_punctual_light_as_the_reference_does(tmp_path, make_scene, kind):
@@ -301,3 +320,29 @@ def test_job_schema_2_carries_punctual_lights_and_schema_1_renderers_get_stand_i
     assert old.prepare(scene)[0].punctual == () and new.prepare(scene)[0] is scene
     with pytest.raises(ConfigError, match=r"renderer.bad.job_schema: expected one of 1, 2"):
         external_from_table("bad", {**table, "job_schema": 3}, source=tmp_path / "r.toml")
+
+
+def test_a_gltf_file_is_a_scene_by_itself(tmp_path):
+    """``load_scene(model.glb)``: what a download brings, its lights included, framed without a camera;
+    without any light, one error saying how to light it."""
+    import warnings
+
+    from compare.scene import geometry
+    from compare.scene.gltf_write import GltfWriter
+
+    w = GltfWriter()
+    grey = w.material("grey", (0.5, 0.5, 0.5), 0.0, 1.0)
+    w.node("floor", mesh=w.mesh("floor", [(geometry.quad((4.0, 4.0)), grey)]))
+    w.write(tmp_path / "dark.glb")
+    index = w.light("sun", "directional", 3.0, (1.0, 1.0, 1.0))
+    w.node("sun", light=index, rotation=[-math.sin(math.pi / 4), 0, 0, math.cos(math.pi / 4)])
+    w.write(tmp_path / "lit.glb")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # framed by an orbit
+        scene = load_scene(tmp_path / "lit.glb")
+        (sun,) = scene.punctual
+        assert sun.kind == "directional" and len(scene.meshes) == 1
+        with pytest.raises(SceneError, match=r"dark\.glb: the file has no light .*include = \"dark\.glb\""):
+            load_scene(tmp_path / "dark.glb")
+    with pytest.raises(SceneError, match="missing.glb: scene file not found"):
+        load_scene(tmp_path / "missing.glb")

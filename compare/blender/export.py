@@ -263,6 +263,13 @@ def light_matrix(light: AreaLight) -> np.ndarray:
     return m
 
 
+def _reach(scene, position, far: float) -> float:
+    """A distance from ``position`` beyond every corner of the scene's bounds (at least ``far``)."""
+    lo, hi = scene.extent()
+    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    return float(max(far, 2.0 * np.linalg.norm(corners - np.asarray(position), axis=1).max()))
+
+
 def punctual_light(light) -> dict:
     """A point, spot or directional light as Blender's POINT, SPOT or SUN light of zero size, in the units of
     Blender's own glTF importer: a point or spot light's power is 4π × its intensity (W/sr; Blender defines a
@@ -533,7 +540,10 @@ def build_job(scene: Scene, *, engine: str, samples: int, seed: int, folder: Pat
         "material_model": materials,
         "meshes": meshes,
         "lights": lights,
-        "punctual": [punctual_light(light) for light in scene.punctual],
+        # EEVEE culls a light beyond the distance where it falls under light_threshold: as for the
+        # area lights, a distance reaching every corner of the scene from the light turns that off.
+        "punctual": [{**punctual_light(light), "cutoff_distance": _reach(scene, light.position, far)}
+                     for light in scene.punctual],
         "environment": environment,
         "settings": engine_settings,
         "overrides": overrides,

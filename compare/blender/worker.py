@@ -351,6 +351,9 @@ def build(bpy, np, job: dict, folder: str):
             data.angle = 0.0
         else:
             data.shadow_soft_size = 0.0  # a point: glTF's lights have no size
+        if engine == "BLENDER_EEVEE" and kind != "SUN":
+            data.use_custom_distance = True
+            data.cutoff_distance = light["cutoff_distance"]
         if kind == "SPOT":
             data.spot_size = light["spot_size"]
             data.spot_blend = light["spot_blend"]

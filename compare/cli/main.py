@@ -46,7 +46,7 @@ def _build_parser() -> argparse.ArgumentParser:
 
     r = sub.add_parser("render", help="render one scene with one renderer to an EXR (+ PNG preview)",
                        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    r.add_argument("--scene", required=True, type=Path, help="scene file (TOML)")
+    r.add_argument("--scene", required=True, type=Path, help="scene file (TOML), or a glTF file (.gltf, .glb) by itself")
     r.add_argument("--renderer", default="mitsuba", type=_renderer_arg,
                    help="any renderer of `compare renderers`, NAME[:OPTION[+OPTION]]: "
                         + Registry().describe() + "; or one of --renderer-config")

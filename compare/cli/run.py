@@ -50,7 +50,7 @@ def add_run_parser(subparsers) -> argparse.ArgumentParser:
         formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     # String defaults: argparse converts them with `type`, and --help prints them plainly.
     p.add_argument("--scenes", nargs="+", type=Path, default="scenes/cornell.toml", metavar="SCENE",
-                   help="scene files (TOML)")
+                   help="scene files (TOML), or glTF files (.gltf, .glb) by themselves")
     p.add_argument("--size", type=_sizes_arg, default=None, metavar="WxH[,WxH...]",
                    help="resolutions, comma-separated; default: each scene's own")
     p.add_argument("--frames", type=positive_int, default=128, help="progressive frames (checkpoints at 1, 2, 4, ...)")

@@ -500,8 +500,23 @@ def _canonical(v: Any) -> Any:
 
 
 def load_scene(path: str | Path) -> Scene:
-    """Load and validate a scene file; raises :class:`SceneError` naming the file and field."""
+    """Load and validate a scene file; raises :class:`SceneError` naming the file and field.
+
+    A ``.glb`` or ``.gltf`` file is a scene by itself, as if a TOML beside it said ``include = "<file>"``:
+    its own camera (or an orbit framing it), lights and materials.
+    """
     path = Path(path)
+    if path.suffix.lower() in (".glb", ".gltf"):
+        if not path.is_file():
+            raise SceneError(f"{path}: scene file not found")
+        try:
+            return parse_scene({"include": path.name}, path)
+        except SceneError as exc:
+            if "has no light" not in str(exc):
+                raise
+            raise SceneError(f"{path}: the file has no light (no KHR_lights_punctual, no emissive material): "
+                             f"light it from a scene file beside it, e.g. include = \"{path.name}\" and an "
+                             "[environment] (scenes/README.md)") from None
     try:
         raw = path.read_bytes()
     except FileNotFoundError:
