@@ -227,8 +227,7 @@ def test_no_alpha_work_without_a_mask(tmp_path, gl_ctx):
 
 
 @pytest.mark.parametrize("field, value, message", [
-    ("alpha_mode", '"blend"', "blending is not modelled"),
-    ("alpha_mode", '"cutout"', "expected one of 'opaque', 'mask'"),
+    ("alpha_mode", '"cutout"', "expected one of 'opaque', 'mask', 'blend'"),
     ("alpha_cutoff", "1.5", "alpha_cutoff"),
     ("alpha", "-0.1", "alpha"),
 ])

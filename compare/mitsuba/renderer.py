@@ -49,7 +49,7 @@ class MitsubaRenderer(Renderer):
     name = "mitsuba"
     unit = "spp"
     default_budget = "spp"
-    renders = frozenset({"punctual_lights"})
+    renders = frozenset({"punctual_lights", "alpha_blend", "transmission"})
 
     OPTIONS = {v: f"Mitsuba's {v} variant instead of the best available" for v in MITSUBA_VARIANTS}
 

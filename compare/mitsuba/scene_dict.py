@@ -66,6 +66,7 @@ after it was introduced; the reference's cache key includes it.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -163,7 +164,16 @@ def _normal_mapped(mat: Material, bsdf: dict) -> dict:
 def _masked(mat: Material, bsdf: dict) -> dict:
     """``bsdf`` under Mitsuba's ``mask`` when the material is alpha-masked: the opacity is glTF's test,
     coverage >= cutoff, per texel (:func:`compare.scene.textures.opacity_map`). A hole lets camera rays, light
-    paths and shadows through: ``mask`` is a null interaction, which Mitsuba's path tracer continues."""
+    paths and shadows through: ``mask`` is a null interaction, which Mitsuba's path tracer continues.
+    ``alpha_mode = "blend"`` is the same with the coverage itself as the opacity (stochastic coverage:
+    a ray passes with probability 1 − α, so the mean over paths is glTF's over-blend, shadows included)."""
+    if mat.alpha_mode == "blend":
+        if mat.base_color_texture is None:
+            return {"type": "mask", "opacity": float(mat.alpha), "bsdf": bsdf}
+        from compare.scene.textures import blend_map
+
+        return {"type": "mask", "opacity": bitmap_dict(mat, blend_map(mat.base_color_texture, mat.alpha), raw=True),
+                "bsdf": bsdf}
     if not mat.is_masked:
         return bsdf
     if mat.base_color_texture is None:
@@ -177,7 +187,42 @@ def _masked(mat: Material, bsdf: dict) -> dict:
 
 def material_dict(mat: Material, mode: str) -> dict:
     """BSDF dictionary for one material in ``mode`` (one of :data:`MATERIAL_MODES`)."""
-    return _masked(mat, _surface_dict(mat, mode))
+    return _masked(mat, _transmissive(mat, mode, _surface_dict(mat, mode)))
+
+
+def _dielectric(mat: Material, mode: str) -> dict:
+    """glTF's transmission lobe (``KHR_materials_transmission``) with its reflection: Mitsuba's dielectric
+    of the material's ``ior`` (exact Fresnel), tinted by the base colour as glTF's BTDF is; rough with GGX
+    α = roughness², smooth at roughness 0. With ``thickness`` 0 the surface is thin-walled (glTF: no
+    refraction): Mitsuba's ``thindielectric``, which is smooth (the roughness of a thin wall's
+    transmission is not drawn). The base colour's tint applies to the transmitted part only."""
+    ior = float(min(mat.ior, 1e3))
+    tint = ({"type": "rgb", "value": list(mat.base_color)} if mat.base_color_texture is None
+            else bitmap_dict(mat, mat.base_color_texture, raw=False))
+    if mode == "diffuse":
+        return {"type": "diffuse", "reflectance": tint}
+    if mat.thickness == 0.0:
+        return {"type": "thindielectric", "int_ior": ior, "ext_ior": 1.0, "specular_transmittance": tint}
+    if mat.roughness == 0.0:
+        return {"type": "dielectric", "int_ior": ior, "ext_ior": 1.0, "specular_transmittance": tint}
+    return {"type": "roughdielectric", "distribution": "ggx", "alpha": float(mat.roughness) ** 2, "int_ior": ior,
+            "ext_ior": 1.0, "specular_transmittance": tint}
+
+
+def _transmissive(mat: Material, mode: str, bsdf: dict) -> dict:
+    """``bsdf`` blended with the transmission lobe by glTF's layering: the dielectric part
+    ((1 − metallic) of the base) is ``mix(diffuse base, transmission, transmission)``. Mitsuba's
+    ``blendbsdf`` picks one by the weight per interaction; a metallic part stays the metal of ``bsdf``."""
+    if mat.transmission == 0.0 or mode == "diffuse":
+        return bsdf
+    glass = _dielectric(mat, mode)
+    if mat.metallic == 0.0:
+        return {"type": "blendbsdf", "weight": float(mat.transmission), "bsdf_0": bsdf, "bsdf_1": glass}
+    dielectric = _surface_dict(dataclasses.replace(mat, metallic=0.0), mode)
+    metal = _surface_dict(dataclasses.replace(mat, metallic=1.0), mode)
+    return {"type": "blendbsdf", "weight": float(mat.metallic), "bsdf_0": {
+        "type": "blendbsdf", "weight": float(mat.transmission), "bsdf_0": dielectric, "bsdf_1": glass},
+        "bsdf_1": metal}
 
 
 def _surface_dict(mat: Material, mode: str) -> dict:
@@ -327,7 +372,8 @@ def mesh_object(name: str, scene: Scene, mesh_index: int, mode: str, scale: floa
 def _integrator(scene: Scene, depth: int) -> dict:
     """Mitsuba's ``path``; with alpha masks the same algorithm with holes that are no bounce
     (:mod:`compare.mitsuba.layers`: ``path`` counts a hole as a bounce of ``max_depth``)."""
-    if scene.features().alpha_mask:
+    features = scene.features()
+    if features.alpha_mask or features.alpha_blend:
         from compare.mitsuba import layers as reference_layers
 
         reference_layers.register()

@@ -212,13 +212,21 @@ class Renderer(abc.ABC):
         except (ModuleNotFoundError, ValueError, OSError, SyntaxError):
             return None
 
-    def prepare(self, scene) -> tuple[Any, list[str]]:
+    def prepare(self, scene, coverage: dict[str, float] | None = None) -> tuple[Any, list[str]]:
         """The scene as this renderer gets it, and what that changed or left out, one phrase each (the
         run records them): without ``punctual_lights`` in :attr:`renders`, point and spot lights become
-        stand-in squares and directional lights are left out."""
-        if "punctual_lights" in self.renders:
-            return scene, []
-        return scene.with_punctual_as_area()
+        stand-in squares and directional lights are left out; each material feature
+        (:meth:`~compare.scene.model.Scene.material_features`) not in :attr:`renders` is said to be left
+        out, with the share of the pixels its materials cover where ``coverage`` (material name → fraction
+        of the pixels, :func:`compare.mitsuba.coverage.material_coverage`) is given."""
+        given, changed = (scene, []) if "punctual_lights" in self.renders else scene.with_punctual_as_area()
+        for feature, names in scene.material_features().items():
+            if feature in self.renders:
+                continue
+            share = (f", {100 * sum(coverage.get(n, 0.0) for n in names):.0f} % of the pixels"
+                     if coverage is not None else "")
+            changed.append(f"{feature.replace('_', ' ')} not rendered ({len(names)} material(s){share})")
+        return given, changed
 
     def preflight(self, scene, context: RenderContext) -> None:
         """Refuse, before any work of a run, a scene this renderer cannot render here (e.g. a size

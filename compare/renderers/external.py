@@ -33,11 +33,12 @@ from compare.util.files import sha256_bytes
 from compare.renderers.base import RenderContext, Renderer, RendererError, Rendering, UNITS
 from compare.renderers.job import JOB_SCHEMAS, read_checkpoints, write_job
 from compare.util.files import log_tail
+from compare.scene.model import MATERIAL_FEATURE_NAMES
 
 __all__ = ["ExternalRenderer", "external_from_table"]
 
 _UNIT_WORDS = {"frames": "frame", "frame": "frame", "spp": "spp", "samples": "sample", "sample": "sample"}
-_KEYS = {"command", "label", "unit", "steps", "timeout", "checkpoints", "env", "job_schema"}
+_KEYS = {"command", "label", "unit", "steps", "timeout", "checkpoints", "env", "job_schema", "renders"}
 TAIL_LINES = 12
 
 
@@ -50,13 +51,13 @@ class ExternalRenderer(Renderer):
 
     def __init__(self, name: str, command: list[str], *, label: str, unit: str, steps: int, timeout: float,
                  checkpoints: list[int] | None = None, env: dict[str, str] | None = None, cwd: Path | None = None,
-                 source: str = "", job_schema: int = 1):
+                 source: str = "", job_schema: int = 1, renders: tuple[str, ...] = ()):
         self.name = name
         #: The job file it reads: 1 (area lights only: a scene's point and spot lights come as stand-in
         #: squares) or 2 (with ``punctual`` lights).
         self.job_schema = int(job_schema)
-        if self.job_schema >= 2:
-            self.renders = frozenset({"punctual_lights"})
+        #: The material features it declares it renders (the job's glTF carries them either way).
+        self.renders = frozenset(renders) | (frozenset({"punctual_lights"}) if self.job_schema >= 2 else frozenset())
         self.command = list(command)
         self.label = label
         self.unit = unit
@@ -208,6 +209,10 @@ def external_from_table(name: str, table, *, source: Path) -> ExternalRenderer:
     if schema not in JOB_SCHEMAS or isinstance(schema, bool):
         raise ConfigError(f"{where}.job_schema: expected one of {', '.join(map(str, JOB_SCHEMAS))} (the job file it "
                           f"reads, docs/renderers.md), got {schema!r}")
+    renders = table.get("renders", [])
+    if not (isinstance(renders, list) and all(r in MATERIAL_FEATURE_NAMES for r in renders)):
+        raise ConfigError(f"{where}.renders: expected a list of the material features it renders, of "
+                          f"{', '.join(MATERIAL_FEATURE_NAMES)}; got {renders!r}")
     return ExternalRenderer(name, command, label=label, unit=unit, steps=steps, timeout=float(timeout),
                             checkpoints=cps, env=env, cwd=source.resolve().parent, source=str(source),
-                            job_schema=schema)
+                            job_schema=schema, renders=tuple(renders))

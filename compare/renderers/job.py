@@ -56,6 +56,7 @@ def export_gltf(scene, path: Path) -> Path:
     the file: the job lists them (glTF has no rectangular light).
     """
     from compare.scene.gltf_write import GltfWriter
+    from compare.scene.model import LAYERS
 
     path = Path(path)
     w = GltfWriter(generator="compare job")
@@ -105,6 +106,16 @@ def export_gltf(scene, path: Path) -> Path:
         if m.is_masked:
             pbr["baseColorFactor"][3] = float(m.alpha)
             w.doc["materials"][index[name]].update(alphaMode="MASK", alphaCutoff=float(m.alpha_cutoff))
+        if m.alpha_mode == "blend":
+            pbr["baseColorFactor"][3] = float(m.alpha)
+            w.doc["materials"][index[name]]["alphaMode"] = "BLEND"
+        for layer in LAYERS:  # the material extensions, written back as the file had them
+            value = getattr(m, layer.field)
+            if value != layer.default:
+                exts = w.doc["materials"][index[name]].setdefault("extensions", {})
+                exts.setdefault(layer.extension, {})[layer.key] = (
+                    [float(c) for c in value] if layer.color else float(value))
+                w._use(layer.extension)  # noqa: SLF001
         if m.occlusion_texture is not None:
             w.doc["materials"][index[name]]["occlusionTexture"] = {**info(m, m.occlusion_texture),
                                                                    "strength": m.occlusion_strength}

@@ -267,6 +267,23 @@ class SceneJob:
             return 0
         return int(self.settings.seeds) - 1
 
+    def _coverage(self, scene) -> dict[str, float] | None:
+        """Each material's share of the pixels, where the scene has material features a renderer may
+        leave out (:meth:`Renderer.prepare` says how much of the image that is); once per scene."""
+        if not scene.material_features():
+            return None
+        cache = self.__dict__.setdefault("_coverages", {})
+        if scene.hash not in cache:
+            from compare.util.errors import CompareError
+
+            try:
+                from compare.mitsuba.coverage import material_coverage
+
+                cache[scene.hash] = material_coverage(scene)
+            except (ImportError, RuntimeError, CompareError):  # no Mitsuba here: the note goes without pixels
+                cache[scene.hash] = None
+        return cache[scene.hash]
+
     def _render_key(self, scene: Scene, r: Renderer, steps: int, checkpoints: list[int], seed: int,
                     key: Any = None) -> str:
         s = self.settings
@@ -306,7 +323,7 @@ class SceneJob:
         if bar is not None:
             what = "ground truth" if truth else spec
             bar.set_postfix_str(f"{scene.name[:30]} {what} {steps} {r.unit}")
-        given, changed = r.prepare(scene)
+        given, changed = r.prepare(scene, self._coverage(scene))
         rendering = check_rendering(r, r.render(given, steps=steps, checkpoints=cps, seed=seed,
                                                 context=self.context), scene=scene, checkpoints=cps)
         meta = flat_metadata({**rendering.metadata, **({"scene_changed": "; ".join(changed)} if changed else {})})

@@ -77,6 +77,7 @@ from typing import Any
 import numpy as np
 
 from compare.scene import geometry
+from compare.scene.model import LAYERS
 from compare.scene.gltf_decode import DECODED_EXTENSIONS, DecodeError, decoded_glb, used
 from compare.scene.glb import CHUNK_BIN, CHUNK_JSON, GLB_MAGIC, GlbError, parse_glb  # noqa: F401 (re-exported)
 from compare.util.files import sha256_bytes, write_bytes_atomic
@@ -88,7 +89,7 @@ TYPE_SIZES = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9
 #: Extensions that are read. A file that *requires* any other (Draco, meshopt, BasisU, WebP, ...) is
 #: refused; others it merely uses are ignored with one warning.
 SUPPORTED_EXTENSIONS = ("KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_mesh_quantization",
-                        "KHR_texture_transform")
+                        "KHR_texture_transform", *dict.fromkeys(layer.extension for layer in LAYERS))
 #: Components an accessor without a bufferView (zeros, or sparse) may have: 2^28, a billion bytes as float32.
 MAX_ZERO_ELEMENTS = 1 << 28
 #: glTF sampler codes → the scene model's texture_wrap and texture_filter.
@@ -124,11 +125,12 @@ class GltfMaterial:
     occlusion_strength: float = 1.0
     normal_image: int | None = None
     normal_scale: float = 1.0
-    #: alphaMode ("opaque" or "mask"; BLEND is read as opaque, with a note), baseColorFactor's alpha and
-    #: alphaCutoff.
+    #: alphaMode ("opaque", "mask" or "blend"), baseColorFactor's alpha and alphaCutoff.
     alpha_mode: str = "opaque"
     alpha: float = 1.0
     alpha_cutoff: float = 0.5
+    #: The material extensions' factors (compare.scene.model.LAYERS) the file sets: field → value.
+    layers: dict = field(default_factory=dict)
     #: The scene model's texture_offset, texture_rotation, texture_scale, texture_wrap and texture_filter
     #: (compare.scene.model.Material), from KHR_texture_transform and the sampler; empty: the defaults.
     texture_settings: dict = field(default_factory=dict)
@@ -467,8 +469,6 @@ class _Reader:
         mode = m.get("alphaMode", "OPAQUE")
         if mode not in ("OPAQUE", "MASK", "BLEND"):
             raise self.err(f"{w}.alphaMode", f'expected "OPAQUE", "MASK" or "BLEND", got {mode!r}')
-        if mode == "BLEND":
-            self.notes.append(f"{w}: alphaMode BLEND is not modelled (rendered opaque)")
         cutoff = m.get("alphaCutoff", 0.5)
         if isinstance(cutoff, bool) or not isinstance(cutoff, (int, float)) or not 0.0 <= cutoff <= 1.0:
             raise self.err(f"{w}.alphaCutoff", f"expected a number in [0, 1], got {cutoff!r}")
@@ -519,8 +519,8 @@ class _Reader:
         if any(s != sampling[0][1] for _, s in sampling[1:]):
             self.notes.append(f"{w}: its maps have different texture transforms or samplers; "
                               f"{sampling[0][0]}'s is used for all")
-        if mode == "MASK" and max(emission) > 0:
-            self.notes.append(f"{w}: the alpha mask of an emissive material is not modelled (rendered opaque)")
+        if mode != "OPAQUE" and max(emission) > 0:
+            self.notes.append(f"{w}: alphaMode {mode} of an emissive material is not modelled (rendered opaque)")
             mode = "OPAQUE"
         return GltfMaterial(
             name=str(m.get("name") or f"material{index}"),
@@ -534,10 +534,41 @@ class _Reader:
             **images,
             occlusion_strength=clamp(m.get("occlusionTexture", {}).get("strength", 1.0)),
             normal_scale=float(m.get("normalTexture", {}).get("scale", 1.0)),
-            alpha_mode="mask" if mode == "MASK" else "opaque",
+            alpha_mode=mode.lower(),
             alpha=clamp(base[3]),
             alpha_cutoff=float(cutoff),
+            layers=self._layers(m, w),
         )
+
+    def _layers(self, m: dict, w: str) -> dict:
+        """The factors of the material extensions (LAYERS) that ``m`` sets; their maps are not read."""
+        out = {}
+        exts = m.get("extensions", {}) if isinstance(m.get("extensions", {}), dict) else {}
+        for layer in LAYERS:
+            table = exts.get(layer.extension)
+            if not isinstance(table, dict) or layer.key not in table:
+                continue
+            where = f"{w}.extensions.{layer.extension}.{layer.key}"
+            v = table[layer.key]
+            if layer.color:
+                ok = (isinstance(v, list) and len(v) == 3 and all(isinstance(x, (int, float)) and not isinstance(x, bool)
+                                                                  and math.isfinite(x) and x >= 0 for x in v))
+                if not ok:
+                    raise self.err(where, f"expected three numbers >= 0, got {v!r}")
+                out[layer.field] = tuple(float(min(x, layer.hi)) for x in v)
+                continue
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or math.isnan(v):
+                raise self.err(where, f"expected a number, got {v!r}")
+            if layer.field == "ior" and v == 0:
+                v = 1e4  # glTF: ior 0 is a limit of infinite index, a Fresnel of 1 (a mirror)
+            if not layer.lo <= v <= layer.hi:
+                raise self.err(where, f"expected a number in [{layer.lo:g}, {layer.hi:g}], got {v!r}")
+            out[layer.field] = float(v)
+        for ext in dict.fromkeys(layer.extension for layer in LAYERS):
+            maps = sorted(k for k in exts.get(ext, {}) if isinstance(k, str) and k.endswith("Texture"))
+            if maps:
+                self.notes.append(f"{w}.extensions.{ext}: {', '.join(maps)} not read (the factors are)")
+        return out
 
     def image(self, index: int) -> Path | None:
         img = self.item("images", index, "image")

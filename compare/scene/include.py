@@ -163,7 +163,7 @@ class _Materials:
                            emissive_texture=tex(m.emissive_image), occlusion_texture=tex(m.occlusion_image),
                            occlusion_strength=m.occlusion_strength, normal_texture=tex(m.normal_image),
                            normal_scale=m.normal_scale, alpha_mode=m.alpha_mode, alpha=m.alpha,
-                           alpha_cutoff=m.alpha_cutoff, **m.texture_settings)
+                           alpha_cutoff=m.alpha_cutoff, **m.texture_settings, **m.layers)
 
 
 def _objects(st: _Settings, doc, materials: _Materials, notes: list[str]) -> tuple[list, list]:

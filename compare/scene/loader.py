@@ -31,7 +31,6 @@ from compare.brdf.multiscatter import DEFAULT_DISTRIBUTION, DISTRIBUTIONS
 #: Texture sampling settings of a material (glTF samplers: wrapS/T and magFilter).
 TEXTURE_WRAPS = ("repeat", "clamp", "mirror")
 TEXTURE_FILTERS = ("linear", "nearest")
-ALPHA_MODES = ("opaque", "mask")
 from compare.util.errors import CompareError, MissingComponentError, SceneError
 from compare.util.files import sha256_bytes
 from compare.scene.fields import Ctx as _Ctx, color as _color, file_field as _file, fmt as _fmt, number as _number
@@ -42,6 +41,7 @@ from compare.scene.model import (DEFAULT_PROBE_BOUNCES, DEFAULT_PROBE_GRID, ENV_
                           INDIRECT_MODES, MAX_PROBES_PER_AXIS, MESH_FILE_SUFFIXES, MESH_SHAPES, TEXTURE_SUFFIXES,
                           DEFAULT_STAND_IN_SIZE, PUNCTUAL_KINDS, AreaLight, Camera, Environment, Material, Mesh,
                           PunctualLight, Scene, floored_light, mesh_bounds)
+from compare.scene.model import ALPHA_MODES, LAYERS
 
 
 def _camera(ctx: _Ctx, raw: Any, framed: Callable[[], tuple[np.ndarray, np.ndarray]]) -> Camera:
@@ -113,7 +113,7 @@ def _material(ctx: _Ctx, name: str, raw: Any) -> Material:
                              "metallic_roughness_texture", "emissive_texture", "occlusion_texture",
                              "occlusion_strength", "normal_texture", "normal_scale", "distribution", "texture_offset",
                              "texture_rotation", "texture_scale", "texture_wrap", "texture_filter",
-                             "alpha_mode", "alpha", "alpha_cutoff"})
+                             "alpha_mode", "alpha", "alpha_cutoff", *(layer.field for layer in LAYERS)})
     wrap = t.get("texture_wrap", "repeat")
     if wrap not in TEXTURE_WRAPS:
         raise ctx.err(f"{w}.texture_wrap", f"expected one of {', '.join(map(repr, TEXTURE_WRAPS))}, got {_fmt(wrap)}")
@@ -126,9 +126,7 @@ def _material(ctx: _Ctx, name: str, raw: Any) -> Material:
         raise ctx.err(f"{w}.texture_scale", f"expected two non-zero numbers, got {_fmt(t.get('texture_scale'))}")
     alpha_mode = t.get("alpha_mode", "opaque")
     if alpha_mode not in ALPHA_MODES:
-        hint = " (blending is not modelled: use \"mask\" with an alpha_cutoff)" if alpha_mode == "blend" else ""
-        raise ctx.err(f"{w}.alpha_mode", f"expected one of {', '.join(map(repr, ALPHA_MODES))}, got {_fmt(alpha_mode)}"
-                                         + hint)
+        raise ctx.err(f"{w}.alpha_mode", f"expected one of {', '.join(map(repr, ALPHA_MODES))}, got {_fmt(alpha_mode)}")
     dist = t.get("distribution", DEFAULT_DISTRIBUTION)
     if dist not in DISTRIBUTIONS:
         raise ctx.err(f"{w}.distribution", f"expected one of {', '.join(map(repr, DISTRIBUTIONS))} (Blender's "
@@ -159,11 +157,22 @@ def _material(ctx: _Ctx, name: str, raw: Any) -> Material:
         alpha_mode=alpha_mode,
         alpha=_number(ctx, f"{w}.alpha", t.get("alpha", 1.0), lo=0.0, hi=1.0),
         alpha_cutoff=_number(ctx, f"{w}.alpha_cutoff", t.get("alpha_cutoff", 0.5), lo=0.0, hi=1.0),
+        **{layer.field: _layer(ctx, f"{w}.{layer.field}", layer, t[layer.field]) for layer in LAYERS
+           if layer.field in t},
     )
-    if mat.is_masked and mat.is_emissive:
-        raise ctx.err(f"{w}.alpha_mode", "an emissive material cannot be alpha-masked (the reference's emitters "
-                                         "have no holes); drop the emission or the mask")
+    if mat.alpha_mode != "opaque" and mat.is_emissive:
+        raise ctx.err(f"{w}.alpha_mode", f"an emissive material cannot be alpha-{mat.alpha_mode}ed (the "
+                                         "reference's emitters have no holes); drop the emission or the alpha mode")
     return mat
+
+
+def _layer(ctx: _Ctx, where: str, layer, v: Any):
+    """A material extension's parameter (:data:`compare.scene.model.LAYERS`) within its range."""
+    if layer.color:
+        return _color(ctx, where, v, hi=None if math.isinf(layer.hi) else layer.hi)
+    if math.isinf(layer.hi):
+        return _number(ctx, where, v, lo=layer.lo, positive=layer.lo > 0)
+    return _number(ctx, where, v, lo=layer.lo, hi=layer.hi)
 
 
 def _texture(ctx: _Ctx, where: str, v: Any) -> Path:

@@ -106,6 +106,46 @@ class Camera:
 
 
 @dataclass(frozen=True)
+class Layer:
+    """One parameter of a glTF material extension (``KHR_materials_*``) in the scene model: the field of
+    :class:`Material`, its default, the extension and key it is read from and written to, whether it is a
+    colour, and its valid range. :data:`LAYERS` is the one list the TOML loader, the glTF reader and writer
+    and :meth:`Material.uses` derive from."""
+
+    field: str
+    default: Any
+    extension: str
+    key: str
+    color: bool = False
+    lo: float = 0.0
+    hi: float = 1.0
+
+
+#: The material extensions' parameters (factors; their maps are not read and the import says so).
+LAYERS = (
+    Layer("transmission", 0.0, "KHR_materials_transmission", "transmissionFactor"),
+    Layer("ior", 1.5, "KHR_materials_ior", "ior", lo=1.0, hi=1e4),
+    Layer("thickness", 0.0, "KHR_materials_volume", "thicknessFactor", hi=math.inf),
+    Layer("attenuation_distance", math.inf, "KHR_materials_volume", "attenuationDistance", lo=1e-12, hi=math.inf),
+    Layer("attenuation_color", (1.0, 1.0, 1.0), "KHR_materials_volume", "attenuationColor", color=True),
+    Layer("clearcoat", 0.0, "KHR_materials_clearcoat", "clearcoatFactor"),
+    Layer("clearcoat_roughness", 0.0, "KHR_materials_clearcoat", "clearcoatRoughnessFactor"),
+    Layer("sheen_color", (0.0, 0.0, 0.0), "KHR_materials_sheen", "sheenColorFactor", color=True),
+    Layer("sheen_roughness", 0.0, "KHR_materials_sheen", "sheenRoughnessFactor"),
+    Layer("specular", 1.0, "KHR_materials_specular", "specularFactor"),
+    Layer("specular_color", (1.0, 1.0, 1.0), "KHR_materials_specular", "specularColorFactor", color=True, hi=math.inf),
+)
+#: The scene feature each material extension makes (Features fields); "alpha_blend" is alphaMode BLEND.
+MATERIAL_FEATURES = {"KHR_materials_transmission": "transmission", "KHR_materials_volume": "volume",
+                     "KHR_materials_ior": "ior", "KHR_materials_clearcoat": "clearcoat",
+                     "KHR_materials_sheen": "sheen", "KHR_materials_specular": "specular"}
+#: Every material feature a renderer may declare it renders (Renderer.renders).
+MATERIAL_FEATURE_NAMES = ("alpha_blend", *MATERIAL_FEATURES.values())
+#: glTF's alpha modes in the scene model.
+ALPHA_MODES = ("opaque", "mask", "blend")
+
+
+@dataclass(frozen=True)
 class Material:
     """glTF 2.0 metallic-roughness material (linear base colour, perceptual roughness)."""
 
@@ -142,6 +182,39 @@ class Material:
     alpha_mode: str = "opaque"
     alpha: float = 1.0
     alpha_cutoff: float = 0.5
+    #: The material extensions (:data:`LAYERS`): ``KHR_materials_transmission``, ``_ior``, ``_volume``
+    #: (thickness 0: thin-walled), ``_clearcoat``, ``_sheen`` (Charlie), ``_specular``; glTF's defaults
+    #: leave the core material as it is. ``alpha_mode = "blend"``: coverage ``alpha`` (times the base-colour
+    #: map's alpha), as stochastic coverage where a renderer traces it.
+    transmission: float = 0.0
+    ior: float = 1.5
+    thickness: float = 0.0
+    attenuation_distance: float = math.inf
+    attenuation_color: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    clearcoat: float = 0.0
+    clearcoat_roughness: float = 0.0
+    sheen_color: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    sheen_roughness: float = 0.0
+    specular: float = 1.0
+    specular_color: tuple[float, float, float] = (1.0, 1.0, 1.0)
+
+    def uses(self) -> set[str]:
+        """The features (:data:`MATERIAL_FEATURES`, "alpha_blend") this material needs beyond the core
+        metallic-roughness model: an extension whose parameters are not all glTF's defaults. A volume
+        without transmission changes nothing (glTF) and is not counted."""
+        out = {"alpha_blend"} if self.alpha_mode == "blend" else set()
+        for layer in LAYERS:
+            if getattr(self, layer.field) != layer.default:
+                out.add(MATERIAL_FEATURES[layer.extension])
+        # A volume absorbs only with a finite attenuation distance, and only where light is transmitted;
+        # its thickness alone makes the surface the boundary of a solid (refraction), part of transmission.
+        if "volume" in out and (self.transmission == 0.0 or math.isinf(self.attenuation_distance)):
+            out.discard("volume")
+        if self.clearcoat == 0.0:
+            out.discard("clearcoat")
+        if max(self.sheen_color) == 0.0:
+            out.discard("sheen")
+        return out
 
     def uv_transform(self) -> np.ndarray:
         """The 3 × 3 matrix glTF's KHR_texture_transform applies to texture coordinates (column vectors)."""
@@ -384,6 +457,13 @@ class Features:
     emissive_meshes: bool
     alpha_mask: bool = False
     punctual_lights: bool = False
+    alpha_blend: bool = False
+    transmission: bool = False
+    volume: bool = False
+    ior: bool = False
+    clearcoat: bool = False
+    sheen: bool = False
+    specular: bool = False
 
     def names(self) -> list[str]:
         """Names of the features present."""
@@ -443,7 +523,17 @@ class Scene:
             emissive_meshes=any(m.is_emissive for m in used),
             alpha_mask=any(m.is_masked for m in used),
             punctual_lights=bool(self.punctual),
+            **{name: any(name in m.uses() for m in used) for name in MATERIAL_FEATURE_NAMES},
         )
+
+    def material_features(self) -> dict[str, list[str]]:
+        """The material features beyond the core model (alpha blending, the extensions of :data:`LAYERS`)
+        that the meshes' materials use: feature → the names of the materials that use it."""
+        out: dict[str, list[str]] = {}
+        for name in dict.fromkeys(m.material for m in self.meshes):
+            for feature in sorted(self.materials[name].uses()):
+                out.setdefault(feature, []).append(name)
+        return out
 
     @cached_property
     def hash(self) -> str:

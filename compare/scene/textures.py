@@ -141,6 +141,13 @@ def opacity_map(path: Path, alpha: float, cutoff: float) -> Path:
                     lambda: np.repeat(coverage_map(path, alpha, cutoff)[..., None], 3, axis=2))
 
 
+def blend_map(path: Path, alpha: float) -> Path:
+    """glTF's BLEND coverage, ``alpha`` × the base-colour map's alpha, as a grey linear EXR in the cache
+    (Mitsuba's ``mask`` opacity: stochastic coverage)."""
+    return _derived(path, "blend", (float(alpha),),
+                    lambda: np.repeat((np.float32(alpha) * load_alpha(path))[..., None], 3, axis=2))
+
+
 def _derived(path: Path, what: str, params, make) -> Path:
     """A map derived from the texture file ``path`` as a linear EXR in the cache, named by the file's
     content, ``what`` and ``params``, written once: ``make()`` gives its (H, W, 3) values, or those and

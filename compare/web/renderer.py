@@ -40,6 +40,7 @@ import numpy as np
 from compare.util.files import sha256_bytes
 from compare.renderers.base import Checkpoint, RenderContext, Renderer, RendererError, Rendering
 from compare.renderers.options import parse_spec
+from compare.scene.model import MATERIAL_FEATURE_NAMES
 
 __all__ = ["PAGE", "WEB_ENGINES", "ThreeJsPathTracer", "ThreeJsRenderer", "WebRenderer", "web_root"]
 
@@ -126,8 +127,10 @@ class WebRenderer(Renderer):
         self.options = {o: True for o in opts}
         self.pathtracer = engine == "threejs-pathtracer"
         self.unit = "spp" if self.pathtracer else "frame"
-        if not self.pathtracer:  # three's PointLight, SpotLight and DirectionalLight, from the glTF
-            self.renders = frozenset({"punctual_lights"})
+        # GLTFLoader reads every material extension of the job's glTF into MeshPhysicalMaterial, and
+        # BLEND as a transparent material; three's PointLight, SpotLight and DirectionalLight too.
+        self.renders = frozenset(MATERIAL_FEATURE_NAMES) | (frozenset() if self.pathtracer
+                                                            else frozenset({"punctual_lights"}))
         self.variant_of = "threejs" if opts else None
         self.variant_note = ", ".join(opts)
         what = ("shadow-mapped spot lights" if "shadows" in opts else "RectAreaLight") + ", PMREM" \

@@ -1,0 +1,227 @@
+"""glTF's material extensions and alpha blending: the scene model, the glTF import and export, what the
+reference renders of them (closed forms) and what each renderer declares it leaves out."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from compare.mitsuba.reference import ReferenceRenderer
+from compare.scene.loader import load_scene
+from compare.scene.model import LAYERS, MATERIAL_FEATURE_NAMES
+from compare.util.errors import SceneError
+
+ENV = 0.5
+
+
+def _render(scene, spp: int = 64):
+    return ReferenceRenderer(scene, cache_dir=False, progress=False).render(spp).image
+
+
+def _sphere_scene(make_scene, material: str, *, depth: int = 64):
+    return load_scene(make_scene(f"""
+        [camera]
+        position = [0.0, 0.0, 3.0]
+        target = [0.0, 0.0, 0.0]
+        fov = 30.0
+        resolution = [24, 24]
+
+        [render]
+        max_depth = {depth}
+
+        [materials.glass]
+        {material}
+
+        [[meshes]]
+        shape = "sphere"
+        radius = 0.5
+        segments = 96
+        rings = 48
+        material = "glass"
+
+        [environment]
+        constant = [{ENV}, {ENV}, {ENV}]
+        """))
+
+
+@pytest.mark.parametrize("material", [
+    "base_color = [1, 1, 1]\nroughness = 0.0\ntransmission = 1.0\nior = 1.5\nthickness = 1.0",
+    "base_color = [1, 1, 1]\nroughness = 0.3\ntransmission = 1.0\nior = 1.33\nthickness = 1.0",
+    "base_color = [1, 1, 1]\nroughness = 0.0\ntransmission = 1.0\nior = 1.5",  # thin-walled
+], ids=["smooth", "rough", "thin"])
+def test_clear_glass_in_a_furnace_looks_like_the_furnace(make_scene, material):
+    """A non-absorbing dielectric in a uniform environment scatters all it receives: every pixel is the
+    environment's radiance (glass drawn as plastic, the old reference, is darker and coloured)."""
+    scene = _sphere_scene(make_scene, material)
+    assert scene.features().transmission
+    image = _render(scene, spp=64)
+    assert float(image.mean()) == pytest.approx(ENV, rel=0.02)
+    centre = image[8:16, 8:16]
+    assert float(centre.mean()) == pytest.approx(ENV, rel=0.03)
+
+
+def _mirror_scene(make_scene, ior: float):
+    """A glass interface facing the camera, an emitter behind the camera facing it: the camera sees the
+    emitter reflected at normal incidence (the transmitted light never comes back)."""
+    return load_scene(make_scene(f"""
+        [camera]
+        position = [0.0, 0.0, 2.0]
+        target = [0.0, 0.0, 0.0]
+        fov = 8.0
+        resolution = [16, 16]
+
+        [render]
+        max_depth = 4
+
+        [materials.glass]
+        base_color = [1, 1, 1]
+        roughness = 0.0
+        transmission = 1.0
+        thickness = 1.0
+        ior = {ior}
+
+        [[meshes]]
+        shape = "quad"
+        corners = [[-2, -2, 0], [2, -2, 0], [2, 2, 0], [-2, 2, 0]]
+        material = "glass"
+
+        [[lights]]
+        center = [0.0, 0.0, 3.0]
+        size = [4.0, 4.0]
+        normal = [0.0, 0.0, -1.0]
+        radiance = [1.0, 1.0, 1.0]
+        """))
+
+
+@pytest.mark.parametrize("ior", [1.5, 2.0])
+def test_glass_reflects_fresnels_share_at_normal_incidence(make_scene, ior):
+    image = _render(_mirror_scene(make_scene, ior), spp=4096)
+    want = ((ior - 1) / (ior + 1)) ** 2
+    # a smooth dielectric picks reflection with probability R: the mean of 16² × 4096 such choices has a
+    # relative standard error of 0.5 % at R = 0.04; 2 % is four of them
+    assert float(image.mean()) == pytest.approx(want, rel=0.02)
+
+
+def test_a_blended_card_covers_alpha_of_what_is_behind_it(make_scene):
+    scene = load_scene(make_scene(f"""
+        [camera]
+        position = [0.0, 0.0, 2.0]
+        target = [0.0, 0.0, 0.0]
+        fov = 20.0
+        resolution = [16, 16]
+
+        [materials.card]
+        base_color = [0.0, 0.0, 0.0]
+        alpha_mode = "blend"
+        alpha = 0.3
+
+        [[meshes]]
+        shape = "quad"
+        corners = [[-2, -2, 0], [2, -2, 0], [2, 2, 0], [-2, 2, 0]]
+        material = "card"
+
+        [environment]
+        constant = [{ENV}, {ENV}, {ENV}]
+        """))
+    assert scene.features().alpha_blend
+    image = _render(scene, spp=256)
+    # a black card of coverage 0.3: 70 % of the environment behind it comes through (noise of 256 spp)
+    assert float(image.mean()) == pytest.approx((1 - 0.3) * ENV, rel=0.02)
+
+
+def test_each_extension_reads_writes_and_is_declared(tmp_path, make_scene):
+    """Every parameter of LAYERS: from TOML, into the job's glTF, back from that glTF; the features the
+    materials use; and each renderer's note for what it leaves out."""
+    from compare.renderers import Registry
+    from compare.renderers.job import export_gltf
+    from compare.scene.gltf_read import load_gltf
+
+    values = {"transmission": 0.9, "ior": 1.7, "thickness": 0.5, "attenuation_distance": 2.0,
+              "attenuation_color": [0.9, 0.5, 0.2], "clearcoat": 0.8, "clearcoat_roughness": 0.2,
+              "sheen_color": [0.3, 0.2, 0.1], "sheen_roughness": 0.4, "specular": 0.6,
+              "specular_color": [1.5, 1.0, 0.5]}
+    assert set(values) == {layer.field for layer in LAYERS}
+    body = "\n".join(f"{k} = {json.dumps(v)}" for k, v in values.items())
+    path = make_scene(f"""
+        [camera]
+        position = [0.0, 0.0, 3.0]
+        target = [0.0, 0.0, 0.0]
+        resolution = [16, 12]
+
+        [materials.fancy]
+        base_color = [0.5, 0.5, 0.5]
+        alpha_mode = "blend"
+        alpha = 0.5
+        {body}
+
+        [[meshes]]
+        shape = "sphere"
+        radius = 0.5
+        material = "fancy"
+
+        [environment]
+        constant = [0.5, 0.5, 0.5]
+        """)
+    scene = load_scene(path)
+    m = scene.materials["fancy"]
+    for k, v in values.items():
+        assert getattr(m, k) == pytest.approx(tuple(v) if isinstance(v, list) else v)
+    assert scene.material_features() == {name: ["fancy"] for name in MATERIAL_FEATURE_NAMES}
+    (tmp_path / "job").mkdir()
+    gltf = export_gltf(scene, tmp_path / "job" / "scene.gltf")
+    doc = json.loads(gltf.read_text())
+    assert doc["materials"][0]["alphaMode"] == "BLEND"
+    back = load_gltf(gltf).materials[0]
+    assert back.alpha_mode == "blend" and back.alpha == pytest.approx(0.5)
+    for k, v in values.items():
+        assert back.layers[k] == pytest.approx(tuple(v) if isinstance(v, list) else v)
+    # what each renderer leaves out, said with the share of the pixels
+    reg = Registry()
+    _, notes = reg.get("progressive").prepare(scene, {"fancy": 0.25})
+    assert "transmission not rendered (1 material(s), 25 % of the pixels)" in notes
+    assert "alpha blend not rendered (1 material(s), 25 % of the pixels)" in notes
+    _, notes = reg.get("mitsuba").prepare(scene)
+    assert not any(n.startswith(("transmission", "alpha blend")) for n in notes)
+    assert "clearcoat not rendered (1 material(s))" in notes
+    _, notes = reg.get("threejs").prepare(scene)
+    assert notes == []
+
+
+@pytest.mark.parametrize("field, value, message", [
+    ("transmission", 1.5, r"expected a number in \[0, 1\]"),
+    ("ior", 0.5, r"expected a number in \[1, 10000\]"),
+    ("attenuation_distance", 0.0, "expected a positive number"),
+    ("sheen_color", [1.0, -1.0, 0.0], ""),
+    ("alpha_mode", "glass", "expected one of 'opaque', 'mask', 'blend'"),
+])
+def test_bad_extension_values_name_the_field(make_scene, field, value, message):
+    with pytest.raises(SceneError, match=rf"materials\.m\.{field}: .*{message}"):
+        load_scene(make_scene(f"""
+            [camera]
+            position = [0.0, 0.0, 3.0]
+            target = [0.0, 0.0, 0.0]
+
+            [materials.m]
+            {field} = {json.dumps(value)}
+
+            [[meshes]]
+            shape = "sphere"
+            radius = 0.5
+            material = "m"
+
+            [environment]
+            constant = [0.5, 0.5, 0.5]
+            """))
+
+
+def test_material_coverage_counts_first_hits(make_scene):
+    from compare.mitsuba.coverage import material_coverage
+
+    scene = _sphere_scene(make_scene, "transmission = 1.0")
+    share = material_coverage(scene)["glass"]
+    # a sphere of radius 0.5 at distance 3 in a 30° view: its disc's share of the square image
+    r = math.tan(math.asin(0.5 / 3.0)) / math.tan(math.radians(15))
+    assert share == pytest.approx(math.pi * r * r / 4, rel=0.1)
