@@ -12,6 +12,8 @@ from compare.mitsuba.reference import ReferenceRenderer
 from compare.scene.loader import load_scene
 from compare.scene.model import LAYERS, MATERIAL_FEATURE_NAMES
 from compare.util.errors import SceneError
+from test_blender import needs_bpy
+from test_web import needs_web
 
 ENV = 0.5
 
@@ -104,8 +106,9 @@ def test_glass_reflects_fresnels_share_at_normal_incidence(make_scene, ior):
     assert float(image.mean()) == pytest.approx(want, rel=0.02)
 
 
-def test_a_blended_card_covers_alpha_of_what_is_behind_it(make_scene):
-    scene = load_scene(make_scene(f"""
+def _card_scene(make_scene):
+    """A black card of coverage 0.3 filling the view, a uniform environment behind it."""
+    return load_scene(make_scene(f"""
         [camera]
         position = [0.0, 0.0, 2.0]
         target = [0.0, 0.0, 0.0]
@@ -125,6 +128,10 @@ def test_a_blended_card_covers_alpha_of_what_is_behind_it(make_scene):
         [environment]
         constant = [{ENV}, {ENV}, {ENV}]
         """))
+
+
+def test_a_blended_card_covers_alpha_of_what_is_behind_it(make_scene):
+    scene = _card_scene(make_scene)
     assert scene.features().alpha_blend
     image = _render(scene, spp=256)
     # a black card of coverage 0.3: 70 % of the environment behind it comes through (noise of 256 spp)
@@ -224,3 +231,35 @@ def test_material_coverage_counts_first_hits(make_scene):
     # a sphere of radius 0.5 at distance 3 in a 30° view: its disc's share of the square image
     r = math.tan(math.asin(0.5 / 3.0)) / math.tan(math.radians(15))
     assert share == pytest.approx(math.pi * r * r / 4, rel=0.1)
+
+
+@needs_bpy
+@pytest.mark.parametrize("ior", [1.5, 2.0])
+def test_cycles_glass_reflects_fresnels_share_at_normal_incidence(make_scene, ior):
+    """The same closed form through Blender's Principled BSDF (Transmission Weight, IOR)."""
+    from compare.blender.render import render_blender
+
+    image = render_blender(_mirror_scene(make_scene, ior), engine="cycles", samples=1024).image
+    want = ((ior - 1) / (ior + 1)) ** 2
+    assert float(image.mean()) == pytest.approx(want, rel=0.03)
+
+
+@needs_bpy
+def test_cycles_blends_a_card_by_its_alpha(make_scene):
+    from compare.blender.render import render_blender
+
+    image = render_blender(_card_scene(make_scene), engine="cycles", samples=256).image
+    assert float(image.mean()) == pytest.approx((1 - 0.3) * ENV, rel=0.02)
+
+
+@needs_web
+def test_threejs_blends_a_card_by_its_alpha(make_scene):
+    """three.js reads alphaMode BLEND from the job's glTF: a transparent material over the background."""
+    from compare.renderers import Registry, RenderContext
+    from compare.report.results import RunSettings
+
+    scene = _card_scene(make_scene)
+    renderer = Registry().get("threejs")
+    with RenderContext(RunSettings(frames=4)) as context:
+        image = renderer.render(scene, steps=4, checkpoints=[4], seed=0, context=context).checkpoints[-1].image
+    assert float(image.mean()) == pytest.approx((1 - 0.3) * ENV, rel=0.02)

@@ -362,6 +362,28 @@ def blender_uv_mapping(mat) -> dict[str, list[float]] | None:
     return {"location": [float(a[0, 2]), float(a[1, 2]), 0.0], "rotation": [0.0, 0.0, angle], "scale": [sx, sy, 1.0]}
 
 
+def principled_inputs(mat) -> dict[str, Any]:
+    """The Principled BSDF inputs of glTF's material extensions, as Blender's glTF importer sets them:
+    transmission and IOR as they are, the coat at glTF's fixed IOR 1.5, sheen at full weight tinted by its
+    colour, and ``KHR_materials_specular`` as ``Specular IOR Level`` = specular / 2 (0.5 is neutral: F0
+    scaled by 2 × level) with its colour as ``Specular Tint`` (glTF's F90 = specular has no input)."""
+    return {"Transmission Weight": float(mat.transmission), "IOR": float(min(mat.ior, 1e3)),
+            "Coat Weight": float(mat.clearcoat), "Coat Roughness": float(mat.clearcoat_roughness), "Coat IOR": 1.5,
+            "Sheen Weight": 1.0 if max(mat.sheen_color) > 0 else 0.0,
+            "Sheen Tint": [*map(float, mat.sheen_color), 1.0], "Sheen Roughness": float(mat.sheen_roughness),
+            "Specular IOR Level": 0.5 * float(mat.specular), "Specular Tint": [*map(float, mat.specular_color), 1.0]}
+
+
+def volume_absorption(mat) -> dict[str, Any] | None:
+    """``KHR_materials_volume``'s attenuation as a Volume Absorption node, or None: Beer's law
+    ``T = c^(x/d)`` is an absorption coefficient ``−ln(c)/d`` per channel, which the node's
+    ``density × (1 − color)`` gives with density 1/d and colour 1 + ln(c) (c ≥ 1/e)."""
+    if mat.transmission == 0.0 or math.isinf(mat.attenuation_distance):
+        return None
+    color = [max(0.0, 1.0 + math.log(max(c, 1e-12))) for c in mat.attenuation_color]
+    return {"color": color, "density": 1.0 / float(mat.attenuation_distance)}
+
+
 def _material(mat, mode: str, distribution: str | None = None) -> dict[str, Any]:
     tex = mat.base_color_texture
     return {
@@ -385,6 +407,11 @@ def _material(mat, mode: str, distribution: str | None = None) -> dict[str, Any]
         "normal_scale": float(mat.normal_scale),
         # glTF's alpha mask: coverage (alpha × the base-colour map's alpha) >= cutoff, else a hole
         "alpha_mask": ({"alpha": float(mat.alpha), "cutoff": float(mat.alpha_cutoff)} if mat.is_masked else None),
+        # glTF's material extensions as the Principled BSDF's inputs (Lambert only with "diffuse")
+        "principled_inputs": principled_inputs(mat) if mode == "cycles" else {},
+        # alphaMode BLEND: the coverage on Alpha (Cycles: stochastic transparency; EEVEE: dithered)
+        "alpha_blend": float(mat.alpha) if mat.alpha_mode == "blend" else None,
+        "volume_absorption": volume_absorption(mat) if mode == "cycles" else None,
         "emissive_texture_colorspace": (None if not mat.emissive_texture else "Linear Rec.709"
                                         if Path(mat.emissive_texture).suffix.lower() == ".exr" else "sRGB"),
         # 8-bit images hold sRGB-encoded colour; EXR holds linear values.

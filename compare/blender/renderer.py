@@ -10,6 +10,7 @@ import numpy as np
 from compare.blender.export import CYCLES_PAPER_SAMPLES, EEVEE_PAPER_SAMPLES
 from compare.renderers.base import Checkpoint, RenderContext, Renderer, Rendering
 from compare.renderers.options import parse_spec
+from compare.scene.model import MATERIAL_FEATURE_NAMES
 
 __all__ = ["BlenderRenderer", "CyclesRenderer", "EeveeRenderer", "blender_ladder"]
 
@@ -77,7 +78,7 @@ class BlenderRenderer(Renderer):
     """
 
     unit = "spp"
-    renders = frozenset({"punctual_lights"})
+    renders = frozenset({"punctual_lights"}) | frozenset(MATERIAL_FEATURE_NAMES)  # Principled BSDF v2 inputs
     OPTIONS = {"ggx": "GGX (single scattering) in every Principled BSDF",
                "multi_ggx": "Multiscatter GGX in every Principled BSDF"}
 

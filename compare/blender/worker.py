@@ -52,8 +52,17 @@ def _principled(bpy, name: str, mat: dict):
         tex = base_tex = _image_node(bpy, nodes, links, mat, mat["base_color_texture"],
                                      mat["base_color_texture_colorspace"])
         links.new(tex.outputs["Color"], inp["Base Color"])
+    for key, value in mat.get("principled_inputs", {}).items():
+        inp[key].default_value = tuple(value) if isinstance(value, list) else value
     if mat.get("alpha_mask"):
         _alpha_mask(m, nodes, links, inp["Alpha"], mat["alpha_mask"], base_tex)
+    if mat.get("alpha_blend") is not None:
+        _alpha_blend(nodes, links, inp["Alpha"], mat["alpha_blend"], base_tex)
+    if mat.get("volume_absorption"):
+        absorb = nodes.new("ShaderNodeVolumeAbsorption")
+        absorb.inputs["Color"].default_value = (*mat["volume_absorption"]["color"], 1.0)
+        absorb.inputs["Density"].default_value = mat["volume_absorption"]["density"]
+        links.new(absorb.outputs["Volume"], out.inputs["Volume"])
     if mat.get("metallic_roughness_texture"):
         # glTF's channels, as Blender's own glTF importer wires them: G = roughness, B = metallic.
         tex = _image_node(bpy, nodes, links, mat, mat["metallic_roughness_texture"], "Non-Color")
@@ -89,6 +98,18 @@ def _principled(bpy, name: str, mat: dict):
             m.cycles.emission_sampling = "FRONT"
     links.new(bsdf.outputs["BSDF"], out.inputs["Surface"])
     return m
+
+
+def _alpha_blend(nodes, links, socket, alpha: float, base_tex) -> None:
+    """glTF's BLEND coverage on the Principled BSDF's Alpha: alpha × the base-colour map's alpha."""
+    socket.default_value = float(alpha)
+    if base_tex is not None:
+        base_tex.image.alpha_mode = "CHANNEL_PACKED"
+        scaled = nodes.new("ShaderNodeMath")
+        scaled.operation = "MULTIPLY"
+        links.new(base_tex.outputs["Alpha"], scaled.inputs[0])
+        scaled.inputs[1].default_value = float(alpha)
+        links.new(scaled.outputs["Value"], socket)
 
 
 def _alpha_mask(m, nodes, links, socket, mask: dict, base_tex) -> None:
