@@ -263,3 +263,20 @@ def test_threejs_blends_a_card_by_its_alpha(make_scene):
     with RenderContext(RunSettings(frames=4)) as context:
         image = renderer.render(scene, steps=4, checkpoints=[4], seed=0, context=context).checkpoints[-1].image
     assert float(image.mean()) == pytest.approx((1 - 0.3) * ENV, rel=0.02)
+
+
+def test_the_report_lists_what_each_renderer_left_out():
+    from types import SimpleNamespace
+
+    from compare.report.html import _left_out
+
+    run = SimpleNamespace(label="Mine", metadata={"scene_changed": "transmission not rendered (1 material(s), 8 % "
+                                                                   "of the pixels); alpha blend not rendered"})
+    plain = SimpleNamespace(label="Other", metadata={})
+    scene = SimpleNamespace(runs=[run, plain], reference=SimpleNamespace(
+        metadata={"scene_changed": "clearcoat not rendered (2 material(s))"}, renderer="mitsuba", spp=64, unit="spp",
+        label="", variant=""))
+    rows = _left_out(scene)
+    assert [r["label"] for r in rows][1:] == ["Mine"]
+    assert rows[0]["what"] == ["clearcoat not rendered (2 material(s))"]
+    assert rows[1]["what"] == ["transmission not rendered (1 material(s), 8 % of the pixels)", "alpha blend not rendered"]

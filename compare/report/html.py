@@ -229,6 +229,7 @@ def _scene_view(scene: SceneResult, plots: dict[str, Path], out: Path, exposure:
         "ablations": _ablations(scene, baseline),
         "likeness": _likeness(scene),
         "layers": _layers(scene),
+        "left_out": _left_out(scene),
         "noise_check": _noise_check(scene),
         "bias": _bias(scene),
         "plots": {k: rel(v) for k, v in plots.items()},
@@ -252,6 +253,20 @@ LAYER_TITLES = {"emission": "emission", "direct_area": "direct, area lights", "d
                 "direct_punctual": "direct, point, spot and directional lights",
                 "indirect_diffuse": "indirect diffuse", "indirect_specular": "indirect specular",
                 "direct_area_unshadowed": "direct, area lights, unshadowed"}
+
+
+def _left_out(scene: SceneResult) -> list[dict]:
+    """What each renderer (the ground truth first) changed or left out of the scene, as it declared
+    (:meth:`compare.renderers.base.Renderer.prepare`): the run's ``scene_changed`` phrases."""
+    out = []
+    truth = scene.reference.metadata.get("scene_changed")
+    if truth:
+        out.append({"label": f"{_gt_label(scene.reference)} (ground truth)", "what": str(truth).split("; ")})
+    for run in scene.runs:
+        changed = run.metadata.get("scene_changed")
+        if changed:
+            out.append({"label": run.label, "what": str(changed).split("; ")})
+    return out
 
 
 def _layers(scene: SceneResult) -> dict | None:
