@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import math
 
+import numpy as np
 import pytest
 
 from compare.mitsuba.reference import ReferenceRenderer
@@ -280,3 +281,122 @@ def test_the_report_lists_what_each_renderer_left_out():
     assert [r["label"] for r in rows][1:] == ["Mine"]
     assert rows[0]["what"] == ["clearcoat not rendered (2 material(s))"]
     assert rows[1]["what"] == ["transmission not rendered (1 material(s), 8 % of the pixels)", "alpha blend not rendered"]
+
+
+def test_coat_plugin_evaluates_the_shared_coat_formula():
+    """The reference's coat (compare.mitsuba.coat) against the numpy definition (compare.brdf.coat) over a
+    Lambert base, for random directions, weights and roughnesses."""
+    from compare.brdf.coat import coated
+    from compare.mitsuba.coat import register
+
+    mi = register()
+    import drjit as dr
+
+    rng = np.random.default_rng(7)
+    n = 2000
+
+    def hemisphere(k):
+        d = rng.normal(size=(k, 3))
+        d[:, 2] = np.abs(d[:, 2]) + 0.05
+        return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+    wi, wo = hemisphere(n), hemisphere(n)
+    rho = 0.6
+    for weight, rough in ((1.0, 0.3), (0.5, 0.05), (0.8, 1.0)):
+        bsdf = mi.load_dict({"type": "gltf_coat", "clearcoat": weight, "roughness": rough,
+                             "base": {"type": "diffuse", "reflectance": {"type": "rgb", "value": [rho] * 3}}})
+        si = dr.zeros(mi.SurfaceInteraction3f)
+        si.wi = mi.Vector3f(*(wi[:, k].astype(np.float32) for k in range(3)))
+        value, pdf = bsdf.eval_pdf(mi.BSDFContext(), si, mi.Vector3f(*(wo[:, k].astype(np.float32) for k in range(3))))
+        got = np.array(value)[0] if np.array(value).shape[0] == 3 else np.array(value)[:, 0]
+        z = np.array([0.0, 0.0, 1.0])
+        want = coated(np.full((n, 3), rho / np.pi), np.broadcast_to(z, (n, 3)), wi, wo, weight, rough)[:, 0] * wo[:, 2]
+        np.testing.assert_allclose(got, want, rtol=2e-3, atol=1e-6)
+        assert np.all(np.array(pdf) > 0)
+
+
+def _coated_mirror_scene(make_scene):
+    return load_scene(make_scene("""
+        [camera]
+        position = [0.0, 0.0, 2.0]
+        target = [0.0, 0.0, 0.0]
+        fov = 8.0
+        resolution = [16, 16]
+
+        [render]
+        max_depth = 4
+
+        [materials.paint]
+        base_color = [0.0, 0.0, 0.0]
+        metallic = 1.0  # a black metal reflects nothing near normal incidence: the coat alone does
+        roughness = 1.0
+        clearcoat = 1.0
+        clearcoat_roughness = 0.0
+
+        [[meshes]]
+        shape = "quad"
+        corners = [[-2, -2, 0], [2, -2, 0], [2, 2, 0], [-2, 2, 0]]
+        material = "paint"
+
+        [[lights]]
+        center = [0.0, 0.0, 3.0]
+        size = [4.0, 4.0]
+        normal = [0.0, 0.0, -1.0]
+        radiance = [1.0, 1.0, 1.0]
+        """))
+
+
+def test_a_clear_coat_over_black_reflects_four_percent_at_normal_incidence(make_scene):
+    image = _render(_coated_mirror_scene(make_scene), spp=64)
+    assert float(image.mean()) == pytest.approx(0.04, rel=0.02)
+
+
+@needs_bpy
+def test_cycles_coat_reflects_as_the_reference_does(make_scene):
+    from compare.blender.render import render_blender
+
+    image = render_blender(_coated_mirror_scene(make_scene), engine="cycles", samples=64).image
+    assert float(image.mean()) == pytest.approx(0.04, rel=0.03)
+
+
+@pytest.mark.parametrize("ior, specular, color", [(1.5, 1.0, (1.0, 1.0, 1.0)), (2.0, 1.0, (1.0, 1.0, 1.0)),
+                                                  (1.5, 0.4, (1.0, 0.5, 0.0)), (1.33, 0.8, (2.0, 1.0, 1.0))])
+def test_plugin_evaluates_the_shared_ior_and_specular_model(ior, specular, color):
+    """The reference's plugin with glTF's ior and specular against compare.brdf, both lobes, metals too."""
+    from compare.brdf import dielectric_specular, eval_brdf_lobes
+    from compare.mitsuba.bsdf import evaluate
+
+    rng = np.random.default_rng(3)
+    n = 3000
+
+    def hemisphere(k):
+        d = rng.normal(size=(k, 3))
+        d[:, 2] = np.abs(d[:, 2]) + 0.05
+        return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+    wi, wo = hemisphere(n), hemisphere(n)
+    base = rng.random((n, 3))
+    metallic = rng.choice([0.0, 0.3, 1.0], n)
+    rough = rng.uniform(0.1, 1.0, n)
+    dielectric = dielectric_specular(ior, specular, color)
+    value, pdf = evaluate(wi, wo, base, metallic, rough, dielectric=dielectric)
+    z = np.broadcast_to([0.0, 0.0, 1.0], (n, 3))
+    spec, diff = eval_brdf_lobes(z, wi, wo, base, metallic, rough, dielectric=dielectric)
+    np.testing.assert_allclose(value, (spec + diff) * wo[:, 2:3], rtol=3e-3, atol=1e-6)
+    assert np.all(pdf > 0)
+    if (ior, specular, color) == (1.5, 1.0, (1.0, 1.0, 1.0)):  # glTF's defaults: the core model itself
+        core_spec, core_diff = eval_brdf_lobes(z, wi, wo, base, metallic, rough)
+        np.testing.assert_allclose(spec + diff, core_spec + core_diff, rtol=1e-12, atol=1e-15)
+
+
+def test_an_opaque_dielectric_reflects_its_iors_fresnel(make_scene):
+    """A black smooth dielectric of IOR 2 (no transmission) reflects F0 = 1/9 of what it faces."""
+    scene = _coated_mirror_scene(make_scene)
+    m = scene.materials["paint"]
+    import dataclasses
+
+    scene = dataclasses.replace(scene, materials={"paint": dataclasses.replace(
+        m, metallic=0.0, roughness=0.0, clearcoat=0.0, ior=2.0, specular=0.5, specular_color=(1.0, 0.5, 0.25))})
+    image = _render(scene, spp=64)
+    want = 0.5 * np.array([1.0, 0.5, 0.25]) / 9.0
+    np.testing.assert_allclose(image.mean(axis=(0, 1)), want, rtol=0.03)

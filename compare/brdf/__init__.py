@@ -94,6 +94,7 @@ __all__ = [
     "H_LEN2_MIN",
     "SPECULAR_PROB_MIN",
     "alpha_from_roughness",
+    "dielectric_specular",
     "directional_albedo",
     "eval_brdf",
     "eval_brdf_lobes",
@@ -279,8 +280,20 @@ def _geometry(n, v, l, base_color, metallic, roughness) -> _Geometry:  # noqa: E
                      np.clip(_dot(v, h), 0.0, 1.0), _dot(nxh, nxh), front)
 
 
-def eval_brdf_lobes(n, v, l, base_color, metallic, roughness):
+def dielectric_specular(ior: float = 1.5, specular: float = 1.0, specular_color=(1.0, 1.0, 1.0)):
+    """glTF's dielectric Fresnel parameters (``KHR_materials_ior``, ``KHR_materials_specular``):
+    ``(F0, weight)`` with ``F0 = min(((ior − 1)/(ior + 1))² × specular_color, 1)`` (RGB) and the weight
+    ``specular``. The dielectric part of the material is then ``(1 − weight·max(F)) × diffuse +
+    weight·F × D V`` with ``F = F0 + (1 − F0)(1 − v·h)⁵`` (the specification's ``fresnel_mix``)."""
+    f0 = ((float(ior) - 1.0) / (float(ior) + 1.0)) ** 2
+    return np.minimum(f0 * np.asarray(specular_color, dtype=np.float64), 1.0), float(specular)
+
+
+def eval_brdf_lobes(n, v, l, base_color, metallic, roughness, *, dielectric=None):
     """The specular and diffuse terms of :func:`eval_brdf`, separately.
+
+    ``dielectric``: ``(F0, weight)`` of :func:`dielectric_specular` for a material with glTF's ior or
+    specular extensions; None is the core model (F0 = 0.04, weight 1), evaluated as it always was.
 
     Returns
     -------
@@ -292,11 +305,18 @@ def eval_brdf_lobes(n, v, l, base_color, metallic, roughness):
     base, m, nv, nl, vh, front = g.base, g.m, g.nv, g.nl, g.vh, g.front
     d = ggx_d(g.nh, g.alpha, g.sin2)
     vis = smith_v_height_correlated(nv, nl, g.alpha)
-    f0 = DIELECTRIC_F0 + (base - DIELECTRIC_F0) * m[..., None]
-    f = fresnel_schlick(f0, vh[..., None])
-    fd = fresnel_schlick(DIELECTRIC_F0, vh)
+    if dielectric is None:
+        f0 = DIELECTRIC_F0 + (base - DIELECTRIC_F0) * m[..., None]
+        f = fresnel_schlick(f0, vh[..., None])
+        fd = fresnel_schlick(DIELECTRIC_F0, vh)
+        diff_weight = (1.0 - m) * (1.0 - fd)
+    else:
+        f0d, weight = np.asarray(dielectric[0], dtype=np.float64), float(dielectric[1])
+        fr = fresnel_schlick(f0d, vh[..., None])
+        f = m[..., None] * fresnel_schlick(base, vh[..., None]) + (1.0 - m)[..., None] * weight * fr
+        diff_weight = (1.0 - m) * (1.0 - weight * np.max(fr, axis=-1))
     spec = f * (d * vis)[..., None]
-    diff = ((1.0 - m) * (1.0 - fd))[..., None] * base / np.pi
+    diff = diff_weight[..., None] * base / np.pi
     mask = front[..., None]
     return np.where(mask, spec, 0.0), np.where(mask, diff, 0.0)
 

@@ -17,6 +17,10 @@ Properties (each a float/rgb or a nested texture; defaults are glTF's):
 ``flavour``     string, ``"gltf"`` (default) or ``"cycles"``
 ``distribution`` string, flavour ``"cycles"`` only: ``"multi_ggx"`` (default, Blender's
                 Multiscatter GGX) or ``"ggx"`` (single scattering)
+``specular_f0``, ``specular_weight``  flavour ``"gltf"`` only: glTF's ior and specular extensions,
+                the dielectric's F0 (rgb) and weight (:func:`compare.brdf.dielectric_specular`);
+                without them the core model (F0 = 0.04) runs its own code. The ``"cycles"``
+                flavour keeps Principled v2's IOR 1.5.
 
 Flavours. ``"gltf"`` is the shared BRDF of :mod:`compare.brdf`, the same
 definition as the rasterizer's GLSL. ``"cycles"`` is Blender's Principled BSDF
@@ -213,6 +217,13 @@ def _make_class(mv, mitsuba):
                 raise ValueError(f"{PLUGIN_NAME}: distribution must be one of "
                                  f"{', '.join(multiscatter.DISTRIBUTIONS)}, got {self.distribution!r}")
             self.multiscatter = self.flavour == "cycles" and self.distribution == "multi_ggx"
+            # glTF's ior and specular extensions (compare.brdf.dielectric_specular): the dielectric's F0
+            # (RGB) and weight; without them the core model's code runs unchanged.
+            self.dielectric = "specular_f0" in props or "specular_weight" in props
+            if self.dielectric and self.flavour == "cycles":
+                raise ValueError(f"{PLUGIN_NAME}: specular_f0 and specular_weight apply to flavour 'gltf' only")
+            self.specular_f0 = props.get_texture("specular_f0", DIELECTRIC_F0)
+            self.specular_weight = float(props.get("specular_weight", 1.0))
             if self.flavour == "cycles":
                 make_layer_texture()
             if self.multiscatter:
@@ -233,7 +244,7 @@ def _make_class(mv, mitsuba):
             return (ctx.is_enabled(Flags.DiffuseReflection, 0),
                     ctx.is_enabled(Flags.GlossyReflection, 1))
 
-        def _lobe_probabilities(self, cos_i, c, m, r, has_diffuse, has_specular):
+        def _lobe_probabilities(self, cos_i, c, m, r, has_diffuse, has_specular, f0d=None):
             """(p_spec, p_diff) of compare.brdf.specular_sampling_probability (flavour ``cycles``:
             compare.mitsuba.principled.specular_sampling_probability); p_diff is computed directly
             (not as 1 - p_spec), which keeps it accurate in float32."""
@@ -252,6 +263,10 @@ def _make_class(mv, mitsuba):
                 else:
                     w_s = mean3(cc + (1.0 - cc) * w) * m + fresnel_dielectric(ci) * (1.0 - m)
                     w_d = (1.0 - m) * dr.clip(1.0 - layer_albedo(r, ci), 0.0, 1.0) * mean3(c)
+            elif self.dielectric:
+                fr = f0d + (1.0 - f0d) * w
+                w_s = mean3(m * (c + (1.0 - c) * w) + (1.0 - m) * self.specular_weight * fr)
+                w_d = (1.0 - m) * (1.0 - self.specular_weight * dr.maximum(dr.maximum(fr.x, fr.y), fr.z)) * mean3(c)
             else:
                 f0 = DIELECTRIC_F0 + (c - DIELECTRIC_F0) * m
                 w_s = mean3(f0 + (1.0 - f0) * w)
@@ -297,6 +312,11 @@ def _make_class(mv, mitsuba):
                 cc = dr.clip(c, 0.0, 1.0)
                 f = (cc + (1.0 - cc) * w) * m + fresnel_dielectric(vh) * (1.0 - m)
                 w_diff = (1.0 - m) * dr.clip(1.0 - layer_albedo(r, cos_i), 0.0, 1.0)
+            elif self.dielectric:
+                f0d = self.specular_f0.eval(si, valid)
+                fr = f0d + (1.0 - f0d) * w
+                f = m * (c + (1.0 - c) * w) + (1.0 - m) * self.specular_weight * fr
+                w_diff = (1.0 - m) * (1.0 - self.specular_weight * dr.maximum(dr.maximum(fr.x, fr.y), fr.z))
             else:
                 f0 = DIELECTRIC_F0 + (c - DIELECTRIC_F0) * m
                 f = f0 + (1.0 - f0) * w
@@ -313,7 +333,8 @@ def _make_class(mv, mitsuba):
             ci = dr.maximum(cos_i, 0.0)
             pdf_spec = d / (2.0 * (ci + dr.sqrt(ci * ci * (1.0 - a2) + a2)))
             pdf_diff = dr.maximum(cos_o, 0.0) * (1.0 / dr.pi)
-            p_spec, p_diff = self._lobe_probabilities(cos_i, c, m, r, has_d, has_s)
+            p_spec, p_diff = self._lobe_probabilities(cos_i, c, m, r, has_d, has_s,
+                                                      self.specular_f0.eval(si, valid) if self.dielectric else None)
             pdf = p_spec * pdf_spec + p_diff * pdf_diff
 
             value = dr.select(valid, value, Color3f(0.0))
@@ -340,7 +361,8 @@ def _make_class(mv, mitsuba):
             if not (has_d or has_s):
                 return bs, Color3f(0.0)
             c, m, alpha, r = self._params(si, active)
-            p_spec, _ = self._lobe_probabilities(cos_i, c, m, r, has_d, has_s)
+            p_spec, _ = self._lobe_probabilities(cos_i, c, m, r, has_d, has_s,
+                                                 self.specular_f0.eval(si, active) if self.dielectric else None)
             pick_spec = sample1 < p_spec
 
             # specular: reflect wi about a GGX visible normal (spherical caps)
@@ -390,7 +412,7 @@ def _make_class(mv, mitsuba):
 
 
 def evaluate(wi, wo, base_color, metallic, roughness, *, variant: str | None = None, flavour: str = "gltf",
-             distribution: str | None = None):
+             distribution: str | None = None, dielectric=None):
     """Evaluate the plugin's ``eval_pdf`` for per-direction materials; numpy in, numpy out.
 
     The materials vary per row: they are passed as N x 1 ``bitmap`` textures
@@ -409,6 +431,9 @@ def evaluate(wi, wo, base_color, metallic, roughness, *, variant: str | None = N
         The plugin's ``flavour`` (:data:`FLAVOURS`).
     distribution : str, optional
         The plugin's ``distribution`` (flavour ``cycles``); None leaves it unset (the default).
+    dielectric : (F0, weight), optional
+        glTF's ior and specular extensions (:func:`compare.brdf.dielectric_specular`) as the plugin's
+        ``specular_f0`` and ``specular_weight``.
 
     Returns
     -------
@@ -436,6 +461,9 @@ def evaluate(wi, wo, base_color, metallic, roughness, *, variant: str | None = N
              "metallic": bitmap(met), "roughness": bitmap(rough)}
     if distribution is not None:
         props["distribution"] = distribution
+    if dielectric is not None:  # (F0, weight) of compare.brdf.dielectric_specular
+        props["specular_f0"] = {"type": "rgb", "value": [float(x) for x in np.broadcast_to(dielectric[0], 3)]}
+        props["specular_weight"] = float(dielectric[1])
     bsdf = mi.load_dict(props)
     ctx = mi.BSDFContext()
     u = (np.arange(count, dtype=np.float64) + 0.5) / count

@@ -49,7 +49,8 @@ class MitsubaRenderer(Renderer):
     name = "mitsuba"
     unit = "spp"
     default_budget = "spp"
-    renders = frozenset({"punctual_lights", "alpha_blend", "transmission"})
+    # ior and specular in the shared flavour (the default); the cycles flavour keeps IOR 1.5
+    renders = frozenset({"punctual_lights", "alpha_blend", "transmission", "clearcoat", "ior", "specular"})
 
     OPTIONS = {v: f"Mitsuba's {v} variant instead of the best available" for v in MITSUBA_VARIANTS}
 

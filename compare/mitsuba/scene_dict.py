@@ -187,7 +187,19 @@ def _masked(mat: Material, bsdf: dict) -> dict:
 
 def material_dict(mat: Material, mode: str) -> dict:
     """BSDF dictionary for one material in ``mode`` (one of :data:`MATERIAL_MODES`)."""
-    return _masked(mat, _transmissive(mat, mode, _surface_dict(mat, mode)))
+    return _masked(mat, _coated(mat, mode, _transmissive(mat, mode, _surface_dict(mat, mode))))
+
+
+def _coated(mat: Material, mode: str, bsdf: dict) -> dict:
+    """``bsdf`` under glTF's clear coat (:mod:`compare.mitsuba.coat`, the layering of
+    :mod:`compare.brdf.coat`), on the geometric normal (outside the base's normal map)."""
+    if mat.clearcoat == 0.0 or mode == "diffuse":
+        return bsdf
+    from compare.mitsuba.coat import PLUGIN_NAME, register
+
+    register()
+    return {"type": PLUGIN_NAME, "base": bsdf, "clearcoat": float(mat.clearcoat),
+            "roughness": float(mat.clearcoat_roughness)}
 
 
 def _dielectric(mat: Material, mode: str) -> dict:
@@ -240,8 +252,13 @@ def _surface_dict(mat: Material, mode: str) -> dict:
         from compare.mitsuba.bsdf import register
 
         register()
-        return _normal_mapped(mat, {"type": SHARED_BSDF, "base_color": base, "metallic": metallic,
-                                    "roughness": roughness})
+        d = {"type": SHARED_BSDF, "base_color": base, "metallic": metallic, "roughness": roughness}
+        if (mat.ior, mat.specular, mat.specular_color) != (1.5, 1.0, (1.0, 1.0, 1.0)):
+            from compare.brdf import dielectric_specular
+
+            f0, weight = dielectric_specular(mat.ior, mat.specular, mat.specular_color)
+            d.update(specular_f0={"type": "rgb", "value": [float(x) for x in f0]}, specular_weight=weight)
+        return _normal_mapped(mat, d)
     if mode in PRINCIPLED_MODES:
         from compare.mitsuba.bsdf import register
 

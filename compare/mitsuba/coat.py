@@ -1,0 +1,151 @@
+"""glTF's clear coat over any BSDF, as a Mitsuba 3 plugin (``gltf_coat``): the layering of
+:mod:`compare.brdf.coat` (read it), evaluated with Dr.Jit.
+
+Properties: ``base`` (the nested BSDF, the material under the coat), ``clearcoat`` (w, float) and
+``roughness`` (the coat's perceptual roughness, float).
+
+Sampling: the coat's GGX visible normals with probability ``p_c = clip(w F_c(cos θ_i), 0.1 w, 0.9)``
+(Schlick at the view's cosine, floored so that a glancing coat over a bright base is still found),
+else the base's own sampling; the returned weight is ``eval / pdf`` of the mixture (one-sample MIS),
+so either lobe may have produced the direction.
+"""
+
+from __future__ import annotations
+
+import sys
+
+from compare.brdf import ALPHA_MIN, COS_MIN, H_LEN2_MIN
+from compare.brdf.coat import COAT_F0
+
+__all__ = ["PLUGIN_NAME", "register"]
+
+PLUGIN_NAME = "gltf_coat"
+_CLASSES: dict[str, type] = {}
+_DENOM_MIN = 1e-30
+
+
+def register(variant: str | None = None):
+    """Register ``gltf_coat`` with the active (or given) variant; returns the ``mitsuba`` module."""
+    from compare.mitsuba.backend import load_mitsuba  # noqa: PLC0415 - Mitsuba is loaded lazily
+
+    if variant is None:
+        loaded = sys.modules.get("mitsuba")
+        variant = (loaded.variant() if loaded is not None else None) or None
+    mi = load_mitsuba(variant)
+    name = mi.variant()
+    if name not in _CLASSES:
+        import mitsuba  # noqa: PLC0415
+
+        cls = _make_class(getattr(mitsuba, name), mitsuba)
+        mi.register_bsdf(PLUGIN_NAME, lambda props, _cls=cls: _cls(props))
+        _CLASSES[name] = cls
+    return mi
+
+
+def _make_class(mv, mitsuba):
+    import drjit as dr  # noqa: PLC0415
+
+    Float, UInt32, Color3f, Vector3f = mv.Float, mv.UInt32, mv.Color3f, mv.Vector3f
+    Flags = mitsuba.BSDFFlags
+
+    class GltfCoatBSDF(mv.BSDF):
+        """A clear coat over the nested BSDF ``base`` (see :mod:`compare.mitsuba.coat`)."""
+
+        def __init__(self, props):
+            mv.BSDF.__init__(self, props)
+            self.base = props["base"]
+            self.weight = float(props.get("clearcoat", 1.0))
+            r = min(max(float(props.get("roughness", 0.0)), 0.0), 1.0)
+            self.alpha = max(r * r, ALPHA_MIN)
+            n = self.base.component_count()
+            coat = Flags.GlossyReflection | Flags.FrontSide
+            self.m_components = [self.base.flags(i) for i in range(n)] + [coat]
+            self.m_flags = self.base.flags() | coat
+
+        def _coat(self, wi, wo):
+            """(w F_c, w F_c D V cos_o) at the half vector of wi, wo, and the coat's VNDF pdf of wo."""
+            cos_i, cos_o = wi.z, wo.z
+            hu = wi + wo
+            len2 = dr.dot(hu, hu)
+            ok = (cos_i > 0.0) & (cos_o > 0.0) & (len2 > H_LEN2_MIN)
+            h = hu * dr.rsqrt(dr.maximum(len2, H_LEN2_MIN))
+            nh = dr.clip(h.z, 0.0, 1.0)
+            vh = dr.clip(dr.dot(wi, h), 0.0, 1.0)
+            sin2 = dr.fma(h.x, h.x, h.y * h.y)
+            alpha = self.alpha
+            a = nh * alpha
+            k = alpha / dr.maximum(sin2 + a * a, _DENOM_MIN)
+            d = k * k * (1.0 / dr.pi)
+            a2 = alpha * alpha
+            nv = dr.maximum(cos_i, COS_MIN)
+            nl = dr.maximum(cos_o, COS_MIN)
+            vis = 0.5 / (nl * dr.sqrt(nv * nv * (1.0 - a2) + a2) + nv * dr.sqrt(nl * nl * (1.0 - a2) + a2))
+            x = dr.clip(1.0 - vh, 0.0, 1.0)
+            x2 = x * x
+            share = self.weight * (COAT_F0 + (1.0 - COAT_F0) * x2 * x2 * x)
+            ci = dr.maximum(cos_i, 0.0)
+            pdf = d / (2.0 * (ci + dr.sqrt(ci * ci * (1.0 - a2) + a2)))
+            return (dr.select(ok, share, 0.0), dr.select(ok, share * d * vis * dr.maximum(cos_o, 0.0), 0.0),
+                    dr.select(ok, pdf, 0.0))
+
+        def _p_coat(self, cos_i):
+            x = dr.clip(1.0 - cos_i, 0.0, 1.0)
+            x2 = x * x
+            f = COAT_F0 + (1.0 - COAT_F0) * x2 * x2 * x
+            return dr.clip(self.weight * f, 0.1 * self.weight, 0.9)
+
+        def eval_pdf(self, ctx, si, wo, active=True):
+            base_value, base_pdf = self.base.eval_pdf(ctx, si, wo, active)
+            share, spec, coat_pdf = self._coat(si.wi, wo)
+            p = self._p_coat(si.wi.z)
+            value = base_value * (1.0 - share) + Color3f(spec)
+            pdf = p * coat_pdf + (1.0 - p) * base_pdf
+            return dr.select(active, value, Color3f(0.0)), dr.select(active, pdf, 0.0)
+
+        def eval(self, ctx, si, wo, active=True):
+            return self.eval_pdf(ctx, si, wo, active)[0]
+
+        def pdf(self, ctx, si, wo, active=True):
+            return self.eval_pdf(ctx, si, wo, active)[1]
+
+        def sample(self, ctx, si, sample1, sample2, active=True):
+            wi = si.wi
+            p = self._p_coat(wi.z)
+            pick = (sample1 < p) & (wi.z > 0.0)
+            bs, base_weight = self.base.sample(ctx, si, dr.clip((sample1 - p) / dr.maximum(1.0 - p, 1e-6), 0.0,
+                                                                0.999999), sample2, active & ~pick)
+            alpha = self.alpha
+            ws = dr.normalize(Vector3f(wi.x * alpha, wi.y * alpha, wi.z))
+            sin_phi, cos_phi = dr.sincos(2.0 * dr.pi * sample2.x)
+            z = dr.fma(1.0 - sample2.y, 1.0 + ws.z, -ws.z)
+            sin_t = dr.sqrt(dr.clip(1.0 - z * z, 0.0, 1.0))
+            hs = Vector3f(sin_t * cos_phi + ws.x, sin_t * sin_phi + ws.y, z + ws.z)
+            hv = Vector3f(hs.x * alpha, hs.y * alpha, hs.z)
+            hv = hv * dr.rsqrt(dr.maximum(dr.dot(hv, hv), _DENOM_MIN))
+            wo = dr.select(pick, 2.0 * dr.dot(wi, hv) * hv - wi, bs.wo)
+            # A delta lobe of the base (a smooth dielectric under the coat) has no pdf to mix: its sample
+            # keeps the base's weight, less what the coat reflects, over the probability of the base.
+            delta = (~pick) & ((bs.sampled_type & UInt32(+Flags.Delta)) != 0)
+            share, _, _ = self._coat(wi, bs.wo)
+            value, pdf = self.eval_pdf(ctx, si, wo, active)
+            ok = active & (pdf > 0.0) & ~delta
+            out = dr.zeros(mv.BSDFSample3f)
+            out.wo = wo
+            out.pdf = dr.select(delta, bs.pdf * (1.0 - p), dr.select(ok, pdf, 0.0))
+            out.eta = dr.select(pick, 1.0, bs.eta)
+            out.sampled_component = dr.select(pick, UInt32(self.base.component_count()), bs.sampled_component)
+            out.sampled_type = dr.select(pick, UInt32(+Flags.GlossyReflection), bs.sampled_type)
+            weight = dr.select(ok, value / dr.select(ok, pdf, 1.0), Color3f(0.0))
+            weight = dr.select(delta & active, base_weight * (1.0 - share) / dr.maximum(1.0 - p, 1e-6), weight)
+            return out, weight
+
+        def traverse(self, callback):
+            pass
+
+        def parameters_changed(self, keys=()):
+            pass
+
+        def to_string(self):
+            return f"GltfCoatBSDF[clearcoat = {self.weight}, alpha = {self.alpha}]"
+
+    return GltfCoatBSDF
