@@ -45,7 +45,7 @@ def register(variant: str | None = None):
 def _make_class(mv, mitsuba):
     import drjit as dr  # noqa: PLC0415
 
-    Float, UInt32, Color3f, Vector3f = mv.Float, mv.UInt32, mv.Color3f, mv.Vector3f
+    UInt32, Color3f, Vector3f = mv.UInt32, mv.Color3f, mv.Vector3f
     Flags = mitsuba.BSDFFlags
 
     class GltfCoatBSDF(mv.BSDF):
