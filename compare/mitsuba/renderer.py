@@ -50,7 +50,7 @@ class MitsubaRenderer(Renderer):
     unit = "spp"
     default_budget = "spp"
     # ior and specular in the shared flavour (the default); the cycles flavour keeps IOR 1.5
-    renders = frozenset({"punctual_lights", "alpha_blend", "transmission", "clearcoat", "ior", "specular"})
+    renders = frozenset({"punctual_lights", "alpha_blend", "transmission", "clearcoat", "sheen", "ior", "specular"})
 
     OPTIONS = {v: f"Mitsuba's {v} variant instead of the best available" for v in MITSUBA_VARIANTS}
 

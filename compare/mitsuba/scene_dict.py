@@ -187,7 +187,19 @@ def _masked(mat: Material, bsdf: dict) -> dict:
 
 def material_dict(mat: Material, mode: str) -> dict:
     """BSDF dictionary for one material in ``mode`` (one of :data:`MATERIAL_MODES`)."""
-    return _masked(mat, _coated(mat, mode, _transmissive(mat, mode, _surface_dict(mat, mode))))
+    return _masked(mat, _coated(mat, mode, _sheened(mat, mode, _transmissive(mat, mode, _surface_dict(mat, mode)))))
+
+
+def _sheened(mat: Material, mode: str, bsdf: dict) -> dict:
+    """``bsdf`` under glTF's sheen (:mod:`compare.mitsuba.sheen`, the model of :mod:`compare.brdf.sheen`);
+    the coat goes over it, as glTF layers them."""
+    if max(mat.sheen_color) == 0.0 or mode == "diffuse":
+        return bsdf
+    from compare.mitsuba.sheen import PLUGIN_NAME, register
+
+    register()
+    return {"type": PLUGIN_NAME, "base": bsdf, "roughness": float(mat.sheen_roughness),
+            **{f"color_{c}": float(v) for c, v in zip("rgb", mat.sheen_color)}}
 
 
 def _coated(mat: Material, mode: str, bsdf: dict) -> dict:

@@ -1,0 +1,135 @@
+"""glTF's sheen over any BSDF, as a Mitsuba 3 plugin (``gltf_sheen``): the model of
+:mod:`compare.brdf.sheen` (read it), evaluated with Dr.Jit, the albedo table as a bilinear texture.
+
+Properties: ``base`` (the nested BSDF), ``color`` (three floats ``color_r``, ``color_g``, ``color_b``,
+linear) and ``roughness`` (the sheen's perceptual roughness).
+
+Sampling: the cosine-weighted hemisphere with probability ``p = clip(max(color) E(cos θ_i), 0.05, 0.5)``
+(the lobe is broad), else the base's own sampling; the weight is ``eval / pdf`` of the mixture.
+"""
+
+from __future__ import annotations
+
+import sys
+
+from compare.brdf.sheen import SHEEN_ALPHA_MIN, TABLE_SIZE, albedo_table
+
+__all__ = ["PLUGIN_NAME", "register"]
+
+PLUGIN_NAME = "gltf_sheen"
+_CLASSES: dict[str, type] = {}
+
+
+def register(variant: str | None = None):
+    """Register ``gltf_sheen`` with the active (or given) variant; returns the ``mitsuba`` module."""
+    from compare.mitsuba.backend import load_mitsuba  # noqa: PLC0415 - Mitsuba is loaded lazily
+
+    if variant is None:
+        loaded = sys.modules.get("mitsuba")
+        variant = (loaded.variant() if loaded is not None else None) or None
+    mi = load_mitsuba(variant)
+    name = mi.variant()
+    if name not in _CLASSES:
+        import mitsuba  # noqa: PLC0415
+
+        cls = _make_class(getattr(mitsuba, name), mitsuba)
+        mi.register_bsdf(PLUGIN_NAME, lambda props, _cls=cls: _cls(props))
+        _CLASSES[name] = cls
+    return mi
+
+
+def _make_class(mv, mitsuba):
+    import drjit as dr  # noqa: PLC0415
+
+    UInt32, Color3f = mv.UInt32, mv.Color3f
+    Flags = mitsuba.BSDFFlags
+    table = {}
+
+    def albedo(mu, r):
+        if "e" not in table:
+            table["e"] = mv.Texture2f(mv.TensorXf(albedo_table()[..., None]), use_accel=False,
+                                      filter_mode=dr.FilterMode.Linear, wrap_mode=dr.WrapMode.Clamp)
+        n = TABLE_SIZE
+        # row = μ, column = r; a texture's x is the column
+        pos = mv.Point2f((dr.clip(r, 0.0, 1.0) * (n - 1) + 0.5) * (1.0 / n),
+                         (dr.clip(mu, 0.0, 1.0) * (n - 1) + 0.5) * (1.0 / n))
+        return table["e"].eval(pos)[0]
+
+    class GltfSheenBSDF(mv.BSDF):
+        """A sheen over the nested BSDF ``base`` (see :mod:`compare.mitsuba.sheen`)."""
+
+        def __init__(self, props):
+            mv.BSDF.__init__(self, props)
+            self.base = props["base"]
+            self.color = [float(props.get(f"color_{c}", 0.0)) for c in "rgb"]
+            self.peak = max(self.color)
+            self.r = min(max(float(props.get("roughness", 0.0)), 0.0), 1.0)
+            self.alpha = max(self.r * self.r, SHEEN_ALPHA_MIN)
+            albedo(mv.Float(0.5), mv.Float(0.5))  # the texture, made at load time
+            n = self.base.component_count()
+            sheen = Flags.GlossyReflection | Flags.FrontSide
+            self.m_components = [self.base.flags(i) for i in range(n)] + [sheen]
+            self.m_flags = self.base.flags() | sheen
+
+        def _sheen(self, wi, wo):
+            """(albedo scaling of the base, sheen value times cos_o) for wi, wo."""
+            cos_i, cos_o = wi.z, wo.z
+            ok = (cos_i > 0.0) & (cos_o > 0.0)
+            h = dr.normalize(wi + wo)
+            nh = dr.clip(h.z, 0.0, 1.0)
+            inv = 1.0 / self.alpha
+            sin2 = dr.maximum(1.0 - nh * nh, 0.0)
+            d = (2.0 + inv) * dr.power(sin2, 0.5 * inv) * (0.5 / dr.pi)
+            v = 1.0 / (4.0 * dr.maximum(cos_o + cos_i - cos_o * cos_i, 1e-6))
+            lobe = d * v * dr.maximum(cos_o, 0.0)
+            scale = dr.minimum(1.0 - self.peak * albedo(cos_i, self.r), 1.0 - self.peak * albedo(cos_o, self.r))
+            return dr.select(ok, scale, 1.0), dr.select(ok, lobe, 0.0)
+
+        def _p(self, cos_i):
+            return dr.clip(self.peak * albedo(cos_i, self.r), 0.05, 0.5)
+
+        def eval_pdf(self, ctx, si, wo, active=True):
+            base_value, base_pdf = self.base.eval_pdf(ctx, si, wo, active)
+            scale, lobe = self._sheen(si.wi, wo)
+            value = base_value * scale + Color3f(*self.color) * lobe
+            p = self._p(si.wi.z)
+            pdf = p * mv.warp.square_to_cosine_hemisphere_pdf(wo) + (1.0 - p) * base_pdf
+            return dr.select(active, value, Color3f(0.0)), dr.select(active, pdf, 0.0)
+
+        def eval(self, ctx, si, wo, active=True):
+            return self.eval_pdf(ctx, si, wo, active)[0]
+
+        def pdf(self, ctx, si, wo, active=True):
+            return self.eval_pdf(ctx, si, wo, active)[1]
+
+        def sample(self, ctx, si, sample1, sample2, active=True):
+            wi = si.wi
+            p = self._p(wi.z)
+            pick = (sample1 < p) & (wi.z > 0.0)
+            bs, base_weight = self.base.sample(ctx, si, dr.clip((sample1 - p) / dr.maximum(1.0 - p, 1e-6), 0.0,
+                                                                0.999999), sample2, active & ~pick)
+            wo = dr.select(pick, mv.warp.square_to_cosine_hemisphere(sample2), bs.wo)
+            delta = (~pick) & ((bs.sampled_type & UInt32(+Flags.Delta)) != 0)
+            scale, _ = self._sheen(wi, bs.wo)
+            value, pdf = self.eval_pdf(ctx, si, wo, active)
+            ok = active & (pdf > 0.0) & ~delta
+            out = dr.zeros(mv.BSDFSample3f)
+            out.wo = wo
+            out.pdf = dr.select(delta, bs.pdf * (1.0 - p), dr.select(ok, pdf, 0.0))
+            out.eta = dr.select(pick, 1.0, bs.eta)
+            out.sampled_component = dr.select(pick, UInt32(self.base.component_count()), bs.sampled_component)
+            out.sampled_type = dr.select(pick, UInt32(+Flags.GlossyReflection), bs.sampled_type)
+            weight = dr.select(ok, value / dr.select(ok, pdf, 1.0), Color3f(0.0))
+            weight = dr.select(delta & active, base_weight * scale / dr.maximum(1.0 - p, 1e-6), weight)
+            return out, weight
+
+        def traverse(self, callback):
+            pass
+
+        def parameters_changed(self, keys=()):
+            pass
+
+        def to_string(self):
+            return f"GltfSheenBSDF[color = {self.color}, roughness = {self.r}]"
+
+    return GltfSheenBSDF
