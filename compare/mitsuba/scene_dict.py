@@ -358,10 +358,13 @@ def environment_dict(scene: Scene) -> dict | None:
         return None
     if env.constant is not None:
         return {"type": "constant", "radiance": {"type": "rgb", "value": [c * env.intensity for c in env.constant]}}
-    import mitsuba as mi
+    import sys
 
+    from compare.mitsuba.backend import load_mitsuba
     from compare.scene.environments import environment_file
 
+    loaded = sys.modules.get("mitsuba")
+    mi = load_mitsuba((loaded.variant() if loaded is not None else None) or None)  # a variant is set
     return {
         "type": "envmap",
         "filename": str(environment_file(env)),

@@ -142,7 +142,7 @@ class ComposePass:
         self.out = Target(ctx, size)
 
     def run(self, base: PingPong, direct_texture=None, env_visible=None, indirect_texture=None, *,
-            punctual_texture=None, upsample: bool = False):
+            punctual_texture=None, env_ratio=None, upsample: bool = False):
         """Compose the display image.
 
         ``base`` is the every-frame ping-pong (a second attachment holds the
@@ -152,7 +152,9 @@ class ComposePass:
         The environment term is the unoccluded mean until both kinds have
         samples, then the two means of visible light. ``indirect_texture`` is
         the irradiance volume's indirect light (:mod:`.indirect`), or None;
-        ``punctual_texture`` the punctual lights' running mean (:mod:`.punctual`), or None.
+        ``punctual_texture`` the punctual lights' running mean (:mod:`.punctual`), or None;
+        ``env_ratio`` the environment shadow ratio's sums (:mod:`.env_shadows`), which then
+        scale the unoccluded environment light, or None.
         ``upsample``: the sources are smaller than the output (a reduced first
         frame) and are sampled bilinearly.
         """
@@ -161,7 +163,7 @@ class ComposePass:
         ctx.enable_only(ctx.NOTHING)
         has_env = len(base.textures[0]) > 1
         occluded = env_visible is not None and min(env_visible.counts) > 0
-        env_mode = 0 if not has_env else 2 if occluded else 1
+        env_mode = 0 if not has_env else 3 if env_ratio is not None else 2 if occluded else 1
         base.current.use(location=0)
         (direct_texture or base.current).use(location=1)
         (base.current_of(1) if has_env else base.current).use(location=2)
@@ -169,8 +171,9 @@ class ComposePass:
         (env_visible.current(1) if occluded else base.current).use(location=4)
         (indirect_texture or base.current).use(location=5)
         (punctual_texture or base.current).use(location=6)
+        (env_ratio or base.current).use(location=7)
         for loc, name in enumerate(("u_base", "u_direct", "u_env", "u_env_diffuse", "u_env_specular", "u_indirect",
-                                    "u_punctual")):
+                                    "u_punctual", "u_env_ratio")):
             set_uniform(self.program, name, loc)
         set_uniform(self.program, "u_indirect_scale", 1.0 if indirect_texture is not None else 0.0)
         set_uniform(self.program, "u_punctual_scale", 1.0 if punctual_texture is not None else 0.0)

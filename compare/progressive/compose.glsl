@@ -2,7 +2,8 @@
 // direct-light running mean or, before the first light frame, frame 0's unshadowed
 // preview, plus the environment light: the unoccluded split sum's running mean (the
 // every-frame pass's second target) until both kinds of occlusion samples have run,
-// then the two running means of the visible diffuse and specular light (env_occlusion.glsl),
+// then the two running means of the visible diffuse and specular light (env_occlusion.glsl), or
+// (environment shadow maps) the unoccluded mean times the shadow ratio of env_shadows.glsl,
 // plus the irradiance volume's indirect light where the renderer has one (indirect.glsl),
 // plus the punctual lights' running mean (punctual.glsl) where the scene has them.
 // The display after a reduced frame 0 (first_frame.py) composes that frame's own, smaller
@@ -24,7 +25,9 @@ uniform float u_direct_scale;  // 1 to add u_direct, 0 when there is no direct l
 uniform float u_indirect_scale;  // 1 to add u_indirect
 uniform sampler2D u_punctual;      // the punctual lights' light (running mean)
 uniform float u_punctual_scale;  // 1 to add u_punctual
-uniform int u_env_mode;        // 0 no environment, 1 unoccluded, 2 occluded (both kinds have samples)
+uniform int u_env_mode;        // 0 no environment, 1 unoccluded, 2 occluded (both kinds have samples),
+                               // 3 unoccluded times the environment shadow ratio (env_shadows.glsl)
+uniform sampler2D u_env_ratio;    // mode 3: the ratio's sums (sum V g, sum g)
 uniform vec2 u_upsample;       // (0, 0): sources at the output's size; else 1 / the output's size
 
 out vec4 out_color;
@@ -44,6 +47,9 @@ void main() {
         c += source(u_env);
     } else if (u_env_mode == 2) {
         c += source(u_env_diffuse) + source(u_env_specular);
+    } else if (u_env_mode == 3) {
+        vec2 sums = texelFetch(u_env_ratio, ivec2(gl_FragCoord.xy), 0).rg;
+        c += source(u_env) * (sums.y > 0.0 ? sums.x / sums.y : 1.0);
     }
     if (u_indirect_scale > 0.0) {
         c += source(u_indirect);

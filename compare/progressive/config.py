@@ -21,6 +21,8 @@ __all__ = ["DEFAULT_D_OCC_FRACTION", "DEFAULT_OCCLUSION_BIAS", "RasterizerOption
 DEFAULT_D_OCC_FRACTION = 0.1
 #: Default depth bias of the occlusion test, as a fraction of d_occ.
 DEFAULT_OCCLUSION_BIAS = 0.01
+#: How the environment light is shadowed (RasterizerOptions.env_occlusion).
+ENV_OCCLUSION = ("screen", "shadows")
 
 
 def _finite(x) -> bool:
@@ -105,6 +107,9 @@ class RasterizerOptions:
         of the pixels, from 320×240 up, else 1). Below 1 frame 0 is a preview only,
         upsampled for display, and frame 1 draws the full-size unshadowed preview;
         1 draws it at full size as the first value of the every-frame mean.
+    env_occlusion : {"screen", "shadows"}
+        How the environment light is shadowed: screen-space occlusion samples (the paper's), or
+        environment shadow maps of luminance-sampled directions (:mod:`compare.progressive.env_shadows`).
     frame_budget_ms : float or None
         A per-frame time budget: each frame evaluates as many of the plan's
         samples as a measured cost model says fit (:mod:`compare.progressive.budget`),
@@ -137,8 +142,12 @@ class RasterizerOptions:
     first_frame: str = "forward"
     first_frame_scale: float | None = None
     frame_budget_ms: float | None = None
+    env_occlusion: str = "screen"
 
     def __post_init__(self):
+        if self.env_occlusion not in ENV_OCCLUSION:
+            raise ValueError(f"env_occlusion: expected one of {', '.join(map(repr, ENV_OCCLUSION))}, "
+                             f"got {self.env_occlusion!r}")
         if self.area_model not in AREA_MODELS:
             raise ValueError(f"area_model: expected one of {', '.join(map(repr, AREA_MODELS))}, got {self.area_model!r}")
         if self.materials not in SUPPORTED_MATERIALS:

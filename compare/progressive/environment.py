@@ -108,6 +108,9 @@ class EnvironmentLighting:
         except BaseException:
             self.release()
             raise
+        self.image = image
+        """The equirectangular map (without intensity), for samplers of its directions."""
+        self.rotation = float(env.rotation)
         self.map_size = (image.shape[1], image.shape[0])
         self.atlas_size = (atlas.data.shape[1], atlas.data.shape[0])
         self.irradiance_size = (irradiance.data.shape[1], irradiance.data.shape[0])

@@ -40,6 +40,7 @@ OPTIONS = {
     "vsm": "variance shadow maps",
     "budget<ms>": "a per-frame time budget in milliseconds, e.g. budget16",
     "fullfirst": "frame 0 at full size (the paper's first frame)",
+    "envshadows": "environment shadow maps: luminance-sampled directions, a shadow ratio of the split sum",
 }
 #: What each option sets among the rasterizer's keywords, and its words in a report's label.
 _KEYWORDS = {
@@ -50,6 +51,7 @@ _KEYWORDS = {
     "vsm": ("shadow_filter", "vsm"),
     "budget<ms>": ("frame_budget_ms", None),
     "fullfirst": ("first_frame_scale", 1.0),
+    "envshadows": ("env_occlusion", "shadows"),
 }
 
 
@@ -83,4 +85,6 @@ def describe(spec: str) -> str:
             words.append(f"{value:g} ms frame budget")
         elif key == "first_frame_scale":
             words.append("full-size first frame")
+        elif key == "env_occlusion":
+            words.append("environment shadow maps")
     return ", ".join(words)

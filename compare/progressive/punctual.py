@@ -28,10 +28,10 @@ Shadow maps (hard depth test, the area lights' bias in texels,
   (``2·outer_cone`` wide) up to :data:`MAX_SPOT_FACE_DEGREES`; a wider cone
   gets the point light's cube;
 * **directional** — one orthographic face of ``S`` texels, fitted across the
-  light to the part of the scene's bounds that the camera can see (the
-  camera's frustum, up to the farthest corner of the bounds, intersected with
-  the bounds, both as boxes across the light), and along it to the whole scene,
-  so that every caster between a visible receiver and the light is in it.
+  light to the part of the scene's bounds that the camera can see (the camera
+  rays' segments inside the bounds, :func:`visible_points`, as a box across the
+  light), and along it to the whole scene, so that every caster between a
+  visible receiver and the light is in it.
 
 The depth stored is the distance from the light (a directional light's: along
 its direction from the map's plane), as for area lights (``shadow.glsl``).
@@ -87,6 +87,31 @@ def ortho(left: float, right: float, bottom: float, top: float, near: float, far
     m[1, 3] = -(top + bottom) / (top - bottom)
     m[2, 3] = -(far + near) / (far - near)
     return m
+
+
+def visible_points(camera, bounds, grid: int = 17) -> np.ndarray:
+    """End points of the parts of the camera's rays (a ``grid`` × ``grid`` fan over the image, its
+    edges and corners included) that lie inside the scene's ``bounds``: every point the camera can see
+    lies on one of those segments up to the fan's spacing, so their box across a light is the part of
+    the scene a directional shadow map needs (far tighter than the frustum, whose far plane reaches
+    the farthest corner of the scene)."""
+    lo, hi = (np.asarray(b, dtype=np.float64) for b in bounds)
+    inv = np.linalg.inv(camera.view_proj((0.0, 0.0)))
+    x, y = np.meshgrid(np.linspace(-1, 1, grid), np.linspace(-1, 1, grid))
+    near = np.stack([x.ravel(), y.ravel(), -np.ones(x.size), np.ones(x.size)], axis=1) @ inv.T
+    far = np.stack([x.ravel(), y.ravel(), np.ones(x.size), np.ones(x.size)], axis=1) @ inv.T
+    a, b = near[:, :3] / near[:, 3:4], far[:, :3] / far[:, 3:4]
+    d = b - a
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t0, t1 = (lo - a) / d, (hi - a) / d
+    t0 = np.where(np.abs(d) < 1e-300, np.where((a >= lo) & (a <= hi), -np.inf, np.inf), t0)
+    t1 = np.where(np.abs(d) < 1e-300, np.where((a >= lo) & (a <= hi), np.inf, -np.inf), t1)
+    enter = np.clip(np.max(np.minimum(t0, t1), axis=1), 0.0, 1.0)
+    leave = np.clip(np.min(np.maximum(t0, t1), axis=1), 0.0, 1.0)
+    seen = leave > enter
+    if not seen.any():
+        return np.zeros((0, 3))
+    return np.concatenate([a[seen] + enter[seen, None] * d[seen], a[seen] + leave[seen, None] * d[seen]])
 
 
 def _corners(lo, hi) -> np.ndarray:
@@ -173,10 +198,7 @@ class PunctualLights:
         self.scene = gpu_scene
         self.lights = tuple(scene.punctual)
         bounds = scene.extent()
-        inv = np.linalg.inv(camera.view_proj((0.0, 0.0)))
-        ndc = np.array([[x, y, z, 1.0] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
-        world = (inv @ ndc.T).T
-        camera_corners = world[:, :3] / world[:, 3:4]
+        camera_corners = visible_points(camera, bounds)
         self.maps = [ShadowMap(light, bounds, camera_corners, int(shadow_size)) for light in self.lights]
         self.notes: list[str] = []
         texels = sum(m.shape[0] * m.shape[1] for m in self.maps)

@@ -87,6 +87,7 @@ from compare.progressive.ltc import LTC_DIRECT_FRACTION, LtcLights, ltc_texture
 from compare.progressive.gpu_scene import CameraSetup, GpuScene, mat_bytes
 from compare.progressive.probes import ProbeVolume, indirect_options
 from compare.progressive.readback import read_rgb
+from compare.progressive.env_shadows import EnvShadows
 from compare.progressive.punctual import PunctualLights
 from compare.progressive.shadow import ShadowAtlas
 
@@ -154,7 +155,8 @@ class Rasterizer:
             direct_fraction = LTC_DIRECT_FRACTION if area_model == "ltc" else DEFAULT_DIRECT_FRACTION
         self.plan = plan(scene, frames, seed=seed, direct_fraction=direct_fraction,
                          samples_per_light=o.samples_per_light,
-                         env_samples=o.env_samples if self.d_occ > 0 else 0)
+                         env_samples=o.env_samples if (self.d_occ > 0 or (has_env and o.env_occlusion == "shadows"))
+                         else 0)
         self.notes: list[str] = list(self.plan.notes)
         self.scheduler = None
         if frame_budget_ms is not None:
@@ -214,12 +216,17 @@ class Rasterizer:
         self.gpu_scene = self._keep(GpuScene(ctx, scene))
         self.gbuffer = self._keep(GBuffer(ctx, self.gpu_scene, size))
         # Leave out what the scene does not need: no environment work without an environment.
-        self.environment = self.env_occlusion = self.env_acc = None
+        self.environment = self.env_occlusion = self.env_acc = self.env_shadows = None
         if has_env:
             self.environment = self._keep(EnvironmentLighting(
                 ctx, scene, env_format=env_format, env_diffuse=env_diffuse, ibl_size=ibl_size,
                 ibl_levels=ibl_levels, ibl_samples=ibl_samples, cache_dir=cache_dir))
-            if self.plan.env_frames > 0:
+            if self.plan.env_frames > 0 and o.env_occlusion == "shadows":
+                self.env_shadows = self._keep(EnvShadows(
+                    ctx, self.gpu_scene, scene, self.camera, size, self.environment,
+                    [s for fp in self.plan for s in fp.env_samples], shadow_size=o.shadow_size, materials=materials,
+                    seed=seed))
+            elif self.plan.env_frames > 0:
                 self.env_occlusion = self._keep(EnvOcclusionPass(ctx, self.environment, materials,
                                                                  occlusion=self.gpu_scene.occluded))
                 self.env_acc = self._keep(EnvOcclusionTargets(ctx, size))
@@ -362,6 +369,8 @@ class Rasterizer:
             self.indirect_pass.run(self.gbuffer, cam_pos)
         if self.ltc is not None:
             self.ltc.run(self.gbuffer, cam_pos)
+        if fp.env_samples and self.env_shadows is not None:
+            self.env_shadows.run(fp.env_samples, self.gbuffer, cam_pos, self.shadow_bias)
         if fp.env_samples and self.env_occlusion is not None:
             self.env_occlusion.run(self.env_acc, self.gbuffer, mat_bytes(view_proj), cam_pos,
                                    self.camera.camera.basis()[2], fp.env_samples, self.d_occ,
@@ -490,7 +499,7 @@ class Rasterizer:
             return read_rgb(self.ctx, fbo, what=what)
         fbo = self.compose.run(self.base, self._direct_texture(), self.env_acc,
                                self.indirect_pass.texture if self.indirect_pass is not None else None,
-                               punctual_texture=self._punctual_texture())
+                               punctual_texture=self._punctual_texture(), env_ratio=self._env_ratio())
         return read_rgb(self.ctx, fbo, what=what)
 
     def _direct_texture(self):
@@ -504,6 +513,12 @@ class Rasterizer:
             return self.direct_acc.current
         if self._preview_valid:
             return self.preview.texture if self.preview is not None else self.first.direct
+        return None
+
+    def _env_ratio(self):
+        """The environment shadow ratio's sums (numerator, denominator), or None before any sample."""
+        if self.env_shadows is not None and self.env_shadows.count > 0:
+            return self.env_shadows.sums
         return None
 
     def _punctual_texture(self):
@@ -537,7 +552,12 @@ class Rasterizer:
             out["direct_punctual"] = read_texture_rgb(self.ctx, punctual, what=what)
         if len(self.base.textures[0]) > 1:
             acc = self.env_acc
-            if acc is not None and min(acc.counts) > 0:
+            if self._env_ratio() is not None:
+                sums = read_texture_rgb(self.ctx, self.env_shadows.sums, what=what)
+                ratio = np.where(sums[..., 1] > 0, sums[..., 0] / np.where(sums[..., 1] > 0, sums[..., 1], 1.0), 1.0)
+                out["direct_env"] = (read_texture_rgb(self.ctx, self.base.current_of(1), what=what)
+                                     * ratio[..., None].astype(np.float32))
+            elif acc is not None and min(acc.counts) > 0:
                 out["direct_env"] = (read_texture_rgb(self.ctx, acc.current(0), what=what)
                                      + read_texture_rgb(self.ctx, acc.current(1), what=what))
             else:
@@ -557,6 +577,8 @@ class Rasterizer:
             self.ltc.reset()
         if self.env_acc is not None:
             self.env_acc.reset()
+        if self.env_shadows is not None:
+            self.env_shadows.reset()
         if self.punctual is not None:
             self.punctual.reset()
         self._preview_valid = False
@@ -598,7 +620,10 @@ class Rasterizer:
             meta.update({"d_occ": self.d_occ, "occlusion_bias": self.occlusion_bias,
                          "env_samples": int(sum(p.env_counts)), "env_samples_diffuse": int(p.env_counts[0]),
                          "env_samples_specular": int(p.env_counts[1]), "env_frames": int(p.env_frames),
-                         "occlusion": "screen-space, progressive" if p.env_frames else "off"})
+                         "occlusion": ("off" if not p.env_frames else "environment shadow maps"
+                                       if self.env_shadows is not None else "screen-space, progressive")})
+            if self.env_shadows is not None:
+                meta.update(self.env_shadows.describe())
         if self.shadow is not None:
             meta.update({"shadow_projection": "half-cube (5 faces)", "shadow_size": int(self.shadow.size),
                          "shadow_bias": ",".join(f"{b:g}" for b in self.shadow_bias),

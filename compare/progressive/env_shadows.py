@@ -1,0 +1,184 @@
+"""Environment light that converges to its shadows: progressive environment shadow maps
+(``progressive:envshadows``).
+
+Screen-space occlusion (``env_occlusion.glsl``) sees only occluders on screen and within ``d_occ``.
+Here each environment sample of the distributor's plan (:class:`~compare.progressive.distributor.EnvSample`;
+its index picks a point of one R2 sequence) is instead a direction drawn from the environment map in proportion to its
+luminance, with an orthographic shadow map fitted to the scene (the directional light's map of
+:mod:`compare.progressive.punctual`), so every occluder of the scene casts its environment shadow,
+on screen or not.
+
+Estimator
+---------
+The unshadowed direct environment light stays the split sum (``accumulate.glsl``, converged from the
+first frame); the shadows are a ratio, as the ``ltc`` area model's (Heitz, Hill & McGuire 2018)::
+
+    shadowed ≈ unshadowed · Σ_k V(ω_k) g(ω_k) / Σ_k g(ω_k),   g = luminance(f(v, ω) cos θ)
+
+with ω_k drawn with density ∝ L(ω) (the map's luminance, ``env_shadows.glsl``): luminance / pdf is
+then one constant and cancels, and the ratio converges to ∫ V L f cos / ∫ L f cos, the shadowed share
+of the pixel's direct environment light (both lobes, in luminance). The sums are kept over all frames
+(each at its own jitter) and never reset: the ratio is consistent, the image unbiased in the limit up to
+the split sum's own approximation. Why a ratio rather than a direct MIS estimate of the integral: the
+unshadowed part stays exact and noise-free from the first frame, and only the visibility is estimated
+(the estimate of ∫ L f cos by a few luminance samples would be noisy on glossy surfaces). Its weakness
+is the same as ``ltc``'s: on a narrow specular lobe few samples fall inside it, and the ratio is that
+of the samples nearby.
+
+The distributor places these samples as it places the screen-space ones (frames 1 … m−1, frame 0 stays
+the cheap preview), so the frame budget schedules them alike; screen-space occlusion is off with them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from compare.progressive.gpu_scene import mat_bytes
+from compare.progressive.punctual import ShadowMap, visible_points
+from compare.progressive.sampling import r2, seed_offset
+from compare.progressive.shaders import load_program, set_uniform
+from compare.scene.equirect import rotation_matrix, uv_to_direction
+
+#: Texture unit of the shadow map in env_shadows.glsl (0-2 hold the G-buffer).
+SHADOW_UNIT = 3
+
+
+def luminance_sampler(image: np.ndarray):
+    """A function ``u (N, 2) → (directions (N, 3) in the map's frame)`` drawing directions with density
+    ∝ the map's luminance, piecewise constant on the texels' cells (rows j of v ∈ [j/H, (j+1)/H)):
+    a cell by its luminance times its solid angle, then a direction uniform in solid angle within it."""
+    img = np.asarray(image, dtype=np.float64)
+    h, w = img.shape[:2]
+    lum = img[..., 0] * 0.2126 + img[..., 1] * 0.7152 + img[..., 2] * 0.0722
+    # Each cell's solid angle is ∝ cos θ_top − cos θ_bottom; within a cell, cos θ is drawn uniformly, so
+    # the density is ∝ the cell's luminance over the whole cell (uniform v would crowd the poles).
+    cos_edges = np.cos(np.arange(h + 1) / h * np.pi)
+    solid = (cos_edges[:-1] - cos_edges[1:])[:, None]
+    weight = np.maximum(lum, 0.0) * solid
+    if not np.isfinite(weight).all() or weight.sum() <= 0:
+        weight = np.broadcast_to(solid, (h, w)).copy()  # black map: uniform on the sphere
+    rows = weight.sum(axis=1)
+    row_cdf = np.concatenate([[0.0], np.cumsum(rows)]) / rows.sum()
+    col_cdf = np.concatenate([np.zeros((h, 1)), np.cumsum(weight, axis=1)], axis=1)
+    col_cdf /= np.where(col_cdf[:, -1:] > 0, col_cdf[:, -1:], 1.0)
+
+    def sample(u) -> np.ndarray:
+        u = np.asarray(u, dtype=np.float64).reshape(-1, 2)
+        j = np.clip(np.searchsorted(row_cdf, u[:, 1], side="right") - 1, 0, h - 1)
+        fv = (u[:, 1] - row_cdf[j]) / np.maximum(row_cdf[j + 1] - row_cdf[j], 1e-300)
+        i = np.array([np.clip(np.searchsorted(col_cdf[jj], uu, side="right") - 1, 0, w - 1)
+                      for jj, uu in zip(j, u[:, 0])], dtype=int)
+        fu = (u[:, 0] - col_cdf[j, i]) / np.maximum(col_cdf[j, i + 1] - col_cdf[j, i], 1e-300)
+        cos_t = cos_edges[j] + np.clip(fv, 0, 1) * (cos_edges[j + 1] - cos_edges[j])
+        return uv_to_direction((i + np.clip(fu, 0, 1)) / w, np.arccos(np.clip(cos_t, -1.0, 1.0)) / np.pi)
+
+    return sample
+
+
+class EnvShadows:
+    """Shadow maps of the environment samples and the running sums of their shadow ratio."""
+
+    def __init__(self, ctx, gpu_scene, scene, camera, size: tuple[int, int], environment, samples, *,
+                 shadow_size: int, materials: str = "shared", seed: int = 0):
+        from compare.scene.model import PunctualLight
+
+        self.ctx = ctx
+        self.scene = gpu_scene
+        sample = luminance_sampler(environment.image)
+        # One R2 sequence over all samples by their index (the screen-space samples' points restart
+        # per kind, which would draw each direction twice), offset by the plan's seed.
+        points = np.array([r2(1, seed_offset(seed, 7), start=s.index)[0] for s in samples]).reshape(-1, 2)
+        to_world = rotation_matrix(environment.rotation)
+        directions = sample(points) @ to_world.T if len(points) else np.zeros((0, 3))
+        self.directions = {s.index: d / np.linalg.norm(d) for s, d in zip(samples, directions)}
+        bounds = scene.extent()
+        corners = visible_points(camera, bounds)
+        # Fitted once per direction at setup: a frame only renders its samples' maps.
+        self.maps = {k: ShadowMap(PunctualLight("environment", "directional", (0.0, 0.0, 0.0), tuple(-d),
+                                                (1.0, 1.0, 1.0)), bounds, corners, int(shadow_size))
+                     for k, d in self.directions.items()}
+        self._objects: list = []
+        self.casters = {}
+        try:
+            self.depth = self._keep(ctx.depth_texture((int(shadow_size), int(shadow_size))))
+            self.depth.compare_func = ""
+            self.depth.filter = (ctx.NEAREST, ctx.NEAREST)
+            self.depth_fbo = self._keep(ctx.framebuffer(depth_attachment=self.depth))
+            self.casters = gpu_scene.occluder_programs(ctx, "shadow.glsl", {"ORTHO": 1})
+            self.program = self._keep(load_program(ctx, "env_shadows.glsl",
+                                                   {"MATERIALS_DIFFUSE": int(materials == "diffuse")}))
+            self.vao = self._keep(ctx.vertex_array(self.program, []))
+            self.sums = self._keep(ctx.texture(size, 4, dtype="f4"))
+            self.sums.filter = (ctx.NEAREST, ctx.NEAREST)
+            self.sums_fbo = self._keep(ctx.framebuffer([self.sums]))
+        except BaseException:
+            self.release()
+            raise
+        self.count = 0
+        """Samples folded into the sums since :meth:`reset`."""
+        self.reset()
+
+    def _keep(self, obj):
+        self._objects.append(obj)
+        return obj
+
+    def run(self, samples, gbuffer, camera_position, bias) -> None:
+        """Render each sample's shadow map and add its ratio terms at this frame's G-buffer."""
+        ctx = self.ctx
+        for s in samples:
+            m = self.maps[s.index]
+            self.depth_fbo.use()
+            ctx.enable_only(ctx.DEPTH_TEST)
+            ctx.depth_func = "<"
+            self.depth_fbo.clear(depth=1.0)
+            for program in self.casters.values():
+                set_uniform(program, "u_sample", tuple(float(x) for x in m.origin))
+                set_uniform(program, "u_inv_far", 1.0 / m.far)
+                set_uniform(program, "u_direction", tuple(float(x) for x in m.direction))
+                set_uniform(program, "u_view_proj", mat_bytes(m.view_proj[0]))
+            self.scene.draw_occluders(self.casters)
+            self.sums_fbo.use()
+            ctx.enable_only(ctx.BLEND)
+            ctx.blend_func = ctx.ONE, ctx.ONE
+            ctx.blend_equation = ctx.FUNC_ADD
+            p = self.program
+            for loc, name in enumerate(("position", "normal", "material")):
+                gbuffer[name].use(location=loc)
+                set_uniform(p, f"u_{name}", loc)
+            self.depth.use(location=SHADOW_UNIT)
+            set_uniform(p, "u_pshadow_map", SHADOW_UNIT)
+            set_uniform(p, "u_camera_position", tuple(float(x) for x in camera_position))
+            set_uniform(p, "u_direction", tuple(float(x) for x in self.directions[s.index]))
+            set_uniform(p, "u_pshadow_faces", np.array([1], dtype=np.int32).tobytes())
+            vp = np.zeros((6, 4, 4), dtype=np.float32)
+            vp[0] = m.view_proj[0]
+            rects = np.zeros((6, 4), dtype=np.float32)
+            rects[0] = m.rects[0]
+            set_uniform(p, "u_pface_view_proj", np.ascontiguousarray(vp.transpose(0, 2, 1)).tobytes())
+            set_uniform(p, "u_pface_rect", rects.tobytes())
+            set_uniform(p, "u_pshadow_origin", tuple(float(x) for x in m.origin))
+            set_uniform(p, "u_pshadow_direction", tuple(float(x) for x in m.direction))
+            set_uniform(p, "u_pshadow_ortho", 1.0)
+            set_uniform(p, "u_pshadow_far", float(m.far))
+            set_uniform(p, "u_pshadow_texel", tuple(float(t) for t in m.texel))
+            set_uniform(p, "u_bias", tuple(float(b) for b in bias))
+            self.vao.render(vertices=3)
+            self.count += 1
+
+    def reset(self) -> None:
+        self.sums_fbo.use()
+        self.sums_fbo.clear(0.0, 0.0, 0.0, 0.0)
+        self.count = 0
+
+    def describe(self) -> dict:
+        size = self.depth.size[0]
+        return {"env_occlusion": "environment shadow maps (luminance-sampled directions, shadow ratio)",
+                "env_shadow_size": int(size), "env_shadow_samples": len(self.maps)}
+
+    def release(self) -> None:
+        if self.casters:
+            self.scene.release_programs(self.casters)
+            self.casters = {}
+        for obj in reversed(self._objects):
+            obj.release()
+        self._objects = []
