@@ -9,11 +9,12 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["material_coverage"]
+__all__ = ["first_hits", "material_coverage"]
 
 
-def material_coverage(scene) -> dict[str, float]:
-    """Fraction of the pixels (their centres) whose first hit is each material, by material name."""
+def first_hits(scene) -> np.ndarray:
+    """The index into ``scene.meshes`` of the mesh each pixel's centre ray hits first, (H, W) int; −1 for
+    none (the background, a light's rectangle)."""
     from compare.mitsuba.bsdf import register
     from compare.mitsuba.scene_dict import scene_dict
 
@@ -28,14 +29,17 @@ def material_coverage(scene) -> dict[str, float]:
     ray, _ = sensor.sample_ray(0.0, 0.5, pos, mi.Point2f(0.5, 0.5))
     si = mi_scene.ray_intersect(ray)
     index = dr.full(mi.Int32, -1, w * h)
-    names = {}
-    for k, shape in enumerate(mi_scene.shapes()):
+    for shape in mi_scene.shapes():
         sid = shape.id()
         if sid.startswith("mesh") and sid[4:].isdigit():
-            names[k] = scene.meshes[int(sid[4:])].material
-            index = dr.select((si.shape == mi.ShapePtr(shape)) & si.is_valid(), k, index)
-    found = np.asarray(index)
+            index = dr.select((si.shape == mi.ShapePtr(shape)) & si.is_valid(), int(sid[4:]), index)
+    return np.asarray(index).reshape(h, w)
+
+
+def material_coverage(scene) -> dict[str, float]:
+    """Fraction of the pixels (their centres) whose first hit is each material, by material name."""
+    hits = first_hits(scene)
     out: dict[str, float] = {}
-    for k, material in names.items():
-        out[material] = out.get(material, 0.0) + float(np.count_nonzero(found == k)) / (w * h)
+    for k, mesh in enumerate(scene.meshes):
+        out[mesh.material] = out.get(mesh.material, 0.0) + float(np.count_nonzero(hits == k)) / hits.size
     return out
