@@ -33,7 +33,11 @@ each figure:
     the full reference and against the direct-light-only reference; ``equal-error-direct-ltc``
     is the same for the ``ltc`` area model (:mod:`compare.progressive.ltc`) against the
     direct-light-only reference, ``equal-error-full-ltc-probes`` for ``ltc`` with the
-    irradiance probes against the full reference.
+    irradiance probes against the full reference; ``equal-error-full-envshadows`` and
+    ``-direct-envshadows`` for the environment shadow maps (scenes with an environment).
+``env-shadows``
+    median of the mean frame time of ``progressive:envshadows`` ÷ ``progressive``, runs alternating
+    (scenes with an environment).
 ``area-model-ltc``, ``area-model-paper``
     median of the mean frame time with the ``ltc`` (closed-form unshadowed light, shadow ratio) or
     the paper's point-light area model ÷ the same with the radiometric default, runs
@@ -133,6 +137,8 @@ def bench_equal_error(scene, *, frames: int, spp: int, repeats: int = 1, registr
     runs = [("", "progressive", ("full", "direct"))]
     if scene.lights:
         runs += [("-ltc", "progressive:ltc", ("direct",)), ("-ltc-probes", "progressive:ltc+probes", ("full",))]
+    if scene.environment is not None:
+        runs += [("-envshadows", "progressive:envshadows", ("full", "direct"))]
     labels = (("full", None), ("direct", 2))
     truths = {label: _truth(registry, scene, spp, context, depth) for label, depth in labels}
     # The first run of each renderer (its images) and every run's checkpoint seconds; later runs'
@@ -160,7 +166,8 @@ def bench_equal_error(scene, *, frames: int, spp: int, repeats: int = 1, registr
             target = flip(truth, final.image)[0]
             reach = [time_to_error(c, errors, target) for c in curves]
             meta = first[suffix].metadata
-            what = meta["area_model"] + (", probes" if meta.get("indirect") == "probes" else "")
+            what = (meta["area_model"] + (", probes" if meta.get("indirect") == "probes" else "")
+                    + (", environment shadow maps" if meta.get("occlusion") == "environment shadow maps" else ""))
             note = (f"vs {label} reference; {spec} FLIP {target:.4f}; Mitsuba FLIP at 1 spp "
                     f"{errors[0]:.4f}, at {spp} spp {errors[-1]:.4f}")
             if any(math.isinf(t) for t in reach):

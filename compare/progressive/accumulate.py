@@ -153,8 +153,8 @@ class ComposePass:
         samples, then the two means of visible light. ``indirect_texture`` is
         the irradiance volume's indirect light (:mod:`.indirect`), or None;
         ``punctual_texture`` the punctual lights' running mean (:mod:`.punctual`), or None;
-        ``env_ratio`` the environment shadow ratio's sums (:mod:`.env_shadows`), which then
-        scale the unoccluded environment light, or None.
+        ``env_ratio`` the environment shadow ratios' sums and the lobes' weights, two textures
+        (:mod:`.env_shadows`), which then scale the unoccluded environment light, or None.
         ``upsample``: the sources are smaller than the output (a reduced first
         frame) and are sampled bilinearly.
         """
@@ -171,9 +171,11 @@ class ComposePass:
         (env_visible.current(1) if occluded else base.current).use(location=4)
         (indirect_texture or base.current).use(location=5)
         (punctual_texture or base.current).use(location=6)
-        (env_ratio or base.current).use(location=7)
+        sums, weights = env_ratio if env_ratio is not None else (base.current, base.current)
+        sums.use(location=7)
+        weights.use(location=8)
         for loc, name in enumerate(("u_base", "u_direct", "u_env", "u_env_diffuse", "u_env_specular", "u_indirect",
-                                    "u_punctual", "u_env_ratio")):
+                                    "u_punctual", "u_env_ratio", "u_env_weights")):
             set_uniform(self.program, name, loc)
         set_uniform(self.program, "u_indirect_scale", 1.0 if indirect_texture is not None else 0.0)
         set_uniform(self.program, "u_punctual_scale", 1.0 if punctual_texture is not None else 0.0)

@@ -10,7 +10,8 @@ import numpy as np
 
 from compare.util.figures import Figure, median as _median
 
-__all__ = ["bench_area_models", "bench_depth_floor", "bench_first_frame", "bench_punctual", "bench_textures"]
+__all__ = ["bench_area_models", "bench_depth_floor", "bench_env_shadows", "bench_first_frame", "bench_punctual",
+           "bench_textures"]
 
 
 def bench_first_frame(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
@@ -136,6 +137,17 @@ def bench_punctual(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
     return [Figure("punctual-light", "frame cost per punctual light", "per area light", _median(per_punctual),
                    _median(per_area), "s", repeats, f"{n} light(s), {frames} frames, less the frame without lights",
                    per_punctual, per_area)]
+
+
+def bench_env_shadows(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
+    """Mean frame time of ``progressive:envshadows`` ÷ the screen-space occlusion default, runs alternating."""
+    if scene.environment is None:
+        raise RuntimeError("the scene has no environment: there is no environment light to shadow")
+    shadows, screen = _alternating_mean_frames([dict(env_occlusion="shadows"), dict()], scene, frames=frames,
+                                               repeats=repeats, ctx=ctx)
+    return [Figure("env-shadows", "envshadows mean frame", "screen-space occlusion mean frame", _median(shadows),
+                   _median(screen), "s", repeats, f"{frames} frames, one shadow map per environment sample",
+                   shadows, screen)]
 
 
 def _alternating_mean_frames(options: list[dict], scene, *, frames: int, repeats: int, ctx,

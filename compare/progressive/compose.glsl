@@ -27,7 +27,11 @@ uniform sampler2D u_punctual;      // the punctual lights' light (running mean)
 uniform float u_punctual_scale;  // 1 to add u_punctual
 uniform int u_env_mode;        // 0 no environment, 1 unoccluded, 2 occluded (both kinds have samples),
                                // 3 unoccluded times the environment shadow ratio (env_shadows.glsl)
-uniform sampler2D u_env_ratio;    // mode 3: the ratio's sums (sum V g, sum g)
+uniform sampler2D u_env_ratio;    // mode 3: the ratios' sums (sum V g_d, sum g_d, sum V g_s, sum g_s)
+uniform sampler2D u_env_weights;  // mode 3: the lobes' unshadowed luminance, summed alike (E_d, E_s), sum g_s^2
+#ifndef ENV_SPECULAR_SAMPLES
+#define ENV_SPECULAR_SAMPLES 16.0
+#endif
 uniform vec2 u_upsample;       // (0, 0): sources at the output's size; else 1 / the output's size
 
 out vec4 out_color;
@@ -48,8 +52,16 @@ void main() {
     } else if (u_env_mode == 2) {
         c += source(u_env_diffuse) + source(u_env_specular);
     } else if (u_env_mode == 3) {
-        vec2 sums = texelFetch(u_env_ratio, ivec2(gl_FragCoord.xy), 0).rg;
-        c += source(u_env) * (sums.y > 0.0 ? sums.x / sums.y : 1.0);
+        vec4 sums = texelFetch(u_env_ratio, ivec2(gl_FragCoord.xy), 0);
+        vec3 e = texelFetch(u_env_weights, ivec2(gl_FragCoord.xy), 0).rgb;
+        float r_d = sums.y > 0.0 ? sums.x / sums.y : 1.0;
+        float r_s = sums.w > 0.0 ? sums.z / sums.w : 1.0;
+        // Kish's effective sample count of the specular ratio; below ENV_SPECULAR_SAMPLES it is
+        // blended towards the diffuse ratio (env_shadows.py)
+        float n_eff = e.z > 0.0 ? sums.w * sums.w / e.z : 0.0;
+        r_s = mix(r_d, r_s, clamp(n_eff / ENV_SPECULAR_SAMPLES, 0.0, 1.0));
+        float ratio = e.x + e.y > 0.0 ? (r_d * e.x + r_s * e.y) / (e.x + e.y) : r_d;
+        c += source(u_env) * ratio;
     }
     if (u_indirect_scale > 0.0) {
         c += source(u_indirect);

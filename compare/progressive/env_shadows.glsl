@@ -1,13 +1,18 @@
 // One environment shadow sample (env_shadows.py), full screen over the G-buffer: the terms of the
-// shadow ratio of the direct environment light, added to its running sums (additive blending):
+// shadow ratios of the direct environment light, one per lobe, added to their running sums (additive
+// blending):
 //
-//   (V g, g),   g = luminance(f(v, w) cos) at the sample's direction w
+//   out_terms   = (V g_d, g_d, V g_s, g_s),   g = luminance(f_lobe(v, w) cos) at the sample's direction w
+//   out_weights = (E_d, E_s, g_s^2)            the split sum's unshadowed diffuse and specular luminance
 //
 // with V the visibility of w through the sample's orthographic shadow map (punctual_shadow.glsl)
-// and f the shared BRDF (Lambert only with MATERIALS_DIFFUSE). The directions are drawn in proportion
-// to the map's luminance (times sin theta, the equirect's area), so luminance / pdf is one constant for
-// every sample and cancels from the ratio sum V g / sum g, which converges to the shadowed over the
-// unshadowed direct environment light of the pixel (in luminance).
+// and f the shared BRDF's lobes (Lambert only with MATERIALS_DIFFUSE). The directions are drawn in
+// proportion to the map's luminance (per solid angle), so luminance / pdf is one constant for every
+// sample and cancels from each ratio sum V g / sum g, which converges to the shadowed over the
+// unshadowed light of that lobe. The display weights the two ratios by the lobes' unshadowed light
+// (compose.glsl): a glossy lobe's few samples then cannot darken the diffuse light; and a specular
+// ratio resting on few effective samples leans on the diffuse one (specular occlusion from the
+// diffuse visibility) until enough samples have fallen inside the lobe.
 
 #if defined VERTEX_SHADER
 
@@ -16,6 +21,8 @@
 #elif defined FRAGMENT_SHADER
 
 #include "brdf.glsl"
+#include "mapping.glsl"
+#include "ibl.glsl"
 #define BATCH 1
 #include "punctual_shadow.glsl"
 
@@ -26,12 +33,14 @@ uniform sampler2D u_pshadow_map;
 uniform vec3 u_camera_position;
 uniform vec3 u_direction;      // towards the environment (unit)
 
-out vec4 out_terms;
+layout(location = 0) out vec4 out_terms;
+layout(location = 1) out vec4 out_weights;
 
 void main() {
     ivec2 p = ivec2(gl_FragCoord.xy);
     vec4 gp = texelFetch(u_position, p, 0);
     out_terms = vec4(0.0);
+    out_weights = vec4(0.0);
     if (!(gp.w > 0.5 && gp.w < 1.5)) {
         return;
     }
@@ -39,19 +48,29 @@ void main() {
     vec4 gm = texelFetch(u_material, p, 0);
     vec3 n = normalize(gn.xyz);
     vec3 v = normalize(u_camera_position - gp.xyz);
-    float cos_s = dot(n, u_direction);
-    if (cos_s <= 0.0 || dot(n, v) <= 0.0) {
+    if (dot(n, v) <= 0.0) {
         return;
     }
-#if MATERIALS_DIFFUSE
-    vec3 f = gm.rgb * (1.0 / BRDF_PI);
-#else
-    vec3 f = brdf_eval(n, v, u_direction, gm.rgb, gm.a, gn.w);
+    const vec3 LUM = vec3(0.2126, 0.7152, 0.0722);
+    vec3 env_d;
+    vec3 env_s;
+    env_split_sum(n, v, gm.rgb, gm.a, gn.w, env_d, env_s);
+    out_weights = vec4(dot(env_d, LUM), dot(env_s, LUM), 0.0, 0.0);
+    float cos_s = dot(n, u_direction);
+    if (cos_s <= 0.0) {
+        return;
+    }
+    vec3 spec = vec3(0.0);
+    vec3 diff = gm.rgb * (1.0 / BRDF_PI);
+#if !MATERIALS_DIFFUSE
+    brdf_eval_lobes(n, v, u_direction, gm.rgb, gm.a, gn.w, spec, diff);
 #endif
-    // + 1e-6: a black pixel's ratio stays the geometric visibility
-    float g = (dot(f, vec3(0.2126, 0.7152, 0.0722)) + 1e-6) * cos_s;
+    // + 1e-6: a black lobe's ratio stays the geometric visibility
+    float g_d = (dot(diff, LUM) + 1e-6) * cos_s;
+    float g_s = (dot(spec, LUM) + 1e-6) * cos_s;
     float vis = punctual_visibility(u_pshadow_map, 0, gp.xyz, n, u_direction);
-    out_terms = vec4(vis * g, g, 0.0, 0.0);
+    out_terms = vec4(vis * g_d, g_d, vis * g_s, g_s);
+    out_weights.z = g_s * g_s;  // Kish's effective sample count of the specular ratio: (sum g)^2 / sum g^2
 }
 
 #endif

@@ -13,11 +13,17 @@ Estimator
 The unshadowed direct environment light stays the split sum (``accumulate.glsl``, converged from the
 first frame); the shadows are a ratio, as the ``ltc`` area model's (Heitz, Hill & McGuire 2018)::
 
-    shadowed ≈ unshadowed · Σ_k V(ω_k) g(ω_k) / Σ_k g(ω_k),   g = luminance(f(v, ω) cos θ)
+    shadowed ≈ Σ_lobe unshadowed_lobe · Σ_k V(ω_k) g(ω_k) / Σ_k g(ω_k),   g = luminance(f_lobe(v, ω) cos θ)
 
 with ω_k drawn with density ∝ L(ω) (the map's luminance, ``env_shadows.glsl``): luminance / pdf is
-then one constant and cancels, and the ratio converges to ∫ V L f cos / ∫ L f cos, the shadowed share
-of the pixel's direct environment light (both lobes, in luminance). The sums are kept over all frames
+then one constant and cancels, and each ratio converges to ∫ V L f cos / ∫ L f cos, the shadowed share
+of that lobe's direct environment light (in luminance). The display weights the diffuse and the
+specular ratio by the lobes' unshadowed split-sum luminance (kept beside the sums): one ratio for both
+lobes let a glossy lobe's few samples (a peak of g where a sample falls near the mirror direction)
+darken the diffuse light too, in streaks behind occluders. A specular ratio resting on few samples
+(Kish's effective count (Σ g)² / Σ g² below :data:`SPECULAR_SAMPLES`) is blended towards the diffuse
+one: the specular occlusion of a narrow lobe is the diffuse visibility until enough samples have
+fallen inside it (the blend is a bias that the samples remove). The sums are kept over all frames
 (each at its own jitter) and never reset: the ratio is consistent, the image unbiased in the limit up to
 the split sum's own approximation. Why a ratio rather than a direct MIS estimate of the integral: the
 unshadowed part stays exact and noise-free from the first frame, and only the visibility is estimated
@@ -41,6 +47,9 @@ from compare.scene.equirect import rotation_matrix, uv_to_direction
 
 #: Texture unit of the shadow map in env_shadows.glsl (0-2 hold the G-buffer).
 SHADOW_UNIT = 3
+#: Effective samples (Kish: (Σ g)² / Σ g²) from which the specular ratio is taken alone; below, it is
+#: blended towards the diffuse ratio in proportion (``ENV_SPECULAR_SAMPLES`` in compose.glsl).
+SPECULAR_SAMPLES = 16.0
 
 
 def luminance_sampler(image: np.ndarray):
@@ -105,12 +114,14 @@ class EnvShadows:
             self.depth.filter = (ctx.NEAREST, ctx.NEAREST)
             self.depth_fbo = self._keep(ctx.framebuffer(depth_attachment=self.depth))
             self.casters = gpu_scene.occluder_programs(ctx, "shadow.glsl", {"ORTHO": 1})
-            self.program = self._keep(load_program(ctx, "env_shadows.glsl",
-                                                   {"MATERIALS_DIFFUSE": int(materials == "diffuse")}))
+            self.environment = environment
+            self.program = self._keep(load_program(ctx, "env_shadows.glsl", environment.defines(materials)))
             self.vao = self._keep(ctx.vertex_array(self.program, []))
             self.sums = self._keep(ctx.texture(size, 4, dtype="f4"))
-            self.sums.filter = (ctx.NEAREST, ctx.NEAREST)
-            self.sums_fbo = self._keep(ctx.framebuffer([self.sums]))
+            self.weights = self._keep(ctx.texture(size, 4, dtype="f4"))
+            for tex in (self.sums, self.weights):
+                tex.filter = (ctx.NEAREST, ctx.NEAREST)
+            self.sums_fbo = self._keep(ctx.framebuffer([self.sums, self.weights]))
         except BaseException:
             self.release()
             raise
@@ -162,8 +173,27 @@ class EnvShadows:
             set_uniform(p, "u_pshadow_far", float(m.far))
             set_uniform(p, "u_pshadow_texel", tuple(float(t) for t in m.texel))
             set_uniform(p, "u_bias", tuple(float(b) for b in bias))
+            self.environment.bind(p, first_unit=SHADOW_UNIT + 1)
             self.vao.render(vertices=3)
             self.count += 1
+
+    def ratio(self, what: str) -> np.ndarray:
+        """The display's ratio per pixel, (H, W) float32, as ``compose.glsl`` computes it."""
+        from compare.progressive.readback import read_texture_rgba
+
+        sums = read_texture_rgba(self.ctx, self.sums, what=what).astype(np.float64)
+        e = read_texture_rgba(self.ctx, self.weights, what=what).astype(np.float64)
+
+        def part(num, den):
+            return np.where(den > 0, num / np.where(den > 0, den, 1.0), 1.0)
+
+        r_d, r_s = part(sums[..., 0], sums[..., 1]), part(sums[..., 2], sums[..., 3])
+        n_eff = np.where(e[..., 2] > 0, sums[..., 3] ** 2 / np.where(e[..., 2] > 0, e[..., 2], 1.0), 0.0)
+        t = np.clip(n_eff / SPECULAR_SAMPLES, 0.0, 1.0)
+        r_s = r_d + (r_s - r_d) * t
+        total = e[..., 0] + e[..., 1]
+        return np.where(total > 0, (r_d * e[..., 0] + r_s * e[..., 1]) / np.where(total > 0, total, 1.0),
+                        r_d).astype(np.float32)
 
     def reset(self) -> None:
         self.sums_fbo.use()

@@ -518,7 +518,7 @@ class Rasterizer:
     def _env_ratio(self):
         """The environment shadow ratio's sums (numerator, denominator), or None before any sample."""
         if self.env_shadows is not None and self.env_shadows.count > 0:
-            return self.env_shadows.sums
+            return self.env_shadows.sums, self.env_shadows.weights
         return None
 
     def _punctual_texture(self):
@@ -553,8 +553,7 @@ class Rasterizer:
         if len(self.base.textures[0]) > 1:
             acc = self.env_acc
             if self._env_ratio() is not None:
-                sums = read_texture_rgb(self.ctx, self.env_shadows.sums, what=what)
-                ratio = np.where(sums[..., 1] > 0, sums[..., 0] / np.where(sums[..., 1] > 0, sums[..., 1], 1.0), 1.0)
+                ratio = self.env_shadows.ratio(what)
                 out["direct_env"] = (read_texture_rgb(self.ctx, self.base.current_of(1), what=what)
                                      * ratio[..., None].astype(np.float32))
             elif acc is not None and min(acc.counts) > 0:

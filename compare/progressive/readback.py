@@ -30,10 +30,15 @@ def read_rgb(ctx, fbo, *, check_finite: bool = True, what: str = "progressive re
 
 def read_texture_rgb(ctx, texture, *, what: str = "progressive render") -> np.ndarray:
     """An RGBA32F texture's RGB as (H, W, 3) float32, row 0 at the top (see :func:`read_rgb`)."""
+    return read_texture_rgba(ctx, texture, what=what)[..., :3].copy()
+
+
+def read_texture_rgba(ctx, texture, *, what: str = "progressive render") -> np.ndarray:
+    """An RGBA32F texture as (H, W, 4) float32, row 0 at the top; NaN or infinity is an error."""
     ctx.finish()
     width, height = texture.size
     data = texture.read()
-    image = np.frombuffer(data, dtype=np.float32).reshape(height, width, 4)[::-1, :, :3]
+    image = np.frombuffer(data, dtype=np.float32).reshape(height, width, 4)[::-1]
     image = np.ascontiguousarray(image)
     if not np.all(np.isfinite(image)):
         raise ImageError(f"{what}: {int((~np.isfinite(image)).any(axis=2).sum())} pixels are NaN or infinite")

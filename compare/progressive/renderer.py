@@ -94,7 +94,7 @@ class ProgressiveRenderer(Renderer):
         if self.name != "progressive":
             return {}
         return {name: functools.partial(_own_bench, name) for name in ("first-frame", "depth-floor", "area-models",
-                                                                    "textures", "punctual-lights")}
+                                                                    "textures", "punctual-lights", "env-shadows")}
 
     def facts(self, metadata: dict) -> dict[str, str]:
         g, e = metadata.get("gl_renderer"), metadata.get("gl_srgb_decode_error")
@@ -109,6 +109,6 @@ def _own_bench(name: str, scene, *, frames: int, spp: int, repeats: int, context
     ctx = context.resource("gl", _create_gl_context, lambda c: c.release())
     fn = {"first-frame": bench.bench_first_frame, "depth-floor": bench.bench_depth_floor,
           "area-models": bench.bench_area_models, "textures": bench.bench_textures,
-          "punctual-lights": bench.bench_punctual}[name]
+          "punctual-lights": bench.bench_punctual, "env-shadows": bench.bench_env_shadows}[name]
     return fn(scene, frames=frames, repeats=repeats, ctx=ctx)
 
