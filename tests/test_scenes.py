@@ -29,7 +29,13 @@ FAST_IBL = {"ibl_size": 16, "ibl_levels": 5, "ibl_samples": 16}
 #: Scenes whose rasterizer image is known to exceed the energy bound (see tests/test_stress.py).
 #: Scenes whose rasterized image is known to exceed the brightest source (none since direct.glsl bounds
 #: the representative-point specular by the lobe's albedo; grazing.toml reached 1.8x before).
-KNOWN_OVER_BOUND: dict[str, str] = {}
+KNOWN_OVER_BOUND: dict[str, str] = {
+    # glTF's own BRDF: the diffuse weight (1 − F(v·h)) over a white base gains energy at grazing views
+    # (directional albedo 1.2 at n·v = 0.2, roughness 0.3, in compare.brdf itself), and a white furnace
+    # shows it; the reference's spheres do too, within its noise allowance.
+    "materials_furnace.toml": "white dielectrics in a white furnace: the glTF model's gain at grazing views",
+    "materials_blend.toml": "a white-ish board under a white sky: the glTF model's gain at grazing views",
+}
 
 
 def load(path: Path, size=SIZE):

@@ -92,6 +92,7 @@ __all__ = [
     "COS_MIN",
     "DIELECTRIC_F0",
     "H_LEN2_MIN",
+    "REFERENCE_ALPHA_MIN",
     "SPECULAR_PROB_MIN",
     "alpha_from_roughness",
     "dielectric_specular",
@@ -117,8 +118,13 @@ MATERIAL_MODES = {
 }
 #: Modes for closed-form checks only, not offered to a run.
 CLOSED_FORM_MODES = ("diffuse",)
-#: Smallest GGX alpha (= 0.045**2, Filament's desktop MIN_ROUGHNESS); see the module notes.
+#: Smallest GGX alpha (= 0.045**2, Filament's desktop MIN_ROUGHNESS) of the renderers that need a floor
+#: (the rasterizer, in float32 near the peak); see the module notes.
 ALPHA_MIN = 0.002025
+#: Smallest GGX alpha of the reference: what the file says, down to Mitsuba's own microfacet clamp
+#: (roughness 0.01, a lobe 1e-4 rad wide: a mirror). The reference's plugins evaluate D and their pdf from
+#: the same half vector, so float32's imprecision near the peak cancels in their sample weights.
+REFERENCE_ALPHA_MIN = 1e-4
 #: Floor of n.v and n.l inside the visibility term V only (Filament's MIN_N_DOT_V).
 COS_MIN = 1e-4
 #: Normal-incidence reflectance of the dielectric base (ior 1.5: ((1.5-1)/(1.5+1))^2).
@@ -135,13 +141,16 @@ def _dot(a, b):
     return np.sum(a * b, axis=-1)
 
 
-def alpha_from_roughness(roughness):
-    """GGX alpha from glTF perceptual roughness: ``max(clip(r, 0, 1)**2, ALPHA_MIN)``.
+def alpha_from_roughness(roughness, alpha_min: float = ALPHA_MIN):
+    """GGX alpha from glTF perceptual roughness: ``max(clip(r, 0, 1)**2, alpha_min)``.
 
     Parameters
     ----------
     roughness : array_like
         Perceptual roughness (glTF ``roughnessFactor`` times texture).
+    alpha_min : float
+        The floor: :data:`ALPHA_MIN` for the renderers that need one (the rasterizer, this module's
+        default), :data:`REFERENCE_ALPHA_MIN` for the reference (what the file says, down to a mirror).
 
     Returns
     -------
@@ -149,7 +158,7 @@ def alpha_from_roughness(roughness):
         alpha, float64, same shape.
     """
     r = np.clip(np.asarray(roughness, dtype=np.float64), 0.0, 1.0)
-    return np.maximum(r * r, ALPHA_MIN)
+    return np.maximum(r * r, alpha_min)
 
 
 def ggx_d(n_dot_h, alpha, sin2_theta_h=None):
@@ -255,7 +264,7 @@ class _Geometry(NamedTuple):
     front: np.ndarray
 
 
-def _geometry(n, v, l, base_color, metallic, roughness) -> _Geometry:  # noqa: E741
+def _geometry(n, v, l, base_color, metallic, roughness, alpha_min: float = ALPHA_MIN) -> _Geometry:  # noqa: E741
     """Validate and convert the arguments of a BRDF evaluation; the half vector's cosines.
 
     Shared by the glTF model here and the Principled v2 model of :mod:`compare.mitsuba.principled`.
@@ -276,7 +285,7 @@ def _geometry(n, v, l, base_color, metallic, roughness) -> _Geometry:  # noqa: E
     front = (nv > 0.0) & (nl > 0.0) & (len2 > H_LEN2_MIN)
     h = hu / np.sqrt(np.maximum(len2, H_LEN2_MIN))[..., None]
     nxh = np.cross(n, h)
-    return _Geometry(base, m, r, alpha_from_roughness(r), nv, nl, np.clip(_dot(n, h), 0.0, 1.0),
+    return _Geometry(base, m, r, alpha_from_roughness(r, alpha_min), nv, nl, np.clip(_dot(n, h), 0.0, 1.0),
                      np.clip(_dot(v, h), 0.0, 1.0), _dot(nxh, nxh), front)
 
 
@@ -289,11 +298,12 @@ def dielectric_specular(ior: float = 1.5, specular: float = 1.0, specular_color=
     return np.minimum(f0 * np.asarray(specular_color, dtype=np.float64), 1.0), float(specular)
 
 
-def eval_brdf_lobes(n, v, l, base_color, metallic, roughness, *, dielectric=None):
+def eval_brdf_lobes(n, v, l, base_color, metallic, roughness, *, dielectric=None, alpha_min: float = ALPHA_MIN):
     """The specular and diffuse terms of :func:`eval_brdf`, separately.
 
     ``dielectric``: ``(F0, weight)`` of :func:`dielectric_specular` for a material with glTF's ior or
     specular extensions; None is the core model (F0 = 0.04, weight 1), evaluated as it always was.
+    ``alpha_min``: the α floor (:func:`alpha_from_roughness`).
 
     Returns
     -------
@@ -301,7 +311,7 @@ def eval_brdf_lobes(n, v, l, base_color, metallic, roughness, *, dielectric=None
         ``F D V`` and ``(1 - m)(1 - F_d) c / pi``, each ``(..., 3)`` float64, both
         zero below the horizon.
     """
-    g = _geometry(n, v, l, base_color, metallic, roughness)
+    g = _geometry(n, v, l, base_color, metallic, roughness, alpha_min)
     base, m, nv, nl, vh, front = g.base, g.m, g.nv, g.nl, g.vh, g.front
     d = ggx_d(g.nh, g.alpha, g.sin2)
     vis = smith_v_height_correlated(nv, nl, g.alpha)
@@ -321,7 +331,7 @@ def eval_brdf_lobes(n, v, l, base_color, metallic, roughness, *, dielectric=None
     return np.where(mask, spec, 0.0), np.where(mask, diff, 0.0)
 
 
-def eval_brdf(n, v, l, base_color, metallic, roughness):
+def eval_brdf(n, v, l, base_color, metallic, roughness, *, alpha_min: float = ALPHA_MIN):
     """The glTF 2.0 metallic-roughness BRDF f(n, v, l) (not multiplied by n.l).
 
     Parameters
@@ -333,6 +343,8 @@ def eval_brdf(n, v, l, base_color, metallic, roughness):
         Linear base colour.
     metallic, roughness : array_like, shape (...)
         glTF metallic and perceptual roughness; clamped to [0, 1].
+    alpha_min : float, keyword-only
+        The α floor (:func:`alpha_from_roughness`): :data:`REFERENCE_ALPHA_MIN` for the reference's.
 
     Returns
     -------
@@ -345,7 +357,7 @@ def eval_brdf(n, v, l, base_color, metallic, roughness):
     ``f = F D V + (1 - m)(1 - F_d) c / pi``; see the module docstring for every
     term, the clamps and the references.
     """
-    spec, diff = eval_brdf_lobes(n, v, l, base_color, metallic, roughness)
+    spec, diff = eval_brdf_lobes(n, v, l, base_color, metallic, roughness, alpha_min=alpha_min)
     return spec + diff
 
 

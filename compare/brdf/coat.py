@@ -6,7 +6,7 @@ The specification's layering, with the coat's Fresnel at the half vector::
     coated   = base · (1 − w F_c) + w F_c D(α_c) V(α_c)          (w = clearcoat, α_c = roughness_c²)
 
 ``D`` and ``V`` are the shared BRDF's GGX distribution and height-correlated Smith visibility
-(:mod:`compare.brdf`), with its α floor. The coat's normal is the surface's geometric normal (glTF's
+(:mod:`compare.brdf`), with the reference's α floor (:data:`~compare.brdf.REFERENCE_ALPHA_MIN`). The coat's normal is the surface's geometric normal (glTF's
 ``clearcoatNormalTexture`` is not read). This module is the definition; the reference's Mitsuba plugin
 (:mod:`compare.mitsuba.coat`) evaluates the same formula and is tested against it.
 """
@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from compare.brdf import DIELECTRIC_F0, H_LEN2_MIN, alpha_from_roughness, fresnel_schlick, ggx_d, smith_v_height_correlated
+from compare.brdf import DIELECTRIC_F0, H_LEN2_MIN, REFERENCE_ALPHA_MIN, alpha_from_roughness, fresnel_schlick, ggx_d, smith_v_height_correlated
 
 __all__ = ["COAT_F0", "coat_lobe", "coated"]
 
@@ -33,7 +33,7 @@ def coat_lobe(n, v, l, clearcoat, roughness):  # noqa: E741
     h = hu / np.sqrt(np.maximum(len2, H_LEN2_MIN))[..., None]
     nh = np.clip(np.sum(n * h, -1), 0.0, 1.0)
     vh = np.clip(np.sum(v * h, -1), 0.0, 1.0)
-    alpha = alpha_from_roughness(roughness)
+    alpha = alpha_from_roughness(roughness, REFERENCE_ALPHA_MIN)  # the reference's coat
     share = np.asarray(clearcoat, dtype=np.float64) * fresnel_schlick(COAT_F0, vh)
     sin2 = np.sum(np.cross(n, h) ** 2, -1)  # |n × h|², exact where 1 − (n·h)² cancels
     spec = share * ggx_d(nh, alpha, sin2) * smith_v_height_correlated(nv, nl, alpha)

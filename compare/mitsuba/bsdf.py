@@ -67,7 +67,7 @@ from __future__ import annotations
 
 import sys
 
-from compare.brdf import ALPHA_MIN, COS_MIN, DIELECTRIC_F0, H_LEN2_MIN, SPECULAR_PROB_MIN, multiscatter
+from compare.brdf import REFERENCE_ALPHA_MIN, COS_MIN, DIELECTRIC_F0, H_LEN2_MIN, SPECULAR_PROB_MIN, multiscatter
 from compare.mitsuba import principled
 
 __all__ = ["FLAVOURS", "PLUGIN_NAME", "evaluate", "register", "registered_variants"]
@@ -236,7 +236,7 @@ def _make_class(mv, mitsuba):
             c = self.base_color.eval(si, active)
             m = dr.clip(self.metallic.eval_1(si, active), 0.0, 1.0)
             r = dr.clip(self.roughness.eval_1(si, active), 0.0, 1.0)
-            alpha = dr.maximum(r * r, ALPHA_MIN)
+            alpha = dr.maximum(r * r, REFERENCE_ALPHA_MIN)
             return c, m, alpha, r
 
         @staticmethod

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import sys
 
-from compare.brdf import ALPHA_MIN, COS_MIN, H_LEN2_MIN
+from compare.brdf import REFERENCE_ALPHA_MIN, COS_MIN, H_LEN2_MIN
 from compare.brdf.coat import COAT_F0
 
 __all__ = ["PLUGIN_NAME", "register"]
@@ -56,7 +56,7 @@ def _make_class(mv, mitsuba):
             self.base = props["base"]
             self.weight = float(props.get("clearcoat", 1.0))
             r = min(max(float(props.get("roughness", 0.0)), 0.0), 1.0)
-            self.alpha = max(r * r, ALPHA_MIN)
+            self.alpha = max(r * r, REFERENCE_ALPHA_MIN)
             n = self.base.component_count()
             coat = Flags.GlossyReflection | Flags.FrontSide
             self.m_components = [self.base.flags(i) for i in range(n)] + [coat]

@@ -56,8 +56,8 @@ interpolation (texel i at coordinate i/15).
 
 Differences from Cycles that remain
 -----------------------------------
-* ``alpha >= ALPHA_MIN`` (roughness 0.045), as in the shared BRDF; Cycles takes
-  roughness below ~0.004 as a perfect mirror and keeps everything in between.
+* ``alpha >= REFERENCE_ALPHA_MIN`` (1e-4, roughness 0.01: Mitsuba's own clamp, a lobe 1e-4 rad
+  wide); Cycles takes roughness below ~0.004 as a perfect mirror and keeps everything in between.
   The table is indexed with the unclamped roughness, as in Cycles.
 * V uses the shared BRDF's float32 guards (``COS_MIN``); Cycles has none.
 * Cycles bends the shading normal of its specular closures when a reflection
@@ -72,7 +72,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from compare.brdf import (DIELECTRIC_F0, SPECULAR_PROB_MIN, _geometry, fresnel_schlick, ggx_d,
+from compare.brdf import (DIELECTRIC_F0, REFERENCE_ALPHA_MIN, SPECULAR_PROB_MIN, _geometry, fresnel_schlick, ggx_d,
                sample_ggx_vndf, smith_v_height_correlated)
 from compare.brdf.multiscatter import (DEFAULT_DISTRIBUTION, DISTRIBUTIONS, fresnel_dielectric_fss, fresnel_f82_fss,
                            layer_factor, lobe_scale, lookup_2d)
@@ -249,7 +249,7 @@ def eval_principled_lobes(n, v, l, base_color, metallic, roughness, distribution
         each ``(..., 3)`` float64, both zero below the horizon.
     """
     multi = _check_distribution(distribution)
-    g = _geometry(n, v, l, base_color, metallic, roughness)
+    g = _geometry(n, v, l, base_color, metallic, roughness, REFERENCE_ALPHA_MIN)  # the reference's model
     base, m, r, nv, vh, front = g.base, g.m, g.r, g.nv, g.vh, g.front
     k_m, k_d, l_d = _compensation(np.broadcast_to(base, np.shape(nv) + (3,)), np.broadcast_to(r, np.shape(nv)),
                                   nv, multi)

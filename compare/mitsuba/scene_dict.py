@@ -45,9 +45,10 @@ Until this mode used the plugin it was Mitsuba's ``principled`` BSDF (Disney
 2015: Disney diffuse with retro-reflection, Schlick Fresnel, no layering), which
 made the Cornell box 18-47 % brighter per region than Cycles.
 
-What remains different from Cycles: the roughness floor (alpha >= 0.002025,
-roughness 0.045; Cycles keeps roughness down to ~0.004 glossy, below that a
-mirror), the float32 guards of V, Cycles' bending of shading normals for
+What remains different from Cycles: the reference's roughness floor (alpha >= 1e-4,
+roughness 0.01, Mitsuba's own clamp: a mirror to within 1e-4 rad; Cycles keeps roughness
+down to ~0.004 glossy, below that a mirror; the rasterizer's floor, 0.045, is not the
+reference's), the float32 guards of V, Cycles' bending of shading normals for
 specular reflection on smooth-shaded meshes (``ensure_valid_specular_reflection``),
 Monte Carlo noise in the two tabulations of ``E_s`` (~3e-4), and sampling
 (lobe choice, light sampling, Sobol versus Mitsuba's samplers), which changes
