@@ -102,7 +102,8 @@ def _direct_reference(name: str, size: tuple[int, int], spp: int) -> np.ndarray:
 def test_roughness_sweep_agrees_and_highlights_fall_with_roughness(gl_ctx, area_model):
     """Roughness 0…1 × metallic 0/1 under one light: no sphere brighter than the light; per-sphere
     means of the rasterizer within 6 % (dielectric) and 25 % (metal) of the direct-light reference;
-    the metal highlight's peak falls as roughness grows, in both renderers."""
+    the metal highlight's peak falls as roughness grows, in both renderers (once the lobe is wider
+    than the light's reflection)."""
     s = load("roughness_sweep.toml", (96, 72))
     ids = _sphere_ids(s)
     ref = _direct_reference("roughness_sweep.toml", (96, 72), 128)
@@ -119,8 +120,12 @@ def test_roughness_sweep_agrees_and_highlights_fall_with_roughness(gl_ctx, area_
         if metal:
             peaks["ref"].append(r.max())
             peaks["ras"].append(p.max())
+    # A peak cannot pass the light's reflection F·L: a mirror and a lobe still narrower than the light as
+    # seen in the sphere (roughness 0 and 0.2 in the reference, which keeps the file's roughness 0) both
+    # reach it, within the noise; from there on the peaks fall.
     for name, values in peaks.items():
-        assert all(a > b for a, b in zip(values, values[1:])), f"{name}: metal peaks {values} do not fall"
+        assert all(a >= 0.99 * b for a, b in zip(values, values[1:])), f"{name}: metal peaks {values} rise"
+        assert all(a > b for a, b in zip(values[1:], values[2:])), f"{name}: metal peaks {values} do not fall"
 
 
 # ----------------------------------------------------------------------------- grazing views
