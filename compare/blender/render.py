@@ -67,7 +67,8 @@ class BlenderResult:
         seconds, image) per sample count, the full render last. Each is a
         separate render with the same seed, which for Cycles' and EEVEE's
         deterministic sample sequences is the first n samples of the full
-        render; its seconds are that render's own time.
+        render; its seconds are that render's own time, or the previous checkpoint's where that is
+        more (a render of more samples timed a hair faster than one of fewer).
     """
 
     image: np.ndarray
@@ -235,14 +236,19 @@ def _run(py: str, scene: Scene, opts: dict, timeout: float | None, folder: Path)
                      "pixel_filter": f"gaussian filter_size {job['eevee_filter_size']:.4f} px",
                      "deterministic": 1})
     checkpoints = []
+    # Each checkpoint is a render of its own; where a render's fixed overhead dominates, one of more
+    # samples can take a hair less than one of fewer. The first n samples of a render take no longer
+    # than the whole render of n' > n, so each checkpoint's seconds are the running maximum.
+    latest = 0.0
     for cp in info.get("ladder", []):
         try:
             cp_image, _ = read_exr(folder / cp["file"])
         except (OSError, ValueError, CompareError) as exc:
             raise BlenderError(f"Blender {engine} checkpoint {cp['file']} is unreadable ({exc})") from exc
-        checkpoints.append(Checkpoint(int(cp["samples"]), float(cp["seconds"]), cp_image))
+        latest = max(latest, float(cp["seconds"]))
+        checkpoints.append(Checkpoint(int(cp["samples"]), latest, cp_image))
     if checkpoints:
-        checkpoints.append(Checkpoint(int(samples), float(info["render_seconds"]), image))
+        checkpoints.append(Checkpoint(int(samples), max(latest, float(info["render_seconds"])), image))
         meta["ladder"] = json.dumps([c.step for c in checkpoints])
     return BlenderResult(image=image, seconds=float(info["render_seconds"]), startup_seconds=float(startup),
                          metadata=meta, checkpoints=checkpoints)
