@@ -34,7 +34,6 @@ KNOWN_OVER_BOUND: dict[str, str] = {
     # (directional albedo 1.2 at n·v = 0.2, roughness 0.3, in compare.brdf itself), and a white furnace
     # shows it; the reference's spheres do too, within its noise allowance.
     "materials_furnace.toml": "white dielectrics in a white furnace: the glTF model's gain at grazing views",
-    "materials_blend.toml": "a white-ish board under a white sky: the glTF model's gain at grazing views",
 }
 
 

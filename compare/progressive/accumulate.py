@@ -142,7 +142,7 @@ class ComposePass:
         self.out = Target(ctx, size)
 
     def run(self, base: PingPong, direct_texture=None, env_visible=None, indirect_texture=None, *,
-            punctual_texture=None, env_ratio=None, upsample: bool = False):
+            punctual_texture=None, env_ratio=None, blend_texture=None, upsample: bool = False):
         """Compose the display image.
 
         ``base`` is the every-frame ping-pong (a second attachment holds the
@@ -154,7 +154,9 @@ class ComposePass:
         the irradiance volume's indirect light (:mod:`.indirect`), or None;
         ``punctual_texture`` the punctual lights' running mean (:mod:`.punctual`), or None;
         ``env_ratio`` the environment shadow ratios' sums and the lobes' weights, two textures
-        (:mod:`.env_shadows`), which then scale the unoccluded environment light, or None.
+        (:mod:`.env_shadows`), which then scale the unoccluded environment light, or None;
+        ``blend_texture`` the blended surfaces' running mean (:mod:`.blend`), composited over the
+        rest, or None.
         ``upsample``: the sources are smaller than the output (a reduced first
         frame) and are sampled bilinearly.
         """
@@ -174,11 +176,13 @@ class ComposePass:
         sums, weights = env_ratio if env_ratio is not None else (base.current, base.current)
         sums.use(location=7)
         weights.use(location=8)
+        (blend_texture or base.current).use(location=9)
         for loc, name in enumerate(("u_base", "u_direct", "u_env", "u_env_diffuse", "u_env_specular", "u_indirect",
-                                    "u_punctual", "u_env_ratio", "u_env_weights")):
+                                    "u_punctual", "u_env_ratio", "u_env_weights", "u_blend")):
             set_uniform(self.program, name, loc)
         set_uniform(self.program, "u_indirect_scale", 1.0 if indirect_texture is not None else 0.0)
         set_uniform(self.program, "u_punctual_scale", 1.0 if punctual_texture is not None else 0.0)
+        set_uniform(self.program, "u_blend_scale", 1.0 if blend_texture is not None else 0.0)
         set_uniform(self.program, "u_direct_scale", 1.0 if direct_texture is not None else 0.0)
         set_uniform(self.program, "u_env_mode", env_mode)
         w, h = self.out.texture.size

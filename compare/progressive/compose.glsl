@@ -5,7 +5,8 @@
 // then the two running means of the visible diffuse and specular light (env_occlusion.glsl), or
 // (environment shadow maps) the unoccluded mean times the shadow ratio of env_shadows.glsl,
 // plus the irradiance volume's indirect light where the renderer has one (indirect.glsl),
-// plus the punctual lights' running mean (punctual.glsl) where the scene has them.
+// plus the punctual lights' running mean (punctual.glsl) where the scene has them; the blended
+// surfaces' running mean (blend.py) composites over all of that.
 // The display after a reduced frame 0 (first_frame.py) composes that frame's own, smaller
 // targets, upsampled bilinearly.
 
@@ -25,6 +26,8 @@ uniform float u_direct_scale;  // 1 to add u_direct, 0 when there is no direct l
 uniform float u_indirect_scale;  // 1 to add u_indirect
 uniform sampler2D u_punctual;      // the punctual lights' light (running mean)
 uniform float u_punctual_scale;  // 1 to add u_punctual
+uniform sampler2D u_blend;         // blended surfaces (blend.py): premultiplied colour, a = transmittance
+uniform float u_blend_scale;     // 1 to composite u_blend over the rest
 uniform int u_env_mode;        // 0 no environment, 1 unoccluded, 2 occluded (both kinds have samples),
                                // 3 unoccluded times the environment shadow ratio (env_shadows.glsl)
 uniform sampler2D u_env_ratio;    // mode 3: the ratios' sums (sum V g_d, sum g_d, sum V g_s, sum g_s)
@@ -68,6 +71,10 @@ void main() {
     }
     if (u_punctual_scale > 0.0) {
         c += source(u_punctual);
+    }
+    if (u_blend_scale > 0.0) {
+        vec4 b = texelFetch(u_blend, ivec2(gl_FragCoord.xy), 0);
+        c = b.rgb + b.a * c;
     }
     out_color = vec4(c, 1.0);
 }

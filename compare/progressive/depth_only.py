@@ -25,7 +25,7 @@ class DepthOnlyPass:
         self.fbo.clear(depth=1.0)
         for program in self.programs.values():
             set_uniform(program, "u_view_proj", mat_bytes(view_proj))
-        self.scene.draw_occluders(self.programs)
+        self.scene.draw_occluders(self.programs, casters=False)
 
     def release(self) -> None:
         self.fbo.release()

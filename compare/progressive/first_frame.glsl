@@ -14,7 +14,10 @@
 //
 // A depth pre-pass runs first, so each pixel is shaded once.
 //
-// Defines: LIGHTS (number of area lights, 0 for none), PUNCTUAL (number of punctual lights), ENVIRONMENT, AREA_MODEL_PAPER,
+// With BLEND the same shading draws the blend pass instead (blend.py): out_color is the lit colour (emission,
+// the unoccluded environment light, each light unshadowed) times the coverage, and the coverage.
+//
+// Defines: LIGHTS (number of area lights, 0 for none), PUNCTUAL (number of punctual lights), BLEND, ENVIRONMENT, AREA_MODEL_PAPER,
 // AREA_MODEL_LTC (the preview is then the closed-form unshadowed light, ltc.glsl), MATERIALS_DIFFUSE.
 
 #if defined VERTEX_SHADER
@@ -63,7 +66,12 @@ uniform float u_kind;             // 1 = shaded surface, 2 = emitter that reflec
 uniform float u_background_pass;
 
 layout(location = 0) out vec4 out_color;
-#if ENVIRONMENT
+#if BLEND
+// The blend pass (blend.py): one output, the lit colour premultiplied by the coverage, and the
+// coverage; depth against the G-buffer's nearest opaque surface.
+uniform float u_blend_alpha;     // glTF's alpha (times the base-colour map's)
+uniform sampler2D u_gbuffer_position;
+#elif ENVIRONMENT
 layout(location = 1) out vec4 out_env;
 layout(location = 2) out vec4 out_direct;
 #if PUNCTUAL > 0
@@ -110,15 +118,25 @@ void main() {
 #if ENVIRONMENT
     if (u_background_pass > 0.5) {
         out_color = vec4(env_background_at_pixel(gl_FragCoord.xy, u_viewport, u_inv_view_proj), 1.0);
+#if !BLEND
         out_env = vec4(0.0, 0.0, 0.0, 1.0);
         out_direct = vec4(0.0, 0.0, 0.0, 1.0);
 #if PUNCTUAL > 0
         out_punctual = vec4(0.0, 0.0, 0.0, 1.0);
 #endif
+#endif
         return;
     }
 #endif
     alpha_test();
+#if BLEND
+    // behind the nearest opaque surface (the G-buffer's, a hair of tolerance): hidden
+    vec4 opaque = texelFetch(u_gbuffer_position, ivec2(gl_FragCoord.xy), 0);
+    if (opaque.w > 0.5 && distance(opaque.xyz, u_camera_position)
+                           < distance(v_position, u_camera_position) * (1.0 - 1e-5)) {
+        discard;
+    }
+#endif
     vec3 n = normalize(v_normal);
     vec3 v = normalize(u_camera_position - v_position);
     vec3 c = dot(n, v) > 0.0 ? material_emission() : vec3(0.0);
@@ -156,6 +174,13 @@ void main() {
         }
 #endif
     }
+#if BLEND
+    float coverage = u_blend_alpha;
+#if TEXTURES
+    coverage *= HAS_BASE_COLOR_MAP ? sample_map(u_base_color_map).a : 1.0;
+#endif
+    out_color = vec4((c + env + direct + punctual) * coverage, coverage);
+#else
     out_color = vec4(c, 1.0);
 #if ENVIRONMENT
     out_env = vec4(env, 1.0);
@@ -163,6 +188,7 @@ void main() {
     out_direct = vec4(direct, 1.0);
 #if PUNCTUAL > 0
     out_punctual = vec4(punctual, 1.0);
+#endif
 #endif
 }
 

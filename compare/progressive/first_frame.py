@@ -68,6 +68,27 @@ LUT_UNIT = 0
 ENV_UNIT = 1
 
 
+def set_light_uniforms(program, lights, punctual=None) -> None:
+    """The lights' uniform arrays of ``first_frame.glsl`` (frame 0, and the blend pass): the area
+    ``lights`` and the :class:`~compare.progressive.punctual.PunctualLights` ``punctual`` (or None)."""
+    if punctual is not None:
+        for name, values in punctual.uniform_arrays().items():
+            set_uniform(program, name, values)
+    if not lights:
+        return
+
+    def arr(values) -> bytes:
+        return np.ascontiguousarray(values, dtype=np.float32).tobytes()
+
+    set_uniform(program, "u_lights_center", arr([lt.center for lt in lights]))
+    set_uniform(program, "u_lights_t", arr([lt.tangent for lt in lights]))
+    set_uniform(program, "u_lights_b", arr([lt.bitangent for lt in lights]))
+    set_uniform(program, "u_lights_n", arr([lt.normal for lt in lights]))
+    set_uniform(program, "u_lights_half", arr([(lt.size[0] / 2, lt.size[1] / 2) for lt in lights]))
+    set_uniform(program, "u_lights_radiance", arr([lt.radiance for lt in lights]))
+    set_uniform(program, "u_lights_area", arr([lt.area for lt in lights]))
+
+
 class FirstFramePass:
     """Program and targets of the forward-shaded frame 0.
 
@@ -101,7 +122,7 @@ class FirstFramePass:
         self.lut_texture = lut_texture
         self.punctual = punctual
         self.punctual_texture = None
-        defines = {"LIGHTS": len(self.lights), "ENVIRONMENT": int(environment is not None),
+        defines = {"LIGHTS": len(self.lights), "ENVIRONMENT": int(environment is not None), "BLEND": 0,
                    "PUNCTUAL": len(punctual.lights) if punctual is not None else 0,
                    "AREA_MODEL_PAPER": int(area_model == "paper"), "AREA_MODEL_LTC": int(area_model == "ltc"),
                    "MATERIALS_DIFFUSE": int(materials == "diffuse"), **gpu_scene.defines()}
@@ -151,23 +172,7 @@ class FirstFramePass:
         return obj
 
     def _set_lights(self) -> None:
-        if self.punctual is not None:
-            for name, values in self.punctual.uniform_arrays().items():
-                set_uniform(self.program, name, values)
-        if not self.lights:
-            return
-        p = self.program
-
-        def arr(values) -> bytes:
-            return np.ascontiguousarray(values, dtype=np.float32).tobytes()
-
-        set_uniform(p, "u_lights_center", arr([lt.center for lt in self.lights]))
-        set_uniform(p, "u_lights_t", arr([lt.tangent for lt in self.lights]))
-        set_uniform(p, "u_lights_b", arr([lt.bitangent for lt in self.lights]))
-        set_uniform(p, "u_lights_n", arr([lt.normal for lt in self.lights]))
-        set_uniform(p, "u_lights_half", arr([(lt.size[0] / 2, lt.size[1] / 2) for lt in self.lights]))
-        set_uniform(p, "u_lights_radiance", arr([lt.radiance for lt in self.lights]))
-        set_uniform(p, "u_lights_area", arr([lt.area for lt in self.lights]))
+        set_light_uniforms(self.program, self.lights, self.punctual)
 
     def render(self, view_proj, inv_view_proj: bytes, camera_position) -> None:
         """Draw frame 0: the every-frame mean's first value (then swapped in; with :attr:`reduced`
@@ -187,7 +192,7 @@ class FirstFramePass:
         self.depth_fbo.use()
         for program in self.depth_programs.values():
             set_uniform(program, "u_view_proj", mat_bytes(view_proj))
-        self.scene.draw_occluders(self.depth_programs)
+        self.scene.draw_occluders(self.depth_programs, casters=False)
         self.fbo.use()
         if self.lut_texture is not None:
             self.lut_texture.use(location=LUT_UNIT)

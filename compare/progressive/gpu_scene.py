@@ -112,6 +112,11 @@ class GpuMesh:
     alpha: float = 1.0
     alpha_cutoff: float = -1.0
     """glTF's alpha mask: the coverage test's cutoff, negative for an opaque mesh."""
+    blend: float = -1.0
+    """glTF's alphaMode BLEND: the coverage factor (times the base-colour map's alpha), negative otherwise.
+    A blended mesh is drawn by the blend pass alone (:mod:`compare.progressive.blend`)."""
+    centre: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """The centre of its bounds (the blend pass sorts by its distance)."""
 
 
 class GpuScene:
@@ -129,6 +134,8 @@ class GpuScene:
         self.occluded = any(scene.materials[m.material].occlusion_texture is not None for m in scene.meshes)
         #: Whether any mesh is alpha-masked: the ALPHA_MASK define, also of the passes that draw occluders.
         self.masked = bool(scene.features().alpha_mask)
+        #: Whether any mesh is blended (alphaMode BLEND): the blend pass draws those, no other pass shades them.
+        self.blended = bool(scene.features().alpha_blend)
         try:
             for mesh in scene.meshes:
                 tri = mesh.triangles()
@@ -136,9 +143,13 @@ class GpuScene:
                 gm = self._upload(mesh.name, tri.positions, tri.normals, tri.indices, mat.base_color, mat.metallic,
                                   mat.roughness, mat.emission, 1.0, uvs=tri.uvs)
                 self.meshes.append(gm)  # owned (and released on failure) before its maps are made
+                gm.centre = tuple(float(x) for x in (tri.positions.min(0) + tri.positions.max(0)) / 2)
+                if mat.alpha_mode == "blend":
+                    gm.blend = float(mat.alpha)
                 if self.textured:
                     if mat.base_color_texture is not None:
-                        gm.base_color_map = self._map(mat.base_color_texture, mat, srgb=True, alpha=mat.is_masked)
+                        gm.base_color_map = self._map(mat.base_color_texture, mat, srgb=True,
+                                                      alpha=mat.is_masked or mat.alpha_mode == "blend")
                     if mat.is_masked:
                         gm.alpha, gm.alpha_cutoff = float(mat.alpha), float(mat.alpha_cutoff)
                     if mat.metallic_roughness_texture is not None:
@@ -311,16 +322,22 @@ class GpuScene:
         ``map_set``: only the meshes of that :meth:`map_set` (a program specialised for it).
         """
         for index, mesh in enumerate(self.meshes + self.light_quads):
-            if map_set is not None and self.map_set(mesh) != map_set:
+            if mesh.blend >= 0.0 or (map_set is not None and self.map_set(mesh) != map_set):
                 continue
-            set_uniform(program, "u_base_color", mesh.base_color)
-            set_uniform(program, "u_metallic", mesh.metallic)
-            set_uniform(program, "u_roughness", mesh.roughness)
-            set_uniform(program, "u_emission", mesh.emission)
-            set_uniform(program, "u_kind", mesh.kind)
-            if self.textured:
-                self._bind_maps(program, mesh, all_maps=True)
-            self._vao(program, index, mesh).render(instances=instances)
+            self.draw_mesh(program, index, instances)
+
+    def draw_mesh(self, program, index: int, instances: int = 1) -> None:
+        """Draw mesh ``index`` (of meshes + light quads) with its material uniforms."""
+        mesh = (self.meshes + self.light_quads)[index]
+        set_uniform(program, "u_base_color", mesh.base_color)
+        set_uniform(program, "u_metallic", mesh.metallic)
+        set_uniform(program, "u_roughness", mesh.roughness)
+        set_uniform(program, "u_emission", mesh.emission)
+        set_uniform(program, "u_kind", mesh.kind)
+        set_uniform(program, "u_blend_alpha", max(mesh.blend, 0.0))
+        if self.textured:
+            self._bind_maps(program, mesh, all_maps=True)
+        self._vao(program, index, mesh).render(instances=instances)
 
     def _bind_maps(self, program, mesh: GpuMesh, *, all_maps: bool) -> None:
         """Set ``mesh``'s texture uniforms and bind its maps (``all_maps`` False: only what the alpha
@@ -340,11 +357,15 @@ class GpuScene:
                 tex.use(location=unit)
                 set_uniform(program, f"u_{name}_map", unit)
 
-    def draw_occluders(self, programs: dict, skip_light: int | None = None) -> None:
+    def draw_occluders(self, programs: dict, skip_light: int | None = None, *, casters: bool = True) -> None:
         """Draw depth only: every mesh and every light quad except ``skip_light``'s (shadow pass), each with
-        the program of :meth:`occluder_programs` for it; an alpha-masked mesh leaves out its holes."""
+        the program of :meth:`occluder_programs` for it; an alpha-masked mesh leaves out its holes. A blended
+        mesh casts a shadow map's shadow where its coverage is at least ½ (``casters``; a hard shadow map
+        has no partial shadow) and is left out of a depth pre-pass (``casters=False``)."""
         for index, mesh in enumerate(self.meshes + self.light_quads):
             if mesh.light is not None and mesh.light == skip_light:
+                continue
+            if mesh.blend >= 0.0 and not (casters and mesh.blend >= 0.5):
                 continue
             masked = mesh.alpha_cutoff >= 0.0 and True in programs
             program = programs[masked]

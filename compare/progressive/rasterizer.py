@@ -87,6 +87,7 @@ from compare.progressive.ltc import LTC_DIRECT_FRACTION, LtcLights, ltc_texture
 from compare.progressive.gpu_scene import CameraSetup, GpuScene, mat_bytes
 from compare.progressive.probes import ProbeVolume, indirect_options
 from compare.progressive.readback import read_rgb
+from compare.progressive.blend import BlendPass
 from compare.progressive.env_shadows import EnvShadows
 from compare.progressive.punctual import PunctualLights
 from compare.progressive.shadow import ShadowAtlas
@@ -297,6 +298,13 @@ class Rasterizer:
         if (has_lights and self.ltc is None and (self.first is None or self._reduced_first)
                 and any(fp.preview for fp in self.plan)):
             self.preview = self._keep(Target(ctx, size))
+        # Blended meshes: a sorted forward pass after the deferred frame (blend.py).
+        self.blend = None
+        if self.gpu_scene.blended:
+            self.blend = self._keep(BlendPass(
+                ctx, self.gpu_scene, size, scene.lights, environment=self.environment, punctual=self.punctual,
+                area_model=area_model, materials=materials,
+                lut_texture=self.direct.lut_texture if self.direct is not None else None, ltc_table=self.ltc_table))
         self.query = ctx.query(time=True)  # moderngl queries have no release(); freed with the context
 
     def _keep(self, obj):
@@ -378,6 +386,8 @@ class Rasterizer:
         if self.preview is not None and (fp.preview or (index == 1 and self._reduced_first)):
             self.direct.preview(self.preview, self.gbuffer, self.scene.lights, cam_pos)
             self._preview_valid = True
+        if self.blend is not None:
+            self.blend.run(self.gbuffer, view_proj, cam_pos)
         last = len(fp.light_samples) - 1
         if last > 0 and self.partial is not None:
             self.partial.fbo.use()
@@ -499,7 +509,9 @@ class Rasterizer:
             return read_rgb(self.ctx, fbo, what=what)
         fbo = self.compose.run(self.base, self._direct_texture(), self.env_acc,
                                self.indirect_pass.texture if self.indirect_pass is not None else None,
-                               punctual_texture=self._punctual_texture(), env_ratio=self._env_ratio())
+                               punctual_texture=self._punctual_texture(), env_ratio=self._env_ratio(),
+                               blend_texture=self.blend.texture if self.blend is not None and self.blend.acc.count
+                               else None)
         return read_rgb(self.ctx, fbo, what=what)
 
     def _direct_texture(self):
@@ -538,8 +550,8 @@ class Rasterizer:
         """
         if self.frame == 0:
             raise RuntimeError("no frame rendered yet; iterate frames() or call render_frame() first")
-        if self.frame == 1 and self._reduced_first:
-            return {}
+        if (self.frame == 1 and self._reduced_first) or self.blend is not None:
+            return {}  # blended surfaces composite over every kind of light: the image has no such split
         from compare.progressive.readback import read_texture_rgb
 
         what = f"progressive render of {self.scene.path} (frame {self.frame})"
@@ -578,6 +590,8 @@ class Rasterizer:
             self.env_acc.reset()
         if self.env_shadows is not None:
             self.env_shadows.reset()
+        if self.blend is not None:
+            self.blend.reset()
         if self.punctual is not None:
             self.punctual.reset()
         self._preview_valid = False

@@ -49,7 +49,7 @@ class ProgressiveRenderer(Renderer):
     """Otto et al.'s progressive rasterizer (moderngl), with the options of :mod:`compare.progressive.options`."""
 
     unit = "frame"
-    renders = frozenset({"punctual_lights"})
+    renders = frozenset({"punctual_lights", "alpha_blend"})
     #: A frame budget decides the frame count itself: its last checkpoint is the frames it rendered.
     open_ended = False
     OPTIONS = OPTIONS

@@ -1,0 +1,122 @@
+"""glTF's alphaMode BLEND in the progressive rasterizer: a sorted forward pass after the deferred frame.
+
+A deferred renderer keeps one surface per pixel, and a blended surface shows two. So blended meshes
+stay out of the G-buffer (and out of frame 0's forward pass and depth pre-pass), and every G-buffer
+frame draws them afterwards, back to front by the distance of their bounds' centres, forward-shaded
+with the first frame's shading (``first_frame.glsl`` with ``BLEND``: emission, the unoccluded
+environment light's split sum, each area light from its centre and each punctual light, all
+unshadowed), hidden where the G-buffer's opaque surface is nearer. They composite with the *over*
+operator into one target that starts at (0, 0, 0, 1)::
+
+    rgb ← α c + (1 − α) rgb,    a ← (1 − α) a
+
+so that after all of them ``rgb`` is the blended surfaces' premultiplied colour and ``a`` the
+transmittance they leave to what is behind. Both fold into a running mean over frames (each at its
+frame's jitter, ``blend_fold.glsl``) and the display is ``rgb + a × (the opaque image)``
+(``compose.glsl``). Sorting by mesh is the usual real-time compromise: intersecting or interleaved
+blended meshes composite in the wrong order.
+
+What it leaves out: the blended surfaces' own shadows (they are lit unshadowed), and their partial
+shadows on the rest (a blended mesh casts a shadow map's hard shadow where its coverage is at least
+½, :meth:`~compare.progressive.gpu_scene.GpuScene.draw_occluders`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from compare.progressive.accumulate import PingPong
+from compare.progressive.first_frame import ENV_UNIT, LUT_UNIT, set_light_uniforms
+from compare.progressive.gpu_scene import mat_bytes
+from compare.progressive.ltc import LTC_UNIT
+from compare.progressive.shaders import load_program, set_uniform
+
+#: Texture unit of the G-buffer's positions in the blend pass (after the environment's units).
+POSITION_UNIT = 9
+
+
+class BlendPass:
+    """The forward pass of the blended meshes and the running mean of what it composites."""
+
+    def __init__(self, ctx, gpu_scene, size, lights, *, environment=None, punctual=None, area_model="radiometric",
+                 materials="shared", lut_texture=None, ltc_table=None):
+        self.ctx = ctx
+        self.scene = gpu_scene
+        self.environment = environment
+        self.lut_texture = lut_texture
+        self.ltc_table = ltc_table
+        self.indices = [k for k, m in enumerate(gpu_scene.meshes) if m.blend >= 0.0]
+        defines = {"LIGHTS": len(lights), "ENVIRONMENT": int(environment is not None), "BLEND": 1,
+                   "PUNCTUAL": len(punctual.lights) if punctual is not None else 0,
+                   "AREA_MODEL_PAPER": int(area_model == "paper"), "AREA_MODEL_LTC": int(area_model == "ltc"),
+                   "MATERIALS_DIFFUSE": int(materials == "diffuse"), **gpu_scene.defines()}
+        if environment is not None:
+            defines.update(environment.defines(materials))
+        self._objects: list = []
+        try:
+            self.program = self._keep(load_program(ctx, "first_frame.glsl", defines))
+            self.frame = self._keep(ctx.texture(size, 4, dtype="f4"))
+            self.frame.filter = (ctx.NEAREST, ctx.NEAREST)
+            self.fbo = self._keep(ctx.framebuffer([self.frame]))
+            self.fold = self._keep(load_program(ctx, "blend_fold.glsl"))
+            self.fold_vao = self._keep(ctx.vertex_array(self.fold, []))
+            self.acc = self._keep(PingPong(ctx, size))
+        except BaseException:
+            self.release()
+            raise
+        set_light_uniforms(self.program, lights, punctual)
+
+    def _keep(self, obj):
+        self._objects.append(obj)
+        return obj
+
+    def run(self, gbuffer, view_proj, camera_position) -> None:
+        """Draw the blended meshes over the G-buffer's frame and fold the result into the mean."""
+        ctx, p = self.ctx, self.program
+        self.fbo.use()
+        self.fbo.clear(0.0, 0.0, 0.0, 1.0)
+        ctx.enable_only(ctx.BLEND)
+        ctx.blend_equation = ctx.FUNC_ADD
+        ctx.blend_func = ctx.ONE, ctx.ONE_MINUS_SRC_ALPHA, ctx.ZERO, ctx.ONE_MINUS_SRC_ALPHA
+        if self.lut_texture is not None:
+            self.lut_texture.use(location=LUT_UNIT)
+            set_uniform(p, "u_spec_lut", LUT_UNIT)
+        if self.ltc_table is not None:
+            self.ltc_table.use(location=LTC_UNIT)
+            set_uniform(p, "u_ltc", LTC_UNIT)
+        if self.environment is not None:
+            self.environment.bind(p, first_unit=ENV_UNIT)
+        gbuffer["position"].use(location=POSITION_UNIT)
+        set_uniform(p, "u_gbuffer_position", POSITION_UNIT)
+        set_uniform(p, "u_view_proj", mat_bytes(view_proj))
+        cam = np.asarray(camera_position, dtype=np.float64)
+        set_uniform(p, "u_camera_position", tuple(float(x) for x in cam))
+        set_uniform(p, "u_background_pass", 0.0)
+        far_first = sorted(self.indices, key=lambda k: -float(np.linalg.norm(
+            np.asarray(self.scene.meshes[k].centre) - cam)))
+        for k in far_first:
+            self.scene.draw_mesh(p, k)
+        self.acc.target.use()
+        ctx.enable_only(ctx.NOTHING)
+        self.acc.current.use(location=0)
+        self.frame.use(location=1)
+        set_uniform(self.fold, "u_previous", 0)
+        set_uniform(self.fold, "u_frame", 1)
+        set_uniform(self.fold, "u_count", float(self.acc.count + 1))
+        self.fold_vao.render(vertices=3)
+        self.acc.swap()
+
+    @property
+    def texture(self):
+        """The running mean: premultiplied colour of the blended surfaces, and the transmittance (a)."""
+        return self.acc.current
+
+    def reset(self) -> None:
+        self.acc.reset()
+
+    def release(self) -> None:
+        if getattr(self, "program", None) is not None:
+            self.scene.forget(self.program)
+        for obj in reversed(self._objects):
+            obj.release()
+        self._objects = []
