@@ -112,3 +112,63 @@ def test_a_sun_sky_casts_its_shadows_as_the_reference_does(gl_ctx):
         layers = render_progressive(scene, frames=64, ctx=gl_ctx, **opts).layers
         errors[name] = relmse(truth["direct_env"], layers["direct_env"])
     assert errors["shadows"] <= 0.5 * errors["screen"], errors
+
+
+def test_a_sun_only_map_casts_the_box_shadow_where_and_as_soft_as_the_reference(tmp_path, gl_ctx):
+    """A black map with one sun (a disc of 3° radius, 40° above the horizon) over a box on a plane: the
+    shadow's area (pixels under half the lit plane's light) and its penumbra (pixels between 10 % and 90 %)
+    as in the reference's direct environment layer, within a tenth of the reference's own counts."""
+    from compare.image.exr import write_exr
+    from compare.mitsuba.reference import ReferenceRenderer
+    from compare.scene.equirect import equirect_directions
+
+    h, w = 256, 512
+    d = equirect_directions(w, h)
+    sun = np.array([0.0, np.sin(np.radians(40.0)), -np.cos(np.radians(40.0))])
+    disc = (d @ sun) > np.cos(np.radians(3.0))
+    img = np.zeros((h, w, 3), dtype=np.float32)
+    img[disc] = 50.0
+    write_exr(tmp_path / "sun.exr", img)
+    (tmp_path / "box.toml").write_text("""
+        [camera]
+        position = [0.0, 3.0, 4.0]
+        target = [0.0, 0.0, 0.0]
+        fov = 45.0
+        resolution = [64, 48]
+
+        [render]
+        max_depth = 2
+
+        [materials.white]
+        base_color = [0.8, 0.8, 0.8]
+        roughness = 1.0
+
+        [[meshes]]
+        shape = "quad"
+        size = [12.0, 12.0]
+        material = "white"
+
+        [[meshes]]
+        shape = "box"
+        size = [1.0, 1.0, 1.0]
+        material = "white"
+        translate = [0.0, 0.5, 0.0]
+
+        [environment]
+        file = "sun.exr"
+        """.replace("\n        ", "\n"))
+    scene = load_scene(tmp_path / "box.toml")
+    _, truth, _ = ReferenceRenderer(scene, cache_dir=False, progress=False).render_layers(256)
+    got = render_progressive(scene, frames=64, ctx=gl_ctx, env_occlusion="shadows").layers["direct_env"]
+    p, hit = _plane_points(scene)
+    on_plane = hit & (np.abs(p[..., 0]) < 5.5) & (np.abs(p[..., 2]) < 5.5)
+
+    def counts(img):
+        y = img[..., 1][on_plane]
+        lit = np.percentile(y, 90)
+        return (y < 0.5 * lit).sum(), ((y > 0.1 * lit) & (y < 0.9 * lit)).sum()
+
+    (shadow_t, soft_t), (shadow_g, soft_g) = counts(truth["direct_env"]), counts(got)
+    assert shadow_t > 100
+    assert abs(shadow_g - shadow_t) <= 0.1 * shadow_t, (shadow_g, shadow_t)
+    assert abs(soft_g - soft_t) <= max(0.1 * shadow_t, 5), (soft_g, soft_t)
