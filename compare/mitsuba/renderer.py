@@ -50,7 +50,7 @@ class MitsubaRenderer(Renderer):
     unit = "spp"
     default_budget = "spp"
     # ior and specular in the shared flavour (the default); the cycles flavour keeps IOR 1.5
-    renders = frozenset({"punctual_lights", "alpha_blend", "transmission", "clearcoat", "sheen", "ior", "specular"})
+    renders = frozenset({"punctual_lights", "alpha_blend", "transmission", "clearcoat", "sheen", "ior", "specular", "volume"})
 
     OPTIONS = {v: f"Mitsuba's {v} variant instead of the best available" for v in MITSUBA_VARIANTS}
 
@@ -109,6 +109,8 @@ class MitsubaRenderer(Renderer):
 
     def render_layers(self, scene, *, steps: int, seed: int, context: RenderContext) -> dict:
         """The per-effect ground truths (compare.mitsuba.layers) at the ground truth's spp."""
+        if scene.features().volume:
+            return {}  # the layers integrator has no media: a scene with absorbing solids has no layers
         _, layers, _ = self._reference(scene, context).render_layers(steps, seed)
         return layers
 

@@ -374,6 +374,28 @@ def environment_dict(scene: Scene) -> dict | None:
     }
 
 
+def absorbs(mat: Material) -> bool:
+    """Whether the material is the boundary of an absorbing solid (``KHR_materials_volume``: transmission,
+    a thickness, a finite attenuation distance)."""
+    return (mat.transmission > 0.0 and mat.thickness > 0.0 and math.isfinite(mat.attenuation_distance)
+            and min(mat.attenuation_color) < 1.0)
+
+
+def medium_dict(mat: Material, scale: float = 1.0) -> dict:
+    """The solid's interior: a purely absorbing homogeneous medium, Beer's law ``T = c^(x / d)``, i.e.
+    σ_a = −ln(c) / d per channel (d in world units × ``scale``)."""
+    c = np.clip(np.asarray(mat.attenuation_color, dtype=np.float64), 1e-12, 1.0)
+    # a channel that nothing absorbs gets a millionth of the peak: volpath samples distances per channel, and
+    # a zero coefficient there makes its free-flight pdf 0 (NaN weights)
+    sigma = np.maximum(-np.log(c), 0.0) / (float(mat.attenuation_distance) * scale)
+    sigma = np.maximum(sigma, 1e-6 * sigma.max())
+    peak = float(sigma.max())
+    # Mitsuba takes an RGB coefficient in [0, 1]: the colour of σ, and its peak as the medium's scale
+    return {"type": "homogeneous", "sigma_t": {"type": "rgb", "value": [float(x / peak) if peak > 0 else 0.0
+                                                                         for x in sigma]},
+            "scale": peak if peak > 0 else 1.0, "albedo": {"type": "rgb", "value": [0.0, 0.0, 0.0]}}
+
+
 def mesh_object(name: str, scene: Scene, mesh_index: int, mode: str, scale: float = 1.0):
     """A ``mi.Mesh`` filled from the shared triangle data (positions × ``scale``), with its BSDF
     (and emitter) attached."""
@@ -384,6 +406,8 @@ def mesh_object(name: str, scene: Scene, mesh_index: int, mode: str, scale: floa
     mat = scene.materials[mesh.material]
     props = mi.Properties()
     props["bsdf"] = mi.load_dict(material_dict(mat, mode))
+    if absorbs(mat) and mode != "diffuse":
+        props["interior"] = mi.load_dict(medium_dict(mat, scale))
     if mat.is_emissive:
         radiance = {"type": "rgb", "value": list(mat.emission)}
         if mat.emissive_texture is not None:
@@ -406,6 +430,8 @@ def _integrator(scene: Scene, depth: int) -> dict:
     """Mitsuba's ``path``; with alpha masks the same algorithm with holes that are no bounce
     (:mod:`compare.mitsuba.layers`: ``path`` counts a hole as a bounce of ``max_depth``)."""
     features = scene.features()
+    if features.volume:  # absorbing solids: Mitsuba's volumetric path tracer (its masks count as bounces)
+        return {"type": "volpath", "max_depth": depth, "hide_emitters": False}
     if features.alpha_mask or features.alpha_blend:
         from compare.mitsuba import layers as reference_layers
 

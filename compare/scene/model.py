@@ -208,7 +208,8 @@ class Material:
                 out.add(MATERIAL_FEATURES[layer.extension])
         # A volume absorbs only with a finite attenuation distance, and only where light is transmitted;
         # its thickness alone makes the surface the boundary of a solid (refraction), part of transmission.
-        if "volume" in out and (self.transmission == 0.0 or math.isinf(self.attenuation_distance)):
+        if "volume" in out and (self.transmission == 0.0 or math.isinf(self.attenuation_distance)
+                                or min(self.attenuation_color) >= 1.0):
             out.discard("volume")
         if self.clearcoat == 0.0:
             out.discard("clearcoat")
