@@ -549,3 +549,13 @@ def test_an_absorbing_slab_passes_beers_share(make_scene):
     image = _render(scene, spp=256)
     want = (1 - 0.04) ** 2 * np.array([0.5, 0.25, 1.0])
     np.testing.assert_allclose(image.mean(axis=(0, 1)), want, rtol=0.03)
+
+
+def test_the_report_has_a_layer_grid_for_every_count_of_layers():
+    """The per-layer FLIP maps sit in one column per layer (a CSS class per count, as the page's content
+    security policy allows no inline style): every count up to all the layers has its class."""
+    from compare.metrics.layers import LAYERS
+
+    css = (Path(__file__).resolve().parent.parent / "compare" / "report" / "report.css").read_text()
+    for n in range(1, len(LAYERS) + 1):
+        assert f".layer-maps.cols-{n} {{ grid-template-columns: 12rem repeat({n}," in css
