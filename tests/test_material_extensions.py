@@ -559,3 +559,64 @@ def test_the_report_has_a_layer_grid_for_every_count_of_layers():
     css = (Path(__file__).resolve().parent.parent / "compare" / "report" / "report.css").read_text()
     for n in range(1, len(LAYERS) + 1):
         assert f".layer-maps.cols-{n} {{ grid-template-columns: 12rem repeat({n}," in css
+
+
+def test_a_transmission_map_makes_glass_where_it_says(tmp_path, make_scene):
+    """A glTF card whose transmissionTexture is 0 on one half and 1 on the other, lit from behind: light
+    comes through the glass half only (thin-walled: (1 − R)² / (1 − R²) of it, R = 0.04), and the job's
+    glTF writes the map back."""
+    from compare.renderers.job import export_gltf
+    from compare.scene import geometry
+    from compare.scene.gltf_read import load_gltf
+    from compare.scene.gltf_write import GltfWriter
+
+    def png(rgb) -> bytes:
+        import io
+
+        from PIL import Image
+
+        buf = io.BytesIO()
+        Image.fromarray(rgb, "RGB").save(buf, format="PNG")
+        return buf.getvalue()
+
+    w = GltfWriter()
+    mat = w.material("card", (1.0, 1.0, 1.0), 0.0, 0.0)
+    texel = np.zeros((4, 8, 3), dtype=np.uint8)
+    texel[:, 4:] = 255  # u >= 0.5: transmission 1
+    w.doc["materials"][mat]["extensions"] = {"KHR_materials_transmission": {
+        "transmissionFactor": 1.0, "transmissionTexture": w.texture(png(texel))}}
+    w._use("KHR_materials_transmission")  # noqa: SLF001
+    w.node("card", mesh=w.mesh("card", [(geometry.quad((2.0, 2.0)), mat)], uvs=True),
+           rotation=[np.sin(np.pi / 4), 0.0, 0.0, np.cos(np.pi / 4)])  # +Y normal turned to +Z
+    w.write(tmp_path / "card.glb")
+    scene = load_scene(make_scene("""
+        include = "card.glb"
+
+        [camera]
+        position = [0.0, 0.0, 3.0]
+        target = [0.0, 0.0, 0.0]
+        fov = 20.0
+        resolution = [32, 16]
+
+        [render]
+        max_depth = 6
+
+        [[lights]]
+        center = [0.0, 0.0, -2.0]
+        size = [6.0, 6.0]
+        normal = [0.0, 0.0, 1.0]
+        radiance = [1.0, 1.0, 1.0]
+        """))
+    (m,) = scene.materials.values()
+    assert [(f, c) for f, c, _ in m.layer_maps] == [("transmission", "r")]
+    image = _render(scene, spp=64)
+    left, right = image[4:12, 2:12].mean(), image[4:12, 20:30].mean()
+    r = 0.04
+    assert right == pytest.approx((1 - r) ** 2 / (1 - r * r), rel=0.03)
+    assert left < 0.05
+    (tmp_path / "job").mkdir()
+    written = export_gltf(scene, tmp_path / "job" / "scene.gltf")
+    doc = json.loads(written.read_text())
+    assert "transmissionTexture" in doc["materials"][0]["extensions"]["KHR_materials_transmission"]
+    back = load_gltf(written).materials[0]
+    assert [(f, c) for f, c, _ in back.layer_images] == [("transmission", "r")]

@@ -362,6 +362,11 @@ def blender_uv_mapping(mat) -> dict[str, list[float]] | None:
     return {"location": [float(a[0, 2]), float(a[1, 2]), 0.0], "rotation": [0.0, 0.0, angle], "scale": [sx, sy, 1.0]}
 
 
+#: The Principled BSDF input of each material extension parameter that has a map (LAYER_MAPS).
+BLENDER_INPUTS = {"transmission": "Transmission Weight", "clearcoat": "Coat Weight",
+                  "clearcoat_roughness": "Coat Roughness"}
+
+
 def principled_inputs(mat) -> dict[str, Any]:
     """The Principled BSDF inputs of glTF's material extensions, as Blender's glTF importer sets them:
     transmission and IOR as they are, the coat at glTF's fixed IOR 1.5, sheen at full weight tinted by its
@@ -409,6 +414,11 @@ def _material(mat, mode: str, distribution: str | None = None) -> dict[str, Any]
         "alpha_mask": ({"alpha": float(mat.alpha), "cutoff": float(mat.alpha_cutoff)} if mat.is_masked else None),
         # glTF's material extensions as the Principled BSDF's inputs (Lambert only with "diffuse")
         "principled_inputs": principled_inputs(mat) if mode == "cycles" else {},
+        # the extensions' maps, each times its factor on its input
+        "input_maps": ([{"input": BLENDER_INPUTS[f], "file": str(p), "channel": {"r": "Red", "g": "Green",
+                                                                               "b": "Blue", "a": "Alpha"}[c],
+                         "factor": float(getattr(mat, f))} for f, c, p in mat.layer_maps]
+                       if mode == "cycles" else []),
         # alphaMode BLEND: the coverage on Alpha (Cycles: stochastic transparency; EEVEE: dithered)
         "alpha_blend": float(mat.alpha) if mat.alpha_mode == "blend" else None,
         "volume_absorption": volume_absorption(mat) if mode == "cycles" else None,

@@ -54,6 +54,20 @@ def _principled(bpy, name: str, mat: dict):
         links.new(tex.outputs["Color"], inp["Base Color"])
     for key, value in mat.get("principled_inputs", {}).items():
         inp[key].default_value = tuple(value) if isinstance(value, list) else value
+    for m_in in mat.get("input_maps", []):
+        # a glTF extension's map (linear) times its factor, on the input it drives
+        tex = _image_node(bpy, nodes, links, mat, m_in["file"], "Non-Color")
+        if m_in["channel"] == "Alpha":
+            value = tex.outputs["Alpha"]
+        else:
+            split = nodes.new("ShaderNodeSeparateColor")
+            links.new(tex.outputs["Color"], split.inputs["Color"])
+            value = split.outputs[m_in["channel"]]
+        scaled = nodes.new("ShaderNodeMath")
+        scaled.operation = "MULTIPLY"
+        links.new(value, scaled.inputs[0])
+        scaled.inputs[1].default_value = float(m_in["factor"])
+        links.new(scaled.outputs["Value"], inp[m_in["input"]])
     if mat.get("alpha_mask"):
         _alpha_mask(m, nodes, links, inp["Alpha"], mat["alpha_mask"], base_tex)
     if mat.get("alpha_blend") is not None:

@@ -1,8 +1,8 @@
 """glTF's clear coat over any BSDF, as a Mitsuba 3 plugin (``gltf_coat``): the layering of
 :mod:`compare.brdf.coat` (read it), evaluated with Dr.Jit.
 
-Properties: ``base`` (the nested BSDF, the material under the coat), ``clearcoat`` (w, float) and
-``roughness`` (the coat's perceptual roughness, float).
+Properties: ``base`` (the nested BSDF, the material under the coat), ``clearcoat`` (w) and ``roughness``
+(the coat's perceptual roughness), each a float or a texture (glTF's factor times its map).
 
 Sampling: the coat's GGX visible normals with probability ``p_c = clip(w F_c(cos θ_i), 0.1 w, 0.9)``
 (Schlick at the view's cosine, floored so that a glancing coat over a bright base is still found),
@@ -54,15 +54,19 @@ def _make_class(mv, mitsuba):
         def __init__(self, props):
             mv.BSDF.__init__(self, props)
             self.base = props["base"]
-            self.weight = float(props.get("clearcoat", 1.0))
-            r = min(max(float(props.get("roughness", 0.0)), 0.0), 1.0)
-            self.alpha = max(r * r, REFERENCE_ALPHA_MIN)
+            self.weight = props.get_texture("clearcoat", 1.0)
+            self.roughness = props.get_texture("roughness", 0.0)
             n = self.base.component_count()
             coat = Flags.GlossyReflection | Flags.FrontSide
             self.m_components = [self.base.flags(i) for i in range(n)] + [coat]
             self.m_flags = self.base.flags() | coat
 
-        def _coat(self, wi, wo):
+        def _params(self, si, active):
+            w = dr.clip(self.weight.eval_1(si, active), 0.0, 1.0)
+            r = dr.clip(self.roughness.eval_1(si, active), 0.0, 1.0)
+            return w, dr.maximum(r * r, REFERENCE_ALPHA_MIN)
+
+        def _coat(self, wi, wo, weight, alpha):
             """(w F_c, w F_c D V cos_o) at the half vector of wi, wo, and the coat's VNDF pdf of wo."""
             cos_i, cos_o = wi.z, wo.z
             hu = wi + wo
@@ -72,7 +76,6 @@ def _make_class(mv, mitsuba):
             nh = dr.clip(h.z, 0.0, 1.0)
             vh = dr.clip(dr.dot(wi, h), 0.0, 1.0)
             sin2 = dr.fma(h.x, h.x, h.y * h.y)
-            alpha = self.alpha
             a = nh * alpha
             k = alpha / dr.maximum(sin2 + a * a, _DENOM_MIN)
             d = k * k * (1.0 / dr.pi)
@@ -82,22 +85,24 @@ def _make_class(mv, mitsuba):
             vis = 0.5 / (nl * dr.sqrt(nv * nv * (1.0 - a2) + a2) + nv * dr.sqrt(nl * nl * (1.0 - a2) + a2))
             x = dr.clip(1.0 - vh, 0.0, 1.0)
             x2 = x * x
-            share = self.weight * (COAT_F0 + (1.0 - COAT_F0) * x2 * x2 * x)
+            share = weight * (COAT_F0 + (1.0 - COAT_F0) * x2 * x2 * x)
             ci = dr.maximum(cos_i, 0.0)
             pdf = d / (2.0 * (ci + dr.sqrt(ci * ci * (1.0 - a2) + a2)))
             return (dr.select(ok, share, 0.0), dr.select(ok, share * d * vis * dr.maximum(cos_o, 0.0), 0.0),
                     dr.select(ok, pdf, 0.0))
 
-        def _p_coat(self, cos_i):
+        @staticmethod
+        def _p_coat(cos_i, weight):
             x = dr.clip(1.0 - cos_i, 0.0, 1.0)
             x2 = x * x
             f = COAT_F0 + (1.0 - COAT_F0) * x2 * x2 * x
-            return dr.clip(self.weight * f, 0.1 * self.weight, 0.9)
+            return dr.clip(weight * f, 0.1 * weight, 0.9)
 
         def eval_pdf(self, ctx, si, wo, active=True):
             base_value, base_pdf = self.base.eval_pdf(ctx, si, wo, active)
-            share, spec, coat_pdf = self._coat(si.wi, wo)
-            p = self._p_coat(si.wi.z)
+            weight, alpha = self._params(si, active)
+            share, spec, coat_pdf = self._coat(si.wi, wo, weight, alpha)
+            p = self._p_coat(si.wi.z, weight)
             value = base_value * (1.0 - share) + Color3f(spec)
             pdf = p * coat_pdf + (1.0 - p) * base_pdf
             return dr.select(active, value, Color3f(0.0)), dr.select(active, pdf, 0.0)
@@ -110,11 +115,11 @@ def _make_class(mv, mitsuba):
 
         def sample(self, ctx, si, sample1, sample2, active=True):
             wi = si.wi
-            p = self._p_coat(wi.z)
+            weight, alpha = self._params(si, active)
+            p = self._p_coat(wi.z, weight)
             pick = (sample1 < p) & (wi.z > 0.0)
             bs, base_weight = self.base.sample(ctx, si, dr.clip((sample1 - p) / dr.maximum(1.0 - p, 1e-6), 0.0,
                                                                 0.999999), sample2, active & ~pick)
-            alpha = self.alpha
             ws = dr.normalize(Vector3f(wi.x * alpha, wi.y * alpha, wi.z))
             sin_phi, cos_phi = dr.sincos(2.0 * dr.pi * sample2.x)
             z = dr.fma(1.0 - sample2.y, 1.0 + ws.z, -ws.z)
@@ -126,7 +131,7 @@ def _make_class(mv, mitsuba):
             # A delta lobe of the base (a smooth dielectric under the coat) has no pdf to mix: its sample
             # keeps the base's weight, less what the coat reflects, over the probability of the base.
             delta = (~pick) & ((bs.sampled_type & UInt32(+Flags.Delta)) != 0)
-            share, _, _ = self._coat(wi, bs.wo)
+            share, _, _ = self._coat(wi, bs.wo, weight, alpha)
             value, pdf = self.eval_pdf(ctx, si, wo, active)
             ok = active & (pdf > 0.0) & ~delta
             out = dr.zeros(mv.BSDFSample3f)
@@ -146,6 +151,6 @@ def _make_class(mv, mitsuba):
             pass
 
         def to_string(self):
-            return f"GltfCoatBSDF[clearcoat = {self.weight}, alpha = {self.alpha}]"
+            return f"GltfCoatBSDF[clearcoat = {self.weight}, roughness = {self.roughness}]"
 
     return GltfCoatBSDF

@@ -211,8 +211,8 @@ def _coated(mat: Material, mode: str, bsdf: dict) -> dict:
     from compare.mitsuba.coat import PLUGIN_NAME, register
 
     register()
-    return {"type": PLUGIN_NAME, "base": bsdf, "clearcoat": float(mat.clearcoat),
-            "roughness": float(mat.clearcoat_roughness)}
+    return {"type": PLUGIN_NAME, "base": bsdf, "clearcoat": _layer_value(mat, "clearcoat"),
+            "roughness": _layer_value(mat, "clearcoat_roughness")}
 
 
 def _dielectric(mat: Material, mode: str) -> dict:
@@ -234,6 +234,16 @@ def _dielectric(mat: Material, mode: str) -> dict:
             "ext_ior": 1.0, "specular_transmittance": tint}
 
 
+def _layer_value(mat: Material, name: str):
+    """A material extension's parameter: its factor, or the factor times its map (a grey texture)."""
+    for field, channel, path in mat.layer_maps:
+        if field == name:
+            from compare.scene.textures import channel_map
+
+            return bitmap_dict(mat, channel_map(path, channel, getattr(mat, name)), raw=True)
+    return float(getattr(mat, name))
+
+
 def _transmissive(mat: Material, mode: str, bsdf: dict) -> dict:
     """``bsdf`` blended with the transmission lobe by glTF's layering: the dielectric part
     ((1 − metallic) of the base) is ``mix(diffuse base, transmission, transmission)``. Mitsuba's
@@ -241,12 +251,13 @@ def _transmissive(mat: Material, mode: str, bsdf: dict) -> dict:
     if mat.transmission == 0.0 or mode == "diffuse":
         return bsdf
     glass = _dielectric(mat, mode)
+    weight = _layer_value(mat, "transmission")
     if mat.metallic == 0.0:
-        return {"type": "blendbsdf", "weight": float(mat.transmission), "bsdf_0": bsdf, "bsdf_1": glass}
+        return {"type": "blendbsdf", "weight": weight, "bsdf_0": bsdf, "bsdf_1": glass}
     dielectric = _surface_dict(dataclasses.replace(mat, metallic=0.0), mode)
     metal = _surface_dict(dataclasses.replace(mat, metallic=1.0), mode)
     return {"type": "blendbsdf", "weight": float(mat.metallic), "bsdf_0": {
-        "type": "blendbsdf", "weight": float(mat.transmission), "bsdf_0": dielectric, "bsdf_1": glass},
+        "type": "blendbsdf", "weight": weight, "bsdf_0": dielectric, "bsdf_1": glass},
         "bsdf_1": metal}
 
 

@@ -56,7 +56,7 @@ def export_gltf(scene, path: Path) -> Path:
     the file: the job lists them (glTF has no rectangular light).
     """
     from compare.scene.gltf_write import GltfWriter
-    from compare.scene.model import LAYERS
+    from compare.scene.model import LAYER_MAPS, LAYERS
 
     path = Path(path)
     w = GltfWriter(generator="compare job")
@@ -116,6 +116,12 @@ def export_gltf(scene, path: Path) -> Path:
                 exts.setdefault(layer.extension, {})[layer.key] = (
                     [float(c) for c in value] if layer.color else float(value))
                 w._use(layer.extension)  # noqa: SLF001
+        for fld, _, path in m.layer_maps:  # and the maps that multiply them
+            key = next(k for k, (f, _) in LAYER_MAPS.items() if f == fld)
+            ext = next(layer.extension for layer in LAYERS if layer.field == fld)
+            table = w.doc["materials"][index[name]].setdefault("extensions", {}).setdefault(ext, {})
+            table[key] = info(m, path)
+            w._use(ext)  # noqa: SLF001
         if m.occlusion_texture is not None:
             w.doc["materials"][index[name]]["occlusionTexture"] = {**info(m, m.occlusion_texture),
                                                                    "strength": m.occlusion_strength}

@@ -77,7 +77,7 @@ from typing import Any
 import numpy as np
 
 from compare.scene import geometry
-from compare.scene.model import LAYERS
+from compare.scene.model import LAYER_MAPS, LAYERS
 from compare.scene.gltf_decode import DECODED_EXTENSIONS, DecodeError, decoded_glb, used
 from compare.scene.glb import CHUNK_BIN, CHUNK_JSON, GLB_MAGIC, GlbError, parse_glb  # noqa: F401 (re-exported)
 from compare.util.files import sha256_bytes, write_bytes_atomic
@@ -131,6 +131,8 @@ class GltfMaterial:
     alpha_cutoff: float = 0.5
     #: The material extensions' factors (compare.scene.model.LAYERS) the file sets: field → value.
     layers: dict = field(default_factory=dict)
+    #: Their maps that are read (compare.scene.model.LAYER_MAPS): (field, channel, image index).
+    layer_images: tuple = ()
     #: The scene model's texture_offset, texture_rotation, texture_scale, texture_wrap and texture_filter
     #: (compare.scene.model.Material), from KHR_texture_transform and the sampler; empty: the defaults.
     texture_settings: dict = field(default_factory=dict)
@@ -513,6 +515,15 @@ class _Reader:
                       emissive_image=image("emissiveTexture", m),
                       occlusion_image=image("occlusionTexture", m),
                       normal_image=image("normalTexture", m))
+        exts = m.get("extensions", {}) if isinstance(m.get("extensions", {}), dict) else {}
+        layer_images = []
+        for ext in dict.fromkeys(layer.extension for layer in LAYERS):
+            table = exts.get(ext)
+            for key, (fld, channel) in LAYER_MAPS.items():
+                if isinstance(table, dict) and key in table:
+                    src = image(key, table)
+                    if src is not None:
+                        layer_images.append((fld, channel, src))
         # The scene model has one transform and sampler per material: the first map's (base colour first).
         offset, rotation, scale, wrap, filt = sampling[0][1] if sampling else ((0.0, 0.0), 0.0, (1.0, 1.0),
                                                                              "repeat", "linear")
@@ -538,6 +549,7 @@ class _Reader:
             alpha=clamp(base[3]),
             alpha_cutoff=float(cutoff),
             layers=self._layers(m, w),
+            layer_images=tuple(layer_images),
         )
 
     def _layers(self, m: dict, w: str) -> dict:
@@ -565,7 +577,8 @@ class _Reader:
                 raise self.err(where, f"expected a number in [{layer.lo:g}, {layer.hi:g}], got {v!r}")
             out[layer.field] = float(v)
         for ext in dict.fromkeys(layer.extension for layer in LAYERS):
-            maps = sorted(k for k in exts.get(ext, {}) if isinstance(k, str) and k.endswith("Texture"))
+            maps = sorted(k for k in exts.get(ext, {})
+                          if isinstance(k, str) and k.endswith("Texture") and k not in LAYER_MAPS)
             if maps:
                 self.notes.append(f"{w}.extensions.{ext}: {', '.join(maps)} not read (the factors are)")
         return out

@@ -139,6 +139,9 @@ LAYERS = (
 MATERIAL_FEATURES = {"KHR_materials_transmission": "transmission", "KHR_materials_volume": "volume",
                      "KHR_materials_ior": "ior", "KHR_materials_clearcoat": "clearcoat",
                      "KHR_materials_sheen": "sheen", "KHR_materials_specular": "specular"}
+#: The extensions' maps that are read: glTF key → (the field it multiplies, its channel).
+LAYER_MAPS = {"transmissionTexture": ("transmission", "r"), "clearcoatTexture": ("clearcoat", "r"),
+              "clearcoatRoughnessTexture": ("clearcoat_roughness", "g")}
 #: Every material feature a renderer may declare it renders (Renderer.renders).
 MATERIAL_FEATURE_NAMES = ("alpha_blend", *MATERIAL_FEATURES.values())
 #: glTF's alpha modes in the scene model.
@@ -197,6 +200,9 @@ class Material:
     sheen_roughness: float = 0.0
     specular: float = 1.0
     specular_color: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    #: The extensions' maps that are read (:data:`LAYER_MAPS`): (field, channel, linear map), each multiplying
+    #: its field's factor, with the material's texture transform.
+    layer_maps: tuple[tuple[str, str, Path], ...] = ()
 
     def uses(self) -> set[str]:
         """The features (:data:`MATERIAL_FEATURES`, "alpha_blend") this material needs beyond the core

@@ -184,6 +184,17 @@ def split_metallic_roughness(path: Path) -> tuple[Path, Path]:
     return _derived(path, "metallic", (), channel(2)), _derived(path, "roughness", (), channel(1))
 
 
+def channel_map(path: Path, channel: str, factor: float) -> Path:
+    """One channel ("r", "g", "b" or "a") of a linear map times ``factor``, as a grey EXR in the cache: a
+    glTF extension's map (transmission in R, a coat's weight in R and roughness in G) times its factor."""
+    if channel == "a":
+        return _derived(path, "alpha-x", (float(factor),),
+                        lambda: np.repeat((load_alpha(path) * float(factor))[..., None], 3, axis=2))
+    c = "rgb".index(channel)
+    return _derived(path, f"{channel}-x", (float(factor),),
+                    lambda: np.repeat(load_texture(path, srgb=False)[..., c:c + 1] * float(factor), 3, axis=2))
+
+
 def emission_map(path: Path, emission) -> Path:
     """An emission map (sRGB) times the material's ``emission`` as a linear EXR in the cache: the
     radiance a renderer emits per texel."""
