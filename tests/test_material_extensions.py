@@ -422,7 +422,7 @@ def test_sheen_plugin_evaluates_the_shared_sheen_model():
     rho = 0.5
     for color, rough in (((1.0, 0.5, 0.2), 0.3), ((0.4, 0.4, 0.4), 0.8), ((0.9, 0.1, 0.5), 0.05)):
         bsdf = mi.load_dict({"type": "gltf_sheen", "roughness": rough,
-                             **{f"color_{c}": v for c, v in zip("rgb", color)},
+                             "color": {"type": "rgb", "value": list(color)},
                              "base": {"type": "diffuse", "reflectance": {"type": "rgb", "value": [rho] * 3}}})
         si = dr.zeros(mi.SurfaceInteraction3f)
         si.wi = mi.Vector3f(*(wi[:, k].astype(np.float32) for k in range(3)))
@@ -620,3 +620,67 @@ def test_a_transmission_map_makes_glass_where_it_says(tmp_path, make_scene):
     assert "transmissionTexture" in doc["materials"][0]["extensions"]["KHR_materials_transmission"]
     back = load_gltf(written).materials[0]
     assert [(f, c) for f, c, _ in back.layer_images] == [("transmission", "r")]
+
+
+@pytest.mark.parametrize("renderer", ["reference", pytest.param("cycles", marks=needs_bpy)])
+def test_a_specular_map_weights_the_reflection_where_it_says(tmp_path, make_scene, renderer):
+    """A black smooth card whose specularTexture (alpha) is 0 on one half and 1 on the other, IOR 2, and a
+    specularColorTexture tinting it orange: the emitter facing it is reflected by the second half only,
+    F0 × colour = (1/9) × (1, 0.5, 0.25)."""
+    import io
+
+    from PIL import Image
+
+    from compare.scene import geometry
+    from compare.scene.gltf_write import GltfWriter
+
+    def png(pixels, mode) -> bytes:
+        buf = io.BytesIO()
+        Image.fromarray(pixels, mode).save(buf, format="PNG")
+        return buf.getvalue()
+
+    w = GltfWriter()
+    mat = w.material("card", (0.0, 0.0, 0.0), 0.0, 0.0)
+    weight = np.zeros((4, 8, 4), dtype=np.uint8)
+    weight[:, 4:, 3] = 255
+    orange = np.zeros((4, 8, 3), dtype=np.uint8)
+    orange[:] = (255, 188, 137)  # sRGB of linear (1, 0.5, 0.25)
+    w.doc["materials"][mat]["extensions"] = {
+        "KHR_materials_specular": {"specularFactor": 1.0, "specularTexture": w.texture(png(weight, "RGBA")),
+                                   "specularColorFactor": [1.0, 1.0, 1.0],
+                                   "specularColorTexture": w.texture(png(orange, "RGB"))},
+        "KHR_materials_ior": {"ior": 2.0}}
+    w._use("KHR_materials_specular")  # noqa: SLF001
+    w._use("KHR_materials_ior")  # noqa: SLF001
+    w.node("card", mesh=w.mesh("card", [(geometry.quad((2.0, 2.0)), mat)], uvs=True),
+           rotation=[np.sin(np.pi / 4), 0.0, 0.0, np.cos(np.pi / 4)])  # +Y normal turned to +Z
+    w.write(tmp_path / "card.glb")
+    scene = load_scene(make_scene("""
+        include = "card.glb"
+
+        [camera]
+        position = [0.0, 0.0, 3.0]
+        target = [0.0, 0.0, 0.0]
+        fov = 20.0
+        resolution = [32, 16]
+
+        [render]
+        max_depth = 4
+
+        [[lights]]
+        center = [0.0, 0.0, 5.0]
+        size = [8.0, 8.0]
+        normal = [0.0, 0.0, -1.0]
+        radiance = [1.0, 1.0, 1.0]
+        """))
+    (m,) = scene.materials.values()
+    assert sorted(f for f, _, _ in m.layer_maps) == ["specular", "specular_color"]
+    if renderer == "reference":
+        image = _render(scene, spp=64)
+    else:
+        from compare.blender.render import render_blender
+
+        image = render_blender(scene, engine="cycles", samples=64).image
+    left, right = image[4:12, 2:12].mean(axis=(0, 1)), image[4:12, 20:30].mean(axis=(0, 1))
+    np.testing.assert_allclose(right, np.array([1.0, 0.5, 0.25]) / 9.0, rtol=0.06)
+    assert left.max() < 0.01

@@ -364,7 +364,11 @@ def blender_uv_mapping(mat) -> dict[str, list[float]] | None:
 
 #: The Principled BSDF input of each material extension parameter that has a map (LAYER_MAPS).
 BLENDER_INPUTS = {"transmission": "Transmission Weight", "clearcoat": "Coat Weight",
-                  "clearcoat_roughness": "Coat Roughness"}
+                  "clearcoat_roughness": "Coat Roughness", "sheen_color": "Sheen Tint",
+                  "sheen_roughness": "Sheen Roughness", "specular": "Specular IOR Level",
+                  "specular_color": "Specular Tint"}
+#: What a map's value is multiplied by on its input besides the factor (Specular IOR Level = specular / 2).
+BLENDER_INPUT_SCALE = {"specular": 0.5}
 
 
 def principled_inputs(mat) -> dict[str, Any]:
@@ -415,10 +419,11 @@ def _material(mat, mode: str, distribution: str | None = None) -> dict[str, Any]
         # glTF's material extensions as the Principled BSDF's inputs (Lambert only with "diffuse")
         "principled_inputs": principled_inputs(mat) if mode == "cycles" else {},
         # the extensions' maps, each times its factor on its input
-        "input_maps": ([{"input": BLENDER_INPUTS[f], "file": str(p), "channel": {"r": "Red", "g": "Green",
-                                                                               "b": "Blue", "a": "Alpha"}[c],
-                         "factor": float(getattr(mat, f))} for f, c, p in mat.layer_maps]
-                       if mode == "cycles" else []),
+        "input_maps": ([{"input": BLENDER_INPUTS[f], "file": str(p),
+                         "channel": {"r": "Red", "g": "Green", "b": "Blue", "a": "Alpha", "rgb": "Color"}[c],
+                         "factor": ([float(x) for x in getattr(mat, f)] if c == "rgb"
+                                    else float(getattr(mat, f)) * BLENDER_INPUT_SCALE.get(f, 1.0))}
+                        for f, c, p in mat.layer_maps] if mode == "cycles" else []),
         # alphaMode BLEND: the coverage on Alpha (Cycles: stochastic transparency; EEVEE: dithered)
         "alpha_blend": float(mat.alpha) if mat.alpha_mode == "blend" else None,
         "volume_absorption": volume_absorption(mat) if mode == "cycles" else None,

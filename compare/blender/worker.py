@@ -55,8 +55,18 @@ def _principled(bpy, name: str, mat: dict):
     for key, value in mat.get("principled_inputs", {}).items():
         inp[key].default_value = tuple(value) if isinstance(value, list) else value
     for m_in in mat.get("input_maps", []):
-        # a glTF extension's map (linear) times its factor, on the input it drives
-        tex = _image_node(bpy, nodes, links, mat, m_in["file"], "Non-Color")
+        # a glTF extension's map (linear; a colour map sRGB) times its factor, on the input it drives
+        colour = m_in["channel"] == "Color"
+        tex = _image_node(bpy, nodes, links, mat, m_in["file"], "sRGB" if colour else "Non-Color")
+        if colour:
+            product = nodes.new("ShaderNodeMix")
+            product.data_type = "RGBA"
+            product.blend_type = "MULTIPLY"
+            product.inputs["Factor"].default_value = 1.0
+            links.new(tex.outputs["Color"], product.inputs["A"])
+            product.inputs["B"].default_value = (*m_in["factor"], 1.0)
+            links.new(product.outputs["Result"], inp[m_in["input"]])
+            continue
         if m_in["channel"] == "Alpha":
             value = tex.outputs["Alpha"]
         else:

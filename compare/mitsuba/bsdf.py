@@ -223,7 +223,7 @@ def _make_class(mv, mitsuba):
             if self.dielectric and self.flavour == "cycles":
                 raise ValueError(f"{PLUGIN_NAME}: specular_f0 and specular_weight apply to flavour 'gltf' only")
             self.specular_f0 = props.get_texture("specular_f0", DIELECTRIC_F0)
-            self.specular_weight = float(props.get("specular_weight", 1.0))
+            self.specular_weight = props.get_texture("specular_weight", 1.0)
             if self.flavour == "cycles":
                 make_layer_texture()
             if self.multiscatter:
@@ -239,12 +239,16 @@ def _make_class(mv, mitsuba):
             alpha = dr.maximum(r * r, REFERENCE_ALPHA_MIN)
             return c, m, alpha, r
 
+        def _dielectric_params(self, si, active):
+            """(F0, weight) of glTF's ior and specular extensions at the surface point."""
+            return self.specular_f0.eval(si, active), dr.clip(self.specular_weight.eval_1(si, active), 0.0, 1.0)
+
         @staticmethod
         def _lobes_enabled(ctx):
             return (ctx.is_enabled(Flags.DiffuseReflection, 0),
                     ctx.is_enabled(Flags.GlossyReflection, 1))
 
-        def _lobe_probabilities(self, cos_i, c, m, r, has_diffuse, has_specular, f0d=None):
+        def _lobe_probabilities(self, cos_i, c, m, r, has_diffuse, has_specular, dielectric=None):
             """(p_spec, p_diff) of compare.brdf.specular_sampling_probability (flavour ``cycles``:
             compare.mitsuba.principled.specular_sampling_probability); p_diff is computed directly
             (not as 1 - p_spec), which keeps it accurate in float32."""
@@ -264,9 +268,10 @@ def _make_class(mv, mitsuba):
                     w_s = mean3(cc + (1.0 - cc) * w) * m + fresnel_dielectric(ci) * (1.0 - m)
                     w_d = (1.0 - m) * dr.clip(1.0 - layer_albedo(r, ci), 0.0, 1.0) * mean3(c)
             elif self.dielectric:
+                f0d, sw = dielectric
                 fr = f0d + (1.0 - f0d) * w
-                w_s = mean3(m * (c + (1.0 - c) * w) + (1.0 - m) * self.specular_weight * fr)
-                w_d = (1.0 - m) * (1.0 - self.specular_weight * dr.maximum(dr.maximum(fr.x, fr.y), fr.z)) * mean3(c)
+                w_s = mean3(m * (c + (1.0 - c) * w) + (1.0 - m) * sw * fr)
+                w_d = (1.0 - m) * (1.0 - sw * dr.maximum(dr.maximum(fr.x, fr.y), fr.z)) * mean3(c)
             else:
                 f0 = DIELECTRIC_F0 + (c - DIELECTRIC_F0) * m
                 w_s = mean3(f0 + (1.0 - f0) * w)
@@ -313,10 +318,10 @@ def _make_class(mv, mitsuba):
                 f = (cc + (1.0 - cc) * w) * m + fresnel_dielectric(vh) * (1.0 - m)
                 w_diff = (1.0 - m) * dr.clip(1.0 - layer_albedo(r, cos_i), 0.0, 1.0)
             elif self.dielectric:
-                f0d = self.specular_f0.eval(si, valid)
+                f0d, sw = self._dielectric_params(si, valid)
                 fr = f0d + (1.0 - f0d) * w
-                f = m * (c + (1.0 - c) * w) + (1.0 - m) * self.specular_weight * fr
-                w_diff = (1.0 - m) * (1.0 - self.specular_weight * dr.maximum(dr.maximum(fr.x, fr.y), fr.z))
+                f = m * (c + (1.0 - c) * w) + (1.0 - m) * sw * fr
+                w_diff = (1.0 - m) * (1.0 - sw * dr.maximum(dr.maximum(fr.x, fr.y), fr.z))
             else:
                 f0 = DIELECTRIC_F0 + (c - DIELECTRIC_F0) * m
                 f = f0 + (1.0 - f0) * w
@@ -334,7 +339,7 @@ def _make_class(mv, mitsuba):
             pdf_spec = d / (2.0 * (ci + dr.sqrt(ci * ci * (1.0 - a2) + a2)))
             pdf_diff = dr.maximum(cos_o, 0.0) * (1.0 / dr.pi)
             p_spec, p_diff = self._lobe_probabilities(cos_i, c, m, r, has_d, has_s,
-                                                      self.specular_f0.eval(si, valid) if self.dielectric else None)
+                                                      self._dielectric_params(si, valid) if self.dielectric else None)
             pdf = p_spec * pdf_spec + p_diff * pdf_diff
 
             value = dr.select(valid, value, Color3f(0.0))
@@ -362,7 +367,7 @@ def _make_class(mv, mitsuba):
                 return bs, Color3f(0.0)
             c, m, alpha, r = self._params(si, active)
             p_spec, _ = self._lobe_probabilities(cos_i, c, m, r, has_d, has_s,
-                                                 self.specular_f0.eval(si, active) if self.dielectric else None)
+                                                 self._dielectric_params(si, active) if self.dielectric else None)
             pick_spec = sample1 < p_spec
 
             # specular: reflect wi about a GGX visible normal (spherical caps)

@@ -199,8 +199,8 @@ def _sheened(mat: Material, mode: str, bsdf: dict) -> dict:
     from compare.mitsuba.sheen import PLUGIN_NAME, register
 
     register()
-    return {"type": PLUGIN_NAME, "base": bsdf, "roughness": float(mat.sheen_roughness),
-            **{f"color_{c}": float(v) for c, v in zip("rgb", mat.sheen_color)}}
+    return {"type": PLUGIN_NAME, "base": bsdf, "roughness": _layer_value(mat, "sheen_roughness"),
+            "color": _layer_value(mat, "sheen_color")}
 
 
 def _coated(mat: Material, mode: str, bsdf: dict) -> dict:
@@ -234,14 +234,36 @@ def _dielectric(mat: Material, mode: str) -> dict:
             "ext_ior": 1.0, "specular_transmittance": tint}
 
 
-def _layer_value(mat: Material, name: str):
-    """A material extension's parameter: its factor, or the factor times its map (a grey texture)."""
-    for field, channel, path in mat.layer_maps:
-        if field == name:
-            from compare.scene.textures import channel_map
+def _specular_f0(mat: Material):
+    """The dielectric's F0 of glTF's ior and specular colour (:func:`compare.brdf.dielectric_specular`,
+    without the weight), per texel where the specular colour has a map."""
+    from compare.brdf import dielectric_specular
 
-            return bitmap_dict(mat, channel_map(path, channel, getattr(mat, name)), raw=True)
-    return float(getattr(mat, name))
+    colour = _layer_map(mat, "specular_color")
+    if colour is None:
+        f0, _ = dielectric_specular(mat.ior, 1.0, mat.specular_color)
+        return {"type": "rgb", "value": [float(x) for x in f0]}
+    from compare.scene.textures import specular_f0_map
+
+    return bitmap_dict(mat, specular_f0_map(colour[2], mat.specular_color, mat.ior), raw=True)
+
+
+def _layer_map(mat: Material, name: str):
+    """The map of a material extension's parameter (field, channel, path), or None."""
+    return next((m for m in mat.layer_maps if m[0] == name), None)
+
+
+def _layer_value(mat: Material, name: str):
+    """A material extension's parameter: its factor, or the factor times its map (a texture)."""
+    found = _layer_map(mat, name)
+    factor = getattr(mat, name)
+    if found is not None:
+        from compare.scene.textures import channel_map
+
+        return bitmap_dict(mat, channel_map(found[2], found[1], factor), raw=True)
+    if isinstance(factor, tuple):
+        return {"type": "rgb", "value": [float(x) for x in factor]}
+    return float(factor)
 
 
 def _transmissive(mat: Material, mode: str, bsdf: dict) -> dict:
@@ -277,11 +299,9 @@ def _surface_dict(mat: Material, mode: str) -> dict:
 
         register()
         d = {"type": SHARED_BSDF, "base_color": base, "metallic": metallic, "roughness": roughness}
-        if (mat.ior, mat.specular, mat.specular_color) != (1.5, 1.0, (1.0, 1.0, 1.0)):
-            from compare.brdf import dielectric_specular
-
-            f0, weight = dielectric_specular(mat.ior, mat.specular, mat.specular_color)
-            d.update(specular_f0={"type": "rgb", "value": [float(x) for x in f0]}, specular_weight=weight)
+        if ((mat.ior, mat.specular, mat.specular_color) != (1.5, 1.0, (1.0, 1.0, 1.0))
+                or _layer_map(mat, "specular") or _layer_map(mat, "specular_color")):
+            d.update(specular_f0=_specular_f0(mat), specular_weight=_layer_value(mat, "specular"))
         return _normal_mapped(mat, d)
     if mode in PRINCIPLED_MODES:
         from compare.mitsuba.bsdf import register

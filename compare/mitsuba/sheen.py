@@ -1,8 +1,8 @@
 """glTF's sheen over any BSDF, as a Mitsuba 3 plugin (``gltf_sheen``): the model of
 :mod:`compare.brdf.sheen` (read it), evaluated with Dr.Jit, the albedo table as a bilinear texture.
 
-Properties: ``base`` (the nested BSDF), ``color`` (three floats ``color_r``, ``color_g``, ``color_b``,
-linear) and ``roughness`` (the sheen's perceptual roughness).
+Properties: ``base`` (the nested BSDF), ``color`` (linear RGB) and ``roughness`` (the sheen's perceptual
+roughness), each a value or a texture (glTF's factor times its map).
 
 Sampling: the cosine-weighted hemisphere with probability ``p = clip(max(color) E(cos θ_i), 0.05, 0.5)``
 (the lobe is broad), else the base's own sampling; the weight is ``eval / pdf`` of the mixture.
@@ -61,38 +61,44 @@ def _make_class(mv, mitsuba):
         def __init__(self, props):
             mv.BSDF.__init__(self, props)
             self.base = props["base"]
-            self.color = [float(props.get(f"color_{c}", 0.0)) for c in "rgb"]
-            self.peak = max(self.color)
-            self.r = min(max(float(props.get("roughness", 0.0)), 0.0), 1.0)
-            self.alpha = max(self.r * self.r, SHEEN_ALPHA_MIN)
+            self.color = props.get_texture("color", 0.0)
+            self.roughness = props.get_texture("roughness", 0.0)
             albedo(mv.Float(0.5), mv.Float(0.5))  # the texture, made at load time
             n = self.base.component_count()
             sheen = Flags.GlossyReflection | Flags.FrontSide
             self.m_components = [self.base.flags(i) for i in range(n)] + [sheen]
             self.m_flags = self.base.flags() | sheen
 
-        def _sheen(self, wi, wo):
+        def _params(self, si, active):
+            """(colour, its peak, roughness, α) at the surface point."""
+            c = self.color.eval(si, active)
+            r = dr.clip(self.roughness.eval_1(si, active), 0.0, 1.0)
+            return c, dr.maximum(dr.maximum(c.x, c.y), c.z), r, dr.maximum(r * r, SHEEN_ALPHA_MIN)
+
+        def _sheen(self, wi, wo, peak, r, alpha):
             """(albedo scaling of the base, sheen value times cos_o) for wi, wo."""
             cos_i, cos_o = wi.z, wo.z
             ok = (cos_i > 0.0) & (cos_o > 0.0)
             h = dr.normalize(wi + wo)
             nh = dr.clip(h.z, 0.0, 1.0)
-            inv = 1.0 / self.alpha
+            inv = 1.0 / alpha
             sin2 = dr.maximum(1.0 - nh * nh, 0.0)
             d = (2.0 + inv) * dr.power(sin2, 0.5 * inv) * (0.5 / dr.pi)
             v = 1.0 / (4.0 * dr.maximum(cos_o + cos_i - cos_o * cos_i, 1e-6))
             lobe = d * v * dr.maximum(cos_o, 0.0)
-            scale = dr.minimum(1.0 - self.peak * albedo(cos_i, self.r), 1.0 - self.peak * albedo(cos_o, self.r))
+            scale = dr.minimum(1.0 - peak * albedo(cos_i, r), 1.0 - peak * albedo(cos_o, r))
             return dr.select(ok, scale, 1.0), dr.select(ok, lobe, 0.0)
 
-        def _p(self, cos_i):
-            return dr.clip(self.peak * albedo(cos_i, self.r), 0.05, 0.5)
+        @staticmethod
+        def _p(cos_i, peak, r):
+            return dr.clip(peak * albedo(cos_i, r), 0.05, 0.5)
 
         def eval_pdf(self, ctx, si, wo, active=True):
             base_value, base_pdf = self.base.eval_pdf(ctx, si, wo, active)
-            scale, lobe = self._sheen(si.wi, wo)
-            value = base_value * scale + Color3f(*self.color) * lobe
-            p = self._p(si.wi.z)
+            c, peak, r, alpha = self._params(si, active)
+            scale, lobe = self._sheen(si.wi, wo, peak, r, alpha)
+            value = base_value * scale + c * lobe
+            p = self._p(si.wi.z, peak, r)
             pdf = p * mv.warp.square_to_cosine_hemisphere_pdf(wo) + (1.0 - p) * base_pdf
             return dr.select(active, value, Color3f(0.0)), dr.select(active, pdf, 0.0)
 
@@ -104,13 +110,14 @@ def _make_class(mv, mitsuba):
 
         def sample(self, ctx, si, sample1, sample2, active=True):
             wi = si.wi
-            p = self._p(wi.z)
+            c, peak, r, alpha = self._params(si, active)
+            p = self._p(wi.z, peak, r)
             pick = (sample1 < p) & (wi.z > 0.0)
             bs, base_weight = self.base.sample(ctx, si, dr.clip((sample1 - p) / dr.maximum(1.0 - p, 1e-6), 0.0,
                                                                 0.999999), sample2, active & ~pick)
             wo = dr.select(pick, mv.warp.square_to_cosine_hemisphere(sample2), bs.wo)
             delta = (~pick) & ((bs.sampled_type & UInt32(+Flags.Delta)) != 0)
-            scale, _ = self._sheen(wi, bs.wo)
+            scale, _ = self._sheen(wi, bs.wo, peak, r, alpha)
             value, pdf = self.eval_pdf(ctx, si, wo, active)
             ok = active & (pdf > 0.0) & ~delta
             out = dr.zeros(mv.BSDFSample3f)
@@ -130,6 +137,6 @@ def _make_class(mv, mitsuba):
             pass
 
         def to_string(self):
-            return f"GltfSheenBSDF[color = {self.color}, roughness = {self.r}]"
+            return f"GltfSheenBSDF[color = {self.color}, roughness = {self.roughness}]"
 
     return GltfSheenBSDF

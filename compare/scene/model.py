@@ -141,7 +141,10 @@ MATERIAL_FEATURES = {"KHR_materials_transmission": "transmission", "KHR_material
                      "KHR_materials_sheen": "sheen", "KHR_materials_specular": "specular"}
 #: The extensions' maps that are read: glTF key → (the field it multiplies, its channel).
 LAYER_MAPS = {"transmissionTexture": ("transmission", "r"), "clearcoatTexture": ("clearcoat", "r"),
-              "clearcoatRoughnessTexture": ("clearcoat_roughness", "g")}
+              "clearcoatRoughnessTexture": ("clearcoat_roughness", "g"),
+              "sheenColorTexture": ("sheen_color", "rgb"), "sheenRoughnessTexture": ("sheen_roughness", "a"),
+              "specularTexture": ("specular", "a"), "specularColorTexture": ("specular_color", "rgb")}
+#: (Channel "rgb": an sRGB colour map; the others: one channel of a linear map.)
 #: Every material feature a renderer may declare it renders (Renderer.renders).
 MATERIAL_FEATURE_NAMES = ("alpha_blend", *MATERIAL_FEATURES.values())
 #: glTF's alpha modes in the scene model.

@@ -184,15 +184,28 @@ def split_metallic_roughness(path: Path) -> tuple[Path, Path]:
     return _derived(path, "metallic", (), channel(2)), _derived(path, "roughness", (), channel(1))
 
 
-def channel_map(path: Path, channel: str, factor: float) -> Path:
+def channel_map(path: Path, channel: str, factor) -> Path:
     """One channel ("r", "g", "b" or "a") of a linear map times ``factor``, as a grey EXR in the cache: a
-    glTF extension's map (transmission in R, a coat's weight in R and roughness in G) times its factor."""
+    glTF extension's map (transmission in R, a coat's weight in R and roughness in G) times its factor.
+    Channel "rgb": an sRGB colour map times an RGB ``factor`` (a sheen's or a specular colour)."""
+    if channel == "rgb":
+        f = np.asarray(factor, dtype=np.float64).reshape(3)
+        return _derived(path, "rgb-x", f.tolist(), lambda: load_texture(path, srgb=True)[..., :3] * f)
     if channel == "a":
         return _derived(path, "alpha-x", (float(factor),),
                         lambda: np.repeat((load_alpha(path) * float(factor))[..., None], 3, axis=2))
     c = "rgb".index(channel)
     return _derived(path, f"{channel}-x", (float(factor),),
                     lambda: np.repeat(load_texture(path, srgb=False)[..., c:c + 1] * float(factor), 3, axis=2))
+
+
+def specular_f0_map(path: Path, color, ior: float) -> Path:
+    """glTF's dielectric F0 per texel, ``min(((ior − 1)/(ior + 1))² × colour × map, 1)`` (the sRGB
+    specularColorTexture times its factor), as a linear EXR in the cache."""
+    f = np.asarray(color, dtype=np.float64).reshape(3)
+    f0 = ((float(ior) - 1.0) / (float(ior) + 1.0)) ** 2
+    return _derived(path, "specular-f0", [*f.tolist(), float(ior)],
+                    lambda: np.minimum(f0 * load_texture(path, srgb=True)[..., :3] * f, 1.0))
 
 
 def emission_map(path: Path, emission) -> Path:
