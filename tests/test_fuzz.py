@@ -39,8 +39,19 @@ def _gltf() -> dict:
     from compare.scene.geometry import box
     from compare.scene.gltf_write import GltfWriter
 
+    from compare.scene.model import LAYERS
+
     w = GltfWriter()
     m = w.material("grey", (0.5, 0.5, 0.5), 0.0, 0.5)
+    # every material extension's factors (valid), for the mutations to break
+    exts: dict = {}
+    for layer in LAYERS:
+        value = [0.5, 0.5, 0.5] if layer.color else (2.0 if layer.field == "attenuation_distance" else 0.5
+                                                     if layer.field != "ior" else 1.4)
+        exts.setdefault(layer.extension, {})[layer.key] = value
+        w._use(layer.extension)  # noqa: SLF001
+    w.doc["materials"][m]["extensions"] = exts
+    w.doc["materials"][m]["alphaMode"] = "BLEND"
     w.node("box", mesh=w.mesh("box", [(box([0.2, 0.2, 0.2]), m)]), translation=[0.0, 0.1, 0.0])
     return w.document(embed_buffer=True)
 
@@ -53,7 +64,11 @@ SCENE = {
     "materials": {"white": {"base_color": [0.8, 0.8, 0.8], "roughness": 0.5, "metallic": 0.0},
                   "tex": {"base_color": [1.0, 1.0, 1.0], "base_color_texture": "tex.exr"},
                   "lamp": {"base_color": [0.0, 0.0, 0.0], "emission": [1.0, 1.0, 1.0]},
-                  "png": {"base_color_texture": "tex.png"}},
+                  "png": {"base_color_texture": "tex.png"},
+                  "glass": {"transmission": 1.0, "ior": 1.5, "thickness": 0.1, "attenuation_distance": 1.0,
+                            "attenuation_color": [0.9, 0.8, 0.7], "clearcoat": 0.5, "clearcoat_roughness": 0.1,
+                            "sheen_color": [0.2, 0.2, 0.2], "sheen_roughness": 0.5, "specular": 0.8,
+                            "specular_color": [1.0, 0.9, 0.8], "alpha_mode": "blend", "alpha": 0.6}},
     "meshes": [{"name": "floor", "shape": "quad", "material": "white", "size": [2.0, 2.0]},
                {"name": "obj", "shape": "file", "file": "m.obj", "material": "tex"},
                {"name": "ply", "shape": "file", "file": "m.ply", "material": "lamp", "translate": [0.3, 0.0, 0.0]}],
