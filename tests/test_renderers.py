@@ -570,3 +570,41 @@ def test_a_job_folder_that_a_killed_run_left_is_swept_at_the_next_run(tmp_path, 
     settings = _settings(["mine"], renderer_config=str(config), ground_truth="grey")
     run_mod.run([CORNELL], tmp_path / "out", settings, progress=False, renderers=[GreyRenderer()])
     assert not left.exists() and mine.exists()
+
+
+def test_sigterm_to_compare_stops_a_blender_render_and_removes_its_folder(tmp_path):
+    """The same for a Blender render: its worker process ends with `compare`, and its folder goes."""
+    import os
+    import signal
+    import subprocess
+
+    from test_blender import needs_bpy
+
+    if needs_bpy.args[0]:
+        pytest.skip(needs_bpy.kwargs["reason"])
+    temp = tmp_path / "temp"
+    temp.mkdir()
+    proc = subprocess.Popen([sys.executable, "-m", "compare.cli.main", "render", "--scene", str(CORNELL),
+                             "--renderer", "cycles", "--samples", "100000", "--size", "64x48",
+                             "-o", str(tmp_path / "x.exr")], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            env={**os.environ, "TMPDIR": str(temp)})
+
+    def workers():
+        return [p for p in Path("/proc").iterdir() if p.name.isdigit() and (p / "cmdline").is_file()
+                and b"worker.py" in (p / "cmdline").read_bytes() and str(temp).encode() in (p / "cmdline").read_bytes()]
+
+    for _ in range(600):  # until Blender's worker runs
+        if workers():
+            break
+        time.sleep(0.05)
+    else:
+        proc.kill()
+        pytest.fail(f"Blender did not start: {proc.communicate()[1].decode()[-500:]}")
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode != 0 and b"Traceback" not in err
+    left = workers()
+    for p in left:
+        os.kill(int(p.name), signal.SIGKILL)
+    assert not left, "Blender's worker outlived compare"
+    assert not list(temp.glob("compare-blender-*"))
