@@ -609,6 +609,9 @@ def test_a_transmission_map_makes_glass_where_it_says(tmp_path, make_scene):
         """))
     (m,) = scene.materials.values()
     assert [(f, c) for f, c, _ in m.layer_maps] == [("transmission", "r")]
+    from compare.scene.inspect import inspect_path
+
+    assert [mp["used as"] for mp in inspect_path(tmp_path / "card.glb")["maps"]] == ["transmission"]
     image = _render(scene, spp=64)
     left, right = image[4:12, 2:12].mean(), image[4:12, 20:30].mean()
     r = 0.04

@@ -46,8 +46,10 @@ def _gltf_info(path: Path) -> dict:
     doc = load_gltf(path)
     roles: dict[int, list[str]] = {}
     for m in doc.materials:
-        for role in ("base_color", "metallic_roughness", "normal", "occlusion", "emissive"):
-            i = getattr(m, f"{role}_image")
+        uses = [(role, getattr(m, f"{role}_image"))
+                for role in ("base_color", "metallic_roughness", "normal", "occlusion", "emissive")]
+        uses += [(field, i) for field, _, i in m.layer_images]  # the material extensions' maps
+        for role, i in uses:
             if i is not None:
                 roles.setdefault(i, [])
                 if role not in roles[i]:
