@@ -608,3 +608,47 @@ def test_sigterm_to_compare_stops_a_blender_render_and_removes_its_folder(tmp_pa
         os.kill(int(p.name), signal.SIGKILL)
     assert not left, "Blender's worker outlived compare"
     assert not list(temp.glob("compare-blender-*"))
+
+
+def test_sigterm_to_compare_stops_a_web_render_and_its_browser(tmp_path):
+    """The same for a web engine: Chromium and Playwright's driver end with `compare`, nothing of theirs
+    is left in the temporary folder."""
+    import os
+    import signal
+    import subprocess
+
+    from test_web import needs_web
+
+    if needs_web.args[0]:
+        pytest.skip(needs_web.kwargs["reason"])
+    temp = tmp_path / "temp"
+    temp.mkdir()
+    proc = subprocess.Popen([sys.executable, "-m", "compare.cli.main", "render", "--scene", str(CORNELL),
+                             "--renderer", "threejs", "--frames", "100000", "--size", "32x24",
+                             "-o", str(tmp_path / "x.exr")], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            env={**os.environ, "TMPDIR": str(temp)})
+
+    def browsers():
+        return [p for p in Path("/proc").iterdir() if p.name.isdigit() and (p / "cmdline").is_file()
+                and str(temp).encode() in (p / "cmdline").read_bytes() and p.name != str(proc.pid)]
+
+    for _ in range(600):  # until the browser runs
+        if browsers():
+            break
+        time.sleep(0.05)
+    else:
+        proc.kill()
+        pytest.fail(f"the browser did not start: {proc.communicate()[1].decode()[-500:]}")
+    time.sleep(0.5)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode != 0 and b"Traceback" not in err
+    for _ in range(100):  # the browser's processes may take a moment to go
+        if not browsers():
+            break
+        time.sleep(0.05)
+    left = browsers()
+    for p in left:
+        os.kill(int(p.name), signal.SIGKILL)
+    assert not left, "the browser outlived compare"
+    assert not [p for p in temp.iterdir() if p.name.startswith("compare-")]
