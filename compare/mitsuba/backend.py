@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import glob
 import os
+import sys
 import re
 import warnings
 
@@ -127,6 +128,29 @@ def load_mitsuba(variant: str | None = None):
     )
     mi.set_variant("scalar_rgb")
     _state["variant"] = "scalar_rgb"
+    return mi
+
+
+def load_active_mitsuba(variant: str | None = None):
+    """:func:`load_mitsuba` keeping the variant that is active now (none yet: the best one), or ``variant``."""
+    if variant is None:
+        loaded = sys.modules.get("mitsuba")
+        variant = (loaded.variant() if loaded is not None else None) or None
+    return load_mitsuba(variant)
+
+
+def register_bsdf_plugin(name: str, make_class, classes: dict, variant: str | None = None):
+    """Register the Python BSDF plugin ``name`` with the active (or given) variant, once per variant:
+    ``make_class(variant_module, mitsuba)`` builds its class, kept in ``classes`` by variant. Returns the
+    ``mitsuba`` module with that variant active."""
+    mi = load_active_mitsuba(variant)
+    active = mi.variant()
+    if active not in classes:
+        import mitsuba  # noqa: PLC0415 - already imported by load_mitsuba
+
+        cls = make_class(getattr(mitsuba, active), mitsuba)
+        mi.register_bsdf(name, lambda props, _cls=cls: _cls(props))
+        classes[active] = cls
     return mi
 
 

@@ -65,7 +65,6 @@ class from that variant's module, so an instance keeps working after
 
 from __future__ import annotations
 
-import sys
 
 from compare.brdf import REFERENCE_ALPHA_MIN, COS_MIN, DIELECTRIC_F0, H_LEN2_MIN, SPECULAR_PROB_MIN, multiscatter
 from compare.mitsuba import principled
@@ -102,21 +101,9 @@ def register(variant: str | None = None):
         ``mitsuba``, with the variant active. Calling again is cheap and does
         not register twice.
     """
-    from compare.mitsuba.backend import load_mitsuba  # noqa: PLC0415 - Mitsuba is loaded lazily
+    from compare.mitsuba.backend import register_bsdf_plugin  # noqa: PLC0415 - Mitsuba is loaded lazily
 
-    if variant is None:
-        loaded = sys.modules.get("mitsuba")
-        current = loaded.variant() if loaded is not None else None
-        variant = current or None
-    mi = load_mitsuba(variant)
-    name = mi.variant()
-    if name not in _CLASSES:
-        import mitsuba  # noqa: PLC0415 - already imported by load_mitsuba
-
-        cls = _make_class(getattr(mitsuba, name), mitsuba)
-        mi.register_bsdf(PLUGIN_NAME, lambda props, _cls=cls: _cls(props))
-        _CLASSES[name] = cls
-    return mi
+    return register_bsdf_plugin(PLUGIN_NAME, _make_class, _CLASSES, variant)
 
 
 def _make_class(mv, mitsuba):

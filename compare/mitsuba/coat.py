@@ -12,7 +12,6 @@ so either lobe may have produced the direction.
 
 from __future__ import annotations
 
-import sys
 
 from compare.brdf import REFERENCE_ALPHA_MIN, COS_MIN, H_LEN2_MIN
 from compare.brdf.coat import COAT_F0
@@ -26,20 +25,9 @@ _DENOM_MIN = 1e-30
 
 def register(variant: str | None = None):
     """Register ``gltf_coat`` with the active (or given) variant; returns the ``mitsuba`` module."""
-    from compare.mitsuba.backend import load_mitsuba  # noqa: PLC0415 - Mitsuba is loaded lazily
+    from compare.mitsuba.backend import register_bsdf_plugin  # noqa: PLC0415 - Mitsuba is loaded lazily
 
-    if variant is None:
-        loaded = sys.modules.get("mitsuba")
-        variant = (loaded.variant() if loaded is not None else None) or None
-    mi = load_mitsuba(variant)
-    name = mi.variant()
-    if name not in _CLASSES:
-        import mitsuba  # noqa: PLC0415
-
-        cls = _make_class(getattr(mitsuba, name), mitsuba)
-        mi.register_bsdf(PLUGIN_NAME, lambda props, _cls=cls: _cls(props))
-        _CLASSES[name] = cls
-    return mi
+    return register_bsdf_plugin(PLUGIN_NAME, _make_class, _CLASSES, variant)
 
 
 def _make_class(mv, mitsuba):

@@ -307,6 +307,12 @@ def _surface_dict(mat: Material, mode: str) -> dict:
         from compare.mitsuba.bsdf import register
 
         register()
+        if (mat.ior, mat.specular, mat.specular_color) != (1.5, 1.0, (1.0, 1.0, 1.0)) or _layer_map(mat, "specular"):
+            import warnings
+
+            warnings.warn(f"materials {mode!r}: {mat.name}: Blender's Principled v2 model here keeps IOR 1.5 and "
+                          "no specular weight or colour for the reflection (the shared model, the default, has "
+                          "them)", stacklevel=2)
         return _normal_mapped(mat, {"type": SHARED_BSDF, "flavour": "cycles", "base_color": base,
                                     "metallic": metallic, "roughness": roughness,
                                     "distribution": PRINCIPLED_MODES[mode] or mat.distribution})
@@ -390,13 +396,10 @@ def environment_dict(scene: Scene) -> dict | None:
         return None
     if env.constant is not None:
         return {"type": "constant", "radiance": {"type": "rgb", "value": [c * env.intensity for c in env.constant]}}
-    import sys
-
-    from compare.mitsuba.backend import load_mitsuba
+    from compare.mitsuba.backend import load_active_mitsuba
     from compare.scene.environments import environment_file
 
-    loaded = sys.modules.get("mitsuba")
-    mi = load_mitsuba((loaded.variant() if loaded is not None else None) or None)  # a variant is set
+    mi = load_active_mitsuba()  # a variant is set
     return {
         "type": "envmap",
         "filename": str(environment_file(env)),

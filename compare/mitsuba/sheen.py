@@ -10,7 +10,6 @@ Sampling: the cosine-weighted hemisphere with probability ``p = clip(max(color) 
 
 from __future__ import annotations
 
-import sys
 
 from compare.brdf.sheen import SHEEN_ALPHA_MIN, TABLE_SIZE, albedo_table
 
@@ -22,20 +21,9 @@ _CLASSES: dict[str, type] = {}
 
 def register(variant: str | None = None):
     """Register ``gltf_sheen`` with the active (or given) variant; returns the ``mitsuba`` module."""
-    from compare.mitsuba.backend import load_mitsuba  # noqa: PLC0415 - Mitsuba is loaded lazily
+    from compare.mitsuba.backend import register_bsdf_plugin  # noqa: PLC0415 - Mitsuba is loaded lazily
 
-    if variant is None:
-        loaded = sys.modules.get("mitsuba")
-        variant = (loaded.variant() if loaded is not None else None) or None
-    mi = load_mitsuba(variant)
-    name = mi.variant()
-    if name not in _CLASSES:
-        import mitsuba  # noqa: PLC0415
-
-        cls = _make_class(getattr(mitsuba, name), mitsuba)
-        mi.register_bsdf(PLUGIN_NAME, lambda props, _cls=cls: _cls(props))
-        _CLASSES[name] = cls
-    return mi
+    return register_bsdf_plugin(PLUGIN_NAME, _make_class, _CLASSES, variant)
 
 
 def _make_class(mv, mitsuba):

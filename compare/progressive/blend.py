@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from compare.progressive.accumulate import PingPong
-from compare.progressive.first_frame import ENV_UNIT, LUT_UNIT, set_light_uniforms
+from compare.progressive.first_frame import ENV_UNIT, LUT_UNIT, first_frame_defines, set_light_uniforms
 from compare.progressive.gpu_scene import mat_bytes
 from compare.progressive.ltc import LTC_UNIT
 from compare.progressive.shaders import load_program, set_uniform
@@ -46,12 +46,7 @@ class BlendPass:
         self.lut_texture = lut_texture
         self.ltc_table = ltc_table
         self.indices = [k for k, m in enumerate(gpu_scene.meshes) if m.blend >= 0.0]
-        defines = {"LIGHTS": len(lights), "ENVIRONMENT": int(environment is not None), "BLEND": 1,
-                   "PUNCTUAL": len(punctual.lights) if punctual is not None else 0,
-                   "AREA_MODEL_PAPER": int(area_model == "paper"), "AREA_MODEL_LTC": int(area_model == "ltc"),
-                   "MATERIALS_DIFFUSE": int(materials == "diffuse"), **gpu_scene.defines()}
-        if environment is not None:
-            defines.update(environment.defines(materials))
+        defines = first_frame_defines(gpu_scene, lights, punctual, environment, area_model, materials, blend=True)
         self._objects: list = []
         try:
             self.program = self._keep(load_program(ctx, "first_frame.glsl", defines))

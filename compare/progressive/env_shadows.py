@@ -40,7 +40,7 @@ from __future__ import annotations
 import numpy as np
 
 from compare.progressive.gpu_scene import mat_bytes
-from compare.progressive.punctual import ShadowMap, visible_points
+from compare.progressive.punctual import ShadowMap, set_shadow_maps, visible_points
 from compare.progressive.sampling import r2, seed_offset
 from compare.progressive.shaders import load_program, set_uniform
 from compare.scene.equirect import rotation_matrix, uv_to_direction
@@ -160,18 +160,7 @@ class EnvShadows:
             set_uniform(p, "u_pshadow_map", SHADOW_UNIT)
             set_uniform(p, "u_camera_position", tuple(float(x) for x in camera_position))
             set_uniform(p, "u_direction", tuple(float(x) for x in self.directions[s.index]))
-            set_uniform(p, "u_pshadow_faces", np.array([1], dtype=np.int32).tobytes())
-            vp = np.zeros((6, 4, 4), dtype=np.float32)
-            vp[0] = m.view_proj[0]
-            rects = np.zeros((6, 4), dtype=np.float32)
-            rects[0] = m.rects[0]
-            set_uniform(p, "u_pface_view_proj", np.ascontiguousarray(vp.transpose(0, 2, 1)).tobytes())
-            set_uniform(p, "u_pface_rect", rects.tobytes())
-            set_uniform(p, "u_pshadow_origin", tuple(float(x) for x in m.origin))
-            set_uniform(p, "u_pshadow_direction", tuple(float(x) for x in m.direction))
-            set_uniform(p, "u_pshadow_ortho", 1.0)
-            set_uniform(p, "u_pshadow_far", float(m.far))
-            set_uniform(p, "u_pshadow_texel", tuple(float(t) for t in m.texel))
+            set_shadow_maps(p, [m])
             set_uniform(p, "u_bias", tuple(float(b) for b in bias))
             self.environment.bind(p, first_unit=SHADOW_UNIT + 1)
             self.vao.render(vertices=3)

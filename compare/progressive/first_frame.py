@@ -68,6 +68,18 @@ LUT_UNIT = 0
 ENV_UNIT = 1
 
 
+def first_frame_defines(gpu_scene, lights, punctual, environment, area_model: str, materials: str, *,
+                        blend: bool) -> dict:
+    """The defines of ``first_frame.glsl``: frame 0's forward pass, or (``blend``) the blend pass."""
+    defines = {"LIGHTS": len(lights), "ENVIRONMENT": int(environment is not None), "BLEND": int(blend),
+               "PUNCTUAL": len(punctual.lights) if punctual is not None else 0,
+               "AREA_MODEL_PAPER": int(area_model == "paper"), "AREA_MODEL_LTC": int(area_model == "ltc"),
+               "MATERIALS_DIFFUSE": int(materials == "diffuse"), **gpu_scene.defines()}
+    if environment is not None:
+        defines.update(environment.defines(materials))
+    return defines
+
+
 def set_light_uniforms(program, lights, punctual=None) -> None:
     """The lights' uniform arrays of ``first_frame.glsl`` (frame 0, and the blend pass): the area
     ``lights`` and the :class:`~compare.progressive.punctual.PunctualLights` ``punctual`` (or None)."""
@@ -122,15 +134,11 @@ class FirstFramePass:
         self.lut_texture = lut_texture
         self.punctual = punctual
         self.punctual_texture = None
-        defines = {"LIGHTS": len(self.lights), "ENVIRONMENT": int(environment is not None), "BLEND": 0,
-                   "PUNCTUAL": len(punctual.lights) if punctual is not None else 0,
-                   "AREA_MODEL_PAPER": int(area_model == "paper"), "AREA_MODEL_LTC": int(area_model == "ltc"),
-                   "MATERIALS_DIFFUSE": int(materials == "diffuse"), **gpu_scene.defines()}
+        defines = first_frame_defines(gpu_scene, self.lights, punctual, environment, area_model, materials,
+                                      blend=False)
         if area_model == "ltc" and ltc_table is None and self.lights:
             raise ValueError("area_model 'ltc' needs the LTC table (ltc_table)")
         self.ltc_table = ltc_table
-        if environment is not None:
-            defines.update(environment.defines(materials))
         self._objects: list = []
         try:
             self.program = self._keep(load_program(ctx, "first_frame.glsl", defines))

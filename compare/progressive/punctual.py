@@ -61,15 +61,6 @@ MAX_BATCH = 8
 MAX_SHADOW_TEXELS = 1 << 26
 
 
-def cone_terms(light) -> tuple[float, float]:
-    """(a, b) with glTF's spot factor ``clamp(a·cos θ + b, 0, 1)²``; (0, 1) for other kinds."""
-    if light.kind != "spot":
-        return (0.0, 1.0)
-    ci, co = math.cos(math.radians(light.inner_cone)), math.cos(math.radians(light.outer_cone))
-    scale = 1.0 / max(1e-3, ci - co)  # the specification's guard against inner == outer
-    return (scale, -co * scale)
-
-
 def _unit(v) -> np.ndarray:
     v = np.asarray(v, dtype=np.float64)
     return v / np.linalg.norm(v)
@@ -185,6 +176,27 @@ class ShadowMap:
         return f"{kind} {self.rects[0][2]:.0f}²" + (" ×6" if self.faces == 6 else "")
 
 
+def set_shadow_maps(program, maps) -> None:
+    """The ``u_pshadow_*`` and ``u_pface_*`` uniforms of ``punctual_shadow.glsl`` for ``maps`` (one
+    :class:`ShadowMap` per light of the program's batch, in order)."""
+    def arr(values, dtype=np.float32) -> bytes:
+        return np.ascontiguousarray(values, dtype=dtype).tobytes()
+
+    vp = np.zeros((6 * len(maps), 4, 4), dtype=np.float32)
+    rects = np.zeros((6 * len(maps), 4), dtype=np.float32)
+    for k, m in enumerate(maps):
+        vp[6 * k:6 * k + m.faces] = m.view_proj
+        rects[6 * k:6 * k + m.faces] = m.rects
+    set_uniform(program, "u_pface_view_proj", arr(vp.transpose(0, 2, 1)))
+    set_uniform(program, "u_pface_rect", arr(rects))
+    set_uniform(program, "u_pshadow_faces", arr([m.faces for m in maps], np.int32))
+    set_uniform(program, "u_pshadow_origin", arr([m.origin for m in maps]))
+    set_uniform(program, "u_pshadow_direction", arr([m.direction for m in maps]))
+    set_uniform(program, "u_pshadow_ortho", arr([float(m.ortho) for m in maps]))
+    set_uniform(program, "u_pshadow_far", arr([m.far for m in maps]))
+    set_uniform(program, "u_pshadow_texel", arr([m.texel for m in maps]))
+
+
 class PunctualLights:
     """Shadow maps, programs and the running mean of a scene's punctual lights.
 
@@ -248,7 +260,7 @@ class PunctualLights:
                 "u_punctual_position": arr([lt.position for lt in self.lights]),
                 "u_punctual_direction": arr([_unit(lt.direction) for lt in self.lights]),
                 "u_punctual_intensity": arr([lt.intensity for lt in self.lights]),
-                "u_punctual_cone": arr([cone_terms(lt) for lt in self.lights])}
+                "u_punctual_cone": arr([lt.cone_terms() for lt in self.lights])}
 
     def render_shadow(self, index: int) -> None:
         """Render light ``index``'s shadow map (kept until :meth:`reset`); the mean restarts."""
@@ -305,7 +317,6 @@ class PunctualLights:
             return np.ascontiguousarray(values, dtype=dtype).tobytes()
 
         lights = [self.lights[i] for i in batch]
-        maps = [self.maps[i] for i in batch]
         for k, i in enumerate(batch):
             self.textures[i].use(location=SHADOW_UNIT + k)
         set_uniform(program, "u_pshadow", arr([SHADOW_UNIT + k for k in range(len(batch))], np.int32))
@@ -313,21 +324,9 @@ class PunctualLights:
         set_uniform(program, "u_light_position", arr([lt.position for lt in lights]))
         set_uniform(program, "u_light_direction", arr([_unit(lt.direction) for lt in lights]))
         set_uniform(program, "u_light_intensity", arr([lt.intensity for lt in lights]))
-        set_uniform(program, "u_light_cone", arr([cone_terms(lt) for lt in lights]))
+        set_uniform(program, "u_light_cone", arr([lt.cone_terms() for lt in lights]))
         set_uniform(program, "u_shadowed", arr([float(i in self.ready) for i in batch]))
-        vp = np.zeros((6 * len(batch), 4, 4), dtype=np.float32)
-        rects = np.zeros((6 * len(batch), 4), dtype=np.float32)
-        for k, m in enumerate(maps):
-            vp[6 * k:6 * k + m.faces] = m.view_proj
-            rects[6 * k:6 * k + m.faces] = m.rects
-        set_uniform(program, "u_pface_view_proj", arr(vp.transpose(0, 2, 1)))
-        set_uniform(program, "u_pface_rect", arr(rects))
-        set_uniform(program, "u_pshadow_faces", arr([m.faces for m in maps], np.int32))
-        set_uniform(program, "u_pshadow_origin", arr([m.origin for m in maps]))
-        set_uniform(program, "u_pshadow_direction", arr([m.direction for m in maps]))
-        set_uniform(program, "u_pshadow_ortho", arr([float(m.ortho) for m in maps]))
-        set_uniform(program, "u_pshadow_far", arr([m.far for m in maps]))
-        set_uniform(program, "u_pshadow_texel", arr([m.texel for m in maps]))
+        set_shadow_maps(program, [self.maps[i] for i in batch])
 
     @property
     def texture(self):

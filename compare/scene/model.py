@@ -405,14 +405,19 @@ class PunctualLight:
     range: float | None = None
     stand_in_size: float = DEFAULT_STAND_IN_SIZE
 
-    def falloff(self, cos_theta) -> np.ndarray:
-        """glTF's spot cone factor at cos θ from the axis (1 for point and directional lights)."""
-        cos_theta = np.asarray(cos_theta, dtype=np.float64)
+    def cone_terms(self) -> tuple[float, float]:
+        """(a, b) with glTF's spot factor ``clamp(a·cos θ + b, 0, 1)²``; (0, 1) for other kinds (a shader's
+        form of :meth:`falloff`)."""
         if self.kind != "spot":
-            return np.ones_like(cos_theta)
+            return (0.0, 1.0)
         ci, co = math.cos(math.radians(self.inner_cone)), math.cos(math.radians(self.outer_cone))
         scale = 1.0 / max(1e-3, ci - co)  # the specification's own guard against inner == outer
-        return np.clip((cos_theta - co) * scale, 0.0, 1.0) ** 2
+        return (scale, -co * scale)
+
+    def falloff(self, cos_theta) -> np.ndarray:
+        """glTF's spot cone factor at cos θ from the axis (1 for point and directional lights)."""
+        a, b = self.cone_terms()
+        return np.clip(np.asarray(cos_theta, dtype=np.float64) * a + b, 0.0, 1.0) ** 2
 
     def node_matrix(self) -> np.ndarray:
         """4×4 world matrix of the light as glTF and Blender place a light: at its position, shining down
