@@ -177,7 +177,7 @@ def test_each_extension_reads_writes_and_is_declared(tmp_path, make_scene):
     m = scene.materials["fancy"]
     for k, v in values.items():
         assert getattr(m, k) == pytest.approx(tuple(v) if isinstance(v, list) else v)
-    assert scene.material_features() == {name: ["fancy"] for name in MATERIAL_FEATURE_NAMES}
+    assert scene.material_features() == {name: ["fancy"] for name in MATERIAL_FEATURE_NAMES if name != "layer_maps"}
     (tmp_path / "job").mkdir()
     gltf = export_gltf(scene, tmp_path / "job" / "scene.gltf")
     doc = json.loads(gltf.read_text())
@@ -472,9 +472,11 @@ def test_material_effect_scenes_render_and_each_renderer_declares_them(path):
     scene = load_scene(path).with_resolution(48, 24)
     image = _render(scene, spp=4)
     assert np.isfinite(image).all() and image.min() >= 0 and image.max() > 0
-    _, notes = Registry().get("progressive").prepare(scene)
-    used = set(scene.material_features()) - {"alpha_blend"}
-    assert len(notes) == len(used)  # the rasterizer draws no extension (blending aside): it says so, one by one
+    progressive = Registry().get("progressive")
+    _, notes = progressive.prepare(scene)
+    left_out = set(scene.material_features()) - progressive.renders
+    assert len(notes) == len(left_out)  # what the rasterizer does not draw, it says, one by one
+    assert not {"clearcoat", "sheen", "specular", "ior"} & left_out
 
 
 def test_rasterizer_blends_a_card_by_its_alpha(make_scene, gl_ctx):
@@ -687,3 +689,119 @@ def test_a_specular_map_weights_the_reflection_where_it_says(tmp_path, make_scen
     left, right = image[4:12, 2:12].mean(axis=(0, 1)), image[4:12, 20:30].mean(axis=(0, 1))
     np.testing.assert_allclose(right, np.array([1.0, 0.5, 0.25]) / 9.0, rtol=0.06)
     assert left.max() < 0.01
+
+
+# -- the rasterizer's layers (compare/brdf/layers.glsl) ------------------------------------------
+
+LAYER_CASES = [
+    dict(ior=1.8),
+    dict(specular=0.3, specular_color=(1.0, 0.4, 0.1)),
+    dict(ior=1.33, specular=0.7, specular_color=(0.2, 1.0, 1.5)),
+    dict(clearcoat=1.0, clearcoat_roughness=0.3),
+    dict(clearcoat=0.5, clearcoat_roughness=0.6),
+    dict(sheen_color=(1.0, 0.2, 0.6), sheen_roughness=0.5),
+    dict(sheen_color=(0.4, 0.4, 0.4), sheen_roughness=0.9, clearcoat=0.8, clearcoat_roughness=0.4, ior=2.0),
+]
+
+
+@pytest.mark.parametrize("layers", LAYER_CASES, ids=lambda d: ",".join(d))
+def test_rasterizer_layers_evaluate_the_shared_model(gl_ctx, layers):
+    """layers.glsl's brdf_eval_layered is the numpy model: dielectric_specular's Fresnel, sheened, coated."""
+    from compare import brdf
+    from compare.brdf.coat import coated
+    from compare.brdf.glsl import eval_layered_gl
+    from compare.brdf.sheen import sheened
+
+    rng = np.random.default_rng(7)
+    count = 512
+    n = np.tile([0.0, 0.0, 1.0], (count, 1))
+    v = rng.normal(size=(count, 3))
+    l = rng.normal(size=(count, 3))  # noqa: E741
+    v[:, 2], l[:, 2] = np.abs(v[:, 2]) + 0.05, np.abs(l[:, 2]) + 0.05  # away from the horizon, where float32 rules
+    v /= np.linalg.norm(v, axis=1, keepdims=True)
+    l /= np.linalg.norm(l, axis=1, keepdims=True)
+    c = rng.uniform(0.05, 0.95, size=(count, 3))
+    m = rng.choice([0.0, 0.0, 0.5, 1.0], size=count)
+    r = rng.uniform(0.3, 1.0, size=count)  # above both α floors, where the rasterizer and the reference agree
+    got = eval_layered_gl(gl_ctx, n, v, l, c, m, r, **layers).astype(np.float64)
+
+    f0, weight = brdf.dielectric_specular(layers.get("ior", 1.5), layers.get("specular", 1.0),
+                                          layers.get("specular_color", (1.0, 1.0, 1.0)))
+    spec, diff = brdf.eval_brdf_lobes(n, v, l, c, m, r, dielectric=(f0, weight))
+    value = spec + diff
+    h = (v + l) / np.linalg.norm(v + l, axis=1, keepdims=True)
+    if max(layers.get("sheen_color", (0, 0, 0))) > 0:
+        value = sheened(value, v[:, 2], l[:, 2], h[:, 2], layers["sheen_color"], layers["sheen_roughness"])
+    if layers.get("clearcoat", 0.0) > 0:
+        value = coated(value, n, v, l, layers["clearcoat"], layers["clearcoat_roughness"])
+    scale = np.maximum(np.abs(value), 1e-3)
+    assert np.all(np.abs(got - value) <= 2e-3 * scale + 1e-5), np.max(np.abs(got - value) / scale)
+    plain = brdf.eval_brdf(n, v, l, c, m, r)
+    assert np.max(np.abs(plain - value)) > 1e-2  # the case is one the layers change
+
+
+def _core_model(scene):
+    """``scene`` with every material's layers at glTF's defaults (the core metallic-roughness model)."""
+    import dataclasses
+
+    defaults = {layer.field: layer.default for layer in LAYERS}
+    return dataclasses.replace(scene, materials={k: dataclasses.replace(m, **defaults)
+                                                 for k, m in scene.materials.items()})
+
+
+_SHEEN_UNDER_ENV_SHADOWS = pytest.mark.xfail(
+    reason="measured 7.2 % added at 24 frames (6.1 % at 96) on the white sheen of roughness 0.3: the sheen's "
+           "environment light is its albedo times the irradiance, a few % bright for a lobe at grazing angles, "
+           "which the default variant's screen-space occlusion happens to offset", strict=False)
+
+
+@pytest.mark.parametrize("effect", ["clearcoat", "sheen", "specular"])
+@pytest.mark.parametrize("variant", [{}, {"area_model": "ltc"}, {"env_occlusion": "shadows"}],
+                         ids=["default", "ltc", "envshadows"])
+def test_rasterizer_renders_the_layers_as_the_reference_does(gl_ctx, effect, variant, request):
+    """The effect scenes (a sphere per parameter set, studio environment), per sphere mean: the layers add at
+    most 6 % to the rasterizer's own error on the same sphere without them (its core model against the
+    reference's core model: up to 14 % on the sheen scene's black rough base, split sum against path tracing):
+    what a layer changes, the rasterizer changes as the reference does, on spheres where it changes the
+    reference's mean by up to 2.6×."""
+    from compare.mitsuba.coverage import first_hits
+    from compare.progressive.rasterizer import render_progressive
+
+    if effect == "sheen" and variant.get("env_occlusion") == "shadows":
+        request.applymarker(_SHEEN_UNDER_ENV_SHADOWS)
+    scene = load_scene(EFFECTS / f"materials_{effect}.toml").with_resolution(192, 40)
+    core = _core_model(scene)
+    hits = first_hits(scene)
+    spheres = [k for k in np.unique(hits) if k >= 0 and (hits == k).sum() > 40]
+    assert len(spheres) >= 4
+
+    def means(image):
+        return np.array([image[hits == k].mean() for k in spheres])
+
+    truth, truth_core = means(_render(scene, spp=256)), means(_render(core, spp=256))
+    got = means(render_progressive(scene, frames=24, ctx=gl_ctx, **variant).image)
+    got_core = means(render_progressive(core, frames=24, ctx=gl_ctx, **variant).image)
+    added = (got / truth) / (got_core / truth_core) - 1.0
+    assert np.all(np.abs(added) < 0.06), (got / truth, got_core / truth_core)
+    assert np.any(np.abs(truth_core / truth - 1.0) > 0.3)  # a scene whose layers matter
+
+
+def test_layer_maps_are_a_feature_of_their_own(tmp_path):
+    """A map of an extension makes its layer used whatever the factor (a specular map under the default
+    factor 1), and "layer_maps" says the material reads such maps: the rasterizer, which draws the factors
+    only, declares it left out; a map under a factor that turns its layer off counts for nothing."""
+    import dataclasses
+
+    from compare.progressive.renderer import ProgressiveRenderer
+    from compare.scene.model import Material
+
+    png = tmp_path / "map.png"
+    png.write_bytes(b"")
+    plain = Material(name="m", base_color=(0.5, 0.5, 0.5))
+    spec = dataclasses.replace(plain, layer_maps=(("specular", "a", png),))
+    assert plain.uses() == set() and spec.uses() == {"specular", "layer_maps"}
+    coat_off = dataclasses.replace(plain, layer_maps=(("clearcoat", "r", png),))
+    assert coat_off.uses() == set()
+    coat = dataclasses.replace(coat_off, clearcoat=0.5)
+    assert coat.uses() == {"clearcoat", "layer_maps"}
+    assert "layer_maps" not in ProgressiveRenderer.renders and "clearcoat" in ProgressiveRenderer.renders

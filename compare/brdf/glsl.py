@@ -19,10 +19,12 @@ import numpy as np
 from functools import lru_cache
 from pathlib import Path
 
-__all__ = ["GLSL_PATH", "eval_brdf_gl", "glsl_source", "sample_ggx_vndf_gl"]
+__all__ = ["GLSL_PATH", "LAYERS_GLSL_PATH", "eval_brdf_gl", "eval_layered_gl", "glsl_source", "sample_ggx_vndf_gl"]
 
 #: The include file.
 GLSL_PATH = Path(__file__).with_name("brdf.glsl")
+#: glTF's material layers over it (clearcoat, sheen, ior and specular), included after it with LAYERS.
+LAYERS_GLSL_PATH = Path(__file__).with_name("layers.glsl")
 
 
 @lru_cache(maxsize=1)
@@ -64,11 +66,14 @@ _BODIES = {
 }
 
 
-def _run_pointwise(ctx, body: str, inputs: list) -> "np.ndarray":
+def _run_pointwise(ctx, body: str, inputs: list, *, include: str | None = None,
+                   tables: dict | None = None) -> "np.ndarray":
     """Run ``body`` once per input row (one fragment each) and read back (N, 4) float32.
 
     ``inputs`` are up to four (N, 4) float arrays, bound as RGBA32F textures
-    read with ``texelFetch`` (no filtering, exact float32 values).
+    read with ``texelFetch`` (no filtering, exact float32 values). ``include``: the GLSL
+    before ``main`` (default: brdf.glsl); ``tables``: sampler name → (h, w) or (h, w, channels) float32
+    array, bound as textures with bilinear filtering (as the rasterizer binds its tables).
     """
     import moderngl  # noqa: PLC0415
     import numpy as np  # noqa: PLC0415
@@ -88,12 +93,23 @@ def _run_pointwise(ctx, body: str, inputs: list) -> "np.ndarray":
             textures.append(tex)
         resources += textures
         prog = ctx.program(vertex_shader=_VERTEX,
-                           fragment_shader=_FRAGMENT.format(include=glsl_source(), body=body))
+                           fragment_shader=_FRAGMENT.format(include=include or glsl_source(), body=body))
         resources.append(prog)
         for i in range(4):
             uniform = prog.get(f"in{i}", None)  # unused samplers are optimised away
             if uniform is not None:
                 uniform.value = i
+        for unit, (name, table) in enumerate((tables or {}).items(), start=4):
+            table = np.ascontiguousarray(table, dtype=np.float32)
+            channels = table.shape[2] if table.ndim == 3 else 1
+            tex = ctx.texture((table.shape[1], table.shape[0]), channels, table.tobytes(), dtype="f4")
+            tex.filter = (ctx.LINEAR, ctx.LINEAR)
+            tex.repeat_x = tex.repeat_y = False
+            resources.append(tex)
+            textures.append(tex)
+            uniform = prog.get(name, None)
+            if uniform is not None:
+                uniform.value = unit
         quad = np.array([-1, -1, 1, -1, -1, 1, 1, 1], dtype=np.float32)
         vbo = ctx.buffer(quad.tobytes())
         vao = ctx.vertex_array(prog, [(vbo, "2f", "in_pos")])
@@ -103,7 +119,7 @@ def _run_pointwise(ctx, body: str, inputs: list) -> "np.ndarray":
         fbo.use()
         ctx.viewport = (0, 0, width, height)
         for i, tex in enumerate(textures):
-            tex.use(location=i)
+            tex.use(location=i)  # the inputs at 0 … 3, the tables from 4 on
         vao.render(mode=ctx.TRIANGLE_STRIP)
         ctx.finish()
         out = np.frombuffer(fbo.read(components=4, dtype="f4"), dtype=np.float32)
@@ -155,3 +171,32 @@ def sample_ggx_vndf_gl(ctx, wi, alpha, u):
     u = np.asarray(u, dtype=np.float64).reshape(-1, 2)
     inputs = [np.hstack([wi, a[:, None]]), np.hstack([u, np.zeros((count, 2))])]
     return _run_pointwise(ctx, _BODIES["vndf"], inputs)[:, :3]
+
+
+def eval_layered_gl(ctx, n, v, l, base_color, metallic, roughness, *, ior=1.5, specular=1.0,  # noqa: E741
+                    specular_color=(1.0, 1.0, 1.0), clearcoat=0.0, clearcoat_roughness=0.0,
+                    sheen_color=(0.0, 0.0, 0.0), sheen_roughness=0.0):
+    """Evaluate ``brdf_eval_layered`` of ``layers.glsl`` on the GPU for one material's layers (glTF's
+    factors), one fragment per direction; inputs as :func:`eval_brdf_gl`. Returns (N, 3) float32."""
+    import numpy as np  # noqa: PLC0415
+
+    from compare.brdf import dielectric_specular  # noqa: PLC0415
+    from compare.brdf.sheen import sheen_tables  # noqa: PLC0415
+
+    n, v, l, c = (np.asarray(x, dtype=np.float64).reshape(-1, 3) for x in (n, v, l, base_color))
+    count = len(n)
+    m = np.broadcast_to(np.asarray(metallic, dtype=np.float64), (count,))
+    r = np.broadcast_to(np.asarray(roughness, dtype=np.float64), (count,))
+    zero = np.zeros((count, 1))
+    inputs = [np.hstack([n, m[:, None]]), np.hstack([v, r[:, None]]), np.hstack([l, zero]), np.hstack([c, zero])]
+    f0, weight = dielectric_specular(ior, specular, specular_color)
+
+    def vec3(x):
+        return "vec3({:.9g}, {:.9g}, {:.9g})".format(*np.broadcast_to(np.asarray(x, dtype=np.float64), 3))
+
+    layers = (f"MaterialLayers({vec3(f0)}, {float(weight):.9g}, {float(clearcoat):.9g}, "
+              f"{float(clearcoat_roughness):.9g}, {vec3(sheen_color)}, {float(sheen_roughness):.9g})")
+    body = (f"vec3 s; vec3 dd; brdf_eval_layered(a.xyz, b.xyz, c.xyz, d.xyz, a.w, b.w, {layers}, s, dd); "
+            "out_value = vec4(s + dd, 1.0);")
+    include = "#define LAYERS 1\n" + glsl_source() + LAYERS_GLSL_PATH.read_text(encoding="utf-8")
+    return _run_pointwise(ctx, body, inputs, include=include, tables={"u_sheen_albedo": sheen_tables()})[:, :3]

@@ -21,7 +21,8 @@ import functools
 
 import numpy as np
 
-__all__ = ["SHEEN_ALPHA_MIN", "TABLE_SIZE", "albedo", "albedo_table", "charlie_d", "sheen_lobe", "sheened"]
+__all__ = ["SHEEN_ALPHA_MIN", "TABLE_SIZE", "albedo", "albedo_table", "charlie_d", "sheen_lobe", "sheened",
+           "sheen_tables", "under_scale_table"]
 
 #: Smallest Charlie α (roughness 0.1).
 SHEEN_ALPHA_MIN = 0.01
@@ -79,6 +80,29 @@ def albedo_table() -> np.ndarray:
     # At grazing views the model's albedo passes 1 (Ashikhmin's visibility is not energy-conserving
     # there); the albedo scaling of the layer below cannot go under 0, so the table stops at 1.
     return np.minimum(out, 1.0).astype(np.float32)
+
+
+@functools.lru_cache(maxsize=1)
+def under_scale_table() -> np.ndarray:
+    """M(μ, r) on the grid of :func:`albedo_table`: the cosine-weighted mean over the light's directions of
+    ``max(E(μ, r), E(n·l, r))``, so that a Lambertian layer under a sheen of colour c lit by uniform light
+    keeps ``1 − max(c) M`` of it (the mean of :func:`sheened`'s scale), float32. The rasterizer's lobes
+    that integrate whole hemispheres (environment, area lights) scale the layers below by it."""
+    n = TABLE_SIZE
+    table = albedo_table().astype(np.float64)
+    mu = np.linspace(0.0, 1.0, n)
+    mu_l = (np.arange(256) + 0.5) / 256
+    weight = 2.0 * mu_l / 256  # cosine-weighted: ∫ 2 μ dμ = 1
+    out = np.zeros((n, n))
+    for j in range(n):
+        e_l = np.interp(mu_l, mu, table[:, j])
+        out[:, j] = (np.maximum(table[:, j][:, None], e_l[None, :]) * weight).sum(1)
+    return out.astype(np.float32)
+
+
+def sheen_tables() -> np.ndarray:
+    """(E, M) per grid point, (n, n, 2) float32 C-contiguous: the rasterizer's two-channel table."""
+    return np.ascontiguousarray(np.stack([albedo_table(), under_scale_table()], axis=-1), dtype=np.float32)
 
 
 def albedo(n_dot_v, roughness):

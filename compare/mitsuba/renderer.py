@@ -10,6 +10,7 @@ from __future__ import annotations
 from compare.renderers.base import RenderContext, Renderer, Rendering
 from compare.mitsuba.backend import MITSUBA_VARIANTS
 from compare.renderers.options import parse_spec
+from compare.scene.model import MATERIAL_FEATURE_NAMES
 
 __all__ = ["MitsubaRenderer", "bench_wrapper_overhead"]
 
@@ -50,7 +51,7 @@ class MitsubaRenderer(Renderer):
     unit = "spp"
     default_budget = "spp"
     # ior and specular in the shared flavour (the default); the cycles flavour keeps IOR 1.5
-    renders = frozenset({"punctual_lights", "alpha_blend", "transmission", "clearcoat", "sheen", "ior", "specular", "volume"})
+    renders = frozenset({"punctual_lights"}) | frozenset(MATERIAL_FEATURE_NAMES)
 
     OPTIONS = {v: f"Mitsuba's {v} variant instead of the best available" for v in MITSUBA_VARIANTS}
 

@@ -18,6 +18,8 @@
 #include "brdf.glsl"
 #include "mapping.glsl"
 #include "ibl.glsl"
+#include "layers.glsl"
+#include "gbuffer_layers.glsl"
 
 uniform sampler2D u_normal;    // G-buffer: shading normal, w = roughness
 uniform sampler2D u_material;  // G-buffer: base colour, a = metallic
@@ -50,10 +52,11 @@ void main() {
         if (gp.w < 1.5) {  // shaded surface (kind 1); light quads (kind 2) reflect nothing
             vec4 gn = texelFetch(u_normal, p, 0);
             vec4 gm = texelFetch(u_material, p, 0);
+            load_layers(p);
             vec3 diffuse;
             vec3 specular;
-            env_split_sum(normalize(gn.xyz), normalize(u_camera_position - gp.xyz), gm.rgb, gm.a, gn.w,
-                          diffuse, specular);
+            env_split_sum_material(normalize(gn.xyz), normalize(u_camera_position - gp.xyz), gm.rgb, gm.a, gn.w,
+                                   diffuse, specular);
             env = diffuse + specular;
 #if OCCLUSION
             env *= texelFetch(u_emission, p, 0).a;  // the occlusion map's factor (gbuffer.glsl)

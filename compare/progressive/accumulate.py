@@ -85,10 +85,14 @@ class AccumulatePass:
     unoccluded environment light of shaded surfaces (``accumulate.glsl``).
     """
 
-    def __init__(self, ctx, environment=None, materials: str = "shared", occlusion: bool = False):
+    def __init__(self, ctx, environment=None, materials: str = "shared", occlusion: bool = False,
+                 layers: bool = False):
         self.ctx = ctx
         self.environment = environment
-        defines = {"ENVIRONMENT": int(environment is not None), "OCCLUSION": int(bool(occlusion))}
+        #: With the material extensions (layers.glsl): the G-buffer's layer targets are read.
+        self.layers = bool(layers and environment is not None and materials != "diffuse")
+        defines = {"ENVIRONMENT": int(environment is not None), "OCCLUSION": int(bool(occlusion)),
+                   "LAYERS": int(self.layers)}
         if environment is not None:
             defines.update(environment.defines(materials))
         self.program = load_program(ctx, "accumulate.glsl", defines)
@@ -120,6 +124,8 @@ class AccumulatePass:
             set_uniform(p, "u_normal", 3)
             set_uniform(p, "u_material", 4)
             set_uniform(p, "u_previous_env", 5)
+            if self.layers:
+                gbuffer.bind_layers(p)
             set_uniform(p, "u_inv_view_proj", inv_view_proj)
             set_uniform(p, "u_camera_position", tuple(float(x) for x in camera_position))
             set_uniform(p, "u_viewport", tuple(float(x) for x in gbuffer.size))

@@ -4,7 +4,7 @@
 //
 // The includer declares the light as u_light_center, u_light_t, u_light_b, u_light_n,
 // u_light_half, u_light_radiance, u_light_area (uniforms, or globals it sets per
-// light), includes brdf.glsl first, and may define AREA_MODEL_PAPER, AREA_MODEL_LTC
+// light), includes brdf.glsl and layers.glsl first, and may define AREA_MODEL_PAPER, AREA_MODEL_LTC
 // (then it includes ltc.glsl after this file) and MATERIALS_DIFFUSE (see direct.glsl).
 
 #ifndef COMPARE_AREA_LIGHT_GLSL
@@ -71,16 +71,40 @@ uniform sampler2D u_spec_lut;  // split-sum table (compare/ibl/lut.py): A, B ove
 // specular_normalised applies both to spec (the specular lobe towards l) times
 // omega_cos (the light's solid angle times the cosine at the surface); d is the
 // distance to the light's centre.
-vec3 specular_normalised(vec3 spec, float omega_cos, vec3 n, vec3 v, vec3 l, float d, vec3 base, float metallic,
-                         float roughness) {
+// The normalisation of a lobe of the given roughness, and its albedo bound from the table's (A, B).
+float specular_k2(vec3 v, vec3 l, float d, float roughness) {
     float alpha = brdf_alpha_from_roughness(roughness);
     float rho = sqrt(u_light_area / BRDF_PI) / (2.0 * d);
     float vh = clamp(dot(v, normalize(v + l)), 1e-3, 1.0);
-    float k2 = alpha * alpha / (min(alpha + rho, 1.0) * min(alpha + rho / vh, 1.0));
-    vec2 ab = textureLod(u_spec_lut, vec2(dot(n, v), clamp(roughness, 0.0, 1.0)), 0.0).rg;
-    vec3 f0 = vec3(BRDF_DIELECTRIC_F0) + (base - vec3(BRDF_DIELECTRIC_F0)) * clamp(metallic, 0.0, 1.0);
-    return min(spec * (omega_cos * k2), f0 * ab.x + ab.y) * u_light_radiance;
+    return alpha * alpha / (min(alpha + rho, 1.0) * min(alpha + rho / vh, 1.0));
 }
+
+vec2 specular_ab(vec3 n, vec3 v, float roughness) {
+    return textureLod(u_spec_lut, vec2(dot(n, v), clamp(roughness, 0.0, 1.0)), 0.0).rg;
+}
+
+vec3 specular_normalised(vec3 spec, float omega_cos, vec3 n, vec3 v, vec3 l, float d, vec3 base, float metallic,
+                         float roughness) {
+    vec2 ab = specular_ab(n, v, roughness);
+#if LAYERS
+    vec3 albedo;
+    float unused;
+    layers_base_weights(base, metallic, vec3(ab, 1.0 - BRDF_DIELECTRIC_F0), albedo, unused);
+#else
+    vec3 f0 = vec3(BRDF_DIELECTRIC_F0) + (base - vec3(BRDF_DIELECTRIC_F0)) * clamp(metallic, 0.0, 1.0);
+    vec3 albedo = f0 * ab.x + ab.y;
+#endif
+    return min(spec * (omega_cos * specular_k2(v, l, d, roughness)), albedo) * u_light_radiance;
+}
+
+#if LAYERS
+// The coat's lobe through the representative point, normalised for its own roughness and bounded by
+// its own albedo (what specular_normalised does for the base's).
+vec3 coat_normalised(float coat, float omega_cos, vec3 n, vec3 v, vec3 l, float d) {
+    float bound = coat_albedo(specular_ab(n, v, g_layers.clearcoat_roughness));
+    return vec3(min(coat * omega_cos * specular_k2(v, l, d, g_layers.clearcoat_roughness), bound)) * u_light_radiance;
+}
+#endif
 
 vec3 specular_mrp(vec3 x, vec3 n, vec3 v, vec3 base, float metallic, float roughness) {
     vec3 p = representative_point(x, reflect(-v, n));
@@ -90,7 +114,8 @@ vec3 specular_mrp(vec3 x, vec3 n, vec3 v, vec3 base, float metallic, float rough
     float cos_p = dot(n, l);
     vec3 spec;
     vec3 diff;
-    if (cos_p <= 0.0 || !brdf_eval_lobes(n, v, l, base, metallic, roughness, spec, diff)) {
+    float coat;
+    if (cos_p <= 0.0 || !material_lobes_split(n, v, l, base, metallic, roughness, spec, diff, coat)) {
         return vec3(0.0);
     }
 #if AREA_MODEL_PAPER
@@ -98,8 +123,12 @@ vec3 specular_mrp(vec3 x, vec3 n, vec3 v, vec3 base, float metallic, float rough
 #else
     float omega = light_solid_angle(x);
 #endif
-    return specular_normalised(spec, omega * cos_p, n, v, l, distance(x, u_light_center), base, metallic,
-                               roughness);
+    vec3 out_spec = specular_normalised(spec, omega * cos_p, n, v, l, distance(x, u_light_center), base, metallic,
+                                        roughness);
+#if LAYERS
+    out_spec += coat_normalised(coat, omega * cos_p, n, v, l, distance(x, u_light_center));
+#endif
+    return out_spec;
 }
 #endif
 
@@ -150,7 +179,7 @@ vec3 light_estimate(vec3 x, vec3 n, vec3 v, vec3 y, vec3 base, float metallic, f
         diff_lobe = base * (1.0 / BRDF_PI);
 #else
         vec3 spec_lobe;
-        brdf_eval_lobes(n, v, l, base, metallic, roughness, spec_lobe, diff_lobe);
+        material_lobes(n, v, l, base, metallic, roughness, spec_lobe, diff_lobe);
 #endif
         diffuse = diff_lobe * u_light_radiance * (point_solid_angle(d2, cos_l) * cos_s);
     }
@@ -193,7 +222,7 @@ vec3 light_preview(vec3 x, vec3 n, vec3 v, vec3 base, float metallic, float roug
 #else
     vec3 spec;
     vec3 diff;
-    brdf_eval_lobes(n, v, l, base, metallic, roughness, spec, diff);
+    material_lobes(n, v, l, base, metallic, roughness, spec, diff);
     return diff * (omega * cos_s) * u_light_radiance
            + specular_normalised(spec, omega * cos_s, n, v, l, sqrt(d2), base, metallic, roughness);
 #endif

@@ -79,6 +79,7 @@ class BlendPass:
         if self.ltc_table is not None:
             self.ltc_table.use(location=LTC_UNIT)
             set_uniform(p, "u_ltc", LTC_UNIT)
+        self.scene.bind_layers(p)
         if self.environment is not None:
             self.environment.bind(p, first_unit=ENV_UNIT)
         gbuffer["position"].use(location=POSITION_UNIT)

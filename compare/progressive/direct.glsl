@@ -37,6 +37,8 @@
 #elif defined FRAGMENT_SHADER
 
 #include "brdf.glsl"
+#include "layers.glsl"
+#include "gbuffer_layers.glsl"
 
 uniform sampler2D u_position;  // G-buffer: world position, w = kind
 uniform sampler2D u_normal;    // G-buffer: shading normal, w = roughness
@@ -97,7 +99,10 @@ vec4 ratio_terms(vec3 x, vec3 n, vec3 v, vec3 y, vec3 base, float metallic, floa
 #if !MATERIALS_DIFFUSE
     vec3 spec_lobe;
     vec3 diff_lobe;
-    brdf_eval_lobes(n, v, l, base, metallic, roughness, spec_lobe, diff_lobe);
+    // The coat's own lobe is left out: ltc.glsl lights it with the diffuse sum, which the diffuse
+    // ratio shadows; the specular ratio converges to the base's shadowed specular light.
+    float coat;
+    material_lobes_split(n, v, l, base, metallic, roughness, spec_lobe, diff_lobe, coat);
     g_s = dot(spec_lobe, vec3(1.0 / 3.0)) * g_d;
     // The specular ratio's denominator is the transformed cosine's own estimate through y (the
     // closed form it scales, per sample), not the BRDF's: the ratio then corrects the fitted
@@ -139,6 +144,7 @@ vec3 sample_estimate(vec3 x, vec3 n, vec3 base, float metallic, float roughness)
 
 void main() {
     ivec2 p = ivec2(gl_FragCoord.xy);
+    load_layers(p);
     vec4 gp = texelFetch(u_position, p, 0);
     bool shaded = gp.w > 0.5 && gp.w < 1.5;
 #if AREA_MODEL_LTC

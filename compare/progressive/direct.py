@@ -86,7 +86,7 @@ class DirectPass:
     """Programs of the direct-light pass: shadowed (light frames) and unshadowed (preview)."""
 
     def __init__(self, ctx, *, area_model: str = "radiometric", materials: str = "shared", shadows: bool = True,
-                 shadow_filter: str = "hard", cache_dir=None):
+                 shadow_filter: str = "hard", cache_dir=None, layers: bool = False):
         # shadow_filter: "hard" (depth test) or "vsm" (Chebyshev visibility of filtered moments; see .shadow).
         if shadow_filter not in SHADOW_FILTERS:
             raise ValueError(f"shadow_filter: expected one of {', '.join(map(repr, SHADOW_FILTERS))}, "
@@ -108,7 +108,7 @@ class DirectPass:
             self.lut_texture.filter = (ctx.LINEAR, ctx.LINEAR)
             self.lut_texture.repeat_x = self.lut_texture.repeat_y = False
         defines = {"AREA_MODEL_PAPER": int(area_model == "paper"), "AREA_MODEL_LTC": int(area_model == "ltc"),
-                   "MATERIALS_DIFFUSE": int(materials == "diffuse")}
+                   "MATERIALS_DIFFUSE": int(materials == "diffuse"), "LAYERS": int(layers and materials != "diffuse")}
         self._defines = defines
         # The G-buffer preview is compiled at its first use: with the forward-shaded first
         # frame (first_frame.py) it is never drawn.
@@ -130,6 +130,8 @@ class DirectPass:
         for loc, name in enumerate(("position", "normal", "material")):
             gbuffer[name].use(location=loc)
             set_uniform(program, f"u_{name}", loc)
+        if self._defines["LAYERS"]:
+            gbuffer.bind_layers(program)
         if self.lut_texture is not None:
             self.lut_texture.use(location=LUT_UNIT)
             set_uniform(program, "u_spec_lut", LUT_UNIT)

@@ -31,6 +31,8 @@
 #include "brdf.glsl"
 #include "mapping.glsl"
 #include "ibl.glsl"
+#include "layers.glsl"
+#include "gbuffer_layers.glsl"
 
 #define MAX_ENV_SAMPLES 16
 
@@ -102,6 +104,7 @@ vec3 running_mean(vec3 a, vec3 c, float m, float n) {
 
 void main() {
     ivec2 p = ivec2(gl_FragCoord.xy);
+    load_layers(p);
     vec4 gp = texelFetch(u_position, p, 0);
     vec3 c_d = vec3(0.0);
     vec3 c_s = vec3(0.0);
@@ -122,7 +125,7 @@ void main() {
         vec3 v = normalize(u_camera_position - x);
         vec3 diffuse;
         vec3 specular;
-        env_split_sum(n, v, gm.rgb, gm.a, gn.w, diffuse, specular);
+        env_split_sum_material(n, v, gm.rgb, gm.a, gn.w, diffuse, specular);
         vec3 t;
         vec3 b;
         onb(n, t, b);

@@ -23,6 +23,8 @@
 #include "brdf.glsl"
 #include "mapping.glsl"
 #include "ibl.glsl"
+#include "layers.glsl"
+#include "gbuffer_layers.glsl"
 #define BATCH 1
 #include "punctual_shadow.glsl"
 
@@ -38,6 +40,7 @@ layout(location = 1) out vec4 out_weights;
 
 void main() {
     ivec2 p = ivec2(gl_FragCoord.xy);
+    load_layers(p);
     vec4 gp = texelFetch(u_position, p, 0);
     out_terms = vec4(0.0);
     out_weights = vec4(0.0);
@@ -54,7 +57,7 @@ void main() {
     const vec3 LUM = vec3(0.2126, 0.7152, 0.0722);
     vec3 env_d;
     vec3 env_s;
-    env_split_sum(n, v, gm.rgb, gm.a, gn.w, env_d, env_s);
+    env_split_sum_material(n, v, gm.rgb, gm.a, gn.w, env_d, env_s);
     out_weights = vec4(dot(env_d, LUM), dot(env_s, LUM), 0.0, 0.0);
     float cos_s = dot(n, u_direction);
     if (cos_s <= 0.0) {
@@ -63,7 +66,7 @@ void main() {
     vec3 spec = vec3(0.0);
     vec3 diff = gm.rgb * (1.0 / BRDF_PI);
 #if !MATERIALS_DIFFUSE
-    brdf_eval_lobes(n, v, u_direction, gm.rgb, gm.a, gn.w, spec, diff);
+    material_lobes(n, v, u_direction, gm.rgb, gm.a, gn.w, spec, diff);
 #endif
     // + 1e-6: a black lobe's ratio stays the geometric visibility
     float g_d = (dot(diff, LUM) + 1e-6) * cos_s;

@@ -115,7 +115,8 @@ class EnvShadows:
             self.depth_fbo = self._keep(ctx.framebuffer(depth_attachment=self.depth))
             self.casters = gpu_scene.occluder_programs(ctx, "shadow.glsl", {"ORTHO": 1})
             self.environment = environment
-            self.program = self._keep(load_program(ctx, "env_shadows.glsl", environment.defines(materials)))
+            self.program = self._keep(load_program(ctx, "env_shadows.glsl", {**environment.defines(materials),
+                                                                               **gpu_scene.layer_defines(materials)}))
             self.vao = self._keep(ctx.vertex_array(self.program, []))
             self.sums = self._keep(ctx.texture(size, 4, dtype="f4"))
             self.weights = self._keep(ctx.texture(size, 4, dtype="f4"))
@@ -156,6 +157,7 @@ class EnvShadows:
             for loc, name in enumerate(("position", "normal", "material")):
                 gbuffer[name].use(location=loc)
                 set_uniform(p, f"u_{name}", loc)
+            gbuffer.bind_layers(p)
             self.depth.use(location=SHADOW_UNIT)
             set_uniform(p, "u_pshadow_map", SHADOW_UNIT)
             set_uniform(p, "u_camera_position", tuple(float(x) for x in camera_position))

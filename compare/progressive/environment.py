@@ -211,12 +211,16 @@ class EnvOcclusionTargets:
 class EnvOcclusionPass:
     """The environment's screen-space occlusion (``env_occlusion.glsl``), one pass per environment frame."""
 
-    def __init__(self, ctx, environment: EnvironmentLighting, materials: str = "shared", occlusion: bool = False):
+    def __init__(self, ctx, environment: EnvironmentLighting, materials: str = "shared", occlusion: bool = False,
+                 layers: bool = False):
         self.ctx = ctx
         self.environment = environment
         self.occlusion = bool(occlusion)
+        #: With the material extensions (layers.glsl): the G-buffer's layer targets are read.
+        self.layers = bool(layers and materials != "diffuse")
         self.program = load_program(ctx, "env_occlusion.glsl",
-                                    {**environment.defines(materials), "OCCLUSION": int(self.occlusion)})
+                                    {**environment.defines(materials), "OCCLUSION": int(self.occlusion),
+                                     "LAYERS": int(self.layers)})
         self.vao = ctx.vertex_array(self.program, [])
 
     def run(self, acc: EnvOcclusionTargets, gbuffer, view_proj: bytes, camera_position, camera_forward, samples,
@@ -236,6 +240,8 @@ class EnvOcclusionPass:
         set_uniform(p, "u_prev_diffuse", 3)
         set_uniform(p, "u_prev_specular", 4)
         self.environment.bind(p, first_unit=5)
+        if self.layers:
+            gbuffer.bind_layers(p)
         if self.occlusion:  # the occlusion maps' factors (G-buffer emission.a); 5 … 8 are the environment's
             gbuffer["emission"].use(location=9)
             set_uniform(p, "u_emission", 9)

@@ -55,6 +55,7 @@ void main() {
 uniform mat4 u_inv_view_proj;
 uniform vec2 u_viewport;
 #endif
+#include "layers.glsl"
 
 in vec3 v_position;
 in vec3 v_normal;
@@ -148,10 +149,14 @@ void main() {
         vec3 base_color = material_base_color();
         float metallic = material_metallic();
         float roughness = material_roughness();
+#if LAYERS
+        g_layers = MaterialLayers(u_layer_f0, u_layer_weight, u_clearcoat, u_clearcoat_roughness, u_sheen_color,
+                                  u_sheen_roughness);
+#endif
 #if ENVIRONMENT
         vec3 diffuse;
         vec3 specular;
-        env_split_sum(n, v, base_color, metallic, roughness, diffuse, specular);
+        env_split_sum_material(n, v, base_color, metallic, roughness, diffuse, specular);
         env = (diffuse + specular) * material_occlusion();
 #endif
 #if LIGHTS > 0

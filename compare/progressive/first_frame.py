@@ -74,7 +74,8 @@ def first_frame_defines(gpu_scene, lights, punctual, environment, area_model: st
     defines = {"LIGHTS": len(lights), "ENVIRONMENT": int(environment is not None), "BLEND": int(blend),
                "PUNCTUAL": len(punctual.lights) if punctual is not None else 0,
                "AREA_MODEL_PAPER": int(area_model == "paper"), "AREA_MODEL_LTC": int(area_model == "ltc"),
-               "MATERIALS_DIFFUSE": int(materials == "diffuse"), **gpu_scene.defines()}
+               "MATERIALS_DIFFUSE": int(materials == "diffuse"), **gpu_scene.defines(),
+               **gpu_scene.layer_defines(materials)}
     if environment is not None:
         defines.update(environment.defines(materials))
     return defines
@@ -211,6 +212,7 @@ class FirstFramePass:
         if self.ltc_table is not None:
             self.ltc_table.use(location=LTC_UNIT)
             set_uniform(p, "u_ltc", LTC_UNIT)
+        self.scene.bind_layers(p)
         if self.environment is not None:
             self.environment.bind(p, first_unit=ENV_UNIT)
         self.scene.draw_shaded(p)

@@ -37,6 +37,11 @@ layout(location = 0) out vec4 out_position;  // world position, w = kind (0 = ba
 layout(location = 1) out vec4 out_normal;    // unit shading normal, w = perceptual roughness
 layout(location = 2) out vec4 out_material;  // base colour, a = metallic
 layout(location = 3) out vec4 out_emission;  // emitted radiance towards the camera, a = occlusion
+#if LAYERS
+layout(location = 4) out vec4 out_layer_f0;     // dielectric F0, a = specular weight (layers.glsl)
+layout(location = 5) out vec4 out_layer_coat;   // clearcoat, its roughness
+layout(location = 6) out vec4 out_layer_sheen;  // sheen colour, a = sheen roughness
+#endif
 
 void main() {
     alpha_test();
@@ -46,6 +51,11 @@ void main() {
     out_normal = vec4(material_normal(n), material_roughness());
     out_material = vec4(material_base_color(), material_metallic());
     out_emission = vec4(front ? material_emission() : vec3(0.0), material_occlusion());
+#if LAYERS
+    out_layer_f0 = vec4(u_layer_f0, u_layer_weight);
+    out_layer_coat = vec4(u_clearcoat, u_clearcoat_roughness, 0.0, 0.0);
+    out_layer_sheen = vec4(u_sheen_color, u_sheen_roughness);
+#endif
 }
 
 #endif

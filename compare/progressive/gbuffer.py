@@ -8,7 +8,7 @@ frame however many light samples the frame evaluates.
 
 from __future__ import annotations
 
-from compare.progressive.gpu_scene import mat_bytes
+from compare.progressive.gpu_scene import LAYER_TARGETS, mat_bytes
 from compare.progressive.shaders import load_program, set_uniform
 
 
@@ -22,12 +22,14 @@ class GBuffer:
         self.scene = gpu_scene
         self.size = size
         self.textures = {}
-        for name in self.NAMES:
+        # With the material extensions, three more targets hold the pixel's layers (layers.glsl).
+        self.names = self.NAMES + (LAYER_TARGETS if gpu_scene.layered else ())
+        for name in self.names:
             tex = ctx.texture(size, 4, dtype="f4")
             tex.filter = (ctx.NEAREST, ctx.NEAREST)
             self.textures[name] = tex
         self.depth = ctx.depth_renderbuffer(size)
-        self.fbo = ctx.framebuffer([self.textures[n] for n in self.NAMES], self.depth)
+        self.fbo = ctx.framebuffer([self.textures[n] for n in self.names], self.depth)
         # One program per set of maps the meshes have (a scene without maps has one): each samples only
         # those maps: a software rasterizer runs both sides of a shared program's uniform branches and
         # would pay for every map's lookup on every mesh (docs/performance-notes.md).
@@ -41,6 +43,10 @@ class GBuffer:
 
     def __getitem__(self, name: str):
         return self.textures[name]
+
+    def bind_layers(self, program) -> None:
+        """Bind the layer targets and the sheen table to a full-screen pass built with LAYERS."""
+        self.scene.bind_layers(program, self)
 
     def render(self, view_proj, camera_position) -> None:
         ctx = self.ctx

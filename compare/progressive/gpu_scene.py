@@ -28,6 +28,26 @@ GL_SRGB8, GL_SRGB8_ALPHA8, GL_RGB8, GL_RGBA8 = 0x8C41, 0x8C43, 0x8051, 0x8058
 #: First texture unit of the material maps (above every unit a pass binds for its own textures;
 #: the five maps take 11 … 15, the last of the 16 a fragment shader is guaranteed).
 MAP_UNIT = 11
+#: Texture unit of the sheen albedo table; the G-buffer's layer targets follow it (clear of MAP_UNIT's maps).
+LAYER_UNIT = 20
+#: The G-buffer's layer targets (gbuffer.glsl, gbuffer_layers.glsl) with LAYERS.
+LAYER_TARGETS = ("layer_f0", "layer_coat", "layer_sheen")
+#: The material features the rasterizer renders as layers.glsl's lobes.
+RENDERED_LAYERS = frozenset({"ior", "specular", "clearcoat", "sheen"})
+#: material.glsl's layer uniforms, in the order of GpuMesh.layers.
+LAYER_UNIFORMS = ("u_layer_f0", "u_layer_weight", "u_clearcoat", "u_clearcoat_roughness", "u_sheen_color",
+                  "u_sheen_roughness")
+
+
+def material_layers(mat) -> tuple:
+    """``mat``'s layer factors as layers.glsl reads them (GpuMesh.layers); the core model's for None."""
+    from compare.brdf import dielectric_specular
+
+    if mat is None:
+        return ((0.04, 0.04, 0.04), 1.0, 0.0, 0.0, (0.0, 0.0, 0.0), 0.0)
+    f0, weight = dielectric_specular(mat.ior, mat.specular, mat.specular_color)
+    return (tuple(float(x) for x in np.broadcast_to(f0, 3)), float(weight), float(mat.clearcoat),
+            float(mat.clearcoat_roughness), tuple(float(x) for x in mat.sheen_color), float(mat.sheen_roughness))
 
 
 def mat_bytes(m: np.ndarray) -> bytes:
@@ -117,6 +137,9 @@ class GpuMesh:
     A blended mesh is drawn by the blend pass alone (:mod:`compare.progressive.blend`)."""
     centre: tuple[float, float, float] = (0.0, 0.0, 0.0)
     """The centre of its bounds (the blend pass sorts by its distance)."""
+    layers: tuple = ()
+    """glTF's layers as layers.glsl reads them: (dielectric F0, specular weight, clearcoat, its
+    roughness, sheen colour, sheen roughness); empty without LAYERS."""
 
 
 class GpuScene:
@@ -136,6 +159,10 @@ class GpuScene:
         self.masked = bool(scene.features().alpha_mask)
         #: Whether any mesh is blended (alphaMode BLEND): the blend pass draws those, no other pass shades them.
         self.blended = bool(scene.features().alpha_blend)
+        #: Whether any mesh has clearcoat, sheen, ior or specular: the LAYERS define (layers.glsl), the
+        #: G-buffer's layer targets and the sheen albedo table.
+        self.layered = bool(RENDERED_LAYERS & set().union(*(scene.materials[m.material].uses() for m in scene.meshes)))
+        self.sheen_table = None
         try:
             for mesh in scene.meshes:
                 tri = mesh.triangles()
@@ -146,6 +173,8 @@ class GpuScene:
                 gm.centre = tuple(float(x) for x in (tri.positions.min(0) + tri.positions.max(0)) / 2)
                 if mat.alpha_mode == "blend":
                     gm.blend = float(mat.alpha)
+                if self.layered:
+                    gm.layers = material_layers(mat)
                 if self.textured:
                     if mat.base_color_texture is not None:
                         gm.base_color_map = self._map(mat.base_color_texture, mat, srgb=True,
@@ -170,13 +199,38 @@ class GpuScene:
                 normals = np.tile(np.asarray(light.normal, dtype=np.float32), (4, 1))
                 self.light_quads.append(self._upload(light.name, light.corners(), normals, quad, (0.0, 0.0, 0.0),
                                                      0.0, 1.0, light.radiance, 2.0, light=i))
+                if self.layered:
+                    self.light_quads[-1].layers = material_layers(None)
+            if self.layered:
+                from compare.brdf.sheen import sheen_tables
+
+                table = sheen_tables()  # rows n.v, columns roughness; (E, M)
+                self.sheen_table = ctx.texture((table.shape[1], table.shape[0]), 2, table.tobytes(), dtype="f4")
+                self.sheen_table.filter = (ctx.LINEAR, ctx.LINEAR)
+                self.sheen_table.repeat_x = self.sheen_table.repeat_y = False
         except BaseException:
             self.release()  # a map the GPU refuses must not leave the uploaded meshes behind
             raise
 
     def defines(self) -> dict[str, int]:
         """The material defines of a pass that shades the scene (material.glsl)."""
-        return {"TEXTURES": int(self.textured), "ALPHA_MASK": int(self.masked)}
+        return {"TEXTURES": int(self.textured), "ALPHA_MASK": int(self.masked), "LAYERS": int(self.layered)}
+
+    def layer_defines(self, materials: str = "shared") -> dict[str, int]:
+        """The LAYERS define of a full-screen lighting pass (layers.glsl): 0 for Lambert-only materials."""
+        return {"LAYERS": int(self.layered and materials != "diffuse")}
+
+    def bind_layers(self, program, gbuffer=None) -> None:
+        """Bind the sheen albedo table and, with ``gbuffer``, its layer targets to ``program`` (a pass
+        built with :meth:`layer_defines`); nothing without LAYERS."""
+        if not self.layered:
+            return
+        self.sheen_table.use(location=LAYER_UNIT)
+        set_uniform(program, "u_sheen_albedo", LAYER_UNIT)
+        if gbuffer is not None:
+            for unit, name in enumerate(LAYER_TARGETS, start=LAYER_UNIT + 1):
+                gbuffer[name].use(location=unit)
+                set_uniform(program, f"u_{name}", unit)
 
     def map_set(self, mesh: GpuMesh) -> tuple[bool, ...]:
         """Which maps ``mesh`` has (base colour, metallic-roughness, emission, occlusion, normal) and
@@ -335,6 +389,9 @@ class GpuScene:
         set_uniform(program, "u_emission", mesh.emission)
         set_uniform(program, "u_kind", mesh.kind)
         set_uniform(program, "u_blend_alpha", max(mesh.blend, 0.0))
+        if mesh.layers:
+            for name, value in zip(LAYER_UNIFORMS, mesh.layers):
+                set_uniform(program, name, value)
         if self.textured:
             self._bind_maps(program, mesh, all_maps=True)
         self._vao(program, index, mesh).render(instances=instances)
@@ -386,6 +443,9 @@ class GpuScene:
             self._vaos.pop(key)[0].release()
 
     def release(self) -> None:
+        if self.sheen_table is not None:
+            self.sheen_table.release()
+            self.sheen_table = None
         for vao, _ in self._vaos.values():
             vao.release()
         self._vaos.clear()

@@ -213,7 +213,11 @@ void ltc_light_scaled(vec3 x, vec3 n, vec3 v, vec3 base, float metallic, float r
     vec3 l_mean = len_fd > 0.0 ? sign(fd.z) * fd / len_fd : vec3(0.0, 0.0, 1.0);
     vec3 v_local = vec3(sqrt(max(1.0 - nv * nv, 0.0)), 0.0, nv);
     float vh = clamp(dot(v_local, normalize(v_local + l_mean)), 0.0, 1.0);
+#if LAYERS
+    float f_d = g_layers.weight * layers_max3(brdf_fresnel_schlick(g_layers.f0, vh));
+#else
     float f_d = brdf_fresnel_schlick(BRDF_DIELECTRIC_F0, vh);
+#endif
     diffuse = ((1.0 - m) * (1.0 - f_d) * form_factor) * base * u_light_radiance;
 
     // Magnitude: the lobe's directional albedo with Fresnel 1, A + B of the split-sum table.
@@ -230,8 +234,38 @@ void ltc_light_scaled(vec3 x, vec3 n, vec3 v, vec3 base, float metallic, float r
     vec3 l_spec = normalize(vec3(minv[2][2] * o_mean.x - minv[2][0] * o_mean.z, det * o_mean.y,
                                  -minv[0][2] * o_mean.x + minv[0][0] * o_mean.z) * sign(det));
     float vh_s = clamp(dot(v_local, normalize(v_local + l_spec)), 0.0, 1.0);
+#if LAYERS
+    f0 = vec3(0.0);  // (the base's Fresnel below, with ior and specular)
+    spec_scale = (m * brdf_fresnel_schlick(base, vh_s)
+                  + (1.0 - m) * g_layers.weight * brdf_fresnel_schlick(g_layers.f0, vh_s)) * (ab.x + ab.y);
+#else
     spec_scale = brdf_fresnel_schlick(f0, vh_s) * (ab.x + ab.y);
+#endif
     specular = spec_scale * abs(fs.z) * u_light_radiance;
+#if LAYERS
+    // The sheen: its albedo E(n.v) times the light's cosine-weighted form factor (a broad lobe), the
+    // layers below scaled by 1 - max(s) E. The coat: a second transformed cosine at its roughness, its
+    // albedo (layers.glsl's coat_albedo) as scale, over everything below. Both go to the diffuse sum,
+    // whose shadow ratio (direct.glsl) is the cosine-weighted visibility: the specular ratio converges
+    // to the base's lobe alone.
+    float peak = layers_max3(g_layers.sheen_color);
+    if (peak > 0.0) {
+        vec2 em = sheen_tables(nv, g_layers.sheen_roughness);  // (layers.glsl's env_split_sum_material)
+        diffuse = diffuse * (1.0 - peak * em.y) + g_layers.sheen_color * (em.x * form_factor) * u_light_radiance;
+        spec_scale *= 1.0 - peak * em.x;
+        specular *= 1.0 - peak * em.x;
+    }
+    if (g_layers.clearcoat > 0.0) {
+        vec3 fd_c;
+        vec3 fs_c;
+        ltc_quad_form_factors(q, ltc_minv(nv, g_layers.clearcoat_roughness), fd_c, fs_c);
+        float share = coat_albedo(textureLod(u_spec_lut, vec2(nv, clamp(g_layers.clearcoat_roughness, 0.0, 1.0)),
+                                             0.0).rg);
+        diffuse = diffuse * (1.0 - share) + share * abs(fs_c.z) * u_light_radiance;
+        spec_scale *= 1.0 - share;
+        specular *= 1.0 - share;
+    }
+#endif
 #endif
 }
 

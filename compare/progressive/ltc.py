@@ -94,14 +94,16 @@ class LtcLights:
     """
 
     def __init__(self, ctx, size: tuple[int, int], lights, *, materials: str, lut_texture, table,
-                 gbuffer_frames: int):
+                 gbuffer_frames: int, layers: bool = False):
         self.ctx = ctx
         self.lights = tuple(lights)
         self.lut_texture = lut_texture
         self.table = table
         self._objects: list = []
         try:
-            defines = {"AREA_MODEL_LTC": 1, "AREA_MODEL_PAPER": 0, "MATERIALS_DIFFUSE": int(materials == "diffuse")}
+            defines = {"AREA_MODEL_LTC": 1, "AREA_MODEL_PAPER": 0, "MATERIALS_DIFFUSE": int(materials == "diffuse"),
+                       "LAYERS": int(layers and materials != "diffuse")}
+            self.layers = bool(defines["LAYERS"])
             self.program = self._keep(load_program(ctx, "ltc_light.glsl", defines))
             self.vao = self._keep(ctx.vertex_array(self.program, []))
             self.compose_program = self._keep(load_program(ctx, "ltc_compose.glsl"))
@@ -163,6 +165,8 @@ class LtcLights:
         for loc, name in enumerate(("position", "normal", "material")):
             gbuffer[name].use(location=loc)
             set_uniform(p, f"u_{name}", loc)
+        if self.layers:
+            gbuffer.bind_layers(p)
         if self.lut_texture is not None:
             self.lut_texture.use(location=3)
             set_uniform(p, "u_spec_lut", 3)

@@ -13,6 +13,8 @@
 #elif defined FRAGMENT_SHADER
 
 #include "brdf.glsl"
+#include "layers.glsl"
+#include "gbuffer_layers.glsl"
 
 uniform sampler2D u_position;  // G-buffer: world position, w = kind
 uniform sampler2D u_normal;    // G-buffer: shading normal, w = roughness
@@ -35,6 +37,7 @@ layout(location = 1) out vec4 out_specular;
 
 void main() {
     ivec2 p = ivec2(gl_FragCoord.xy);
+    load_layers(p);
     vec4 gp = texelFetch(u_position, p, 0);
     vec3 diffuse = vec3(0.0);
     vec3 specular = vec3(0.0);

@@ -17,6 +17,19 @@ uniform float u_metallic;
 uniform float u_roughness;
 uniform vec3 u_emission;   // radiance leaving the front side (the side the normal faces)
 
+#ifndef LAYERS
+#define LAYERS 0
+#endif
+#if LAYERS
+// glTF's layers (layers.glsl), factors only: the extensions' maps are not read by the rasterizer.
+uniform vec3 u_layer_f0;
+uniform float u_layer_weight;
+uniform float u_clearcoat;
+uniform float u_clearcoat_roughness;
+uniform vec3 u_sheen_color;
+uniform float u_sheen_roughness;
+#endif
+
 #if TEXTURES
 // Whether the mesh has each map: the uniforms, or, in a program specialised for one set of maps (the
 // G-buffer's, gpu_scene.map_set_defines), constants that fold the absent lookups away (a software

@@ -15,6 +15,8 @@
 #elif defined FRAGMENT_SHADER
 
 #include "brdf.glsl"
+#include "layers.glsl"
+#include "gbuffer_layers.glsl"
 #include "punctual_light.glsl"
 #include "punctual_shadow.glsl"
 
@@ -56,6 +58,7 @@ vec3 light(int i, sampler2D shadow) {
 
 void main() {
     ivec2 p = ivec2(gl_FragCoord.xy);
+    load_layers(p);
     vec4 gp = texelFetch(u_position, p, 0);
     vec3 c = vec3(0.0);
     if (gp.w > 0.5 && gp.w < 1.5) {

@@ -234,7 +234,7 @@ class PunctualLights:
             self.caster_programs = {False: gpu_scene.occluder_programs(ctx, "shadow.glsl")}
             if any(m.ortho for m in self.maps):
                 self.caster_programs[True] = gpu_scene.occluder_programs(ctx, "shadow.glsl", {"ORTHO": 1})
-            defines = {"MATERIALS_DIFFUSE": int(materials == "diffuse")}
+            defines = {"MATERIALS_DIFFUSE": int(materials == "diffuse"), **gpu_scene.layer_defines(materials)}
             self.batches = [tuple(range(k, min(k + MAX_BATCH, len(self.lights))))
                             for k in range(0, len(self.lights), MAX_BATCH)]
             for count in {len(b) for b in self.batches}:
@@ -301,6 +301,7 @@ class PunctualLights:
             for loc, name in enumerate(("position", "normal", "material")):
                 gbuffer[name].use(location=loc)
                 set_uniform(program, f"u_{name}", loc)
+            gbuffer.bind_layers(program)
             acc.current.use(location=3)
             set_uniform(program, "u_previous", 3)
             set_uniform(program, "u_camera_position", cam)

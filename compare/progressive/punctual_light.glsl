@@ -1,6 +1,7 @@
 // The unshadowed light of one punctual light (KHR_lights_punctual) at a surface point: the math
 // shared by the punctual pass (punctual.glsl, with its shadow map) and the forward-shaded first
-// frame (first_frame.glsl). The includer includes brdf.glsl first and may define MATERIALS_DIFFUSE.
+// frame (first_frame.glsl). The includer includes brdf.glsl and layers.glsl first and may define
+// MATERIALS_DIFFUSE.
 //
 // A point or spot light of intensity I (W/sr) at p gives x the irradiance I cos_s / |p - x|^2
 // along l = (p - x) / |p - x|; a spot multiplies it by glTF's cone factor, the square of
@@ -41,7 +42,7 @@ vec3 punctual_radiance(vec3 x, vec3 n, vec3 v, vec3 base, float metallic, float 
 #else
     vec3 spec;
     vec3 diff;
-    brdf_eval_lobes(n, v, l, base, metallic, roughness, spec, diff);
+    material_lobes(n, v, l, base, metallic, roughness, spec, diff);
     return (spec + diff) * intensity * (e * cos_s);
 #endif
 }

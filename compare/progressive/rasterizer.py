@@ -229,7 +229,8 @@ class Rasterizer:
                     seed=seed))
             elif self.plan.env_frames > 0:
                 self.env_occlusion = self._keep(EnvOcclusionPass(ctx, self.environment, materials,
-                                                                 occlusion=self.gpu_scene.occluded))
+                                                                 occlusion=self.gpu_scene.occluded,
+                                                                 layers=self.gpu_scene.layered))
                 self.env_acc = self._keep(EnvOcclusionTargets(ctx, size))
         # No probe work unless indirect = "probes"; the bake is part of setup (timed on its own too).
         self.probes = None
@@ -239,7 +240,8 @@ class Rasterizer:
                 shadow_bias=self.shadow_bias, environment=self.environment, materials=materials, seed=seed,
                 cache_dir=cache_dir))
         self.accumulate = self._keep(AccumulatePass(ctx, self.environment, materials,
-                                                    occlusion=self.gpu_scene.occluded))
+                                                    occlusion=self.gpu_scene.occluded,
+                                                    layers=self.gpu_scene.layered))
         self.indirect_pass = None
         if self.probes is not None:
             self.indirect_pass = self._keep(IndirectPass(ctx, self.probes, size, materials,
@@ -268,7 +270,8 @@ class Rasterizer:
                                                  samples_per_light=self.plan.samples_per_light))
             self.direct = self._keep(DirectPass(ctx, area_model=area_model, materials=materials,
                                                 shadows=self.plan.light_frames > 0,
-                                                shadow_filter=shadow_filter, cache_dir=cache_dir))
+                                                shadow_filter=shadow_filter, cache_dir=cache_dir,
+                                                layers=self.gpu_scene.layered))
             if area_model == "ltc":
                 # Per-light sums instead of one running mean (ltc.py); no partial sums.
                 self.ltc_table = self._keep(ltc_texture(ctx))
@@ -276,7 +279,8 @@ class Rasterizer:
                 gbuffer_frames = len(self.plan) - int(forward_first)
                 self.ltc = self._keep(LtcLights(ctx, size, scene.lights, materials=materials,
                                                 lut_texture=self.direct.lut_texture, table=self.ltc_table,
-                                                gbuffer_frames=max(gbuffer_frames, 1)))
+                                                gbuffer_frames=max(gbuffer_frames, 1),
+                                                layers=self.gpu_scene.layered))
             else:
                 self.direct_acc = self._keep(PingPong(ctx, size))
                 if self.scheduler is not None or any(len(fp.light_samples) > 1 for fp in self.plan):

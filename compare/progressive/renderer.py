@@ -8,6 +8,7 @@ import time
 
 import numpy as np
 
+from compare.progressive.gpu_scene import RENDERED_LAYERS
 from compare.progressive.options import OPTIONS, describe, renderer_options
 from compare.renderers.base import Checkpoint, RenderContext, Renderer, Rendering
 
@@ -49,7 +50,7 @@ class ProgressiveRenderer(Renderer):
     """Otto et al.'s progressive rasterizer (moderngl), with the options of :mod:`compare.progressive.options`."""
 
     unit = "frame"
-    renders = frozenset({"punctual_lights", "alpha_blend"})
+    renders = frozenset({"punctual_lights", "alpha_blend"}) | RENDERED_LAYERS
     #: A frame budget decides the frame count itself: its last checkpoint is the frames it rendered.
     open_ended = False
     OPTIONS = OPTIONS

@@ -21,7 +21,8 @@ _HERE = Path(__file__).parent
 
 #: Shared includes that live elsewhere: the environment's mappings and lighting (compare/ibl/).
 _IBL = _HERE.parent / "ibl"
-_SHARED = {"mapping.glsl": _IBL / "mapping.glsl", "ibl.glsl": _IBL / "ibl.glsl"}
+_SHARED = {"mapping.glsl": _IBL / "mapping.glsl", "ibl.glsl": _IBL / "ibl.glsl",
+           "layers.glsl": _HERE.parent / "brdf" / "layers.glsl"}
 
 
 def _include(name: str) -> str:

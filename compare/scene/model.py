@@ -146,7 +146,7 @@ LAYER_MAPS = {"transmissionTexture": ("transmission", "r"), "clearcoatTexture": 
               "specularTexture": ("specular", "a"), "specularColorTexture": ("specular_color", "rgb")}
 #: (Channel "rgb": an sRGB colour map; the others: one channel of a linear map.)
 #: Every material feature a renderer may declare it renders (Renderer.renders).
-MATERIAL_FEATURE_NAMES = ("alpha_blend", *MATERIAL_FEATURES.values())
+MATERIAL_FEATURE_NAMES = ("alpha_blend", *MATERIAL_FEATURES.values(), "layer_maps")
 #: glTF's alpha modes in the scene model.
 ALPHA_MODES = ("opaque", "mask", "blend")
 
@@ -212,9 +212,14 @@ class Material:
         metallic-roughness model: an extension whose parameters are not all glTF's defaults. A volume
         without transmission changes nothing (glTF) and is not counted."""
         out = {"alpha_blend"} if self.alpha_mode == "blend" else set()
+        extension_of = {layer.field: layer.extension for layer in LAYERS}
         for layer in LAYERS:
             if getattr(self, layer.field) != layer.default:
                 out.add(MATERIAL_FEATURES[layer.extension])
+        # A map changes its layer whatever the factor (a specular map under the default factor 1 lowers it);
+        # "layer_maps": the material reads maps of the extensions at all (a renderer may draw factors only).
+        for fld, _, _ in self.layer_maps:
+            out.update({MATERIAL_FEATURES[extension_of[fld]], "layer_maps"})
         # A volume absorbs only with a finite attenuation distance, and only where light is transmitted;
         # its thickness alone makes the surface the boundary of a solid (refraction), part of transmission.
         if "volume" in out and (self.transmission == 0.0 or math.isinf(self.attenuation_distance)
@@ -224,6 +229,8 @@ class Material:
             out.discard("clearcoat")
         if max(self.sheen_color) == 0.0:
             out.discard("sheen")
+        if not any(MATERIAL_FEATURES[extension_of[fld]] in out for fld, _, _ in self.layer_maps):
+            out.discard("layer_maps")  # only maps of layers that a zero factor turns off
         return out
 
     def uv_transform(self) -> np.ndarray:
@@ -479,6 +486,7 @@ class Features:
     clearcoat: bool = False
     sheen: bool = False
     specular: bool = False
+    layer_maps: bool = False
 
     def names(self) -> list[str]:
         """Names of the features present."""
