@@ -488,6 +488,11 @@ MATERIAL_EFFECTS = {
         (f"specular_{w}_{n}".replace(".", "_"), f"base_color = [0.2, 0.2, 0.2]\nroughness = 0.2\nspecular = {w}\n"
                                                 f"specular_color = {c}")
         for n, c in (("white", "[1.0, 1.0, 1.0]"), ("orange", "[2.0, 1.0, 0.3]")) for w in (0.0, 0.5, 1.0)]),
+    "emissive_strength": ("KHR_materials_emissive_strength: black spheres emitting (1, 0.5, 0.25) times 1, 4, "
+                          "16 and 64 in the dark (every pixel of a sphere is its emission: the radiance is kept "
+                          "past 1)", "constant = [0.0, 0.0, 0.0]", [
+        (f"emissive_{k}", f"base_color = [0.0, 0.0, 0.0]\nroughness = 1.0\nemission = [{k:.1f}, {k / 2:.2f}, {k / 4:.3f}]")
+        for k in (1, 4, 16, 64)]),
 }
 
 

@@ -805,3 +805,30 @@ def test_layer_maps_are_a_feature_of_their_own(tmp_path):
     coat = dataclasses.replace(coat_off, clearcoat=0.5)
     assert coat.uses() == {"clearcoat", "layer_maps"}
     assert "layer_maps" not in ProgressiveRenderer.renders and "clearcoat" in ProgressiveRenderer.renders
+
+
+def test_emissive_strength_keeps_radiance_past_one(gl_ctx, tmp_path):
+    """scenes/effects/materials_emissive_strength.toml: the median pixel well inside a sphere is its emission
+    (up to 64, 32, 16) within 0.5 % (a black dielectric still reflects a little of its neighbours' light at its
+    sides), in the reference and the rasterizer, and the job's glTF carries it as
+    KHR_materials_emissive_strength (an emissiveFactor at most 1 times the strength)."""
+    from compare.mitsuba.coverage import first_hits
+    from compare.progressive.rasterizer import render_progressive
+    from compare.renderers.job import export_gltf
+
+    scene = load_scene(EFFECTS / "materials_emissive_strength.toml").with_resolution(128, 40)
+    hits = first_hits(scene)
+    inner = hits.copy()
+    for axis in (0, 1):  # away from the silhouettes, where pixels mix a sphere with the dark
+        for shift in (-2, 2):
+            inner = np.where(np.roll(hits, shift, axis=axis) == hits, inner, -1)
+    for image in (_render(scene, spp=16), render_progressive(scene, frames=4, ctx=gl_ctx).image):
+        for k, mesh in enumerate(scene.meshes):
+            emission = np.asarray(scene.materials[mesh.material].emission)
+            assert (inner == k).sum() > 20
+            np.testing.assert_allclose(np.median(image[inner == k], axis=0), emission, rtol=5e-3)
+    doc = json.loads(export_gltf(scene, tmp_path / "scene.gltf").read_text())
+    for m in doc["materials"]:
+        strength = m.get("extensions", {}).get("KHR_materials_emissive_strength", {}).get("emissiveStrength", 1.0)
+        assert max(m["emissiveFactor"]) <= 1.0
+        assert max(m["emissiveFactor"]) * strength in (1.0, 4.0, 16.0, 64.0)
