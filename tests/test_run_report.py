@@ -813,3 +813,19 @@ def test_results_and_report_are_replaced_together_or_not_at_all(tmp_path, monkey
     monkeypatch.undo()
     run_mod._save_with_report(_results(), out, False)  # without a report: results.json alone, replaced
     assert Results.load(out / "results.json").scenes[0].name == "S"
+
+
+def test_an_ablation_row_names_the_kind_of_light_it_moved_most():
+    """The ablation table's last column: the layer whose relMSE the variant changed most, before → after."""
+    from types import SimpleNamespace
+
+    from compare.report.html import _layer_moved
+
+    base = SimpleNamespace(layers={"direct_env": {"relmse": 0.787}, "indirect_diffuse": {"relmse": 0.05},
+                                   "direct_area_unshadowed": {"relmse": 9.0}})
+    run = SimpleNamespace(layers={"direct_env": {"relmse": 0.071}, "indirect_diffuse": {"relmse": 0.30},
+                                  "direct_area_unshadowed": {"relmse": 0.0}})
+    assert _layer_moved(run, base) == "direct, environment: 0.787 → 0.071"
+    run.layers["indirect_diffuse"]["relmse"] = 0.9
+    assert _layer_moved(run, base) == "indirect diffuse: 0.05 → 0.9"
+    assert _layer_moved(SimpleNamespace(layers={}), base) == "—"

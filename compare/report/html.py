@@ -399,8 +399,21 @@ def _ablations(scene: SceneResult, baseline: str = "progressive") -> list[dict]:
             "steps": run.steps,
             "at_base_time": fmt_num(run.error_at(base.seconds, "flip", hold=True), 4),
             "base_at_time": fmt_num(base.error_at(run.seconds, "flip", hold=True), 4),
+            "moved": _layer_moved(run, base),
         })
     return rows
+
+
+def _layer_moved(run, base) -> str:
+    """The kind of light whose relMSE the variant changed most against the baseline, as "layer: before →
+    after" (the error-by-cause reading of an ablation); "—" without layers on both sides."""
+    both = [n for n in run.layers if n in base.layers and n not in ("direct_area_unshadowed",)
+            and run.layers[n].get("relmse") is not None and base.layers[n].get("relmse") is not None]
+    if not both:
+        return "—"
+    name = max(both, key=lambda n: abs(run.layers[n]["relmse"] - base.layers[n]["relmse"]))
+    return (f"{LAYER_TITLES.get(name, name)}: {fmt_num(base.layers[name]['relmse'], 4)} → "
+            f"{fmt_num(run.layers[name]['relmse'], 4)}")
 
 
 def _table1(results: Results) -> dict:
