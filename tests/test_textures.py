@@ -431,3 +431,65 @@ def test_a_16_bit_grey_map_reads_alike_in_both_renderers(tmp_path, make_scene, g
     raster = render_progressive(scene, frames=4, materials="diffuse", ctx=gl_ctx).image
     assert float(ref.mean()) == pytest.approx(want, rel=0.02)  # a white Lambert floor under a white sky
     assert float(raster.mean()) == pytest.approx(float(ref.mean()), rel=0.02)
+
+
+def _ramp_images():
+    """One grey ramp (8 columns, codes 0 … 255) in each PNG layout a download may use."""
+    g = np.tile(np.linspace(0, 255, 8).astype(np.uint8), (8, 1))
+    rgb = Image.fromarray(np.dstack([g, g, g]), "RGB")
+    palette_alpha = rgb.convert("P")
+    palette_alpha.info["transparency"] = bytes([255] * 256)  # a tRNS chunk that keeps every entry opaque
+    return {"grey": Image.fromarray(g, "L"), "grey_alpha": Image.fromarray(np.dstack([g, np.full_like(g, 255)]), "LA"),
+            "rgb": rgb, "rgba": Image.fromarray(np.dstack([g, g, g, np.full_like(g, 255)]), "RGBA"),
+            "palette": rgb.convert("P"), "palette_alpha": palette_alpha,
+            "grey16": Image.fromarray(g.astype(np.uint16) * 257)}
+
+
+@pytest.mark.parametrize("layout", list(_ramp_images()))
+def test_every_png_layout_decodes_to_the_same_colours_in_both_renderers(tmp_path, gl_ctx, layout):
+    """8- and 16-bit grey, grey + alpha, palette (with and without tRNS), RGB and RGBA files of one grey
+    ramp: the reference and the rasterizer see the same base colour (a Lambert quad in a white sky: the
+    image is the decoded, sRGB-linearised map), each column within 3 % of the other renderer (sampling
+    aside: the bilinear filters differ at the columns' seams) and the 8-bit RGB file's values."""
+    image = _ramp_images()[layout]
+    image.save(tmp_path / "ramp.png")
+    # the same colours as a plain 8-bit RGB file (a palette's are its entries, quantised from the ramp)
+    (image.convert("RGB") if layout.startswith("palette") else _ramp_images()["rgb"]).save(tmp_path / "plain.png")
+    path = tmp_path / "scene.toml"
+
+    def scene_with(name):
+        path.write_text(textwrap.dedent(f"""
+            [camera]
+            position = [0.0, 4.0, 0.0]
+            up = [0.0, 0.0, -1.0]
+            target = [0.0, 0.0, 0.0]
+            fov = 40.0
+            resolution = [64, 64]
+            [materials.m]
+            base_color_texture = "{name}"
+            roughness = 1.0
+            texture_filter = "nearest"
+            [[meshes]]
+            shape = "quad"
+            size = [3.0, 3.0]
+            material = "m"
+            [environment]
+            constant = [1.0, 1.0, 1.0]
+            """))
+        return load_scene(path)
+
+    half = 4.0 * math.tan(math.radians(20.0))  # the view's half width on the quad (within its 1.5)
+
+    def columns(img):  # each texel column's middle pixel (the map's u runs along the image's x, either way)
+        x = -1.5 + 3.0 * (np.arange(8) + 0.5) / 8
+        px = ((x / half + 1.0) / 2.0 * 64).astype(int)
+        return np.sort(img[28:36][:, np.stack([px - 1, px, px + 1])].mean(axis=(0, 1, 3)))
+
+    scene = scene_with("ramp.png")
+    truth = columns(ReferenceRenderer(scene, cache_dir=False, progress=False, materials="diffuse").render(16).image)
+    got = columns(render_progressive(scene, frames=4, ctx=gl_ctx, materials="diffuse").image)
+    plain = scene_with("plain.png")
+    rgb = columns(ReferenceRenderer(plain, cache_dir=False, progress=False, materials="diffuse").render(16).image)
+    assert truth.max() > 5 * truth[1] > 0 and truth.max() < 0.999  # a ramp, not the sky
+    np.testing.assert_allclose(got, truth, rtol=0.03, atol=2e-3)
+    np.testing.assert_allclose(truth, rgb, rtol=0.03, atol=2e-3)
