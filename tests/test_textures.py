@@ -454,7 +454,7 @@ def test_every_png_layout_decodes_to_the_same_colours_in_both_renderers(tmp_path
     image = _ramp_images()[layout]
     image.save(tmp_path / "ramp.png")
     # the same colours as a plain 8-bit RGB file (a palette's are its entries, quantised from the ramp)
-    (image.convert("RGB") if layout.startswith("palette") else _ramp_images()["rgb"]).save(tmp_path / "plain.png")
+    (image.convert("RGBA").convert("RGB") if layout.startswith("palette") else _ramp_images()["rgb"]).save(tmp_path / "plain.png")
     path = tmp_path / "scene.toml"
 
     def scene_with(name):

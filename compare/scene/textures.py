@@ -60,6 +60,13 @@ def texture_problem(path: Path) -> str | None:
     return None
 
 
+def _rgba(im):
+    """Any 8-bit layout (grey, grey + alpha, palette with or without tRNS, RGB, RGBA) as RGBA, the one way
+    every map is decoded for every renderer: a palette goes through RGBA so that its transparency is kept
+    (Pillow's direct palette-to-RGB drops it, with a warning)."""
+    return im.convert("RGBA")
+
+
 def load_texture(path: Path, *, srgb: bool) -> np.ndarray:
     """A texture file as linear float32 (H, W, 3), row 0 at the top of the image.
 
@@ -82,7 +89,7 @@ def load_texture(path: Path, *, srgb: bool) -> np.ndarray:
             grey = np.asarray(im, dtype=np.float64) / 65535.0
             data = np.repeat(np.clip(grey, 0.0, 1.0)[..., None], 3, axis=2)
         else:
-            data = np.asarray(im.convert("RGB"), dtype=np.float64) / 255.0
+            data = np.asarray(_rgba(im), dtype=np.float64)[..., :3] / 255.0
     return np.ascontiguousarray(srgb_decode(data) if srgb else data, dtype=np.float32)
 
 
@@ -99,7 +106,8 @@ def load_texels8(path: Path, *, alpha: bool) -> np.ndarray | None:
     with Image.open(path) as im:
         if im.mode not in EIGHT_BIT_MODES:
             return None
-        return np.asarray(im.convert("RGBA" if alpha else "RGB"), dtype=np.uint8)
+        texels = np.asarray(_rgba(im), dtype=np.uint8)
+        return np.ascontiguousarray(texels if alpha else texels[..., :3])
 
 
 def load_alpha(path: Path) -> np.ndarray:
@@ -122,7 +130,7 @@ def load_alpha(path: Path) -> np.ndarray:
     with Image.open(path) as im:
         if "A" not in im.getbands() and "transparency" not in im.info:
             return np.ones((im.height, im.width), dtype=np.float32)
-        return np.asarray(im.convert("RGBA"), dtype=np.float32)[..., 3] / np.float32(255.0)
+        return np.asarray(_rgba(im), dtype=np.float32)[..., 3] / np.float32(255.0)
 
 
 def coverage_map(path: Path | None, alpha: float, cutoff: float) -> np.ndarray:
