@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from compare.cli.main import main
-from compare.metrics.regression import coefficient_of_variation, holm, image_test, welch
+from compare.metrics.regression import coefficient_of_variation, holm, image_test, paired, welch
 from compare.report.results import RunSettings
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -49,6 +49,21 @@ def test_welch_matches_scipy_and_its_interval_covers():
         welch([1.0], [1.0, 2.0])
 
 
+def test_paired_matches_scipy_and_sees_through_the_seeds_noise():
+    from scipy.stats import ttest_rel
+
+    rng = np.random.default_rng(3)
+    seed_noise = rng.normal(0.0, 1.0, 6)  # what each seed puts into both sides
+    a = 10 + seed_noise + rng.normal(0, 0.002, 6)
+    b = 10.02 + seed_noise + rng.normal(0, 0.002, 6)
+    p = paired(a, b, level=0.99)
+    assert p.p == pytest.approx(ttest_rel(b, a, alternative="greater").pvalue, rel=1e-10)
+    assert p.p < 0.01 and p.low > 0 and welch(a, b).p > 0.3  # Welch cannot see 0.02 under the seeds' spread of 1
+    assert paired([1, 2, 3], [1, 2, 3]).p == 1.0 and paired([1, 2, 3], [1.5, 2.5, 3.5]).p == 0.0
+    with pytest.raises(ValueError, match="3 baseline values but 2"):
+        paired([1, 2, 3], [1, 2])
+
+
 def test_holm_and_the_coefficient_of_variation():
     assert holm([0.01, 0.04, 0.03, 0.005]) == pytest.approx([0.03, 0.06, 0.06, 0.02])
     assert holm([]) == [] and holm([0.5]) == [0.5] and holm([0.6, 0.9]) == [1.0, 1.0]
@@ -80,6 +95,10 @@ def test_image_test_is_calibrated_and_sees_a_small_brightness_change():
     assert image_test(a, b, block=8).p > 1e-3
     same = np.stack([truth] * 3)
     assert image_test(same, same).p == 1.0 and image_test(same, same * 1.01).p == 0.0
+    # paired by seed: the seeds' own noise cancels, and an unchanged deterministic render differs by nothing
+    a = truth + rng.normal(0, 0.05, (5, 24, 32, 3))
+    assert image_test(a, a, pair=True).p == 1.0 and image_test(a, 0.999 * a, pair=True).p < 1e-4
+    assert image_test(a, a + rng.normal(0, 0.01, a.shape), pair=True).p > 0.01
     with pytest.raises(ValueError, match="block"):
         image_test(a, b, block=25)
 
@@ -117,10 +136,11 @@ def render(folder: Path, **renderer) -> Path:
 
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory) -> dict[str, Path]:
-    """The baseline and four candidates; a salt gives each candidate noise independent of the baseline's."""
+    """The baseline and five candidates: a rerun of the same code with the same seeds, and four whose salt gives
+    them noise independent of the baseline's (as a renderer whose noise is not reproducible would have)."""
     root = tmp_path_factory.mktemp("gate")
     return {name: render(root / name, **kw) for name, kw in [
-        ("base", {}), ("same", {"salt": 1}), ("darker", {"bright": 0.95, "salt": 2}),
+        ("base", {}), ("rerun", {}), ("same", {"salt": 1}), ("darker", {"bright": 0.95, "salt": 2}),
         ("slower", {"slow": 1.3, "salt": 3}), ("noisy", {"jitter": 0.5, "salt": 4})]}
 
 
@@ -147,6 +167,10 @@ def test_the_gate_passes_the_same_code_and_fails_a_darker_and_a_slower_renderer(
     """The whole gate, run twice (baseline, then candidate) with a small external renderer: the same code
     passes; 5 % darker fails on error (and its image changed); 30 % slower fails on time; timings whose
     spread is too large are inconclusive, which is reported and does not fail."""
+    status, rerun = check(runs["rerun"], baseline, capsys=capsys)
+    assert status == 0 and {(g["kind"], g["p"]) for g in rerun["gates"] if g["kind"] != "time"} == {
+        ("error", 1.0), ("image", 1.0)}  # the same seeds: exactly the same images
+
     status, same = check(runs["same"], baseline, capsys=capsys)
     kinds = by_kind(same)
     assert status == 0 and not same["failed"]

@@ -9,6 +9,11 @@ alarm with probability ``alpha`` over the whole family, not per test:
   interval of the difference of the means (Welch–Satterthwaite degrees of freedom).
   Two samples without spread are compared exactly (a deterministic renderer must
   repeat itself exactly).
+* :func:`paired` — the paired t-test of the same, where both sides ran the same seeds:
+  the noise a seed puts into both sides cancels in their difference, so a deterministic
+  renderer's unchanged code differs by exactly nothing and a small change stands out.
+  Seeds are independent of one another, so the differences are too (valid whether or
+  not the renderer repeats itself).
 * :func:`image_test` — the per-pixel z-test of :mod:`compare.metrics.ztest` on two
   stacks of independent final images; its smallest per-value p, Šidák-adjusted over
   the values tested, is the image's p. With ``block`` > 1 the test is on tile means,
@@ -29,7 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["ImageTest", "Welch", "coefficient_of_variation", "holm", "image_test", "welch"]
+__all__ = ["ImageTest", "Welch", "coefficient_of_variation", "holm", "image_test", "paired", "welch"]
 
 
 @dataclass(frozen=True)
@@ -94,6 +99,27 @@ def welch(baseline, candidate, *, level: float = 0.95) -> Welch:
     return Welch(ma, mb, diff, diff - q * se, diff + q * se, p, float(dof), a.size, b.size)
 
 
+def paired(baseline, candidate, *, level: float = 0.95) -> Welch:
+    """The paired t-test that the candidate is larger than the baseline (one-sided), value k of each side from
+    the same seed; the interval is that of the mean difference (K - 1 degrees of freedom). Differences
+    without spread are known exactly (``p`` 0 when positive, else 1)."""
+    from scipy.stats import t as student_t
+
+    a, b = _sample(baseline, "baseline"), _sample(candidate, "candidate")
+    if a.size != b.size:
+        raise ValueError(f"paired: {a.size} baseline values but {b.size} candidate values")
+    d = b - a
+    diff = float(d.mean())
+    se2 = float(d.var(ddof=1)) / d.size
+    if se2 == 0:
+        return Welch(float(a.mean()), float(b.mean()), diff, diff, diff, 0.0 if diff > 0 else 1.0, math.inf,
+                     a.size, b.size)
+    se, dof = math.sqrt(se2), d.size - 1
+    q = float(student_t.ppf(0.5 + level / 2.0, dof))
+    return Welch(float(a.mean()), float(b.mean()), diff, diff - q * se, diff + q * se,
+                 float(student_t.sf(diff / se, dof)), float(dof), a.size, b.size)
+
+
 def coefficient_of_variation(values) -> float:
     """Sample standard deviation over the mean (inf for a mean of 0 with spread, 0 without)."""
     x = np.asarray(values, dtype=np.float64).ravel()
@@ -144,12 +170,14 @@ def _tiles(stack: np.ndarray, block: int) -> np.ndarray:
     return stack[:, :hh, :ww].reshape(k, hh // block, block, ww // block, block, c).mean(axis=(2, 4))
 
 
-def image_test(baseline, candidate, *, block: int = 1) -> ImageTest:
+def image_test(baseline, candidate, *, block: int = 1, pair: bool = False) -> ImageTest:
     """Per-value z-test (Welch's t with each value's degrees of freedom) of two stacks of independent
     final images, (K, H, W, 3) each with K >= 2; p is the smallest per-value p, Šidák-adjusted over the
     values tested (the probability that two renders of one image show a value this far apart).
 
-    ``z`` is the map of |z| (tiles with ``block`` > 1), for the report.
+    ``pair``: image k of both sides comes from the same seed; the test is then on the per-seed
+    differences (Student's t, K - 1 degrees of freedom), and a value whose difference is the same
+    for every seed is tested exactly. ``z`` is the map of |z| (tiles with ``block`` > 1), for the report.
     """
     from scipy.stats import t as student_t
 
@@ -160,8 +188,19 @@ def image_test(baseline, candidate, *, block: int = 1) -> ImageTest:
         raise ValueError(f"image_test: expected two stacks (K, H, W, 3) of one image size, got {a.shape} and {b.shape}")
     if isinstance(block, bool) or not isinstance(block, (int, np.integer)) or not 1 <= block <= min(a.shape[1:3]):
         raise ValueError(f"image_test: block must be an integer from 1 to the image's smaller side, got {block!r}")
+    if pair and a.shape != b.shape:
+        raise ValueError(f"image_test: paired stacks need as many images on each side, got {a.shape} and {b.shape}")
     if block > 1:
         a, b = _tiles(a, block), _tiles(b, block)
+    if pair:
+        d = b - a
+        mean, var = d.mean(axis=0), d.var(axis=0, ddof=1) / d.shape[0]
+        exact = var == 0
+        diff = np.abs(mean)
+        z = np.where(exact, np.where(diff == 0, 0.0, np.inf), diff / np.sqrt(np.where(exact, 1.0, var)))
+        p = np.where(exact, np.where(diff == 0, 1.0, 0.0),
+                     2.0 * student_t.sf(np.where(exact, 0.0, z), d.shape[0] - 1))
+        return _image_result(p, z, block)
     ma, va, da = pass_statistics(a)
     mb, vb, db = pass_statistics(b)
     var = va + vb
@@ -171,6 +210,10 @@ def image_test(baseline, candidate, *, block: int = 1) -> ImageTest:
     den = va * va / da + vb * vb / db
     dof = np.where(den > 0, var * var / np.where(den > 0, den, 1.0), 1e12)
     p = np.where(exact, np.where(diff == 0, 1.0, 0.0), 2.0 * student_t.sf(np.where(exact, 0.0, z), dof))
+    return _image_result(p, z, block)
+
+
+def _image_result(p: np.ndarray, z: np.ndarray, block: int) -> ImageTest:
     n = int(p.size)
     min_p = float(p.min())
     family = -math.expm1(n * math.log1p(-min_p)) if min_p < 1 else 1.0  # Šidák: 1 - (1 - p)^n

@@ -4,12 +4,15 @@ Per scene × size × renderer × checkpoint the gate makes three kinds of test
 (:mod:`compare.metrics.regression`):
 
 * **error** — is the candidate's error (``relmse`` by default; any metric of
-  results.json) larger beyond noise? Welch's t-test on the errors of each side's
+  results.json) larger beyond noise? A t-test on the errors of each side's
   independent runs (``compare run --seeds K``, K >= 2), with the interval of the
-  difference. ``error_test="ztest"`` judges the final checkpoint by the z-test of the
+  difference: paired by seed where both sides ran the same seeds (the seed's own
+  noise cancels: a deterministic renderer's unchanged code differs by nothing, a
+  changed one stands out), else Welch's. ``error_test="ztest"`` judges the final checkpoint by the z-test of the
   final images instead (the images differ significantly *and* the mean error grew).
 * **image** — did the final image change? The per-pixel (``block`` > 1: per-tile)
-  z-test of the two sides' final images with the variances from their seeds, even
+  z-test of the two sides' final images with the variances from their seeds (of the
+  per-seed differences where the seeds are the same), even
   where the error is no worse (a change that is not a regression is reported, not
   failed, unless ``fail_on_change``).
 * **time** — is the candidate slower? Welch's t-test on the repeated timings (each
@@ -37,7 +40,7 @@ from pathlib import Path
 import numpy as np
 
 from compare.util.errors import CompareError
-from compare.metrics.regression import coefficient_of_variation, holm, image_test, welch
+from compare.metrics.regression import coefficient_of_variation, holm, image_test, paired, welch
 from compare.report.baseline import Baseline
 from compare.report.results import Machine, RendererRun, Results, SceneResult
 
@@ -273,6 +276,7 @@ def _compare_runs(scene: SceneResult, base: RendererRun, cand: RendererRun, base
         return [Gate(scene.name, scene.size, cand.renderer, None, "missing", "checkpoints", status="missing",
                      note=f"no checkpoint in common (baseline {steps_b}, candidate {steps_c})")]
     final = base.final.step if base.final.step == cand.final.step else None
+    same_seeds = len(bs) >= 2 and [s.seed for s in bs] == [s.seed for s in cs]
     one_seed = (f"{len(bs)} seed(s) in the baseline, {len(cs)} in the candidate: the noise of a side needs "
                 "`compare run --seeds 2` or more")
 
@@ -287,6 +291,8 @@ def _compare_runs(scene: SceneResult, base: RendererRun, cand: RendererRun, base
             g.status, g.note = "inconclusive", "the baseline keeps no final images of this run"
         elif len(bs) < 2 or len(cs) < 2 or len(brun.images) < 2:
             g.status, g.note = "inconclusive", one_seed
+        elif brun.seeds != [s.seed for s in bs]:
+            g.status, g.note = "inconclusive", "the baseline's images are not those of its results.json's seeds"
         else:
             a, b = baseline.images(brun), _candidate_images(cand, cand_dir, what)
             if a.shape[1:] != b.shape[1:]:
@@ -294,12 +300,13 @@ def _compare_runs(scene: SceneResult, base: RendererRun, cand: RendererRun, base
             elif settings.block > min(a.shape[1:3]):
                 raise GateError(f"--block {settings.block} is larger than the {a.shape[2]}x{a.shape[1]} image")
             else:
-                image = image_test(a, b, block=settings.block)
+                image = image_test(a, b, block=settings.block, pair=same_seeds)
                 y, x, c = image.worst
                 tile = "tile" if settings.block > 1 else "pixel"
                 g.p, g.zmap = image.p, image.z
                 g.note = (f"{image.values} values{f' ({settings.block}x{settings.block} tiles)' if settings.block > 1 else ''}"
-                          f", largest |z| {image.max_abs_z:.3g} at {tile} ({x}, {y}) {'RGB'[c]}")
+                          f", largest |z| {image.max_abs_z:.3g} at {tile} ({x}, {y}) {'RGB'[c]}"
+                          f"{', paired by seed' if same_seeds else ''}")
         gates.append(g)
     for step in steps:
         for metric in settings.metrics:
@@ -319,10 +326,12 @@ def _compare_runs(scene: SceneResult, base: RendererRun, cand: RendererRun, base
                 g.status, g.note = "inconclusive", one_seed
                 g.baseline, g.candidate = float(np.mean(vb)), float(np.mean(vc))
             else:
-                w = welch(vb, vc, level=1.0 - settings.alpha)
+                test = paired if same_seeds else welch
+                w = test(vb, vc, level=1.0 - settings.alpha)
                 g.p, g.baseline, g.candidate, g.low, g.high = w.p, w.baseline_mean, w.candidate_mean, w.low, w.high
+                how = f"paired by {len(vb)} seeds" if same_seeds else f"Welch, seeds {len(vb)} vs {len(vc)}"
                 g.note = (f"difference {w.diff:+.3g}, {100 * (1 - settings.alpha):g} % interval "
-                          f"[{w.low:+.3g}, {w.high:+.3g}] (seeds {len(vb)} vs {len(vc)})")
+                          f"[{w.low:+.3g}, {w.high:+.3g}] ({how})")
             gates.append(g)
         g = gate(step, "time", "seconds")
         tb, tc = _values(bs, step, "seconds"), _values(cs, step, "seconds")
