@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import shutil
 import sys
 import textwrap
@@ -333,3 +334,84 @@ def test_history_page(runs, tmp_path, capsys):
     assert lo0 < m0 < hi0 and hi0 < lo1 < m1  # the darker renderer's band lies above the baseline's
     assert main(["history", str(runs["base"]), "-o", str(out), "--labels", "a,b"]) == 2
     assert "1 results file" in capsys.readouterr().err
+
+
+# --------------------------------------------------------------------------- the CI example
+
+WORKFLOW = ROOT / "examples" / "ci" / "render-gate.yml"
+
+
+def workflow_commands() -> list[list[str]]:
+    """Every ``compare`` command of the example workflow, as argv (its variables given values)."""
+    import shlex
+
+    import yaml
+
+    flow = yaml.safe_load(WORKFLOW.read_text(encoding="utf-8"))
+    env = {**flow["env"], "GITHUB_STEP_SUMMARY": "summary.md"}
+    out = []
+    for step in flow["jobs"]["gate"]["steps"]:
+        for line in str(step.get("run", "")).splitlines():
+            argv = shlex.split(line)
+            if argv and argv[0] == ".venv/bin/compare":
+                out.append([re.sub(r"\$(\w+)", lambda m: env[m.group(1)], a) for a in argv[1:]])
+    return out
+
+
+def test_the_ci_example_caches_both_folders_and_runs_valid_commands():
+    import yaml
+
+    from compare.cli.main import _build_parser
+
+    flow = yaml.safe_load(WORKFLOW.read_text(encoding="utf-8"))
+    steps = flow["jobs"]["gate"]["steps"]
+    cached = {s["with"]["path"] for s in steps if str(s.get("uses", "")).startswith("actions/cache")}
+    assert cached == {".compare-cache", "ci-baseline"} and flow["env"]["COMPARE_CACHE"].endswith(".compare-cache")
+    commands = workflow_commands()
+    assert [c[0] for c in commands] == ["run", "check", "baseline"]
+    parser = _build_parser()
+    parsed = [parser.parse_args(c) for c in commands]
+    run, check_, save = parsed
+    assert run.seeds >= 2 and str(run.output) == flow["env"]["RUN"]
+    assert check_.results == save.results == run.output / "results.json"
+    assert check_.baseline == save.dir and check_.junit and check_.summary and check_.report
+
+
+@pytest.mark.slow
+def test_the_ci_example_runs_locally(tmp_path, monkeypatch, capsys):
+    """The workflow's commands as written, in order: a push to main (render, save the baseline), then a pull
+    request of the same code (render, gate). Same code and seeds: errors and images are exactly equal."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("COMPARE_CACHE", str(tmp_path / ".compare-cache"))
+    (tmp_path / "scenes").symlink_to(ROOT / "scenes")
+    run, check_, save = workflow_commands()
+    assert main(run) == 0 and main(save) == 0
+    shutil.rmtree(tmp_path / "reports")
+    assert main(run) == 0
+    capsys.readouterr()
+    status = main(check_ + ["--json"])
+    report = json.loads(capsys.readouterr().out)
+    assert status in (0, 1)  # timings may differ between two runs on a shared machine; the rest may not
+    assert {g["status"] for g in report["gates"] if g["kind"] != "time"} == {"pass"}
+    assert (tmp_path / "reports/ci/junit.xml").is_file() and (tmp_path / "reports/ci/gate/index.html").is_file()
+    assert "Regression gate" in (tmp_path / "summary.md").read_text()
+
+
+@pytest.mark.slow
+def test_false_alarm_rate_of_same_code_pairs(tmp_path):
+    """20 pairs of same-code runs whose noise is independent (each run its own salt): the gate fails at most
+    one of them at its level 0.01 (a gate calibrated at 0.01 fails two or more of 20 with probability 1.7 %;
+    one failing at 0.1 would, with 61 %)."""
+    from compare.report.baseline import save_baseline
+    from compare.report.gate import run_gate
+
+    failed, tests = [], 0
+    for i in range(20):
+        base = render(tmp_path / f"b{i}", salt=100 + 2 * i)
+        save_baseline(base, tmp_path / f"b{i}" / "baseline")
+        report = run_gate(render(tmp_path / f"c{i}", salt=101 + 2 * i), tmp_path / f"b{i}" / "baseline")
+        tests += sum(g.p is not None for g in report.gates)
+        if report.failed:
+            failed.append([g.name for g in report.gates if g.failed(report.settings)])
+        shutil.rmtree(tmp_path / f"b{i}" / "out" / "runs")
+    assert tests >= 20 * 5 and len(failed) <= 1, failed  # the image and four error tests of each pair at least

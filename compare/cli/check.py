@@ -73,6 +73,8 @@ def add_check_parser(subparsers) -> argparse.ArgumentParser:
                    help="a slowdown fails only when the mean time grew by at least this ratio (and significantly)")
     g.add_argument("--max-cv", type=positive_float, default=0.15,
                    help="timings with a larger coefficient of variation (either side) are inconclusive")
+    g.add_argument("--min-seconds", type=float, default=0.01,
+                   help="checkpoints faster than this on both sides (mean seconds) are not timed")
     g.add_argument("--fail-on-change", action="store_true", help="a changed final image fails the gate too")
     g.add_argument("--junit", type=Path, default=None, metavar="FILE", help="write JUnit XML, one test case per test")
     g.add_argument("--summary", type=Path, default=None, metavar="FILE",
@@ -105,7 +107,7 @@ def _gate(args: argparse.Namespace) -> int:
     check_outputs(outputs, inputs=(args.results,))
     settings = GateSettings(alpha=args.alpha, metrics=tuple(args.metric), block=args.block,
                             time_ratio=args.time_ratio, max_cv=args.max_cv, error_test=args.error_test,
-                            fail_on_change=args.fail_on_change)
+                            fail_on_change=args.fail_on_change, min_seconds=args.min_seconds)
     report = run_gate(args.results, args.baseline, settings, progress=sys.stderr.isatty())
     if args.junit:
         from compare.report.junit import write_junit

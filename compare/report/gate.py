@@ -19,7 +19,9 @@ Per scene × size × renderer × checkpoint the gate makes three kinds of test
   seed's cumulative seconds at the checkpoint) *and* a ratio of means of at least
   ``time_ratio`` (1.15, as Babylon.js' performance tests use), so that a tiny but
   significant drift does not fail; "inconclusive" when a side's coefficient of
-  variation exceeds ``max_cv`` (the timings are too noisy to judge). Timings are
+  variation exceeds ``max_cv`` (the timings are too noisy to judge), and skipped at
+  checkpoints shorter than ``min_seconds`` (a few hundred microseconds measure the
+  timer, the caches and the scheduler more than the renderer). Timings are
   compared only on the same machine (CPU model, core count and the renderers' device
   facts); a baseline from another one compares errors and images only, and says why.
 
@@ -65,6 +67,7 @@ class GateSettings:
     max_cv : above this coefficient of variation of either side's timings the time test is inconclusive.
     error_test : "seeds" (Welch on the seeds' errors) or "ztest" (the final images' z-test, final checkpoint).
     fail_on_change : a changed image fails the gate too.
+    min_seconds : checkpoints whose mean times (both sides) are shorter are not timed.
     """
 
     alpha: float = 0.01
@@ -74,12 +77,15 @@ class GateSettings:
     max_cv: float = 0.15
     error_test: str = "seeds"
     fail_on_change: bool = False
+    min_seconds: float = 0.01
 
     def __post_init__(self):
         if not 0 < self.alpha < 1:
             raise GateError(f"alpha: expected a level in (0, 1), got {self.alpha!r}")
         if not self.time_ratio >= 1:
             raise GateError(f"time ratio: expected a number >= 1, got {self.time_ratio!r}")
+        if not self.min_seconds >= 0:
+            raise GateError(f"min seconds: expected a number >= 0, got {self.min_seconds!r}")
         if not self.max_cv > 0:
             raise GateError(f"max cv: expected a number > 0, got {self.max_cv!r}")
         if self.error_test not in ("seeds", "ztest"):
@@ -346,7 +352,10 @@ def _compare_runs(scene: SceneResult, base: RendererRun, cand: RendererRun, base
             g.baseline, g.candidate = float(np.mean(tb)), float(np.mean(tc))
             g.cv = [coefficient_of_variation(tb), coefficient_of_variation(tc)]
             g.ratio = None if g.baseline <= 0 else g.candidate / g.baseline
-            if max(g.cv) > settings.max_cv:
+            if max(g.baseline, g.candidate) < settings.min_seconds:
+                g.status = "skipped"
+                g.note = f"shorter than {settings.min_seconds:g} s, which measures the timer more than the renderer"
+            elif max(g.cv) > settings.max_cv:
                 g.status = "inconclusive"
                 g.note = (f"timings too noisy to judge: coefficient of variation {g.cv[0]:.2f} (baseline), "
                           f"{g.cv[1]:.2f} (candidate) > {settings.max_cv:g}")

@@ -8,7 +8,7 @@ that holds the file, in POSIX form, so the folder can be moved or zipped.
 
 Schema 1
 --------
-::
+Published as a JSON Schema with the package (``compare/schemas/results.schema.json``)::
 
     {
       "schema": 1,
