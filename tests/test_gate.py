@@ -207,6 +207,22 @@ def test_the_gate_passes_the_same_code_and_fails_a_darker_and_a_slower_renderer(
     assert status_text == 1 and "REGRESSION" in table and "changed" in table and "error relmse" in table
 
 
+def test_error_by_the_image_z_test_and_in_tiles(runs, baseline, capsys):
+    """--error-test ztest judges the final checkpoint's error by the image z-test; --block tests tiles."""
+    status, darker = check(runs["darker"], baseline, "--error-test", "ztest", "--block", "4", capsys=capsys)
+    final = next(g for g in darker["gates"] if g["kind"] == "error" and g["step"] == 8)
+    image = next(g for g in darker["gates"] if g["kind"] == "image")
+    assert status == 1 and final["status"] == "regression" and "z-test" in final["note"]
+    assert image["status"] == "changed" and "(4x4 tiles)" in image["note"]
+    status, same = check(runs["same"], baseline, "--error-test", "ztest", "--block", "4", capsys=capsys)
+    assert status == 0 and not same["failed"]
+    assert main(["check", str(runs["same"]), "--baseline", str(baseline), "--block", "64"]) == 2
+    assert "larger than the 32x24 image" in capsys.readouterr().err
+    for bad in (["--alpha", "1.5"], ["--time-ratio", "0.9"], ["--metric", "nope"]):
+        with pytest.raises(SystemExit):
+            main(["check", str(runs["same"]), "--baseline", str(baseline), *bad])
+
+
 def test_outputs_for_ci_systems(runs, baseline, tmp_path, capsys):
     junit, summary, page = tmp_path / "junit.xml", tmp_path / "summary.md", tmp_path / "page"
     summary.write_text("# earlier step\n")

@@ -130,9 +130,14 @@ class Gate:
         return self.status in FAILING or (settings.fail_on_change and self.status == "changed")
 
     def to_json(self) -> dict:
+        def finite(v):  # JSON has no infinities (a CV of timings whose mean is 0)
+            if isinstance(v, float) and not math.isfinite(v):
+                return None
+            return [finite(x) for x in v] if isinstance(v, list) else v
+
         d = asdict(self)
         d.pop("zmap")
-        return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in d.items()}
+        return {k: finite(v) for k, v in d.items()}
 
     def change(self) -> str:
         """The candidate against the baseline, in words."""

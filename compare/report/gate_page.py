@@ -125,7 +125,11 @@ def build_gate_page(report: GateReport, out_dir: str | os.PathLike, *, baseline:
             (tmp / sub).mkdir(parents=True, exist_ok=True)
             write_png(tmp / sub / "candidate.png", mean, exposure=candidate.settings.exposure,
                       operator=candidate.settings.tonemap)
-            shutil.copyfile(baseline.root / brun.preview, tmp / sub / "baseline.png")
+            if brun.preview:
+                shutil.copyfile(baseline.root / brun.preview, tmp / sub / "baseline.png")
+            else:
+                write_png(tmp / sub / "baseline.png", baseline.images(brun).mean(axis=0),
+                          exposure=candidate.settings.exposure, operator=candidate.settings.tonemap)
             z = np.nan_to_num(g.zmap.max(axis=2), posinf=1e6)
             zmax = float(max(z.max(), 1e-12))
             save_maps(tmp / sub, {"z": z}, ranges={"z": (0.0, zmax)})
