@@ -105,6 +105,22 @@ def test_results_and_baselines_conform(tmp_path, gl_ctx):
     assert not validator("baseline").is_valid(index)
 
 
+def test_measured_results_conform(tmp_path):
+    """results.json of `compare measure` (images made elsewhere)."""
+    import numpy as np
+
+    from compare.image.exr import write_exr
+
+    folder = tmp_path / "engine"
+    for step in (1, 2, 4):
+        write_exr(folder / f"step-{step}.exr", np.full((12, 16, 3), 0.3, np.float32))
+    (folder / "timings.json").write_text(json.dumps({"setup_seconds": 0.2, "seconds": {"1": 0.1, "2": 0.2, "4": 0.4}}))
+    out = tmp_path / "measured"
+    assert main(["measure", str(folder), "--scene", str(ROOT / "scenes" / "cornell.toml"), "--spp", "4", "--quiet",
+                 "-o", str(out)]) == 0
+    assert validate("results", out / "results.json")["scenes"][0]["runs"][0]["renderer"] == "engine"
+
+
 @pytest.mark.parametrize("name", NAMES)
 def test_each_schema_is_named_in_the_docs(name):
     assert f"compare/schemas/{name}.schema.json" in (ROOT / "docs" / "ci.md").read_text(encoding="utf-8")
