@@ -287,6 +287,9 @@ def _compare_runs(scene: SceneResult, base: RendererRun, cand: RendererRun, base
         return [Gate(scene.name, scene.size, cand.renderer, None, "missing", "checkpoints", status="missing",
                      note=f"no checkpoint in common (baseline {steps_b}, candidate {steps_c})")]
     final = base.final.step if base.final.step == cand.final.step else None
+    if final is None:
+        notes.append(f"{what}: the final checkpoints differ ({base.unit} {base.final.step} in the baseline, "
+                     f"{cand.final.step} in the candidate): final images not compared")
     same_seeds = len(bs) >= 2 and [s.seed for s in bs] == [s.seed for s in cs]
     one_seed = (f"{len(bs)} seed(s) in the baseline, {len(cs)} in the candidate: the noise of a side needs "
                 "`compare run --seeds 2` or more")
