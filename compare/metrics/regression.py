@@ -161,6 +161,7 @@ class ImageTest:
     z: np.ndarray
 
     def significant(self, alpha: float) -> bool:
+        """Whether the images differ at level ``alpha`` (by this test alone, before a family's correction)."""
         return self.p <= alpha
 
 

@@ -127,9 +127,11 @@ class Gate:
         return f"{self.scene} {self.size} {self.renderer}{at}: {self.kind} {self.metric}"
 
     def failed(self, settings: GateSettings) -> bool:
+        """Whether this test fails the gate (a changed image only with ``fail_on_change``)."""
         return self.status in FAILING or (settings.fail_on_change and self.status == "changed")
 
     def to_json(self) -> dict:
+        """JSON-ready dict (without the |z| map; infinities as null)."""
         def finite(v):  # JSON has no infinities (a CV of timings whose mean is 0)
             if isinstance(v, float) and not math.isfinite(v):
                 return None
@@ -175,9 +177,11 @@ class GateReport:
 
     @property
     def failed(self) -> bool:
+        """Whether any test fails the gate (exit status 1)."""
         return any(g.failed(self.settings) for g in self.gates)
 
     def count(self, status: str) -> int:
+        """How many tests ended with ``status``."""
         return sum(g.status == status for g in self.gates)
 
     def summary_line(self) -> str:
