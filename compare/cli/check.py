@@ -1,35 +1,143 @@
-"""``compare check``: its arguments and its command (the library: :mod:`compare.report.check`)."""
+"""``compare check``: its arguments and its command (the libraries: :mod:`compare.report.check` for
+thresholds, :mod:`compare.report.gate` for a baseline)."""
 
 from __future__ import annotations
 
 import argparse
+import json
+import sys
 from pathlib import Path
 
+from compare.cli.argtypes import positive_float, positive_int
 from compare.report.check import check, load_thresholds
+from compare.util.errors import CompareError
+
+
+class CheckUsageError(CompareError, ValueError):
+    """A bad combination of ``compare check`` options."""
+
+
+def _alpha(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a level in (0, 1), got {text!r}") from None
+    if not 0 < v < 1:
+        raise argparse.ArgumentTypeError(f"expected a level in (0, 1), got {text!r}")
+    return v
+
+
+def _ratio(text: str) -> float:
+    v = positive_float(text)
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"expected a ratio >= 1, got {text!r}")
+    return v
+
+
+def _metrics(text: str) -> tuple[str, ...]:
+    from compare.metrics.table import known
+
+    names = tuple(m.strip() for m in text.split(",") if m.strip())
+    bad = [m for m in names if not known(m)]
+    if not names or bad:
+        raise argparse.ArgumentTypeError(f"unknown metric(s) {bad or text!r}; e.g. relmse, mse, flip")
+    return names
 
 
 def add_check_parser(subparsers) -> argparse.ArgumentParser:
     """Add ``compare check`` to an argparse subparsers object; returns the new parser."""
     p = subparsers.add_parser(
-        "check", help="compare results.json against quality thresholds (exit 1 if any is crossed)",
-        description="Check every metric bound of a thresholds file against results.json. Exit status 0 when "
-                    "all hold, 1 with a list of every crossed bound, 2 for an unreadable file.",
+        "check", help="gate CI: results.json against quality thresholds, or against a baseline (--baseline)",
+        description="With --thresholds (the default): check every metric bound of a thresholds file against "
+                    "results.json. With --baseline DIR: test the run against a baseline (`compare baseline save`) "
+                    "for a worse error, changed images and a slowdown, with statistics over the seeds of "
+                    "`compare run --seeds K` (docs/ci.md). Exit status 0 when everything holds, 1 with a table "
+                    "of every crossed bound or significant regression, 2 for an unreadable file.",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     p.add_argument("results", type=Path, help="results.json written by `compare run`")
-    p.add_argument("--thresholds", type=Path, default=Path("thresholds.toml"), help="thresholds file (TOML)")
+    p.add_argument("--thresholds", type=Path, default=None,
+                   help="thresholds file (TOML); default thresholds.toml when no --baseline is given")
+    g = p.add_argument_group("regression gate (--baseline)")
+    g.add_argument("--baseline", type=Path, default=None, metavar="DIR",
+                   help="a baseline folder (`compare baseline save`) to test the run against")
+    g.add_argument("--alpha", type=_alpha, default=0.01,
+                   help="family-wise significance level of the whole gate (Holm over every test)")
+    g.add_argument("--metric", type=_metrics, default=("relmse",), metavar="NAMES",
+                   help="error metric(s) tested at every checkpoint, comma-separated")
+    g.add_argument("--block", type=positive_int, default=1,
+                   help="the image z-test on the means of BLOCK x BLOCK tiles (their variance from the seeds)")
+    g.add_argument("--error-test", choices=["seeds", "ztest"], default="seeds",
+                   help="how the final checkpoint's error is judged: Welch's t-test of the seeds' errors, or the "
+                        "z-test of the final images (they differ and the error grew)")
+    g.add_argument("--time-ratio", type=_ratio, default=1.15,
+                   help="a slowdown fails only when the mean time grew by at least this ratio (and significantly)")
+    g.add_argument("--max-cv", type=positive_float, default=0.15,
+                   help="timings with a larger coefficient of variation (either side) are inconclusive")
+    g.add_argument("--min-seconds", type=float, default=0.01,
+                   help="checkpoints faster than this on both sides (mean seconds) are not timed")
+    g.add_argument("--fail-on-change", action="store_true", help="a changed final image fails the gate too")
+    g.add_argument("--junit", type=Path, default=None, metavar="FILE", help="write JUnit XML, one test case per test")
+    g.add_argument("--summary", type=Path, default=None, metavar="FILE",
+                   help="append Markdown to FILE (e.g. $GITHUB_STEP_SUMMARY)")
+    g.add_argument("--json", action="store_true", help="print the gate as JSON instead of a table")
+    g.add_argument("--report", type=Path, default=None, metavar="DIR",
+                   help="write the gate's HTML page (curves of both, images that changed) into DIR")
+    g.add_argument("--all", action="store_true", help="list every test in the table, not only those that did not pass")
     p.set_defaults(func=cmd_check)
     return p
 
 
-def cmd_check(args: argparse.Namespace) -> int:
-    """``compare check``; returns 0 (all bounds hold) or 1 (some crossed)."""
-    rules = load_thresholds(args.thresholds)
+def _thresholds(args: argparse.Namespace, path: Path) -> int:
+    rules = load_thresholds(path)
     violations, checked = check(args.results, rules)
     if violations:
-        print(f"{args.results}: {len(violations)} threshold violation(s) out of {checked} bound(s) "
-              f"({args.thresholds}):")
+        print(f"{args.results}: {len(violations)} threshold violation(s) out of {checked} bound(s) ({path}):")
         for v in violations:
             print(f"  - {v}")
         return 1
-    print(f"{args.results}: all {checked} bound(s) of {len(rules)} rule(s) in {args.thresholds} hold")
+    print(f"{args.results}: all {checked} bound(s) of {len(rules)} rule(s) in {path} hold")
     return 0
+
+
+def _gate(args: argparse.Namespace) -> int:
+    from compare.report.gate import GateSettings, run_gate
+    from compare.util.files import check_outputs, write_text_atomic
+
+    outputs = {k: v for k, v in (("--junit", args.junit), ("--summary", args.summary)) if v is not None}
+    check_outputs(outputs, inputs=(args.results,))
+    settings = GateSettings(alpha=args.alpha, metrics=tuple(args.metric), block=args.block,
+                            time_ratio=args.time_ratio, max_cv=args.max_cv, error_test=args.error_test,
+                            fail_on_change=args.fail_on_change, min_seconds=args.min_seconds)
+    report = run_gate(args.results, args.baseline, settings, progress=sys.stderr.isatty())
+    if args.junit:
+        from compare.report.junit import write_junit
+
+        write_junit(report, args.junit)
+    if args.summary:  # CI step summaries are appended to (several steps share one file)
+        old = args.summary.read_text(encoding="utf-8") if args.summary.is_file() else ""
+        sep = "" if not old else "\n" if old.endswith("\n") else "\n\n"
+        write_text_atomic(args.summary, old + sep + report.markdown())
+    if args.report:
+        from compare.report.gate_page import build_gate_page
+
+        index = build_gate_page(report, args.report)
+        print(f"gate page: {index}", file=sys.stderr)
+    if args.json:
+        print(json.dumps(report.to_json(), indent=1, allow_nan=False))
+    else:
+        print(report.table(everything=args.all))
+    return 1 if report.failed else 0
+
+
+def cmd_check(args: argparse.Namespace) -> int:
+    """``compare check``; returns 0 (everything holds) or 1 (a bound crossed, a significant regression)."""
+    if args.baseline is None:
+        extra = [o for o, v in (("--junit", args.junit), ("--summary", args.summary), ("--report", args.report),
+                                ("--json", args.json)) if v]
+        if extra:
+            raise CheckUsageError(f"{', '.join(extra)} belong to the regression gate: give --baseline DIR")
+        return _thresholds(args, args.thresholds or Path("thresholds.toml"))
+    status = _gate(args)
+    if args.thresholds is not None:
+        status = max(status, _thresholds(args, args.thresholds))
+    return status

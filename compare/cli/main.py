@@ -1,4 +1,6 @@
-"""Command-line interface: ``compare render | diff | run | measure | renderers | report | check | inspect | bench``.
+"""Command-line interface: the ``compare`` command and its subcommands.
+
+``compare render | diff | run | measure | renderers | report | check | baseline | history | inspect | bench``.
 
 Every user error (bad scene, bad image, missing system component) ends in one
 line on stderr, ``compare: error: …``, and exit status 2, with nothing
@@ -103,8 +105,10 @@ def _build_parser() -> argparse.ArgumentParser:
     n.add_argument("--json", action="store_true", help="print JSON instead of a table")
     n.set_defaults(func=cmd_renderers)
 
+    from compare.cli.baseline import add_baseline_parser
     from compare.cli.bench import add_bench_parser
     from compare.cli.check import add_check_parser
+    from compare.cli.history import add_history_parser
     from compare.cli.inspect import add_inspect_parser
     from compare.cli.measure import add_measure_parser
     from compare.cli.report import add_report_parser
@@ -114,6 +118,8 @@ def _build_parser() -> argparse.ArgumentParser:
     add_measure_parser(sub)
     add_report_parser(sub)
     add_check_parser(sub)
+    add_baseline_parser(sub)
+    add_history_parser(sub)
     add_inspect_parser(sub)
     add_bench_parser(sub)
     return p

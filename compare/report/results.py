@@ -8,7 +8,7 @@ that holds the file, in POSIX form, so the folder can be moved or zipped.
 
 Schema 1
 --------
-::
+Published as a JSON Schema with the package (``compare/schemas/results.schema.json``)::
 
     {
       "schema": 1,
@@ -83,6 +83,11 @@ Schema 1
                              "rel_truth_variance": ...},            # the same in relMSE units
                  "image": "runs/<id>/progressive/step-0001.exr",
                  "preview": "runs/<id>/progressive/step-0001.png"}
+              ],
+              "seed_runs": [                        # with settings.seeds >= 2: each independent run (SeedRun),
+                {"seed": 0, "setup_seconds": 0.4,   # the first one's points repeated; [] otherwise
+                 "image": "runs/<id>/progressive/step-0128.exr",     # its final image
+                 "points": [{"step": 1, "seconds": 0.05, "metrics": {"relmse": ..., "flip": ..., ...}}]}
               ]
             }
           ]
@@ -129,6 +134,7 @@ __all__ = [
     "Results",
     "RunSettings",
     "SceneResult",
+    "SeedRun",
     "ResultsError",
     "check_json_finite",
     "metric_value",
@@ -361,6 +367,52 @@ class Point:
         )
 
 
+@dataclass
+class SeedRun:
+    """One of a renderer's independent runs (``--seeds K``): its seed, timings and error at every checkpoint.
+
+    The repeated timings and errors of a regression gate (:mod:`compare.report.gate`) come from these.
+
+    Attributes
+    ----------
+    seed : int
+        The seed the run rendered with.
+    setup_seconds : float
+        Its one-time set-up.
+    image : str or None
+        Its final image (EXR), relative to ``results.json``.
+    points : list of dict
+        ``{"step", "seconds", "metrics"}`` per checkpoint (metrics of
+        :func:`compare.metrics.images.compare_images` without HDR-FLIP).
+    """
+
+    seed: int
+    setup_seconds: float
+    image: str | None
+    points: list[dict[str, Any]] = field(default_factory=list)
+
+    def to_json(self) -> dict:
+        """JSON-ready dict."""
+        return asdict(self)
+
+    def at(self, step: int) -> dict | None:
+        """The checkpoint ``step``, or None."""
+        return next((p for p in self.points if p["step"] == step), None)
+
+    @classmethod
+    def from_json(cls, d: dict, where: str = "seed_run") -> "SeedRun":
+        """Inverse of :meth:`to_json`."""
+        points = []
+        for i, p in enumerate(_require(d, "points", where, list)):
+            w = f"{where}.points[{i}]"
+            points.append({"step": int(_require(p, "step", w, int)),
+                           "seconds": float(_require(p, "seconds", w, (int, float))),
+                           "metrics": dict(_require(p, "metrics", w, dict))})
+        return cls(seed=int(_require(d, "seed", where, int)),
+                   setup_seconds=float(_require(d, "setup_seconds", where, (int, float))),
+                   image=d.get("image"), points=points)
+
+
 def _log(x: float) -> float:
     # Errors can be exactly 0 (identical images); a floor keeps the log finite
     # without moving any real measurement (metrics are far above 1e-30).
@@ -409,6 +461,9 @@ class RendererRun:
         layer name → ``{"flip", "flip_median", "flip_p95", "relmse", "mean_ratio", "share",
         "rendered", "map"}``; empty when the renderer gives no layers (measured on the full
         image only) or the ground truth has none.
+    seed_runs : list of SeedRun
+        Every independent run (``settings.seeds`` >= 2), the first one included; empty with one seed
+        (:meth:`per_seed` then gives the one run from :attr:`points`).
     """
 
     renderer: str
@@ -427,6 +482,7 @@ class RendererRun:
     variant_of: str | None = None
     variant_note: str = ""
     layers: dict[str, dict[str, Any]] = field(default_factory=dict)
+    seed_runs: list[SeedRun] = field(default_factory=list)
 
     @property
     def family(self) -> str:
@@ -439,6 +495,15 @@ class RendererRun:
         if not self.points:
             raise ResultsError(f"run {self.renderer!r} has no checkpoints")
         return self.points[-1]
+
+    def per_seed(self) -> list[SeedRun]:
+        """The independent runs: :attr:`seed_runs`, or the one run of :attr:`points` when there is one seed."""
+        if self.seed_runs:
+            return list(self.seed_runs)
+        seed = self.metadata.get("seed")
+        return [SeedRun(seed=int(seed) if isinstance(seed, int) else 0, setup_seconds=self.setup_seconds,
+                        image=self.image, points=[{"step": p.step, "seconds": p.seconds, "metrics": dict(p.metrics)}
+                                                  for p in self.points])]
 
     def curve(self, metric: str) -> list[tuple[float, float]]:
         """(seconds, error) pairs of ``metric`` (see :func:`metric_value`), skipping nulls."""
@@ -519,6 +584,7 @@ class RendererRun:
         """JSON-ready dict."""
         d = asdict(self)
         d["points"] = [p.to_json() for p in self.points]
+        d["seed_runs"] = [r.to_json() for r in self.seed_runs]
         return d
 
     @classmethod
@@ -542,6 +608,8 @@ class RendererRun:
             variant_of=d.get("variant_of"),
             variant_note=str(d.get("variant_note") or ""),
             layers={str(k): dict(v) for k, v in (d.get("layers") or {}).items()},
+            seed_runs=[SeedRun.from_json(r, f"{where}.seed_runs[{i}]")
+                       for i, r in enumerate(d.get("seed_runs") or [])],
         )
 
 

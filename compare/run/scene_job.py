@@ -46,7 +46,8 @@ from compare.image.exr import read_exr, write_exr
 from compare.util.files import sha256_bytes, write_text_atomic
 from compare.renderers import RenderContext, Registry, Renderer, check_layers, check_rendering
 from compare.renderers.registry import TRUTH_FOLDER
-from compare.report.results import NoiseFloor, Point, Reference, RendererRun, RunSettings, SceneResult, check_json_finite
+from compare.report.results import (NoiseFloor, Point, Reference, RendererRun, RunSettings, SceneResult, SeedRun,
+                                    check_json_finite)
 from compare.scene.loader import Scene
 
 __all__ = ["SceneJob", "cpu_model", "exr_metadata", "flat_metadata", "scene_id"]
@@ -103,8 +104,9 @@ def scene_id(scene: Scene) -> str:
 
 
 #: Part of every measurement's key: bumped when what is measured changes (2: FLIP's weighted median
-#: and 95th percentile; HDR-FLIP with the ground truth's exposure range; 3: errors per layer).
-MEASURE_VERSION = 3
+#: and 95th percentile; HDR-FLIP with the ground truth's exposure range; 3: errors per layer; 4: each
+#: seed's timings and errors, for regression gates).
+MEASURE_VERSION = 4
 
 
 #: Seed offset between a renderer's independent runs (settings.seeds).
@@ -465,6 +467,8 @@ class SceneJob:
         points: list[Point] = []
         last = record["points"][-1]
         others = [{q["step"]: q["image"] for q in rec["points"]} for _, rec in replicas]
+        # each independent run's timings and errors (the repeated measurements of a regression gate)
+        seed_points: list[list[dict]] = [[] for _ in range(len(replicas) + 1)]
         for p in tqdm(record["points"], desc="metrics", unit="checkpoint", leave=False, disable=not self.progress):
             image = read_exr(self.out / p["image"])[0]
             what = f"{scene.name}: {spec} at {record['unit']} {p['step']}"
@@ -472,7 +476,15 @@ class SceneJob:
             if others and all(p["step"] in o for o in others):
                 from compare.metrics.bias import bias_variance
 
-                stack = np.stack([image] + [read_exr(self.out / o[p["step"]])[0] for o in others])
+                replica_images = [read_exr(self.out / o[p["step"]])[0] for o in others]
+                seed_points[0].append({"step": int(p["step"]), "seconds": float(p["seconds"]),
+                                       "metrics": {k: v for k, v in metrics.items() if k != "flip_hdr"}})
+                for k, ((_, rec), img) in enumerate(zip(replicas, replica_images), start=1):
+                    q = next(q for q in rec["points"] if q["step"] == p["step"])
+                    m = _measure(gt, img, s, f"{what} (seed {rec['seed']})", final=False, hdr_range=hdr_range())
+                    m.pop("flip_hdr", None)
+                    seed_points[k].append({"step": int(p["step"]), "seconds": float(q["seconds"]), "metrics": m})
+                stack = np.stack([image] + replica_images)
                 b = bias_variance(stack, gt)
                 rel = bias_variance(stack, gt, relative=True)
                 metrics.update(mse_mean=b["mse"], variance=b["variance"], bias2=b["bias2"], bias2_ci=b["bias2_ci"],
@@ -487,6 +499,11 @@ class SceneJob:
             maps=_maps(unit, gt, image, s), points=points,
             variant_of=record.get("variant_of"), variant_note=record.get("variant_note") or "",
             layers=_layers(unit, truth_layers(), record, self.out, s, f"{scene.name}: {spec}"))
+        if replicas:
+            recs = [record] + [rec for _, rec in replicas]
+            run.seed_runs = [SeedRun(seed=int(rec["seed"]), setup_seconds=float(rec["setup_seconds"]),
+                                     image=rec["points"][-1]["image"], points=pts)
+                             for rec, pts in zip(recs, seed_points)]
         unit.save_result(key, run.to_json())
         return run
 

@@ -215,3 +215,42 @@ def log_tail(path: str | os.PathLike, lines: int = 12, *, drop: str | None = Non
     if len(out.encode("utf-8")) > TAIL_BYTES:
         out = "…" + out.encode("utf-8")[-TAIL_BYTES:].decode("utf-8", errors="ignore")
     return out
+
+
+@contextlib.contextmanager
+def atomic_folder(path: str | os.PathLike, *, replace: bool = False) -> Iterator[Path]:
+    """Yield a temporary folder beside ``path``; on success it becomes ``path``.
+
+    With ``replace`` an existing ``path`` is swapped out (renamed aside, then removed once the new folder
+    is in place); without, an existing ``path`` is an :class:`~compare.util.errors.OutputError`. On any
+    exception the temporary folder is removed and ``path`` is left as it was: a reader never sees a
+    half-written folder.
+    """
+    import shutil
+
+    from compare.util.errors import OutputError
+
+    path = Path(path)
+    if path.exists() and not replace:
+        raise OutputError(f"{path}: exists; choose a new folder (or update the one there)")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}{PART_MARK}", dir=path.parent))
+    try:
+        yield tmp
+        os.chmod(tmp, 0o777 & ~_umask())
+        old = None
+        if path.exists():
+            old = Path(tempfile.mkdtemp(prefix=f".{path.name}.old{PART_MARK}", dir=path.parent))
+            os.replace(path, old / "x")
+        try:
+            os.replace(tmp, path)
+        except BaseException:
+            if old is not None:  # put the old folder back
+                os.replace(old / "x", path)
+                shutil.rmtree(old, ignore_errors=True)
+            raise
+        if old is not None:
+            shutil.rmtree(old, ignore_errors=True)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise

@@ -1,0 +1,263 @@
+"""Baselines as files: what a regression gate compares a candidate run with.
+
+``compare baseline save DIR --results RUN/results.json`` writes a folder small enough to
+commit or to keep in a CI cache (only the final images, no checkpoints, maps or previews
+of intermediate steps)::
+
+    DIR/baseline.json     this module's index (schema below; compare/schemas/baseline.schema.json)
+    DIR/results.json      the run's results.json; paths to files not kept are null
+    DIR/images/<scene id>/<n>-<renderer>/seed-<k>.exr     each independent run's final image (float32)
+    DIR/images/<scene id>/<n>-<renderer>/final.exr        their mean
+    DIR/images/<scene id>/<n>-<renderer>/final-variance.exr   per-pixel variance of the mean (K >= 2)
+    DIR/images/<scene id>/<n>-<renderer>/final.png        the mean, tone-mapped, for the gate's page
+
+Every path is relative to ``DIR``, in POSIX form. ``baseline.json``, schema 1::
+
+    {"schema": 1, "kind": "compare-baseline", "created": "2026-01-31T12:00:00Z", "compare_version": "0.1.0",
+     "results": "results.json",
+     "machine": {...},                  # results.json's machine: timings are compared only on the same one
+     "runs": [{"scene": "Cornell box", "size": "64x48", "scene_id": "...", "renderer": "progressive",
+               "step": 32, "seeds": [0, 7919], "images": ["images/.../seed-0.exr", ...],
+               "mean": "images/.../final.exr", "variance": "images/.../final-variance.exr" | null,
+               "dof": 1 | null, "preview": "images/.../final.png"}]}
+
+``compare baseline update DIR --results ...`` replaces a baseline after an accepted
+change; both write a temporary folder beside ``DIR`` and rename it into place.
+"""
+
+from __future__ import annotations
+
+import copy
+import datetime
+import json
+import os
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from compare.util.errors import CompareError
+from compare.util.files import atomic_folder, write_text_atomic
+from compare.report.results import Machine, Results, ResultsError
+
+__all__ = ["BASELINE_SCHEMA", "Baseline", "BaselineError", "BaselineRun", "save_baseline"]
+
+#: The version of ``baseline.json``.
+BASELINE_SCHEMA = 1
+INDEX = "baseline.json"
+KIND = "compare-baseline"
+
+
+class BaselineError(CompareError, ValueError):
+    """A baseline folder is missing, malformed or incomplete (the message names the file and field)."""
+
+
+@dataclass(frozen=True)
+class BaselineRun:
+    """The final images of one scene × size × renderer of a baseline."""
+
+    scene: str
+    size: str
+    scene_id: str
+    renderer: str
+    step: int
+    seeds: list[int]
+    images: list[str]
+    mean: str
+    variance: str | None
+    dof: int | None
+    preview: str | None
+
+    def to_json(self) -> dict:
+        """JSON-ready dict."""
+        return dict(self.__dict__)
+
+
+def _field(d: Any, key: str, where: str, types) -> Any:
+    if not isinstance(d, dict):
+        raise BaselineError(f"{where}: expected an object, got {type(d).__name__}")
+    if key not in d:
+        raise BaselineError(f"{where}: missing field {key!r}")
+    v = d[key]
+    if not isinstance(v, types) or (isinstance(v, bool) and types is int):
+        raise BaselineError(f"{where}.{key}: expected {getattr(types, '__name__', types)}, got {v!r}")
+    return v
+
+
+class Baseline:
+    """A baseline folder, read and checked (:meth:`load`)."""
+
+    def __init__(self, root: Path, index: dict, results: Results, runs: list[BaselineRun]):
+        self.root = root
+        self.index = index
+        self.results = results
+        self.runs = runs
+        self.machine = results.machine
+
+    def run(self, scene: str, size: str, renderer: str) -> BaselineRun | None:
+        """The final images of (scene name, size, renderer spec), or None."""
+        return next((r for r in self.runs if (r.scene, r.size, r.renderer) == (scene, size, renderer)), None)
+
+    def images(self, run: BaselineRun) -> np.ndarray:
+        """Each seed's final image, stacked (K, H, W, 3)."""
+        from compare.image.exr import read_exr
+
+        try:
+            return np.stack([read_exr(self.root / p)[0] for p in run.images])
+        except CompareError as e:
+            raise BaselineError(f"{self.root / INDEX}: runs[{run.scene!r} {run.size} {run.renderer}]: {e}") from e
+
+    @classmethod
+    def load(cls, folder: str | os.PathLike) -> "Baseline":
+        """Read ``folder/baseline.json`` and its ``results.json``; check that every file named is there.
+
+        Raises
+        ------
+        BaselineError
+            Naming the file and the field that is missing or wrong.
+        """
+        root = Path(folder)
+        path = root / INDEX
+        if not root.is_dir():
+            raise BaselineError(f"{root}: no such baseline folder (make one with `compare baseline save`)")
+        try:
+            index = json.loads(path.read_text(encoding="utf-8"))
+        except FileNotFoundError:
+            raise BaselineError(f"{path}: no such file: {root} is not a baseline "
+                                "(make one with `compare baseline save`)") from None
+        except (OSError, ValueError) as e:
+            raise BaselineError(f"{path}: cannot read: {e}") from e
+        where = str(path)
+        if _field(index, "kind", where, str) != KIND:
+            raise BaselineError(f"{where}.kind: expected {KIND!r}, got {index['kind']!r}")
+        schema = _field(index, "schema", where, int)
+        if schema != BASELINE_SCHEMA:
+            raise BaselineError(f"{where}.schema: {schema} is not supported (this code reads {BASELINE_SCHEMA}); "
+                                "save the baseline again with this version")
+        rel = _field(index, "results", where, str)
+        try:
+            results = Results.load(root / _safe(rel, f"{where}.results"))
+        except ResultsError as e:
+            raise BaselineError(f"{where}.results: {e}") from e
+        runs = []
+        for i, r in enumerate(_field(index, "runs", where, list)):
+            w = f"{where}.runs[{i}]"
+            run = BaselineRun(
+                scene=_field(r, "scene", w, str), size=_field(r, "size", w, str),
+                scene_id=_field(r, "scene_id", w, str), renderer=_field(r, "renderer", w, str),
+                step=_field(r, "step", w, int), seeds=[int(s) for s in _field(r, "seeds", w, list)],
+                images=[str(p) for p in _field(r, "images", w, list)], mean=_field(r, "mean", w, str),
+                variance=r.get("variance"), dof=r.get("dof"), preview=r.get("preview"))
+            if not run.images or len(run.images) != len(run.seeds):
+                raise BaselineError(f"{w}.images: expected one image per seed ({len(run.seeds)}), "
+                                    f"got {len(run.images)}")
+            for key, p in [("mean", run.mean), ("variance", run.variance), ("preview", run.preview),
+                           *((f"images[{k}]", p) for k, p in enumerate(run.images))]:
+                if p is not None and not (root / _safe(p, f"{w}.{key}")).is_file():
+                    raise BaselineError(f"{w}.{key}: {root / p} is missing")
+            runs.append(run)
+        return cls(root, index, results, runs)
+
+
+def _safe(rel: str, where: str) -> Path:
+    p = Path(rel)
+    if p.is_absolute() or ".." in p.parts:
+        raise BaselineError(f"{where}: {rel!r} leaves the baseline folder")
+    return p
+
+
+def _slug(text: str) -> str:
+    return re.sub(r"[^a-z0-9_-]+", "-", text.lower()).strip("-") or "run"
+
+
+def _strip_paths(d: dict) -> dict:
+    """results.json of a baseline: every path to a file the baseline does not keep is null."""
+    d = copy.deepcopy(d)
+    for scene in d["scenes"]:
+        for key in ("image", "preview", "variance"):
+            scene["reference"][key] = None
+        for run in scene["runs"]:
+            run["image"] = run["preview"] = None
+            run["maps"] = {}
+            for layer in run.get("layers", {}).values():
+                layer["map"] = None
+            for p in run["points"]:
+                p["image"] = p["preview"] = None
+            for s in run.get("seed_runs", []):
+                s["image"] = None
+    return d
+
+
+def save_baseline(results_path: str | os.PathLike, folder: str | os.PathLike, *, replace: bool = False,
+                  progress: bool = False) -> Baseline:
+    """Write a baseline of the run ``results_path`` into ``folder`` (see the module notes).
+
+    ``replace``: ``folder`` must be a baseline already and is replaced (``compare baseline update``);
+    without, ``folder`` must not exist. Returns the baseline, read back.
+
+    Raises
+    ------
+    BaselineError
+        For an unreadable results file or a final image it names that is missing.
+    """
+    from tqdm.auto import tqdm
+
+    from compare import __version__
+    from compare.image.exr import read_exr, write_exr
+    from compare.image.tonemap import write_png
+
+    results_path = Path(results_path)
+    folder = Path(folder)
+    try:
+        res = Results.load(results_path)
+    except ResultsError as e:
+        raise BaselineError(str(e)) from e
+    if replace:
+        Baseline.load(folder)  # only a baseline is replaced, never an arbitrary folder
+    src = results_path.parent
+    d = _strip_paths(res.to_json())
+    entries: list[dict] = []
+    jobs = [(si, ri, scene, run) for si, scene in enumerate(res.scenes) for ri, run in enumerate(scene.runs)]
+    with atomic_folder(folder, replace=replace) as tmp:
+        for si, ri, scene, run in tqdm(jobs, desc="baseline", unit="run", disable=not progress):
+            where = f"{results_path}: scenes[{si}].runs[{ri}] ({scene.name} {scene.size} {run.renderer})"
+            seeds = run.per_seed()
+            if not run.points or any(s.image is None for s in seeds):
+                raise BaselineError(f"{where}: no final image to keep")
+            images = []
+            for s in seeds:
+                try:
+                    images.append(read_exr(src / s.image)[0])
+                except CompareError as e:
+                    raise BaselineError(f"{where}: {e}") from e
+            stack = np.stack(images).astype(np.float64)
+            sub = Path("images") / _slug(scene.id) / f"{ri:02d}-{_slug(run.renderer)}"
+            names = []
+            for s, image in zip(seeds, images):
+                rel = sub / f"seed-{s.seed}.exr"
+                write_exr(tmp / rel, image, metadata={"renderer": run.renderer, "seed": s.seed,
+                                                      "step": run.final.step})
+                names.append(rel.as_posix())
+            mean = stack.mean(axis=0)
+            write_exr(tmp / sub / "final.exr", mean, metadata={"renderer": run.renderer, "seeds": len(seeds)})
+            var = None
+            if len(seeds) >= 2:
+                write_exr(tmp / sub / "final-variance.exr", stack.var(axis=0, ddof=1) / len(seeds),
+                          metadata={"renderer": run.renderer, "what": "per-pixel variance of final.exr's mean",
+                                    "dof": len(seeds) - 1})
+                var = (sub / "final-variance.exr").as_posix()
+            write_png(tmp / sub / "final.png", mean, exposure=res.settings.exposure, operator=res.settings.tonemap)
+            entries.append(BaselineRun(scene=scene.name, size=scene.size, scene_id=scene.id, renderer=run.renderer,
+                                       step=run.final.step, seeds=[s.seed for s in seeds], images=names,
+                                       mean=(sub / "final.exr").as_posix(), variance=var,
+                                       dof=len(seeds) - 1 if var else None,
+                                       preview=(sub / "final.png").as_posix()).to_json())
+        write_text_atomic(tmp / "results.json", json.dumps(d, indent=1, allow_nan=False, ensure_ascii=False) + "\n")
+        index = {"schema": BASELINE_SCHEMA, "kind": KIND,
+                 "created": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
+                 "compare_version": __version__, "results": "results.json",
+                 "machine": Machine.to_json(res.machine), "runs": entries}
+        write_text_atomic(tmp / INDEX, json.dumps(index, indent=1, allow_nan=False, ensure_ascii=False) + "\n")
+    return Baseline.load(folder)
