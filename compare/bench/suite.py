@@ -35,9 +35,9 @@ each figure:
     direct-light-only reference, ``equal-error-full-ltc-probes`` for ``ltc`` with the
     irradiance probes against the full reference; ``equal-error-full-envshadows`` and
     ``-direct-envshadows`` for the environment shadow maps (scenes with an environment).
-``env-shadows``
-    median of the mean frame time of ``progressive:envshadows`` ÷ ``progressive``, runs alternating
-    (scenes with an environment).
+``env-shadows``, ``env-shadows-first``
+    median of the mean frame time, and of the first frame's, of ``progressive:envshadows`` ÷
+    ``progressive``, runs alternating (scenes with an environment).
 ``area-model-ltc``, ``area-model-paper``
     median of the mean frame time with the ``ltc`` (closed-form unshadowed light, shadow ratio) or
     the paper's point-light area model ÷ the same with the radiometric default, runs

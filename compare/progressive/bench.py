@@ -33,6 +33,8 @@ def bench_first_frame(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
                     pass
                 first[i].append(r.frame_seconds[0])
                 mean[i].append(float(np.mean(r.frame_seconds)))
+                if first is not None:
+                    first[i].append(float(r.frame_seconds[0]))
                 if i == 0:
                     total.append(r.seconds)
     finally:
@@ -143,17 +145,22 @@ def bench_env_shadows(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
     """Mean frame time of ``progressive:envshadows`` ÷ the screen-space occlusion default, runs alternating."""
     if scene.environment is None:
         raise RuntimeError("the scene has no environment: there is no environment light to shadow")
+    first: list[list[float]] = [[], []]
     shadows, screen = _alternating_mean_frames([dict(env_occlusion="shadows"), dict()], scene, frames=frames,
-                                               repeats=repeats, ctx=ctx)
+                                               repeats=repeats, ctx=ctx, first=first)
     return [Figure("env-shadows", "envshadows mean frame", "screen-space occlusion mean frame", _median(shadows),
                    _median(screen), "s", repeats, f"{frames} frames, one shadow map per environment sample",
-                   shadows, screen)]
+                   shadows, screen),
+            Figure("env-shadows-first", "envshadows first frame", "screen-space occlusion first frame",
+                   _median(first[0]), _median(first[1]), "s", repeats,
+                   "frame 0 (the environment's samples start at frame 1)", first[0], first[1])]
 
 
 def _alternating_mean_frames(options: list[dict], scene, *, frames: int, repeats: int, ctx,
-                             scenes=None) -> list[list[float]]:
+                             scenes=None, first: list[list[float]] | None = None) -> list[list[float]]:
     """The mean frame time of one whole run per renderer (``options`` each, on ``scenes`` each or on
-    ``scene``), ``repeats`` times, the renderers alternating run for run."""
+    ``scene``), ``repeats`` times, the renderers alternating run for run; ``first``: a list per renderer
+    that gets each run's first frame time."""
     from compare.progressive.rasterizer import Rasterizer
 
     scenes = scenes or [scene] * len(options)
@@ -168,6 +175,8 @@ def _alternating_mean_frames(options: list[dict], scene, *, frames: int, repeats
                 for _ in r.frames():
                     pass
                 mean[i].append(float(np.mean(r.frame_seconds)))
+                if first is not None:
+                    first[i].append(float(r.frame_seconds[0]))
     finally:
         for r in renderers:
             r.release()
