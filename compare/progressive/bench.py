@@ -33,8 +33,6 @@ def bench_first_frame(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
                     pass
                 first[i].append(r.frame_seconds[0])
                 mean[i].append(float(np.mean(r.frame_seconds)))
-                if first is not None:
-                    first[i].append(float(r.frame_seconds[0]))
                 if i == 0:
                     total.append(r.seconds)
     finally:
