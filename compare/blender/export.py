@@ -414,6 +414,9 @@ def _material(mat, mode: str, distribution: str | None = None) -> dict[str, Any]
         "emissive_texture": str(mat.emissive_texture) if mat.emissive_texture else None,
         "normal_texture": str(mat.normal_texture) if mat.normal_texture else None,
         "normal_scale": float(mat.normal_scale),
+        "coat_normal_texture": (str(mat.clearcoat_normal_texture)
+                                if mat.clearcoat_normal_texture and mat.clearcoat > 0 and mode == "cycles" else None),
+        "coat_normal_scale": float(mat.clearcoat_normal_scale),
         # glTF's alpha mask: coverage (alpha × the base-colour map's alpha) >= cutoff, else a hole
         "alpha_mask": ({"alpha": float(mat.alpha), "cutoff": float(mat.alpha_cutoff)} if mat.is_masked else None),
         # glTF's material extensions as the Principled BSDF's inputs (Lambert only with "diffuse")

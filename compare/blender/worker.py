@@ -94,16 +94,18 @@ def _principled(bpy, name: str, mat: dict):
         links.new(tex.outputs["Color"], split.inputs["Color"])
         links.new(split.outputs["Green"], inp["Roughness"])
         links.new(split.outputs["Blue"], inp["Metallic"])
-    if mat.get("normal_texture"):
-        # glTF's tangent-space normal map (+Y up the image, Blender's OpenGL convention) on the UV map's
-        # tangents; its scale is the node's strength
-        tex = _image_node(bpy, nodes, links, mat, mat["normal_texture"], "Non-Color")
-        nmap = nodes.new("ShaderNodeNormalMap")
-        nmap.space = "TANGENT"
-        nmap.uv_map = "UVMap"
-        nmap.inputs["Strength"].default_value = float(mat["normal_scale"])
-        links.new(tex.outputs["Color"], nmap.inputs["Color"])
-        links.new(nmap.outputs["Normal"], inp["Normal"])
+    # glTF's tangent-space normal maps (+Y up the image, Blender's OpenGL convention) on the UV map's
+    # tangents, their scale the node's strength: the surface's, and the coat's own (clearcoatNormalTexture)
+    for key, scale, target in (("normal_texture", "normal_scale", "Normal"),
+                               ("coat_normal_texture", "coat_normal_scale", "Coat Normal")):
+        if mat.get(key):
+            tex = _image_node(bpy, nodes, links, mat, mat[key], "Non-Color")
+            nmap = nodes.new("ShaderNodeNormalMap")
+            nmap.space = "TANGENT"
+            nmap.uv_map = "UVMap"
+            nmap.inputs["Strength"].default_value = float(mat[scale])
+            links.new(tex.outputs["Color"], nmap.inputs["Color"])
+            links.new(nmap.outputs["Normal"], inp[target])
     if max(mat["emission"]) > 0:
         emitted = None
         if mat.get("emissive_texture"):

@@ -6,8 +6,10 @@ The specification's layering, with the coat's Fresnel at the half vector::
     coated   = base · (1 − w F_c) + w F_c D(α_c) V(α_c)          (w = clearcoat, α_c = roughness_c²)
 
 ``D`` and ``V`` are the shared BRDF's GGX distribution and height-correlated Smith visibility
-(:mod:`compare.brdf`), with the reference's α floor (:data:`~compare.brdf.REFERENCE_ALPHA_MIN`). The coat's normal is the surface's geometric normal (glTF's
-``clearcoatNormalTexture`` is not read). This module is the definition; the reference's Mitsuba plugin
+(:mod:`compare.brdf`), with the reference's α floor (:data:`~compare.brdf.REFERENCE_ALPHA_MIN`). The coat's
+normal ``n`` is the surface's geometric normal, or glTF's ``clearcoatNormalTexture`` where the material has
+one (then D, V and the cosine are the coat normal's; ``F_c`` is at the half vector either way; the
+rasterizer draws the geometric normal and declares the map left out). This module is the definition; the reference's Mitsuba plugin
 (:mod:`compare.mitsuba.coat`) evaluates the same formula and is tested against it.
 """
 

@@ -2,7 +2,11 @@
 :mod:`compare.brdf.coat` (read it), evaluated with Dr.Jit.
 
 Properties: ``base`` (the nested BSDF, the material under the coat), ``clearcoat`` (w) and ``roughness``
-(the coat's perceptual roughness), each a float or a texture (glTF's factor times its map).
+(the coat's perceptual roughness), each a float or a texture (glTF's factor times its map), and optionally
+``normalmap``: glTF's clearcoatNormalTexture in the shading frame's tangent space, encoded (n + 1) / 2 as
+Mitsuba's ``normalmap`` reads one. The coat's lobe (its D, V and cosine) is then evaluated and sampled in
+the frame of that normal; its share at the half vector does not depend on the frame; the base keeps the
+surface's frame. Directions must lie above the surface as well as above the coat's normal.
 
 Sampling: the coat's GGX visible normals with probability ``p_c = clip(w F_c(cos θ_i), 0.1 w, 0.9)``
 (Schlick at the view's cosine, floored so that a glancing coat over a bright base is still found),
@@ -44,6 +48,7 @@ def _make_class(mv, mitsuba):
             self.base = props["base"]
             self.weight = props.get_texture("clearcoat", 1.0)
             self.roughness = props.get_texture("roughness", 0.0)
+            self.normalmap = props.get_texture("normalmap") if props.has_property("normalmap") else None
             n = self.base.component_count()
             coat = Flags.GlossyReflection | Flags.FrontSide
             self.m_components = [self.base.flags(i) for i in range(n)] + [coat]
@@ -79,6 +84,22 @@ def _make_class(mv, mitsuba):
             return (dr.select(ok, share, 0.0), dr.select(ok, share * d * vis * dr.maximum(cos_o, 0.0), 0.0),
                     dr.select(ok, pdf, 0.0))
 
+        def _frame(self, si, active):
+            """The coat's frame in the shading frame: its own normal map's normal, or None (the surface's)."""
+            if self.normalmap is None:
+                return None
+            c = self.normalmap.eval(si, active)
+            n = dr.normalize(Vector3f(2.0 * c.x - 1.0, 2.0 * c.y - 1.0, 2.0 * c.z - 1.0))
+            return mv.Frame3f(n)
+
+        def _coat_at(self, frame, wi, wo, weight, alpha):
+            """_coat in the coat's frame; nothing below the surface (wi or wo under the shading normal)."""
+            if frame is None:
+                return self._coat(wi, wo, weight, alpha)
+            share, spec, pdf = self._coat(frame.to_local(wi), frame.to_local(wo), weight, alpha)
+            ok = (wi.z > 0.0) & (wo.z > 0.0)
+            return dr.select(ok, share, 0.0), dr.select(ok, spec, 0.0), dr.select(ok, pdf, 0.0)
+
         @staticmethod
         def _p_coat(cos_i, weight):
             x = dr.clip(1.0 - cos_i, 0.0, 1.0)
@@ -89,8 +110,9 @@ def _make_class(mv, mitsuba):
         def eval_pdf(self, ctx, si, wo, active=True):
             base_value, base_pdf = self.base.eval_pdf(ctx, si, wo, active)
             weight, alpha = self._params(si, active)
-            share, spec, coat_pdf = self._coat(si.wi, wo, weight, alpha)
-            p = self._p_coat(si.wi.z, weight)
+            frame = self._frame(si, active)
+            share, spec, coat_pdf = self._coat_at(frame, si.wi, wo, weight, alpha)
+            p = self._p_coat(si.wi.z if frame is None else dr.dot(si.wi, frame.n), weight)
             value = base_value * (1.0 - share) + Color3f(spec)
             pdf = p * coat_pdf + (1.0 - p) * base_pdf
             return dr.select(active, value, Color3f(0.0)), dr.select(active, pdf, 0.0)
@@ -102,10 +124,11 @@ def _make_class(mv, mitsuba):
             return self.eval_pdf(ctx, si, wo, active)[1]
 
         def sample(self, ctx, si, sample1, sample2, active=True):
-            wi = si.wi
             weight, alpha = self._params(si, active)
+            frame = self._frame(si, active)
+            wi = si.wi if frame is None else frame.to_local(si.wi)  # the coat's lobe is sampled in its frame
             p = self._p_coat(wi.z, weight)
-            pick = (sample1 < p) & (wi.z > 0.0)
+            pick = (sample1 < p) & (wi.z > 0.0) & (si.wi.z > 0.0)
             bs, base_weight = self.base.sample(ctx, si, dr.clip((sample1 - p) / dr.maximum(1.0 - p, 1e-6), 0.0,
                                                                 0.999999), sample2, active & ~pick)
             ws = dr.normalize(Vector3f(wi.x * alpha, wi.y * alpha, wi.z))
@@ -115,11 +138,12 @@ def _make_class(mv, mitsuba):
             hs = Vector3f(sin_t * cos_phi + ws.x, sin_t * sin_phi + ws.y, z + ws.z)
             hv = Vector3f(hs.x * alpha, hs.y * alpha, hs.z)
             hv = hv * dr.rsqrt(dr.maximum(dr.dot(hv, hv), _DENOM_MIN))
-            wo = dr.select(pick, 2.0 * dr.dot(wi, hv) * hv - wi, bs.wo)
+            wo_coat = 2.0 * dr.dot(wi, hv) * hv - wi
+            wo = dr.select(pick, wo_coat if frame is None else frame.to_world(wo_coat), bs.wo)
             # A delta lobe of the base (a smooth dielectric under the coat) has no pdf to mix: its sample
             # keeps the base's weight, less what the coat reflects, over the probability of the base.
             delta = (~pick) & ((bs.sampled_type & UInt32(+Flags.Delta)) != 0)
-            share, _, _ = self._coat(wi, bs.wo, weight, alpha)
+            share, _, _ = self._coat_at(frame, si.wi, bs.wo, weight, alpha)
             value, pdf = self.eval_pdf(ctx, si, wo, active)
             ok = active & (pdf > 0.0) & ~delta
             out = dr.zeros(mv.BSDFSample3f)

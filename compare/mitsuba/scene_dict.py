@@ -205,14 +205,22 @@ def _sheened(mat: Material, mode: str, bsdf: dict) -> dict:
 
 def _coated(mat: Material, mode: str, bsdf: dict) -> dict:
     """``bsdf`` under glTF's clear coat (:mod:`compare.mitsuba.coat`, the layering of
-    :mod:`compare.brdf.coat`), on the geometric normal (outside the base's normal map)."""
+    :mod:`compare.brdf.coat`), outside the base's normal map: on the geometric normal, or its own map
+    (glTF's clearcoatNormalTexture)."""
     if mat.clearcoat == 0.0 or mode == "diffuse":
         return bsdf
     from compare.mitsuba.coat import PLUGIN_NAME, register
 
     register()
-    return {"type": PLUGIN_NAME, "base": bsdf, "clearcoat": _layer_value(mat, "clearcoat"),
+    coat = {"type": PLUGIN_NAME, "base": bsdf, "clearcoat": _layer_value(mat, "clearcoat"),
             "roughness": _layer_value(mat, "clearcoat_roughness")}
+    if mat.clearcoat_normal_texture is not None:
+        from compare.scene.textures import normal_map
+
+        # the coat's own normal, in the shading frame's tangent space as the base's (_normal_mapped)
+        coat["normalmap"] = bitmap_dict(mat, normal_map(mat.clearcoat_normal_texture, mat.clearcoat_normal_scale,
+                                                        flip_y=NORMALMAP_FLIP_Y), raw=True)
+    return coat
 
 
 def _dielectric(mat: Material, mode: str) -> dict:

@@ -122,6 +122,12 @@ def export_gltf(scene, path: Path) -> Path:
             table = w.doc["materials"][index[name]].setdefault("extensions", {}).setdefault(ext, {})
             table[key] = info(m, path)
             w._use(ext)  # noqa: SLF001
+        if m.clearcoat_normal_texture is not None and m.clearcoat > 0.0:
+            table = w.doc["materials"][index[name]].setdefault("extensions", {}).setdefault(
+                "KHR_materials_clearcoat", {})
+            table["clearcoatNormalTexture"] = {**info(m, m.clearcoat_normal_texture),
+                                               "scale": float(m.clearcoat_normal_scale)}
+            w._use("KHR_materials_clearcoat")  # noqa: SLF001
         if m.occlusion_texture is not None:
             w.doc["materials"][index[name]]["occlusionTexture"] = {**info(m, m.occlusion_texture),
                                                                    "strength": m.occlusion_strength}

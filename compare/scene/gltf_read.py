@@ -133,6 +133,9 @@ class GltfMaterial:
     layers: dict = field(default_factory=dict)
     #: Their maps that are read (compare.scene.model.LAYER_MAPS): (field, channel, image index).
     layer_images: tuple = ()
+    #: KHR_materials_clearcoat's clearcoatNormalTexture: image index and scale.
+    clearcoat_normal_image: int | None = None
+    clearcoat_normal_scale: float = 1.0
     #: The scene model's texture_offset, texture_rotation, texture_scale, texture_wrap and texture_filter
     #: (compare.scene.model.Material), from KHR_texture_transform and the sampler; empty: the defaults.
     texture_settings: dict = field(default_factory=dict)
@@ -524,6 +527,14 @@ class _Reader:
                     src = image(key, table)
                     if src is not None:
                         layer_images.append((fld, channel, src))
+        coat = exts.get("KHR_materials_clearcoat")
+        coat_normal = coat.get("clearcoatNormalTexture") if isinstance(coat, dict) else None
+        coat_normal_image = image("clearcoatNormalTexture", coat) if isinstance(coat_normal, dict) else None
+        coat_normal_scale = coat_normal.get("scale", 1.0) if isinstance(coat_normal, dict) else 1.0
+        if isinstance(coat_normal_scale, bool) or not isinstance(coat_normal_scale, (int, float)) \
+                or not math.isfinite(coat_normal_scale):
+            raise self.err(f"{w}.extensions.KHR_materials_clearcoat.clearcoatNormalTexture.scale",
+                           f"expected a finite number, got {coat_normal_scale!r}")
         # The scene model has one transform and sampler per material: the first map's (base colour first).
         offset, rotation, scale, wrap, filt = sampling[0][1] if sampling else ((0.0, 0.0), 0.0, (1.0, 1.0),
                                                                              "repeat", "linear")
@@ -550,6 +561,8 @@ class _Reader:
             alpha_cutoff=float(cutoff),
             layers=self._layers(m, w),
             layer_images=tuple(layer_images),
+            clearcoat_normal_image=coat_normal_image,
+            clearcoat_normal_scale=float(coat_normal_scale),
         )
 
     def _layers(self, m: dict, w: str) -> dict:

@@ -206,6 +206,10 @@ class Material:
     #: The extensions' maps that are read (:data:`LAYER_MAPS`): (field, channel, linear map), each multiplying
     #: its field's factor, with the material's texture transform.
     layer_maps: tuple[tuple[str, str, Path], ...] = ()
+    #: glTF's clearcoatNormalTexture (tangent space, as normal_texture) and its scale: the coat's own
+    #: normal; None: the geometry's (not the base's normal map).
+    clearcoat_normal_texture: Path | None = None
+    clearcoat_normal_scale: float = 1.0
 
     def uses(self) -> set[str]:
         """The features (:data:`MATERIAL_FEATURES`, "alpha_blend") this material needs beyond the core
@@ -229,7 +233,9 @@ class Material:
             out.discard("clearcoat")
         if max(self.sheen_color) == 0.0:
             out.discard("sheen")
-        if not any(MATERIAL_FEATURES[extension_of[fld]] in out for fld, _, _ in self.layer_maps):
+        if self.clearcoat_normal_texture is not None and "clearcoat" in out:
+            out.add("layer_maps")
+        elif not any(MATERIAL_FEATURES[extension_of[fld]] in out for fld, _, _ in self.layer_maps):
             out.discard("layer_maps")  # only maps of layers that a zero factor turns off
         return out
 
