@@ -901,3 +901,31 @@ def test_the_coat_has_its_own_normal_map(make_scene, tmp_path, tilt):
     assert back.clearcoat_normal_image is not None and back.clearcoat_normal_scale == 1.0
     assert [m.clearcoat_normal_texture is not None for m in load_scene(tmp_path / "job" / "scene.gltf").materials.values()] == [True]
     assert _material(mat, "cycles")["coat_normal_texture"] == str(tmp_path / "coat_normal.png")
+
+
+def test_a_thickness_map_is_read_and_passed_on(make_scene, tmp_path):
+    """KHR_materials_volume's thicknessTexture: read into the material's layer maps, written back to the
+    job's glTF (for renderers that approximate refraction with it); the path tracers take the thickness
+    from the geometry, so Blender gets no input for it."""
+    import dataclasses
+
+    from compare.blender.export import _material
+    from compare.renderers.job import export_gltf
+    from compare.scene.gltf_read import load_gltf
+
+    Image = pytest.importorskip("PIL.Image")
+    Image.new("RGB", (4, 4), (0, 128, 0)).save(tmp_path / "thickness.png")
+    scene = _sphere_scene(make_scene, "base_color = [1.0, 1.0, 1.0]\nroughness = 0.0\ntransmission = 1.0\n"
+                                      "thickness = 0.5\nattenuation_distance = 1.0\nattenuation_color = [0.5, 0.5, 1.0]")
+    (name, mat), = scene.materials.items()
+    mat = dataclasses.replace(mat, layer_maps=(("thickness", "g", tmp_path / "thickness.png"),))
+    scene = dataclasses.replace(scene, materials={name: mat})
+    assert "layer_maps" in mat.uses() and "volume" in mat.uses()
+    (tmp_path / "job").mkdir()
+    written = export_gltf(scene, tmp_path / "job" / "scene.gltf")
+    doc = json.loads(written.read_text())
+    volume = doc["materials"][0]["extensions"]["KHR_materials_volume"]
+    assert volume["thicknessFactor"] == 0.5 and "thicknessTexture" in volume
+    back = load_gltf(written).materials[0]
+    assert [(f, c) for f, c, _ in back.layer_images] == [("thickness", "g")]
+    assert _material(mat, "cycles")["input_maps"] == []

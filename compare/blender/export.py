@@ -362,7 +362,8 @@ def blender_uv_mapping(mat) -> dict[str, list[float]] | None:
     return {"location": [float(a[0, 2]), float(a[1, 2]), 0.0], "rotation": [0.0, 0.0, angle], "scale": [sx, sy, 1.0]}
 
 
-#: The Principled BSDF input of each material extension parameter that has a map (LAYER_MAPS).
+#: The Principled BSDF input of each material extension parameter that has a map (LAYER_MAPS; the thickness
+#: map has none: Cycles takes the thickness from the geometry).
 BLENDER_INPUTS = {"transmission": "Transmission Weight", "clearcoat": "Coat Weight",
                   "clearcoat_roughness": "Coat Roughness", "sheen_color": "Sheen Tint",
                   "sheen_roughness": "Sheen Roughness", "specular": "Specular IOR Level",
@@ -426,7 +427,7 @@ def _material(mat, mode: str, distribution: str | None = None) -> dict[str, Any]
                          "channel": {"r": "Red", "g": "Green", "b": "Blue", "a": "Alpha", "rgb": "Color"}[c],
                          "factor": ([float(x) for x in getattr(mat, f)] if c == "rgb"
                                     else float(getattr(mat, f)) * BLENDER_INPUT_SCALE.get(f, 1.0))}
-                        for f, c, p in mat.layer_maps] if mode == "cycles" else []),
+                        for f, c, p in mat.layer_maps if f in BLENDER_INPUTS] if mode == "cycles" else []),
         # alphaMode BLEND: the coverage on Alpha (Cycles: stochastic transparency; EEVEE: dithered)
         "alpha_blend": float(mat.alpha) if mat.alpha_mode == "blend" else None,
         "volume_absorption": volume_absorption(mat) if mode == "cycles" else None,

@@ -143,7 +143,9 @@ MATERIAL_FEATURES = {"KHR_materials_transmission": "transmission", "KHR_material
 LAYER_MAPS = {"transmissionTexture": ("transmission", "r"), "clearcoatTexture": ("clearcoat", "r"),
               "clearcoatRoughnessTexture": ("clearcoat_roughness", "g"),
               "sheenColorTexture": ("sheen_color", "rgb"), "sheenRoughnessTexture": ("sheen_roughness", "a"),
-              "specularTexture": ("specular", "a"), "specularColorTexture": ("specular_color", "rgb")}
+              "specularTexture": ("specular", "a"), "specularColorTexture": ("specular_color", "rgb"),
+              # read and passed on (the job's glTF); the path tracers take the thickness from the geometry
+              "thicknessTexture": ("thickness", "g")}
 #: (Channel "rgb": an sRGB colour map; the others: one channel of a linear map.)
 #: Every material feature a renderer may declare it renders (Renderer.renders).
 MATERIAL_FEATURE_NAMES = ("alpha_blend", *MATERIAL_FEATURES.values(), "layer_maps")
