@@ -45,6 +45,11 @@ async function buildScene(app, job, base, options) {
   const root = asset.resource.instantiateRenderEntity();
   app.root.addChild(root);
   const renders = root.findComponents('render');
+  // a light's range bounds its falloff window (1 - (d / range)^4)^2 and its shadow camera's depth: four
+  // times the scene's diagonal keeps the window within 1e-4 of 1 and the depth precise
+  const box = new pc.BoundingBox();
+  renders.forEach((r, i) => r.meshInstances.forEach((mi, j) => (i || j ? box.add(mi.aabb) : box.copy(mi.aabb))));
+  const range = 8 * Math.max(box.halfExtents.length(), 1e-3);
   // KHR_lights_punctual (job schema 2): the loader's lights, whose intensities it clamps to [0, 2]; set
   // from the job's W/sr and W/m^2; range ignored as everywhere in the suite
   const byName = new Map((job.scene.punctual || []).map((p) => [p.name, p]));
@@ -53,7 +58,7 @@ async function buildScene(app, job, base, options) {
     const p = byName.get(l.entity.name);
     if (!p) continue;
     l.enabled = true;
-    l.range = 1e6;
+    l.range = range;
     l.falloffMode = pc.LIGHTFALLOFF_INVERSESQUARED;
     setLinear(l, p.intensity.map((v) => v * (p.kind === 'directional' ? 1 / Math.PI : PUNCTUAL_SCALE)));
     if (p.kind === 'spot') {
@@ -67,8 +72,8 @@ async function buildScene(app, job, base, options) {
   }
   for (const l of job.scene.lights) {
     // a spot light of rectangular shape: its local x and z scale the rectangle, it shines along local -y
-    // (the cone a hemisphere, so only the shape bounds it); shadows from its spot shadow map in the
-    // shadows variant (the light's centre as the shadow camera)
+    // (the cone a hemisphere, so only the shape bounds it); in the shadows variant a spot shadow map from
+    // the light's centre, whose camera needs a cone under 90 degrees: 80, as threejs:shadows
     const e = new pc.Entity(l.name);
     const m = new pc.Mat4();
     const neg = (v) => v.map((c) => -c);
@@ -78,7 +83,8 @@ async function buildScene(app, job, base, options) {
     e.setRotation(new pc.Quat().setFromMat4(m));
     e.setLocalScale(l.size[0], 1, l.size[1]);
     e.addComponent('light', {
-      type: 'spot', shape: pc.LIGHTSHAPE_RECT, innerConeAngle: 89.9, outerConeAngle: 90, range: 1e6,
+      type: 'spot', shape: pc.LIGHTSHAPE_RECT, innerConeAngle: options.shadows ? 79.9 : 89.9,
+      outerConeAngle: options.shadows ? 80 : 90, range,
       falloffMode: pc.LIGHTFALLOFF_INVERSESQUARED, castShadows: !!options.shadows, shadowResolution: 1024,
       shadowBias: 0.05, normalOffsetBias: 0.05,
     });
