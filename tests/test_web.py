@@ -299,3 +299,29 @@ def test_the_feature_table_is_measured():
     assert shadows["drawn"] and shadows["value"] < 0.5, shadows
     table = feature_table(measured)
     assert "| area-light shadows (shadowed / unshadowed) | ✗ " in table and "| ✓ " in table
+
+
+def test_run_features_land_in_the_reports_machine_section(tmp_path, monkeypatch):
+    """`compare run --features`: the measured table of each rasterizer of the run (not the ground truth)
+    becomes a fact of the run's machine, in results.json and the report's machine section."""
+    import json
+
+    import compare.bench.features as features
+    from compare.cli import run as cli_run
+    from test_run_report import CORNELL, synthetic_report
+
+    res = synthetic_report(tmp_path / "r", [CORNELL])
+    asked = []
+
+    def fake(specs, **kwargs):
+        asked.extend(specs)
+        return {s: {"clearcoat": {"value": 0.5, "drawn": True, "unit": "x"},
+                    "area_light_shadows": {"value": 1.0, "drawn": False, "unit": "x"}} for s in specs}
+
+    monkeypatch.setattr(features, "measure_features", fake)
+    cli_run._measure_features(res, ["mitsuba", "progressive"], tmp_path / "r", report=True, progress=False)
+    assert asked == ["progressive"]
+    saved = json.loads((tmp_path / "r" / "results.json").read_text())
+    assert saved["machine"]["facts"]["features of progressive"] == "clearcoat yes (0.50); area-light shadows no (1.00)"
+    html = (tmp_path / "r" / "index.html").read_text()
+    assert "features of progressive" in html and "clearcoat yes (0.50)" in html
