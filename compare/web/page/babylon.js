@@ -118,7 +118,7 @@ async function buildScene(engine, job, base, options) {
   if (options.shadows || punctual.length) {
     for (const l of [...shadowCasters, ...punctual]) {
       const g = new ShadowGenerator(1024, l);
-      g.usePercentageCloserFiltering = true;
+      g.usePoissonSampling = true; // PCF's comparison sampler meets a float texture on its unit once an environment is bound
       g.bias = 1e-4;
       for (const m of meshes) g.addShadowCaster(m);
     }
