@@ -199,6 +199,8 @@ window.compareSetup = async ({ job: jobUrl, engine: name, options }) => {
   cam.setPosition(...c.position);
   cam.lookAt(new pc.Vec3(...c.target), new pc.Vec3(...c.up));
   app.root.addChild(cam);
+  // transmission refracts the opaque scene behind it: PlayCanvas grabs it only when a camera asks
+  cam.camera.requestSceneColorMap(true);
   Object.assign(S, { cam, frame, near, far, fov: c.fov_deg, k: 0 });
   cam.camera.calculateProjection = (mat) => {
     const [jx, jy] = jitter(S.k);
