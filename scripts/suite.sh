@@ -84,7 +84,8 @@ setup_python() {
 have_chromium() { command -v chromium >/dev/null 2>&1; }
 
 # The web engines (compare/web/renderer.py): Debian's Chromium, driven by Playwright (a dev
-# dependency), and three.js with three-gpu-pathtracer from npm, pinned by web/package-lock.json.
+# dependency), and three.js, three-gpu-pathtracer, Babylon.js and PlayCanvas from npm, pinned by
+# web/package-lock.json.
 # Optional: without them the web engines say what is missing and their tests skip with the reason.
 setup_web() {
     if ! have_chromium; then

@@ -1,7 +1,10 @@
-"""Web engines in headless Chromium (compare.web.renderer): three.js and three-gpu-pathtracer.
+"""Web engines in headless Chromium (compare.web): three.js, three-gpu-pathtracer, Babylon.js and
+PlayCanvas.
 
 They render the suite's scenes from the same job file as external renderers, into float
-render targets, and are measured against the same ground truth. Skips with the reason
+render targets, and are measured against the same ground truth. The rasterizing engines
+(the ``web`` group's renderers counted in frames) all pass the same registration and
+orientation tests. One Chromium serves every render of this module. Skips with the reason
 where Chromium, Playwright or the npm packages are missing (``scripts/suite.sh setup``
 installs them).
 """
@@ -18,20 +21,37 @@ from compare.run import runner as run_mod
 from compare.metrics.images import compare_images
 from compare.renderers import RenderContext, RendererError
 from compare.renderers import Registry
-from compare.web.renderer import WebRenderer
 from compare.report.results import RunSettings
 from compare.scene.loader import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 CORNELL = ROOT / "scenes" / "cornell.toml"
-_OK, _WHY = WebRenderer("threejs").available()
-needs_web = pytest.mark.skipif(not _OK, reason=f"web engines unavailable: {_WHY}")
+_REGISTRY = Registry()
+#: The web engines that rasterize (counted in frames), from the registry's ``web`` group.
+RASTER = [n for n in _REGISTRY.groups()["web"] if _REGISTRY.get(n).unit == "frame"]
+_MISSING = [why for n in _REGISTRY.groups()["web"] for ok, why in [_REGISTRY.get(n).available()] if not ok]
+needs_web = pytest.mark.skipif(bool(_MISSING), reason=f"web engines unavailable: {_MISSING[:1]}")
+_CONTEXT: list[RenderContext] = []
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _one_browser():
+    """One Chromium for every render of this module (it starts once, the engines' pages are new tabs)."""
+    yield
+    _close_shared()
+
+
+def _close_shared() -> None:
+    """End the shared Chromium (Playwright's sync API runs one driver per thread at a time)."""
+    while _CONTEXT:
+        _CONTEXT.pop().close()
 
 
 def _render(engine: str, scene, steps: int, checkpoints=None):
-    r = WebRenderer(engine)
-    with RenderContext(RunSettings(frames=steps)) as context:
-        return r.render(scene, steps=steps, checkpoints=list(checkpoints or [steps]), seed=0, context=context)
+    if not _CONTEXT:
+        _CONTEXT.append(RenderContext(RunSettings(frames=steps)))
+    r = Registry().get(engine)
+    return r.render(scene, steps=steps, checkpoints=list(checkpoints or [steps]), seed=0, context=_CONTEXT[0])
 
 
 @needs_web
@@ -51,9 +71,11 @@ def test_threejs_beside_mitsuba_and_the_rasterizer(tmp_path, gl_ctx):
 
 
 @needs_web
-def test_threejs_lands_on_the_same_pixels(tmp_path):
+@pytest.mark.parametrize("engine", RASTER)
+def test_web_engine_lands_on_the_same_pixels(tmp_path, engine):
     """A small light facing the camera off the image centre: its pixels are where the camera's own
-    ray directions (compare.scene.loader.Camera) put it, as in Mitsuba."""
+    ray directions (compare.scene.loader.Camera) put it, as in Mitsuba, and its emitter face shows the
+    light's radiance."""
     path = tmp_path / "marker.toml"
     path.write_text(textwrap.dedent("""
         name = "marker"
@@ -77,7 +99,7 @@ def test_threejs_lands_on_the_same_pixels(tmp_path):
         radiance = [10.0, 10.0, 10.0]
     """))
     scene = load_scene(path)
-    image = _render("threejs", scene, 1).checkpoints[-1].image
+    image = _render(engine, scene, 1).checkpoints[-1].image
     cam = scene.camera
     # the marker's centre on the film (pixels, x right, y down, row 0 at the top), by the camera's basis
     r, u, f = cam.basis()
@@ -89,11 +111,16 @@ def test_threejs_lands_on_the_same_pixels(tmp_path):
     assert len(lit) >= 4
     cy, cx = lit.mean(0) + 0.5
     assert abs(cx - x) < 0.5 and abs(cy - y) < 0.5, ((cx, cy), (x, y))
+    np.testing.assert_allclose(np.median(image[image[..., 0] > 5.0], 0), 10.0, rtol=0.02)
 
 
+#: FLIP of each engine's axes background against Mitsuba's, measured: three.js 0.016, PlayCanvas 0.022,
+#: Babylon.js 0.064 (its 256-pixel cube map, a pixel softer than the 256 x 128 map); a map turned the
+#: wrong way or mirrored measures 0.18 to 0.5.
 @needs_web
-def test_threejs_environment_has_the_suites_orientation(tmp_path):
-    """The axes test map, turned 30 degrees: three.js's background against Mitsuba's (measured FLIP 0.016)."""
+@pytest.mark.parametrize("engine", RASTER)
+def test_web_environment_has_the_suites_orientation(tmp_path, engine):
+    """The axes test map, turned 30 degrees: each engine's background against Mitsuba's."""
     path = tmp_path / "env.toml"
     path.write_text(textwrap.dedent("""
         name = "axes environment"
@@ -116,10 +143,10 @@ def test_threejs_environment_has_the_suites_orientation(tmp_path):
     from compare.mitsuba.reference import ReferenceRenderer
 
     scene = load_scene(path)
-    ours = _render("threejs", scene, 4).checkpoints[-1].image
+    ours = _render(engine, scene, 4).checkpoints[-1].image
     truth = ReferenceRenderer(scene, cache_dir=tmp_path / "cache", progress=False).render(64).image
-    assert compare_images(truth, ours)["flip"] < 0.05
-    np.testing.assert_allclose(ours.mean((0, 1)), truth.mean((0, 1)), rtol=0.03)
+    assert compare_images(truth, ours)["flip"] < 0.1
+    np.testing.assert_allclose(ours.mean((0, 1)), truth.mean((0, 1)), rtol=0.05)
 
 
 @needs_web
@@ -137,25 +164,61 @@ def test_browser_path_tracer_converges_towards_mitsuba(tmp_path):
 
 
 def test_missing_pieces_are_named(monkeypatch, tmp_path):
-    from compare.web import renderer as web
+    from compare.web import host
 
     monkeypatch.setenv("COMPARE_CHROMIUM", str(tmp_path / "no-chromium"))
-    ok, why = WebRenderer("threejs").available()
+    ok, why = Registry().get("threejs").available()
     assert not ok and why.startswith(f"Chromium {tmp_path / 'no-chromium'} ($COMPARE_CHROMIUM) is not an "
                                      "executable file; scripts/suite.sh setup installs all of it")
     monkeypatch.delenv("COMPARE_CHROMIUM")
-    monkeypatch.setattr(web, "chromium_path", lambda: "/bin/sh")
-    monkeypatch.setattr(web, "web_root", lambda: tmp_path)
-    ok, why = WebRenderer("threejs-pathtracer").available()
+    monkeypatch.setattr(host, "chromium_path", lambda: "/bin/sh")
+    monkeypatch.setattr(host, "web_root", lambda: tmp_path)
+    ok, why = Registry().get("threejs-pathtracer").available()
     assert not ok and why.startswith(f"the npm package three is not in {tmp_path / 'node_modules'}; ")
+    # each engine names the first of its own packages that is missing
+    (tmp_path / "node_modules" / "three").mkdir(parents=True)
+    (tmp_path / "node_modules" / "three" / "package.json").write_text("{}")
+    for engine, package in (("babylon", "@babylonjs/core"), ("playcanvas", "playcanvas")):
+        ok, why = Registry().get(engine).available()
+        assert not ok and why.startswith(f"the npm package {package} is not in {tmp_path / 'node_modules'}; "
+                                         "scripts/suite.sh setup installs"), why
+        with RenderContext(RunSettings(frames=1)) as context, \
+                pytest.raises(RendererError, match=rf"^renderer '{engine}': the npm package {package} is not in"):
+            Registry().get(engine).render(load_scene(CORNELL), steps=1, checkpoints=[1], seed=0, context=context)
 
 
 @needs_web
-def test_no_webgl_is_one_clear_error(monkeypatch):
+@pytest.mark.parametrize("engine", RASTER)
+def test_no_webgl_is_one_clear_error(monkeypatch, engine):
+    """Without WebGL 2 each engine's page fails with one line naming it, before any engine code runs."""
+    _close_shared()
     monkeypatch.setenv("COMPARE_CHROMIUM_ARGS", "--disable-webgl --disable-gpu")
     scene = load_scene(CORNELL).with_resolution(8, 6)
-    with pytest.raises(RendererError, match=r"^renderer 'threejs': the page failed: .*no WebGL 2 context"):
-        _render("threejs", scene, 1)
+    with RenderContext(RunSettings(frames=1)) as context, \
+            pytest.raises(RendererError, match=rf"^renderer '{engine}': the page failed: .*no WebGL 2 context$"):
+        Registry().get(engine).render(scene, steps=1, checkpoints=[1], seed=0, context=context)
+
+
+@needs_web
+@pytest.mark.parametrize("engine", RASTER)
+def test_no_float_render_targets_is_one_clear_error(monkeypatch, engine):
+    """A WebGL 2 without EXT_color_buffer_float (a page that hides it): one line naming the extension."""
+    from compare.web import host
+
+    def new_page(self):
+        page = self.browser.new_page()
+        page.add_init_script("""const get = WebGL2RenderingContext.prototype.getExtension;
+            WebGL2RenderingContext.prototype.getExtension = function (name) {
+              return name === 'EXT_color_buffer_float' ? null : get.call(this, name); };""")
+        return page
+
+    _close_shared()
+    monkeypatch.setattr(host._Browser, "new_page", new_page)
+    scene = load_scene(CORNELL).with_resolution(8, 6)
+    with RenderContext(RunSettings(frames=1)) as context, \
+            pytest.raises(RendererError, match=rf"^renderer '{engine}': the page failed: .*no EXT_color_buffer_float: "
+                                               "float render targets are not available$"):
+        Registry().get(engine).render(scene, steps=1, checkpoints=[1], seed=0, context=context)
 
 
 @needs_web
@@ -181,10 +244,11 @@ def test_threejs_variants(tmp_path):
 
 
 @needs_web
-def test_threejs_reads_the_maps_of_the_exported_gltf(tmp_path):
-    """An emission map under a texture transform reaches three.js through the exported glTF (textures,
-    KHR_texture_transform, sampler): each region shows the quadrant the transform says (three.js shows an
-    emission map as emission x texel, in linear light)."""
+@pytest.mark.parametrize("engine", RASTER)
+def test_web_engine_reads_the_maps_of_the_exported_gltf(tmp_path, engine):
+    """An emission map under a texture transform reaches each engine through the exported glTF (textures,
+    KHR_texture_transform, sampler): each region shows the quadrant the transform says (an emission map
+    shows as emission x texel, in linear light)."""
     from compare.image.tonemap import srgb_decode
     from test_blender import QUADRANT_MAPS
     from test_textures import QUADRANTS, _regions, _scene
@@ -192,7 +256,7 @@ def test_threejs_reads_the_maps_of_the_exported_gltf(tmp_path):
     settings, source = QUADRANT_MAPS[1]  # a 90 degree turn
     scene = _scene(tmp_path, 'base_color = [0.0, 0.0, 0.0]\nemission = [1.0, 1.0, 1.0]\n'
                              f'emissive_texture = "quadrants.png"\n{settings}', light=False)
-    image = _render("threejs", scene, 2).checkpoints[-1].image
+    image = _render(engine, scene, 2).checkpoints[-1].image
     regions = _regions(scene)
     for (r, c) in QUADRANTS:
         want = srgb_decode(np.array(QUADRANTS[source(r, c)]) / 255.0)
@@ -201,17 +265,63 @@ def test_threejs_reads_the_maps_of_the_exported_gltf(tmp_path):
 
 
 @needs_web
-def test_threejs_cuts_the_holes_of_an_alpha_mask(tmp_path):
-    """alphaMode MASK reaches three.js through the exported glTF: the masked card renders as its solid
+@pytest.mark.parametrize("engine", [pytest.param(e, marks=pytest.mark.xfail(
+    strict=True, reason="Babylon.js 9.28 lights an untextured material with its specular term only in a scene where "
+    "another material has a base-colour map: the floor measures 0.0596 with and without specular in the scene "
+    "without maps, 0.0687 in the one with (three.js 0.0635, PlayCanvas 0.0611 in both); the holes are cut"))
+    if e == "babylon" else e for e in RASTER])
+def test_web_engine_cuts_the_holes_of_an_alpha_mask(tmp_path, engine):
+    """alphaMode MASK reaches each engine through the exported glTF: the masked card renders as its solid
     quadrants as real quads (the card, and the floor seen through its holes) within 3 %."""
     from test_alpha_mask import GEOMETRY, MASKED, _regions, _scene
 
     masked = _scene(tmp_path, MASKED)
     (tmp_path / "geometry").mkdir()
     geometry = _scene(tmp_path / "geometry", GEOMETRY)
-    a = _render("threejs", masked, 4).checkpoints[-1].image
-    b = _render("threejs", geometry, 4).checkpoints[-1].image
+    a = _render(engine, masked, 4).checkpoints[-1].image
+    b = _render(engine, geometry, 4).checkpoints[-1].image
     for name, m in _regions(masked).items():
         np.testing.assert_allclose(a[m].mean(0), b[m].mean(0), rtol=0.03, atol=0.003, err_msg=name)
     card = a[_regions(masked)["card"]].mean(0)
     assert card[1] > 3 * card[0]  # green, the map's solid colour (the holes' magenta is never drawn)
+
+
+@needs_web
+def test_the_feature_table_is_measured():
+    """The engine x feature table comes from renders: three.js' RectAreaLight casts no shadow, its shadows
+    variant does, and the table says so with the measured ratios."""
+    from compare.bench.features import feature_table, measure_features
+
+    _close_shared()
+    measured = measure_features(["threejs", "threejs:shadows"], frames=2, features=["area_light_shadows"])
+    plain, shadows = measured["threejs"]["area_light_shadows"], measured["threejs:shadows"]["area_light_shadows"]
+    assert not plain["drawn"] and plain["value"] > 0.9, plain
+    assert shadows["drawn"] and shadows["value"] < 0.5, shadows
+    table = feature_table(measured)
+    assert "| area-light shadows (shadowed / unshadowed) | ✗ " in table and "| ✓ " in table
+
+
+def test_run_features_land_in_the_reports_machine_section(tmp_path, monkeypatch):
+    """`compare run --features`: the measured table of each rasterizer of the run (not the ground truth)
+    becomes a fact of the run's machine, in results.json and the report's machine section."""
+    import json
+
+    import compare.bench.features as features
+    from compare.cli import run as cli_run
+    from test_run_report import CORNELL, synthetic_report
+
+    res = synthetic_report(tmp_path / "r", [CORNELL])
+    asked = []
+
+    def fake(specs, **kwargs):
+        asked.extend(specs)
+        return {s: {"clearcoat": {"value": 0.5, "drawn": True, "unit": "x"},
+                    "area_light_shadows": {"value": 1.0, "drawn": False, "unit": "x"}} for s in specs}
+
+    monkeypatch.setattr(features, "measure_features", fake)
+    cli_run._measure_features(res, ["mitsuba", "progressive"], tmp_path / "r", report=True, progress=False)
+    assert asked == ["progressive"]
+    saved = json.loads((tmp_path / "r" / "results.json").read_text())
+    assert saved["machine"]["facts"]["features of progressive"] == "clearcoat yes (0.50); area-light shadows no (1.00)"
+    html = (tmp_path / "r" / "index.html").read_text()
+    assert "features of progressive" in html and "clearcoat yes (0.50)" in html

@@ -96,6 +96,9 @@ def add_run_parser(subparsers) -> argparse.ArgumentParser:
                         "the rest, replace its results.json and report")
     p.add_argument("--no-report", action="store_true", help="write results.json only")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.add_argument("--features", action="store_true",
+                   help="also measure which features each rasterizing renderer of the run draws (probe scenes, "
+                        "python -m compare.bench.features) and show the table in the report's machine section")
     p.add_argument("--executor", default="local", metavar="WHERE",
                    help="local (a process pool sized to the machine), local:N, serial, or dask://HOST:PORT "
                         "(see compare/run/executor.py for setting up workers)")
@@ -132,11 +135,33 @@ def cmd_run(args: argparse.Namespace) -> int:
         if isinstance(e, CompareError):
             raise
         raise _UsageError(str(e)) from e
+    if args.features:
+        _measure_features(res, renderers, out, report=not args.no_report, progress=not args.quiet)
     n = len(res.scenes)
     where = out / ("index.html" if not args.no_report else "results.json")
     print(f"{out / 'results.json'}: {n} scene/size combination{'s' if n != 1 else ''}; open {where}",
           file=sys.stdout)
     return 0
+
+
+def _measure_features(res, renderers: list[str], out: Path, *, report: bool, progress: bool) -> None:
+    """Measure the engine x feature table of the run's rasterizers (unit frame, not the ground truth) and
+    record it as facts of the run's machine, one per renderer, in results.json and the report."""
+    from compare.bench.features import FEATURES, measure_features
+
+    registry = Registry(res.settings.renderer_config)
+    specs = [s for s in renderers if s != res.settings.ground_truth and registry.get(s).unit == "frame"]
+    measured = measure_features(specs, progress=(lambda m: print(f"features: {m}", file=sys.stderr))
+                                if progress else None)
+    for spec, row in measured.items():
+        res.machine.facts[f"features of {spec}"] = "; ".join(
+            f"{FEATURES[n].title} " + ("error" if "error" in m else f"{'yes' if m['drawn'] else 'no'} ({m['value']:.2f})")
+            for n, m in row.items())
+    res.save(out / "results.json")
+    if report:
+        from compare.report.html import build_report
+
+        build_report(res, out)
 
 
 class _UsageError(CompareError, ValueError):

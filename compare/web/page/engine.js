@@ -222,7 +222,7 @@ window.compareSetup = async ({ job: jobUrl, engine, options }) => {
     pt.reset();
     S.pt = pt;
   }
-  return { setup_ms: performance.now() - t0, warm: S.warm, gl_renderer: glRenderer, three: THREE.REVISION, width: w, height: h };
+  return { setup_ms: performance.now() - t0, warm: S.warm, gl_renderer: glRenderer, three: THREE.REVISION, version: THREE.REVISION, width: w, height: h };
 };
 
 window.compareStep = async (n) => {

@@ -1,0 +1,304 @@
+"""Which features a renderer draws, measured rather than claimed.
+
+Each feature has a probe: a tiny scene rendered twice by the renderer, once with the feature and
+once without it (or, for the energy of rough metal, against the value the feature must reach), and
+a number that says whether the feature changed the image as it must:
+
+=====================  ===========================================================  ==============
+feature                measured                                                     drawn when
+=====================  ===========================================================  ==============
+area-light shadows     floor under an occluder the camera does not see, with the    ratio < 0.5
+                       occluder against without, lit by one area light
+environment shadows    the same under a uniform environment                         ratio < 0.8
+multiscatter energy    white rough metal (roughness 1) in a white furnace:          value > 0.9
+                       the radiance it returns (1 with all scattering orders)
+clearcoat, sheen,      a card with the layer against the same card without it:      change > 3 %
+transmission, alpha    the mean relative change of its pixels
+blend, texture
+transform
+punctual lights        a floor under one point light: its radiance against the      ratio in 0.5–2
+                       ground truth's (Mitsuba)
+=====================  ===========================================================  ==============
+
+``python -m compare.bench.features --renderers threejs,babylon,playcanvas`` prints the table
+(``--json`` for the numbers); ``docs/renderers.md`` holds the one measured on the suite's machine.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+import textwrap
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+__all__ = ["FEATURES", "Probe", "measure_features", "feature_table"]
+
+_CAMERA_LOW = """
+[camera]
+position = [0.0, 0.6, 4.0]
+target = [0.0, 0.0, 0.0]
+fov = 30.0
+resolution = [32, 24]
+[materials.floor]
+base_color = [0.8, 0.8, 0.8]
+roughness = 1.0
+[materials.black]
+base_color = [0.0, 0.0, 0.0]
+[[meshes]]
+name = "floor"
+shape = "quad"
+size = [12.0, 12.0]
+material = "floor"
+"""
+# 1.5 m up, 2 m wide: above the camera's view (its top edge is below 1.1 m over the floor's middle); a
+# closed box, as engines draw the back faces of an occluder into their shadow maps
+_OCCLUDER = """
+[[meshes]]
+name = "occluder"
+shape = "box"
+size = [2.0, 0.1, 2.0]
+material = "black"
+translate = [0.0, 1.55, 0.0]
+"""
+_AREA = """
+[[lights]]
+name = "lamp"
+center = [0.0, 3.0, 0.0]
+size = [0.5, 0.5]
+normal = [0.0, -1.0, 0.0]
+radiance = [20.0, 20.0, 20.0]
+"""
+_ENV = """
+[environment]
+constant = [1.0, 1.0, 1.0]
+"""
+_CARD = """
+[camera]
+position = [0.0, 0.0, 3.0]
+target = [0.0, 0.0, 0.0]
+fov = 30.0
+resolution = [32, 24]
+[environment]
+constant = [0.5, 0.5, 0.5]
+[materials.backdrop]
+base_color = [0.1, 0.1, 0.1]
+emission = [0.2, 0.8, 0.2]
+[[meshes]]
+name = "backdrop"
+shape = "quad"
+size = [10.0, 10.0]
+material = "backdrop"
+translate = [0.0, 0.0, -2.0]
+rotate = [90.0, 0.0, 0.0]
+[[meshes]]
+name = "card"
+shape = "quad"
+size = [1.2, 1.2]
+material = "card"
+rotate = [90.0, 0.0, 0.0]
+[[lights]]
+name = "lamp"
+center = [0.0, 1.0, 2.0]
+size = [0.6, 0.6]
+normal = [0.0, -0.447, -0.894]
+radiance = [10.0, 10.0, 10.0]
+[materials.card]
+"""
+_FURNACE = """
+[camera]
+position = [0.0, 0.0, 3.0]
+target = [0.0, 0.0, 0.0]
+fov = 20.0
+resolution = [32, 24]
+[environment]
+constant = [1.0, 1.0, 1.0]
+[materials.metal]
+base_color = [1.0, 1.0, 1.0]
+metallic = 1.0
+roughness = 1.0
+[[meshes]]
+name = "card"
+shape = "quad"
+size = [4.0, 4.0]
+material = "metal"
+rotate = [90.0, 0.0, 0.0]
+"""
+_POINT = """
+[camera]
+position = [0.0, 3.0, 3.0]
+target = [0.0, 0.0, 0.0]
+fov = 40.0
+resolution = [32, 24]
+[materials.floor]
+base_color = [0.8, 0.8, 0.8]
+roughness = 1.0
+[[meshes]]
+name = "floor"
+shape = "quad"
+size = [8.0, 8.0]
+material = "floor"
+[[lights]]
+name = "bulb"
+type = "point"
+position = [0.0, 2.0, 0.0]
+intensity = 10.0
+light_scale = 1.0
+"""
+# a dark base, so that a layer's light is a large part of the card's
+_CARD_MATERIAL = 'base_color = [0.05, 0.05, 0.05]\nroughness = 0.6\n'
+
+
+@dataclass(frozen=True)
+class Probe:
+    """One feature's probe: the two scenes (TOML text; ``None`` for a reference value), the number made
+    from the two images, and the test that says the feature is drawn."""
+
+    title: str
+    scenes: Callable[[Path], tuple[str, str | None]]
+    value: Callable[[np.ndarray, np.ndarray], float]
+    drawn: Callable[[float], bool]
+    unit: str
+
+
+def _floor_middle(a: np.ndarray, b: np.ndarray) -> float:
+    # the floor under the occluder's middle: the image's lower-middle pixels
+    h, w = a.shape[:2]
+    sl = (slice(h // 2, 3 * h // 4), slice(w // 3, 2 * w // 3))
+    return float(a[sl].mean() / max(b[sl].mean(), 1e-12))
+
+
+def _card_change(a: np.ndarray, b: np.ndarray) -> float:
+    h, w = a.shape[:2]
+    sl = (slice(h // 3, 2 * h // 3), slice(w // 3, 2 * w // 3))
+    return float(np.abs(a[sl] - b[sl]).mean() / max(b[sl].mean(), 1e-12))
+
+
+def _card(extra: str, folder: Path) -> tuple[str, str]:
+    return _CARD + _CARD_MATERIAL + extra, _CARD + _CARD_MATERIAL
+
+
+def _texture_transform(folder: Path) -> tuple[str, str]:
+    from PIL import Image
+
+    px = np.zeros((8, 8, 3), np.uint8)
+    px[:4, :4], px[:4, 4:], px[4:, :4], px[4:, 4:] = (255, 0, 0), (0, 255, 0), (0, 0, 255), (255, 255, 0)
+    Image.fromarray(px).save(folder / "quadrants.png")
+    base = _CARD + 'base_color = [0.0, 0.0, 0.0]\nemission = [1.0, 1.0, 1.0]\nemissive_texture = "quadrants.png"\n'
+    return base + "texture_rotation = 90.0\n", base
+
+
+#: Feature name → its probe, in the order of the table.
+FEATURES: dict[str, Probe] = {
+    "area_light_shadows": Probe("area-light shadows", lambda f: (_CAMERA_LOW + _AREA + _OCCLUDER, _CAMERA_LOW + _AREA),
+                                _floor_middle, lambda v: v < 0.5, "shadowed / unshadowed"),
+    "environment_shadows": Probe("environment shadows", lambda f: (_CAMERA_LOW + _ENV + _OCCLUDER, _CAMERA_LOW + _ENV),
+                                 _floor_middle, lambda v: v < 0.8, "shadowed / unshadowed"),
+    "multiscatter_energy": Probe("multiscatter energy", lambda f: (_FURNACE, None),
+                                 lambda a, b: float(a[a.shape[0] // 4: -a.shape[0] // 4, a.shape[1] // 4: -a.shape[1] // 4].mean()),
+                                 lambda v: v > 0.9, "furnace radiance (1 = all energy)"),
+    "clearcoat": Probe("clearcoat", lambda f: _card("clearcoat = 1.0\nclearcoat_roughness = 0.1\n", f),
+                       _card_change, lambda v: v > 0.03, "relative change"),
+    "sheen": Probe("sheen", lambda f: _card("sheen_color = [1.0, 1.0, 1.0]\nsheen_roughness = 0.5\n", f),
+                   _card_change, lambda v: v > 0.03, "relative change"),
+    "transmission": Probe("transmission", lambda f: _card("transmission = 1.0\n", f),
+                          _card_change, lambda v: v > 0.03, "relative change"),
+    "alpha_blend": Probe("alpha blend", lambda f: _card('alpha_mode = "blend"\nalpha = 0.4\n', f),
+                         _card_change, lambda v: v > 0.03, "relative change"),
+    "texture_transform": Probe("texture transform", _texture_transform, _card_change, lambda v: v > 0.03,
+                               "relative change"),
+    "punctual_lights": Probe("punctual lights", lambda f: (_POINT, "reference"), lambda a, b: float(a.mean() / max(b.mean(), 1e-12)),
+                             lambda v: 0.5 < v < 2.0, "radiance / ground truth"),
+}
+
+
+def _scene(folder: Path, name: str, text: str):
+    from compare.scene.loader import load_scene
+
+    path = folder / f"{name}.toml"
+    path.write_text(f'name = "{name}"\n' + textwrap.dedent(text))
+    return load_scene(path)
+
+
+def measure_features(specs: list[str], *, frames: int = 8, spp: int = 128, features: list[str] | None = None,
+                     progress: Callable[[str], None] | None = None) -> dict[str, dict[str, dict]]:
+    """``{renderer: {feature: {"value": number, "drawn": bool, "unit": text}}}`` for each renderer spec,
+    from the probes of :data:`FEATURES` (all, or ``features``). A renderer that fails a probe gets
+    ``{"error": message}`` for it."""
+    from compare.mitsuba.reference import ReferenceRenderer
+    from compare.renderers import Registry, RenderContext
+    from compare.renderers.base import RendererError
+    from compare.report.results import RunSettings
+
+    registry = Registry()
+    out: dict[str, dict[str, dict]] = {s: {} for s in specs}
+    with tempfile.TemporaryDirectory(prefix="compare-features-") as tmp, \
+            RenderContext(RunSettings(frames=frames, spp=spp), cache_dir=False) as context:
+        folder = Path(tmp)
+        truth: dict[str, np.ndarray] = {}
+        for name in features or list(FEATURES):
+            probe = FEATURES[name]
+            with_text, without_text = probe.scenes(folder)
+            with_scene = _scene(folder, f"{name}-with", with_text)
+            if without_text == "reference":
+                if name not in truth:
+                    truth[name] = ReferenceRenderer(with_scene, cache_dir=False, progress=False).render(spp).image
+                without_scene = None
+            else:
+                without_scene = _scene(folder, f"{name}-without", without_text) if without_text else None
+            for spec in specs:
+                if progress:
+                    progress(f"{spec}: {probe.title}")
+                r = registry.get(spec)
+                try:
+                    images = []
+                    for s in (with_scene, without_scene):
+                        if s is None:
+                            continue
+                        given, _ = r.prepare(s)
+                        images.append(r.render(given, steps=r.steps(context.settings), checkpoints=[r.steps(context.settings)],
+                                               seed=0, context=context).checkpoints[-1].image)
+                    b = images[1] if len(images) > 1 else truth.get(name, images[0])
+                    v = probe.value(images[0], b)
+                    out[spec][name] = {"value": round(v, 4), "drawn": bool(probe.drawn(v)), "unit": probe.unit}
+                except RendererError as exc:
+                    out[spec][name] = {"error": str(exc)}
+    return out
+
+
+def feature_table(measured: dict[str, dict[str, dict]]) -> str:
+    """A Markdown table: one row per feature, one column per renderer, ✓ or ✗ with the measured number."""
+    specs = list(measured)
+    names = [n for n in FEATURES if any(n in measured[s] for s in specs)]
+    lines = ["| feature (measured as) | " + " | ".join(f"`{s}`" for s in specs) + " |",
+             "| --- | " + " | ".join("---" for _ in specs) + " |"]
+    for n in names:
+        cells = []
+        for s in specs:
+            m = measured[s].get(n, {})
+            cells.append("error" if "error" in m else f"{'✓' if m.get('drawn') else '✗'} {m.get('value', float('nan')):.2f}")
+        lines.append(f"| {FEATURES[n].title} ({FEATURES[n].unit}) | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m compare.bench.features``: measure and print the engine × feature table."""
+    p = argparse.ArgumentParser(prog="python -m compare.bench.features", description=__doc__.split("\n\n")[0])
+    p.add_argument("--renderers", default="threejs,babylon,playcanvas")
+    p.add_argument("--features", default=None, help=f"comma-separated subset of {', '.join(FEATURES)}")
+    p.add_argument("--json", action="store_true", help="print the numbers as JSON")
+    a = p.parse_args(argv)
+    measured = measure_features([s.strip() for s in a.renderers.split(",") if s.strip()],
+                                features=a.features.split(",") if a.features else None,
+                                progress=lambda m: print(m, file=sys.stderr))
+    print(json.dumps(measured, indent=1) if a.json else feature_table(measured))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
