@@ -110,6 +110,9 @@ class RasterizerOptions:
     env_occlusion : {"screen", "shadows"}
         How the environment light is shadowed: screen-space occlusion samples (the paper's), or
         environment shadow maps of luminance-sampled directions (:mod:`compare.progressive.env_shadows`).
+    sun : bool
+        Take the environment's brightest compact region out of the map as a directional light with its
+        own shadow map (:mod:`compare.progressive.sun`; ``progressive:sun``).
     frame_budget_ms : float or None
         A per-frame time budget: each frame evaluates as many of the plan's
         samples as a measured cost model says fit (:mod:`compare.progressive.budget`),
@@ -143,6 +146,7 @@ class RasterizerOptions:
     first_frame_scale: float | None = None
     frame_budget_ms: float | None = None
     env_occlusion: str = "screen"
+    sun: bool = False
 
     def __post_init__(self):
         if self.env_occlusion not in ENV_OCCLUSION:

@@ -41,6 +41,7 @@ OPTIONS = {
     "budget<ms>": "a per-frame time budget in milliseconds, e.g. budget16",
     "fullfirst": "frame 0 at full size (the paper's first frame)",
     "envshadows": "environment shadow maps: luminance-sampled directions, a shadow ratio of the split sum",
+    "sun": "the environment's brightest compact region as a directional light with its own shadow map",
 }
 #: What each option sets among the rasterizer's keywords, and its words in a report's label.
 _KEYWORDS = {
@@ -52,6 +53,7 @@ _KEYWORDS = {
     "budget<ms>": ("frame_budget_ms", None),
     "fullfirst": ("first_frame_scale", 1.0),
     "envshadows": ("env_occlusion", "shadows"),
+    "sun": ("sun", True),
 }
 
 
@@ -87,4 +89,6 @@ def describe(spec: str) -> str:
             words.append("full-size first frame")
         elif key == "env_occlusion":
             words.append("environment shadow maps")
+        elif key == "sun":
+            words.append("the environment's sun as a light")
     return ", ".join(words)

@@ -134,6 +134,15 @@ class Rasterizer:
         if keywords:
             o = dataclasses.replace(o, **keywords)  # TypeError names an unknown keyword; ValueError a bad value
         self.options = o
+        sun_notes: list[str] = []
+        #: Whether the only punctual light is the environment's sun (its light is reported as environment's).
+        self._sun_only_punctual = False
+        if o.sun:  # before anything reads the scene: the map without its sun, and the sun as a light
+            from compare.progressive.sun import scene_with_sun
+
+            self._sun_only_punctual = not scene.punctual
+            scene, sun_notes = scene_with_sun(scene, o.cache_dir)
+            self._sun_only_punctual &= bool(scene.punctual)
         frames, seed, area_model, materials = o.frames, o.seed, o.area_model, o.materials
         shadow_bias, shadow_filter, d_occ = o.shadow_bias, o.shadow_filter, o.d_occ
         direct_fraction, frame_budget_ms = o.direct_fraction, o.frame_budget_ms
@@ -158,7 +167,7 @@ class Rasterizer:
                          samples_per_light=o.samples_per_light,
                          env_samples=o.env_samples if (self.d_occ > 0 or (has_env and o.env_occlusion == "shadows"))
                          else 0)
-        self.notes: list[str] = list(self.plan.notes)
+        self.notes: list[str] = sun_notes + list(self.plan.notes)
         self.scheduler = None
         if frame_budget_ms is not None:
             self.scheduler = BudgetScheduler(self.plan, frame_budget_ms / 1000.0,
@@ -579,6 +588,9 @@ class Rasterizer:
                 out["direct_env"] = read_texture_rgb(self.ctx, self.base.current_of(1), what=what)
         if self.indirect_pass is not None:
             out["indirect_diffuse"] = read_texture_rgb(self.ctx, self.indirect_pass.texture, what=what)
+        if self._sun_only_punctual and "direct_punctual" in out:
+            # the sun taken out of the map (sun.py) is environment light: its layer is the reference's
+            out["direct_env"] = out.get("direct_env", 0.0) + out.pop("direct_punctual")
         return out
 
     def reset(self) -> None:
