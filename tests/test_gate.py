@@ -431,3 +431,20 @@ def test_false_alarm_rate_of_same_code_pairs(tmp_path):
             failed.append([g.name for g in report.gates if g.failed(report.settings)])
         shutil.rmtree(tmp_path / f"b{i}" / "out" / "runs")
     assert tests >= 20 * 5 and len(failed) <= 1, failed  # the image and four error tests of each pair at least
+
+
+def test_a_gate_that_judged_nothing_has_not_passed():
+    """Runs of one seed give no noise estimate: when every test is inconclusive the exit status stays 0 (an
+    inconclusive test does not fail) but the verdict is "inconclusive", not "passed", in every output."""
+    from compare.report.gate import Gate, GateReport, GateSettings
+
+    def report(*statuses):
+        gates = [Gate("Cornell box", "32x24", "mine", 8, "error", "relmse", status=s) for s in statuses]
+        return GateReport(GateSettings(), gates, "", [], "new/results.json", "bl")
+
+    nothing = report("inconclusive", "inconclusive", "skipped")
+    assert not nothing.failed and nothing.verdict == "inconclusive"
+    assert nothing.summary_line().startswith("gate inconclusive:") and "⚠️" in nothing.markdown()
+    assert nothing.to_json()["verdict"] == "inconclusive"
+    assert report("pass", "inconclusive").verdict == "passed"
+    assert report("regression", "inconclusive").verdict == "failed"

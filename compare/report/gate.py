@@ -180,6 +180,16 @@ class GateReport:
         """Whether any test fails the gate (exit status 1)."""
         return any(g.failed(self.settings) for g in self.gates)
 
+    @property
+    def verdict(self) -> str:
+        """"failed"; "inconclusive" when no test could be judged (every one inconclusive or skipped: a
+        gate that judged nothing has not passed); else "passed"."""
+        if self.failed:
+            return "failed"
+        if self.gates and all(g.status in ("inconclusive", "skipped") for g in self.gates):
+            return "inconclusive"
+        return "passed"
+
     def count(self, status: str) -> int:
         """How many tests ended with ``status``."""
         return sum(g.status == status for g in self.gates)
@@ -188,7 +198,7 @@ class GateReport:
         """One line: the verdict and the counts."""
         counts = ", ".join(f"{self.count(s)} {s}" for s in ("regression", "slower", "missing", "changed",
                                                              "inconclusive", "skipped", "pass") if self.count(s))
-        verdict = "FAILED" if self.failed else "passed"
+        verdict = "FAILED" if self.failed else self.verdict
         return (f"gate {verdict}: {len(self.gates)} test(s) of {self.candidate} against baseline {self.baseline} "
                 f"({counts}; family-wise alpha {self.settings.alpha:g}, Holm)")
 
@@ -221,7 +231,7 @@ class GateReport:
         def cell(x: str) -> str:
             return x.replace("|", "\\|").replace("\n", " ")
 
-        icon = "❌" if self.failed else "✅"
+        icon = {"failed": "❌", "inconclusive": "⚠️"}.get(self.verdict, "✅")
         out = [f"## {icon} Regression gate", "", cell(self.summary_line()), ""]
         if self.machine:
             out += [f"Timings not compared: the baseline is from another machine ({cell(self.machine)}).", ""]
@@ -237,7 +247,7 @@ class GateReport:
 
     def to_json(self) -> dict:
         """JSON-ready: settings, verdict, counts and every test."""
-        return {"schema": 1, "failed": self.failed, "candidate": self.candidate, "baseline": self.baseline,
+        return {"schema": 1, "failed": self.failed, "verdict": self.verdict, "candidate": self.candidate, "baseline": self.baseline,
                 "settings": {**asdict(self.settings), "metrics": list(self.settings.metrics)},
                 "machine": self.machine or None, "notes": list(self.notes),
                 "counts": {s: self.count(s) for s in ("pass", "regression", "slower", "missing", "changed",

@@ -157,7 +157,7 @@ def build_gate_page(report: GateReport, out_dir: str | os.PathLike, *, baseline:
                                  undefined=jinja2.StrictUndefined)
         rows = report.rows()
         html = env.get_template("gate.html.j2").render(
-            version=__version__, verdict="failed" if report.failed else "passed", summary=report.summary_line(),
+            version=__version__, verdict=report.verdict, summary=report.summary_line(),
             machine=report.machine, notes=report.notes,
             notable=[r for g, r in zip(report.gates, rows) if g.status != "pass"], everything=rows,
             changed=changed, plots=plots)
