@@ -58,23 +58,42 @@ float brdf_fresnel_schlick(float f0, float v_dot_h) {
     return f0 + (1.0 - f0) * brdf_schlick_weight(v_dot_h);
 }
 
-// The specular (F D V) and diffuse ((1 - m)(1 - F_d) c / pi) terms; false below the horizon.
-bool brdf_eval_lobes(vec3 n, vec3 v, vec3 l, vec3 base_color, float metallic, float roughness,
-                     out vec3 specular, out vec3 diffuse) {
-    specular = vec3(0.0);
-    diffuse = vec3(0.0);
-    float nv = dot(n, v);
-    float nl = dot(n, l);
+// The cosines of a pair of directions and their half vector h: n.v, n.l, n.h and v.h (the last two
+// clamped to [0, 1]) and |n x h|^2 (exact where 1 - (n.h)^2 cancels); false below either horizon or
+// for opposite v and l. Shared by every lobe evaluated from them (layers.glsl too).
+bool brdf_geometry(vec3 n, vec3 v, vec3 l, out float nv, out float nl, out float nh, out float vh,
+                   out float sin2) {
+    nv = dot(n, v);
+    nl = dot(n, l);
+    nh = 0.0;
+    vh = 0.0;
+    sin2 = 0.0;
     vec3 hu = v + l;
     float len2 = dot(hu, hu);
     if (!(nv > 0.0 && nl > 0.0 && len2 > BRDF_H_LEN2_MIN)) {
         return false;
     }
     vec3 h = hu * inversesqrt(len2);
-    float nh = clamp(dot(n, h), 0.0, 1.0);
-    float vh = clamp(dot(v, h), 0.0, 1.0);
+    nh = clamp(dot(n, h), 0.0, 1.0);
+    vh = clamp(dot(v, h), 0.0, 1.0);
     vec3 nxh = cross(n, h);
-    float sin2 = dot(nxh, nxh);
+    sin2 = dot(nxh, nxh);
+    return true;
+}
+
+// The specular (F D V) and diffuse ((1 - m)(1 - F_d) c / pi) terms; false below the horizon.
+bool brdf_eval_lobes(vec3 n, vec3 v, vec3 l, vec3 base_color, float metallic, float roughness,
+                     out vec3 specular, out vec3 diffuse) {
+    specular = vec3(0.0);
+    diffuse = vec3(0.0);
+    float nv;
+    float nl;
+    float nh;
+    float vh;
+    float sin2;
+    if (!brdf_geometry(n, v, l, nv, nl, nh, vh, sin2)) {
+        return false;
+    }
 
     float m = clamp(metallic, 0.0, 1.0);
     float alpha = brdf_alpha_from_roughness(roughness);

@@ -5,7 +5,7 @@
 
     src = program_text.replace('#include "brdf.glsl"', glsl_source())
 
-Its public functions: ``brdf_eval``, ``brdf_eval_lobes``, ``brdf_ggx_d``,
+Its public functions: ``brdf_eval``, ``brdf_eval_lobes``, ``brdf_geometry``, ``brdf_ggx_d``,
 ``brdf_smith_v_height_correlated``, ``brdf_fresnel_schlick``,
 ``brdf_alpha_from_roughness``, ``brdf_sample_ggx_vndf``; constants
 ``BRDF_ALPHA_MIN``, ``BRDF_COS_MIN``, ``BRDF_DIELECTRIC_F0``, ``BRDF_H_LEN2_MIN``

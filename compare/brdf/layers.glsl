@@ -30,7 +30,7 @@
 #if LAYERS
 #define LAYERS_SHEEN_ALPHA_MIN 0.01
 #define LAYERS_SHEEN_TABLE 32.0
-#define LAYERS_COAT_F0 0.04
+#define LAYERS_COAT_F0 BRDF_DIELECTRIC_F0  // the coat's IOR 1.5 (compare.brdf.coat.COAT_F0)
 
 struct MaterialLayers {
     vec3 f0;                    // dielectric F0, min(((ior - 1) / (ior + 1))^2 specular_color, 1)
@@ -75,18 +75,14 @@ bool brdf_eval_layered_split(vec3 n, vec3 v, vec3 l, vec3 base_color, float meta
     specular = vec3(0.0);
     diffuse = vec3(0.0);
     coat = 0.0;
-    float nv = dot(n, v);
-    float nl = dot(n, l);
-    vec3 hu = v + l;
-    float len2 = dot(hu, hu);
-    if (!(nv > 0.0 && nl > 0.0 && len2 > BRDF_H_LEN2_MIN)) {
+    float nv;
+    float nl;
+    float nh;
+    float vh;
+    float sin2;
+    if (!brdf_geometry(n, v, l, nv, nl, nh, vh, sin2)) {
         return false;
     }
-    vec3 h = hu * inversesqrt(len2);
-    float nh = clamp(dot(n, h), 0.0, 1.0);
-    float vh = clamp(dot(v, h), 0.0, 1.0);
-    vec3 nxh = cross(n, h);
-    float sin2 = dot(nxh, nxh);
 
     float m = clamp(metallic, 0.0, 1.0);
     float alpha = brdf_alpha_from_roughness(roughness);

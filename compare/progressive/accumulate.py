@@ -90,7 +90,7 @@ class AccumulatePass:
         self.ctx = ctx
         self.environment = environment
         #: With the material extensions (layers.glsl): the G-buffer's layer targets are read.
-        self.layers = bool(layers and environment is not None and materials != "diffuse")
+        self.layers = bool(layers and environment is not None)
         defines = {"ENVIRONMENT": int(environment is not None), "OCCLUSION": int(bool(occlusion)),
                    "LAYERS": int(self.layers)}
         if environment is not None:

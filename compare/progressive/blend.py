@@ -26,9 +26,8 @@ from __future__ import annotations
 import numpy as np
 
 from compare.progressive.accumulate import PingPong
-from compare.progressive.first_frame import ENV_UNIT, LUT_UNIT, first_frame_defines, set_light_uniforms
+from compare.progressive.first_frame import bind_tables, first_frame_defines, set_light_uniforms
 from compare.progressive.gpu_scene import mat_bytes
-from compare.progressive.ltc import LTC_UNIT
 from compare.progressive.shaders import load_program, set_uniform
 
 #: Texture unit of the G-buffer's positions in the blend pass (after the environment's units).
@@ -73,15 +72,8 @@ class BlendPass:
         ctx.enable_only(ctx.BLEND)
         ctx.blend_equation = ctx.FUNC_ADD
         ctx.blend_func = ctx.ONE, ctx.ONE_MINUS_SRC_ALPHA, ctx.ZERO, ctx.ONE_MINUS_SRC_ALPHA
-        if self.lut_texture is not None:
-            self.lut_texture.use(location=LUT_UNIT)
-            set_uniform(p, "u_spec_lut", LUT_UNIT)
-        if self.ltc_table is not None:
-            self.ltc_table.use(location=LTC_UNIT)
-            set_uniform(p, "u_ltc", LTC_UNIT)
-        self.scene.bind_layers(p)
-        if self.environment is not None:
-            self.environment.bind(p, first_unit=ENV_UNIT)
+        bind_tables(p, self.scene, lut_texture=self.lut_texture, ltc_table=self.ltc_table,
+                    environment=self.environment)
         gbuffer["position"].use(location=POSITION_UNIT)
         set_uniform(p, "u_gbuffer_position", POSITION_UNIT)
         set_uniform(p, "u_view_proj", mat_bytes(view_proj))

@@ -108,7 +108,7 @@ class DirectPass:
             self.lut_texture.filter = (ctx.LINEAR, ctx.LINEAR)
             self.lut_texture.repeat_x = self.lut_texture.repeat_y = False
         defines = {"AREA_MODEL_PAPER": int(area_model == "paper"), "AREA_MODEL_LTC": int(area_model == "ltc"),
-                   "MATERIALS_DIFFUSE": int(materials == "diffuse"), "LAYERS": int(layers and materials != "diffuse")}
+                   "MATERIALS_DIFFUSE": int(materials == "diffuse"), "LAYERS": int(layers)}
         self._defines = defines
         # The G-buffer preview is compiled at its first use: with the forward-shaded first
         # frame (first_frame.py) it is never drawn.

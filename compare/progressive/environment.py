@@ -217,7 +217,7 @@ class EnvOcclusionPass:
         self.environment = environment
         self.occlusion = bool(occlusion)
         #: With the material extensions (layers.glsl): the G-buffer's layer targets are read.
-        self.layers = bool(layers and materials != "diffuse")
+        self.layers = bool(layers)
         self.program = load_program(ctx, "env_occlusion.glsl",
                                     {**environment.defines(materials), "OCCLUSION": int(self.occlusion),
                                      "LAYERS": int(self.layers)})

@@ -81,6 +81,20 @@ def first_frame_defines(gpu_scene, lights, punctual, environment, area_model: st
     return defines
 
 
+def bind_tables(program, gpu_scene, *, lut_texture=None, ltc_table=None, environment=None) -> None:
+    """Bind what ``first_frame.glsl`` samples besides the meshes' maps (frame 0 and the blend pass): the
+    split-sum table, the LTC table, the material layers' table and the environment."""
+    if lut_texture is not None:
+        lut_texture.use(location=LUT_UNIT)
+        set_uniform(program, "u_spec_lut", LUT_UNIT)
+    if ltc_table is not None:
+        ltc_table.use(location=LTC_UNIT)
+        set_uniform(program, "u_ltc", LTC_UNIT)
+    gpu_scene.bind_layers(program)
+    if environment is not None:
+        environment.bind(program, first_unit=ENV_UNIT)
+
+
 def set_light_uniforms(program, lights, punctual=None) -> None:
     """The lights' uniform arrays of ``first_frame.glsl`` (frame 0, and the blend pass): the area
     ``lights`` and the :class:`~compare.progressive.punctual.PunctualLights` ``punctual`` (or None)."""
@@ -203,18 +217,11 @@ class FirstFramePass:
             set_uniform(program, "u_view_proj", mat_bytes(view_proj))
         self.scene.draw_occluders(self.depth_programs, casters=False)
         self.fbo.use()
-        if self.lut_texture is not None:
-            self.lut_texture.use(location=LUT_UNIT)
-            set_uniform(p, "u_spec_lut", LUT_UNIT)
+        bind_tables(p, self.scene, lut_texture=self.lut_texture, ltc_table=self.ltc_table,
+                    environment=self.environment)
         set_uniform(p, "u_view_proj", mat_bytes(view_proj))
         set_uniform(p, "u_camera_position", tuple(float(x) for x in camera_position))
         set_uniform(p, "u_background_pass", 0.0)
-        if self.ltc_table is not None:
-            self.ltc_table.use(location=LTC_UNIT)
-            set_uniform(p, "u_ltc", LTC_UNIT)
-        self.scene.bind_layers(p)
-        if self.environment is not None:
-            self.environment.bind(p, first_unit=ENV_UNIT)
         self.scene.draw_shaded(p)
         if self.environment is not None:
             set_uniform(p, "u_background_pass", 1.0)

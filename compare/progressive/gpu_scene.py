@@ -216,9 +216,13 @@ class GpuScene:
         """The material defines of a pass that shades the scene (material.glsl)."""
         return {"TEXTURES": int(self.textured), "ALPHA_MASK": int(self.masked), "LAYERS": int(self.layered)}
 
+    def layers_for(self, materials: str = "shared") -> bool:
+        """Whether a lighting pass draws the material layers (layers.glsl): not for Lambert-only materials."""
+        return self.layered and materials != "diffuse"
+
     def layer_defines(self, materials: str = "shared") -> dict[str, int]:
-        """The LAYERS define of a full-screen lighting pass (layers.glsl): 0 for Lambert-only materials."""
-        return {"LAYERS": int(self.layered and materials != "diffuse")}
+        """The LAYERS define of a lighting pass (:meth:`layers_for`)."""
+        return {"LAYERS": int(self.layers_for(materials))}
 
     def bind_layers(self, program, gbuffer=None) -> None:
         """Bind the sheen albedo table and, with ``gbuffer``, its layer targets to ``program`` (a pass

@@ -259,8 +259,7 @@ void ltc_light_scaled(vec3 x, vec3 n, vec3 v, vec3 base, float metallic, float r
         vec3 fd_c;
         vec3 fs_c;
         ltc_quad_form_factors(q, ltc_minv(nv, g_layers.clearcoat_roughness), fd_c, fs_c);
-        float share = coat_albedo(textureLod(u_spec_lut, vec2(nv, clamp(g_layers.clearcoat_roughness, 0.0, 1.0)),
-                                             0.0).rg);
+        float share = coat_albedo(specular_ab(n, v, g_layers.clearcoat_roughness));
         diffuse = diffuse * (1.0 - share) + share * abs(fs_c.z) * u_light_radiance;
         spec_scale *= 1.0 - share;
         specular *= 1.0 - share;

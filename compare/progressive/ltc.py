@@ -102,7 +102,7 @@ class LtcLights:
         self._objects: list = []
         try:
             defines = {"AREA_MODEL_LTC": 1, "AREA_MODEL_PAPER": 0, "MATERIALS_DIFFUSE": int(materials == "diffuse"),
-                       "LAYERS": int(layers and materials != "diffuse")}
+                       "LAYERS": int(layers)}
             self.layers = bool(defines["LAYERS"])
             self.program = self._keep(load_program(ctx, "ltc_light.glsl", defines))
             self.vao = self._keep(ctx.vertex_array(self.program, []))

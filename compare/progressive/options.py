@@ -43,17 +43,18 @@ OPTIONS = {
     "envshadows": "environment shadow maps: luminance-sampled directions, a shadow ratio of the split sum",
     "sun": "the environment's brightest compact region as a directional light with its own shadow map",
 }
-#: What each option sets among the rasterizer's keywords, and its words in a report's label.
+#: What each option sets among the rasterizer's keywords (None: the number written with it), and its words
+#: in a report's label ("{}" takes that number).
 _KEYWORDS = {
-    "paper": ("area_model", "paper"),
-    "radiometric": ("area_model", "radiometric"),
-    "ltc": ("area_model", "ltc"),
-    "probes": ("indirect", "probes"),
-    "vsm": ("shadow_filter", "vsm"),
-    "budget<ms>": ("frame_budget_ms", None),
-    "fullfirst": ("first_frame_scale", 1.0),
-    "envshadows": ("env_occlusion", "shadows"),
-    "sun": ("sun", True),
+    "paper": ("area_model", "paper", "paper"),
+    "radiometric": ("area_model", "radiometric", "radiometric"),
+    "ltc": ("area_model", "ltc", "ltc"),
+    "probes": ("indirect", "probes", "irradiance probes"),
+    "vsm": ("shadow_filter", "vsm", "VSM"),
+    "budget<ms>": ("frame_budget_ms", None, "{:g} ms frame budget"),
+    "fullfirst": ("first_frame_scale", 1.0, "full-size first frame"),
+    "envshadows": ("env_occlusion", "shadows", "environment shadow maps"),
+    "sun": ("sun", True, "the environment's sun as a light"),
 }
 
 
@@ -66,7 +67,7 @@ def renderer_options(spec: str) -> dict:
         raise ValueError(f"{spec!r} is not a progressive renderer spec")
     kwargs: dict = {}
     for word, number in parse_spec(spec, OPTIONS):
-        key, value = _KEYWORDS[word]
+        key, value, _ = _KEYWORDS[word]
         if key in kwargs:
             raise ValueError(f"renderer {spec!r}: {word!r} sets {key} twice")
         kwargs[key] = number if value is None else value
@@ -75,20 +76,5 @@ def renderer_options(spec: str) -> dict:
 
 def describe(spec: str) -> str:
     """A short label of a spec's options for reports, e.g. ``"probes, VSM"`` (empty for ``progressive``)."""
-    words = []
-    for key, value in renderer_options(spec).items():
-        if key == "area_model":
-            words.append(str(value))
-        elif key == "indirect":
-            words.append("irradiance probes")
-        elif key == "shadow_filter":
-            words.append("VSM")
-        elif key == "frame_budget_ms":
-            words.append(f"{value:g} ms frame budget")
-        elif key == "first_frame_scale":
-            words.append("full-size first frame")
-        elif key == "env_occlusion":
-            words.append("environment shadow maps")
-        elif key == "sun":
-            words.append("the environment's sun as a light")
-    return ", ".join(words)
+    renderer_options(spec)  # the same checks (an option twice) as the keywords
+    return ", ".join(_KEYWORDS[word][2].format(number) for word, number in parse_spec(spec, OPTIONS))

@@ -239,7 +239,7 @@ class Rasterizer:
             elif self.plan.env_frames > 0:
                 self.env_occlusion = self._keep(EnvOcclusionPass(ctx, self.environment, materials,
                                                                  occlusion=self.gpu_scene.occluded,
-                                                                 layers=self.gpu_scene.layered))
+                                                                 layers=self.gpu_scene.layers_for(materials)))
                 self.env_acc = self._keep(EnvOcclusionTargets(ctx, size))
         # No probe work unless indirect = "probes"; the bake is part of setup (timed on its own too).
         self.probes = None
@@ -250,7 +250,7 @@ class Rasterizer:
                 cache_dir=cache_dir))
         self.accumulate = self._keep(AccumulatePass(ctx, self.environment, materials,
                                                     occlusion=self.gpu_scene.occluded,
-                                                    layers=self.gpu_scene.layered))
+                                                    layers=self.gpu_scene.layers_for(materials)))
         self.indirect_pass = None
         if self.probes is not None:
             self.indirect_pass = self._keep(IndirectPass(ctx, self.probes, size, materials,
@@ -280,7 +280,7 @@ class Rasterizer:
             self.direct = self._keep(DirectPass(ctx, area_model=area_model, materials=materials,
                                                 shadows=self.plan.light_frames > 0,
                                                 shadow_filter=shadow_filter, cache_dir=cache_dir,
-                                                layers=self.gpu_scene.layered))
+                                                layers=self.gpu_scene.layers_for(materials)))
             if area_model == "ltc":
                 # Per-light sums instead of one running mean (ltc.py); no partial sums.
                 self.ltc_table = self._keep(ltc_texture(ctx))
@@ -289,7 +289,7 @@ class Rasterizer:
                 self.ltc = self._keep(LtcLights(ctx, size, scene.lights, materials=materials,
                                                 lut_texture=self.direct.lut_texture, table=self.ltc_table,
                                                 gbuffer_frames=max(gbuffer_frames, 1),
-                                                layers=self.gpu_scene.layered))
+                                                layers=self.gpu_scene.layers_for(materials)))
             else:
                 self.direct_acc = self._keep(PingPong(ctx, size))
                 if self.scheduler is not None or any(len(fp.light_samples) > 1 for fp in self.plan):

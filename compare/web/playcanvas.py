@@ -13,6 +13,8 @@ rectangular light cast a shadow from its spot shadow map.
 
 from __future__ import annotations
 
+from compare.scene.model import MATERIAL_FEATURE_NAMES
+
 from compare.web.host import WebRenderer
 
 __all__ = ["PlayCanvasRenderer"]
@@ -30,9 +32,9 @@ class PlayCanvasRenderer(WebRenderer):
     OPTIONS = {"shadows": "each rectangular light casts a shadow from a spot shadow map at its centre"}
     VARIANTS = ("playcanvas:shadows",)
     # StandardMaterial from the glTF: clearcoat, sheen, transmission (refraction), ior, specular, volume
-    # (thickness, attenuation) and BLEND are read by PlayCanvas' glTF parser
-    renders = frozenset({"alpha_blend", "transmission", "volume", "ior", "clearcoat", "sheen", "specular",
-                         "punctual_lights"})
+    # (thickness, attenuation) and BLEND are read by PlayCanvas' glTF parser; the extensions' maps are not
+    # checked here, so they are declared left out
+    renders = (frozenset(MATERIAL_FEATURE_NAMES) - {"layer_maps"}) | {"punctual_lights"}
 
     def describe(self, opts: list[str]) -> str:
         return "PlayCanvas (rectangular lights" + (" with spot shadow maps" if "shadows" in opts else "") \
