@@ -109,6 +109,23 @@ def lookup_2d(table, x, y):
     return a * (1.0 - ty) + b * ty
 
 
+def lookup_3d(table, x, y, z):
+    """Cycles' ``lookup_table_read_3D``: trilinear in ``table[k, j, i]``, i at x = i / (nx - 1), j at
+    y = j / (ny - 1), k at z = k / (nz - 1)."""
+    t = np.asarray(table, dtype=np.float64)
+    k0, k1, tz = _axis(z, t.shape[0])
+    return lookup_2d_at(t, k0, x, y) * (1.0 - tz) + lookup_2d_at(t, k1, x, y) * tz
+
+
+def lookup_2d_at(table, k, x, y):
+    """:func:`lookup_2d` in slice ``k`` (per element) of a 3D table."""
+    i0, i1, tx = _axis(x, table.shape[2])
+    j0, j1, ty = _axis(y, table.shape[1])
+    a = table[k, j0, i0] * (1.0 - tx) + table[k, j0, i1] * tx
+    b = table[k, j1, i0] * (1.0 - tx) + table[k, j1, i1] * tx
+    return a * (1.0 - ty) + b * ty
+
+
 def ggx_e(roughness, mu):
     """E(r, mu): :data:`GGX_E_TABLE` looked up as Cycles does."""
     return lookup_2d(GGX_E_TABLE, roughness, mu)

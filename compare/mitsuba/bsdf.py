@@ -19,19 +19,21 @@ Properties (each a float/rgb or a nested texture; defaults are glTF's):
                 Multiscatter GGX) or ``"ggx"`` (single scattering)
 ``specular_f0``, ``specular_weight``  flavour ``"gltf"`` only: glTF's ior and specular extensions,
                 the dielectric's F0 (rgb) and weight (:func:`compare.brdf.dielectric_specular`);
-                without them the core model (F0 = 0.04) runs its own code. The ``"cycles"``
-                flavour keeps Principled v2's IOR 1.5.
+                without them the core model (F0 = 0.04) runs its own code.
+``ior``, ``specular_ior_level``, ``specular_tint``  flavour ``"cycles"`` only: Blender's
+                Principled v2 inputs of those names (float >= 1; float or texture, default 0.5;
+                rgb or texture, default white), :func:`compare.mitsuba.principled.specular_ior`.
 
 Flavours. ``"gltf"`` is the shared BRDF of :mod:`compare.brdf`, the same
 definition as the rasterizer's GLSL. ``"cycles"`` is Blender's Principled BSDF
 v2 as :mod:`compare.blender.export` configures it, the model of
 :mod:`compare.mitsuba.principled` (read its docstring): the same GGX D and
-height-correlated Smith V, but the exact dielectric Fresnel for IOR 1.5 in
-place of Schlick with F0 = 0.04 (metals keep Schlick: Cycles' F82-tint with a
-white tint), and the Lambert lobe weighted by the view-only
-``(1 - m)(1 - E_s(r, cos_i))`` (Cycles' albedo scaling under the specular layer,
-``E_s`` read from :data:`compare.mitsuba.principled.LAYER_S_TABLE`, held in a
-Dr.Jit ``Texture2f`` with Cycles' grid and bilinear interpolation) in place of
+height-correlated Smith V, but the exact dielectric Fresnel curve at the
+adjusted IOR, remapped to the tinted F0, in place of Schlick with F0 = 0.04
+(metals: Cycles' F82-tint, Schlick when the tint is white), and the Lambert lobe weighted by the view-only
+``(1 - m)(1 - max_rgb E_s(r, cos_i))`` (Cycles' albedo scaling under the specular layer,
+``E_s`` read from :data:`compare.mitsuba.principled.LAYER_S_TABLE_3D`, held in a
+Dr.Jit ``Texture3f`` with Cycles' grid and trilinear interpolation) in place of
 the per-direction ``(1 - m)(1 - F_d(v.h))``; with ``distribution = "multi_ggx"``
 each specular lobe times Multiscatter GGX's view-dependent energy compensation
 and the diffuse's layering albedo times its factor
@@ -65,6 +67,7 @@ class from that variant's module, so an instance keeps working after
 
 from __future__ import annotations
 
+import math
 
 from compare.brdf import REFERENCE_ALPHA_MIN, COS_MIN, DIELECTRIC_F0, H_LEN2_MIN, SPECULAR_PROB_MIN, multiscatter
 from compare.mitsuba import principled
@@ -75,6 +78,8 @@ __all__ = ["FLAVOURS", "PLUGIN_NAME", "evaluate", "register", "registered_varian
 PLUGIN_NAME = "gltf_pbr"
 #: Values of the ``flavour`` property: the shared glTF BRDF, Blender's Principled BSDF v2.
 FLAVOURS = ("gltf", "cycles")
+#: Properties of flavour ``cycles`` only: Blender's Principled BSDF v2 inputs of the same names.
+CYCLES_INPUTS = ("ior", "specular_ior_level", "specular_tint")
 
 _CLASSES: dict[str, type] = {}
 _DENOM_MIN = 1e-30
@@ -130,25 +135,26 @@ def _make_class(mv, mitsuba):
     def mean3(c):
         return (c[0] + c[1] + c[2]) * (1.0 / 3.0)
 
-    eta = principled.IOR
-
-    def fresnel_dielectric(c):
-        """Exact dielectric Fresnel at IOR 1.5 for c = cos in [0, 1] (no total internal reflection)."""
+    def fresnel_dielectric(c, eta):
+        """Exact dielectric Fresnel at ``eta`` > 1 for c = cos in [0, 1] (no total internal reflection)."""
         g = dr.sqrt(eta * eta - 1.0 + c * c)
         a = (g - c) / (g + c)
         b = (c * (g + c) - 1.0) / (c * (g - c) + 1.0)
         return 0.5 * a * a * (1.0 + b * b)
 
+    def f0_from_ior(eta):
+        return dr.square((eta - 1.0) / (eta + 1.0))
+
     layer = {}
 
     def make_layer_texture():
-        """The S table as a Texture2f (row = cos_i, column = roughness), once per variant, at load
-        time (never while a kernel is being traced)."""
+        """The S table as a Texture3f ([z, cos_i, roughness]), once per variant, at load time (never
+        while a kernel is being traced)."""
         if "texture" not in layer:
-            table = principled.LAYER_S_TABLE.astype("float32")[..., None]
+            table = principled.LAYER_S_TABLE_3D.astype("float32")[..., None]
             # use_accel=False: CUDA's texture units interpolate with 8-bit weights; the software
             # path is float32 on every backend.
-            layer["texture"] = mv.Texture2f(mv.TensorXf(table), use_accel=False,
+            layer["texture"] = mv.Texture3f(mv.TensorXf(table), use_accel=False,
                                             filter_mode=dr.FilterMode.Linear, wrap_mode=dr.WrapMode.Clamp)
 
     def make_energy_textures():
@@ -159,10 +165,9 @@ def _make_class(mv, mitsuba):
             layer["e_avg"] = mv.Texture1f(mv.TensorXf(multiscatter.GGX_EAVG_TABLE.astype("float32")[..., None]),
                                           **kw)
 
-    fss_dielectric = principled.FSS_DIELECTRIC
-
-    def compensation(c, r, cos_i):
-        """(K_m, K_d, L_d) of compare.mitsuba.principled: Multiscatter GGX's lobe scales and layer factor."""
+    def compensation(cc, b, lay, r, cos_i):
+        """(K_m, K_d, L_d), each Color3f, of compare.mitsuba.principled: Multiscatter GGX's lobe scales
+        and layer factor."""
         n = multiscatter.ENERGY_TABLE_SIZE
         u = (dr.clip(r, 0.0, 1.0) * (n - 1) + 0.5) * (1.0 / n)
         e = layer["e"].eval(mv.Point2f(u, (dr.clip(cos_i, 0.0, 1.0) * (n - 1) + 0.5) * (1.0 / n)))[0]
@@ -172,17 +177,59 @@ def _make_class(mv, mitsuba):
         def f_ms(fss):
             return fss * e_avg / (1.0 - fss * (1.0 - e_avg))
 
-        cc = dr.clip(c, 0.0, 1.0)
-        fms_d = f_ms(fss_dielectric)
-        return 1.0 + f_ms(cc + (1.0 - cc) * (1.0 / 21.0)) * missing, 1.0 + fms_d * missing, e + fms_d * (1.0 - e)
+        fms_d = f_ms(lay.fss)
+        return (1.0 + f_ms(cc + (1.0 - cc) * (1.0 / 21.0) - b * (1.0 / 126.0)) * missing,
+                1.0 + fms_d * missing, e + fms_d * (1.0 - e))
 
-    def layer_albedo(r, cos_i):
-        """E_s(r, cos_i) = F0 + (1 - F0) S: bilinear in Cycles' grid (texel i at coordinate i/15)."""
-        n = principled.LAYER_TABLE_SIZE
-        pos = mv.Point2f((dr.clip(r, 0.0, 1.0) * (n - 1) + 0.5) * (1.0 / n),
-                         (dr.clip(cos_i, 0.0, 1.0) * (n - 1) + 0.5) * (1.0 / n))
-        s = layer["texture"].eval(pos)[0]
-        return DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * s
+    class CyclesLayer:
+        """Per-point constants of the Principled v2 specular layer (compare.mitsuba.principled):
+        its IOR after Specular IOR Level, tinted F0, remapping of the real Fresnel, F_ss, presence."""
+
+        def __init__(self, ior, level, tint):
+            f0 = f0_from_ior(ior) * 2.0 * dr.maximum(level, 0.0)
+            sq = dr.sqrt(dr.clip(f0, 0.0, 0.99))
+            self.eta = dr.select(level == principled.NEUTRAL_LEVEL, ior, (1.0 + sq) / (1.0 - sq))
+            self.on = self.eta != 1.0
+            eta = dr.select(self.on, self.eta, 1.5)  # keeps the remapping finite where the layer is absent
+            self.eta_safe = eta
+            self.f0e = f0_from_ior(eta)
+            self.inv = 1.0 / (1.0 - self.f0e)
+            self.f0t = dr.clip(f0 * tint, 0.0, 1.0)
+            s_avg = dr.clip((multiscatter_fss(eta) - self.f0e) * self.inv, 0.0, 1.0)
+            self.fss = dr.select(self.on, self.f0t + (1.0 - self.f0t) * s_avg, 0.0)
+            self.z = dr.sqrt(dr.abs((eta - 1.0) / (eta + 1.0)))
+
+        def fresnel(self, c):
+            """Color3f: ``f0t + (1 - f0t) s(c)``, zero where the layer is absent."""
+            s = dr.clip((fresnel_dielectric(c, self.eta_safe) - self.f0e) * self.inv, 0.0, 1.0)
+            return dr.select(self.on, self.f0t + (1.0 - self.f0t) * s, 0.0)
+
+        def albedo(self, r, cos_i):
+            """E_s(r, cos_i) = f0t + (1 - f0t) S(r, cos_i, eta): trilinear in Cycles' grid (texel i at i/15)."""
+            n = principled.LAYER_TABLE_SIZE
+            pos = mv.Point3f((dr.clip(r, 0.0, 1.0) * (n - 1) + 0.5) * (1.0 / n),
+                             (dr.clip(cos_i, 0.0, 1.0) * (n - 1) + 0.5) * (1.0 / n),
+                             (dr.clip(self.z, 0.0, 1.0) * (n - 1) + 0.5) * (1.0 / n))
+            s = layer["texture"].eval(pos)[0]
+            return dr.select(self.on, self.f0t + (1.0 - self.f0t) * s, 0.0)
+
+    def multiscatter_fss(eta):
+        """Cycles' fresnel_dielectric_Fss (its fit for IOR >= 1)."""
+        return (eta - 1.0) / (4.08567 + 1.00071 * eta)
+
+    def max3(c):
+        return dr.maximum(dr.maximum(c[0], c[1]), c[2])
+
+    def f82_b(cc, tint):
+        """Cycles' fresnel_f82tint_B with the tint clamped to at most 1."""
+        f = 6.0 / 7.0
+        f5 = f ** 5
+        return (cc + (1.0 - cc) * f5) * (7.0 / (f5 * f)) * (1.0 - dr.minimum(tint, 1.0))
+
+    def fresnel_f82(cc, b, c):
+        x = dr.clip(1.0 - c, 0.0, 1.0)
+        x5 = schlick_weight(c)
+        return dr.clip(cc + (1.0 - cc) * x5 - b * (c * x5 * x), 0.0, 1.0)
 
     class GltfPbrBSDF(mv.BSDF):
         """glTF 2.0 metallic-roughness BSDF (see :mod:`compare.mitsuba.bsdf`)."""
@@ -208,9 +255,20 @@ def _make_class(mv, mitsuba):
             # (RGB) and weight; without them the core model's code runs unchanged.
             self.dielectric = "specular_f0" in props or "specular_weight" in props
             if self.dielectric and self.flavour == "cycles":
-                raise ValueError(f"{PLUGIN_NAME}: specular_f0 and specular_weight apply to flavour 'gltf' only")
+                raise ValueError(f"{PLUGIN_NAME}: specular_f0 and specular_weight apply to flavour 'gltf' only "
+                                 "(flavour 'cycles' has ior, specular_ior_level and specular_tint)")
+            principled_inputs = [k for k in CYCLES_INPUTS if k in props]
+            if principled_inputs and self.flavour != "cycles":
+                raise ValueError(f"{PLUGIN_NAME}: {', '.join(principled_inputs)} apply to flavour 'cycles' only "
+                                 "(flavour 'gltf' has specular_f0 and specular_weight)")
             self.specular_f0 = props.get_texture("specular_f0", DIELECTRIC_F0)
             self.specular_weight = props.get_texture("specular_weight", 1.0)
+            # Blender's Principled v2 inputs (flavour "cycles"); the IOR has no map in glTF.
+            self.ior = float(props.get("ior", principled.IOR))
+            if not (self.ior >= 1.0 and math.isfinite(self.ior)):
+                raise ValueError(f"{PLUGIN_NAME}: ior must be a finite number >= 1, got {self.ior}")
+            self.specular_ior_level = props.get_texture("specular_ior_level", principled.NEUTRAL_LEVEL)
+            self.specular_tint = props.get_texture("specular_tint", 1.0)
             if self.flavour == "cycles":
                 make_layer_texture()
             if self.multiscatter:
@@ -226,6 +284,20 @@ def _make_class(mv, mitsuba):
             alpha = dr.maximum(r * r, REFERENCE_ALPHA_MIN)
             return c, m, alpha, r
 
+        def _cycles_params(self, si, c, active):
+            """(clamped base colour, the metal's F82 B, the specular layer) of flavour ``cycles``."""
+            tint = dr.maximum(self.specular_tint.eval(si, active), 0.0)
+            lay = CyclesLayer(Float(self.ior), self.specular_ior_level.eval_1(si, active), tint)
+            cc = dr.clip(c, 0.0, 1.0)
+            return cc, f82_b(cc, tint), lay
+
+        def _extra_params(self, si, c, active):
+            """What the flavour needs besides c, m, r: the Principled layer (``cycles``), glTF's
+            dielectric (F0, weight) with the ior/specular extensions, or None (the core model)."""
+            if self.flavour == "cycles":
+                return self._cycles_params(si, c, active)
+            return self._dielectric_params(si, active) if self.dielectric else None
+
         def _dielectric_params(self, si, active):
             """(F0, weight) of glTF's ior and specular extensions at the surface point."""
             return self.specular_f0.eval(si, active), dr.clip(self.specular_weight.eval_1(si, active), 0.0, 1.0)
@@ -235,7 +307,7 @@ def _make_class(mv, mitsuba):
             return (ctx.is_enabled(Flags.DiffuseReflection, 0),
                     ctx.is_enabled(Flags.GlossyReflection, 1))
 
-        def _lobe_probabilities(self, cos_i, c, m, r, has_diffuse, has_specular, dielectric=None):
+        def _lobe_probabilities(self, cos_i, c, m, r, has_diffuse, has_specular, extra=None):
             """(p_spec, p_diff) of compare.brdf.specular_sampling_probability (flavour ``cycles``:
             compare.mitsuba.principled.specular_sampling_probability); p_diff is computed directly
             (not as 1 - p_spec), which keeps it accurate in float32."""
@@ -246,16 +318,15 @@ def _make_class(mv, mitsuba):
             ci = dr.clip(cos_i, 0.0, 1.0)
             w = schlick_weight(ci)
             if self.flavour == "cycles":
-                cc = dr.clip(c, 0.0, 1.0)
+                cc, b, lay = extra
+                f_m, f_d, e_s = fresnel_f82(cc, b, ci), lay.fresnel(ci), lay.albedo(r, ci)
                 if self.multiscatter:
-                    k_m, k_d, l_d = compensation(c, r, ci)
-                    w_s = mean3((cc + (1.0 - cc) * w) * k_m) * m + fresnel_dielectric(ci) * k_d * (1.0 - m)
-                    w_d = (1.0 - m) * dr.clip(1.0 - layer_albedo(r, ci) * l_d, 0.0, 1.0) * mean3(c)
-                else:
-                    w_s = mean3(cc + (1.0 - cc) * w) * m + fresnel_dielectric(ci) * (1.0 - m)
-                    w_d = (1.0 - m) * dr.clip(1.0 - layer_albedo(r, ci), 0.0, 1.0) * mean3(c)
+                    k_m, k_d, l_d = compensation(cc, b, lay, r, ci)
+                    f_m, f_d, e_s = f_m * k_m, f_d * k_d, e_s * l_d
+                w_s = mean3(f_m) * m + mean3(f_d) * (1.0 - m)
+                w_d = (1.0 - m) * dr.clip(1.0 - max3(e_s), 0.0, 1.0) * mean3(c)
             elif self.dielectric:
-                f0d, sw = dielectric
+                f0d, sw = extra
                 fr = f0d + (1.0 - f0d) * w
                 w_s = mean3(m * (c + (1.0 - c) * w) + (1.0 - m) * sw * fr)
                 w_d = (1.0 - m) * (1.0 - sw * dr.maximum(dr.maximum(fr.x, fr.y), fr.z)) * mean3(c)
@@ -295,17 +366,17 @@ def _make_class(mv, mitsuba):
                          + nv * dr.sqrt(nl * nl * (1.0 - a2) + a2))
 
             w = schlick_weight(vh)
-            if self.flavour == "cycles" and self.multiscatter:
-                cc = dr.clip(c, 0.0, 1.0)
-                k_m, k_d, l_d = compensation(c, r, cos_i)
-                f = (cc + (1.0 - cc) * w) * k_m * m + fresnel_dielectric(vh) * k_d * (1.0 - m)
-                w_diff = (1.0 - m) * dr.clip(1.0 - layer_albedo(r, cos_i) * l_d, 0.0, 1.0)
-            elif self.flavour == "cycles":
-                cc = dr.clip(c, 0.0, 1.0)
-                f = (cc + (1.0 - cc) * w) * m + fresnel_dielectric(vh) * (1.0 - m)
-                w_diff = (1.0 - m) * dr.clip(1.0 - layer_albedo(r, cos_i), 0.0, 1.0)
+            extra = self._extra_params(si, c, valid)
+            if self.flavour == "cycles":
+                cc, b, lay = extra
+                f_m, f_d, e_s = fresnel_f82(cc, b, vh), lay.fresnel(vh), lay.albedo(r, cos_i)
+                if self.multiscatter:
+                    k_m, k_d, l_d = compensation(cc, b, lay, r, cos_i)
+                    f_m, f_d, e_s = f_m * k_m, f_d * k_d, e_s * l_d
+                f = f_m * m + f_d * (1.0 - m)
+                w_diff = (1.0 - m) * dr.clip(1.0 - max3(e_s), 0.0, 1.0)
             elif self.dielectric:
-                f0d, sw = self._dielectric_params(si, valid)
+                f0d, sw = extra
                 fr = f0d + (1.0 - f0d) * w
                 f = m * (c + (1.0 - c) * w) + (1.0 - m) * sw * fr
                 w_diff = (1.0 - m) * (1.0 - sw * dr.maximum(dr.maximum(fr.x, fr.y), fr.z))
@@ -325,8 +396,7 @@ def _make_class(mv, mitsuba):
             ci = dr.maximum(cos_i, 0.0)
             pdf_spec = d / (2.0 * (ci + dr.sqrt(ci * ci * (1.0 - a2) + a2)))
             pdf_diff = dr.maximum(cos_o, 0.0) * (1.0 / dr.pi)
-            p_spec, p_diff = self._lobe_probabilities(cos_i, c, m, r, has_d, has_s,
-                                                      self._dielectric_params(si, valid) if self.dielectric else None)
+            p_spec, p_diff = self._lobe_probabilities(cos_i, c, m, r, has_d, has_s, extra)
             pdf = p_spec * pdf_spec + p_diff * pdf_diff
 
             value = dr.select(valid, value, Color3f(0.0))
@@ -353,8 +423,7 @@ def _make_class(mv, mitsuba):
             if not (has_d or has_s):
                 return bs, Color3f(0.0)
             c, m, alpha, r = self._params(si, active)
-            p_spec, _ = self._lobe_probabilities(cos_i, c, m, r, has_d, has_s,
-                                                 self._dielectric_params(si, active) if self.dielectric else None)
+            p_spec, _ = self._lobe_probabilities(cos_i, c, m, r, has_d, has_s, self._extra_params(si, c, active))
             pick_spec = sample1 < p_spec
 
             # specular: reflect wi about a GGX visible normal (spherical caps)
@@ -404,7 +473,7 @@ def _make_class(mv, mitsuba):
 
 
 def evaluate(wi, wo, base_color, metallic, roughness, *, variant: str | None = None, flavour: str = "gltf",
-             distribution: str | None = None, dielectric=None):
+             distribution: str | None = None, dielectric=None, principled_inputs: dict | None = None):
     """Evaluate the plugin's ``eval_pdf`` for per-direction materials; numpy in, numpy out.
 
     The materials vary per row: they are passed as N x 1 ``bitmap`` textures
@@ -426,6 +495,9 @@ def evaluate(wi, wo, base_color, metallic, roughness, *, variant: str | None = N
     dielectric : (F0, weight), optional
         glTF's ior and specular extensions (:func:`compare.brdf.dielectric_specular`) as the plugin's
         ``specular_f0`` and ``specular_weight``.
+    principled_inputs : dict, optional
+        Flavour ``cycles``: ``ior`` (float), ``specular_ior_level`` (per row, shape (N,)) and
+        ``specular_tint`` (per row, shape (N, 3)), :data:`CYCLES_INPUTS`.
 
     Returns
     -------
@@ -456,6 +528,12 @@ def evaluate(wi, wo, base_color, metallic, roughness, *, variant: str | None = N
     if dielectric is not None:  # (F0, weight) of compare.brdf.dielectric_specular
         props["specular_f0"] = {"type": "rgb", "value": [float(x) for x in np.broadcast_to(dielectric[0], 3)]}
         props["specular_weight"] = float(dielectric[1])
+    for key, value in (principled_inputs or {}).items():
+        if key == "ior":
+            props[key] = float(value)
+        else:
+            props[key] = bitmap(np.broadcast_to(np.asarray(value, dtype=np.float32),
+                                                (count, 3) if key == "specular_tint" else (count,)))
     bsdf = mi.load_dict(props)
     ctx = mi.BSDFContext()
     u = (np.arange(count, dtype=np.float64) + 0.5) / count

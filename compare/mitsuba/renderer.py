@@ -50,7 +50,7 @@ class MitsubaRenderer(Renderer):
     name = "mitsuba"
     unit = "spp"
     default_budget = "spp"
-    # ior and specular in the shared flavour (the default); the cycles flavour keeps IOR 1.5
+    # every material feature in both flavours (the cycles flavour: as Blender's Principled v2 inputs)
     renders = frozenset({"punctual_lights"}) | frozenset(MATERIAL_FEATURE_NAMES)
 
     OPTIONS = {v: f"Mitsuba's {v} variant instead of the best available" for v in MITSUBA_VARIANTS}

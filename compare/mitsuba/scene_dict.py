@@ -30,12 +30,14 @@ The ``cycles`` mapping
 ----------------------
 Base colour, metallic and roughness go in unchanged (Blender squares the
 roughness like glTF). The model is what Cycles evaluates for the exporter's
-Principled node (IOR 1.5, Specular IOR Level 0.5, white Specular Tint, Diffuse
-Roughness 0, ``distribution`` GGX or Multiscatter GGX): GGX with height-correlated Smith
-masking (as ``shared``); the exact dielectric Fresnel of IOR 1.5 on the
-dielectric specular layer (``shared``: Schlick, F0 = 0.04), Schlick with
-F0 = base colour on the metal layer (Cycles' F82-tint with a white tint); and
-a Lambert lobe ``(1 - m)(1 - E_s(r, n.v)) c / pi`` under the specular layer,
+Principled node (``IOR`` = ior, ``Specular IOR Level`` = specular / 2,
+``Specular Tint`` = specular colour, each with its map, and by default 1.5, 0.5,
+white; Diffuse Roughness 0, ``distribution`` GGX or Multiscatter GGX): GGX with
+height-correlated Smith masking (as ``shared``); the exact dielectric Fresnel
+curve at the IOR the level adjusts, remapped to the tinted F0, on the
+dielectric specular layer (``shared``: Schlick, glTF's F0 and specular weight), F82-tint
+with F0 = base colour on the metal layer (Schlick with the default white tint); and
+a Lambert lobe ``(1 - m)(1 - max E_s(r, n.v)) c / pi`` under the specular layer,
 where ``E_s`` is Cycles' own albedo estimate of that layer, tabulated as
 Cycles tabulates it (``ggx_gen_schlick_ior_s``) and depending on the view
 direction only (``shared``: ``(1 - m)(1 - F_d(v.h))`` per light direction);
@@ -73,12 +75,14 @@ import math
 import numpy as np
 
 from compare.brdf import MATERIAL_MODES
+from compare.mitsuba.principled import NEUTRAL_LEVEL
 from compare.scene.loader import AreaLight, Material, Scene
 
 #: BSDF plugin name of the shared BRDF (registered by compare.mitsuba.bsdf).
 SHARED_BSDF = "gltf_pbr"
 #: Model identifiers of modes whose model changed (part of the reference's cache key).
-MATERIAL_MODELS = {"cycles": "gltf_pbr:cycles:per-material-distribution", "cycles-ggx": "gltf_pbr:cycles"}
+MATERIAL_MODELS = {"cycles": "gltf_pbr:cycles:per-material-distribution:ior-specular",
+                   "cycles-ggx": "gltf_pbr:cycles:ior-specular"}
 #: Modes that model Blender's Principled BSDF, with the distribution they force (None: each material's).
 PRINCIPLED_MODES = {"cycles": None, "cycles-ggx": "ggx"}
 
@@ -261,10 +265,13 @@ def _layer_map(mat: Material, name: str):
     return next((m for m in mat.layer_maps if m[0] == name), None)
 
 
-def _layer_value(mat: Material, name: str):
-    """A material extension's parameter: its factor, or the factor times its map (a texture)."""
+def _layer_value(mat: Material, name: str, scale: float = 1.0):
+    """A material extension's parameter: its factor, or the factor times its map (a texture); times ``scale``
+    (a scalar parameter)."""
     found = _layer_map(mat, name)
     factor = getattr(mat, name)
+    if scale != 1.0:
+        factor = factor * scale
     if found is not None:
         from compare.scene.textures import channel_map
 
@@ -315,15 +322,15 @@ def _surface_dict(mat: Material, mode: str) -> dict:
         from compare.mitsuba.bsdf import register
 
         register()
-        if (mat.ior, mat.specular, mat.specular_color) != (1.5, 1.0, (1.0, 1.0, 1.0)) or _layer_map(mat, "specular"):
-            import warnings
-
-            warnings.warn(f"materials {mode!r}: {mat.name}: Blender's Principled v2 model here keeps IOR 1.5 and "
-                          "no specular weight or colour for the reflection (the shared model, the default, has "
-                          "them)", stacklevel=2)
-        return _normal_mapped(mat, {"type": SHARED_BSDF, "flavour": "cycles", "base_color": base,
-                                    "metallic": metallic, "roughness": roughness,
-                                    "distribution": PRINCIPLED_MODES[mode] or mat.distribution})
+        d = {"type": SHARED_BSDF, "flavour": "cycles", "base_color": base, "metallic": metallic,
+             "roughness": roughness, "distribution": PRINCIPLED_MODES[mode] or mat.distribution}
+        if ((mat.ior, mat.specular, mat.specular_color) != (1.5, 1.0, (1.0, 1.0, 1.0))
+                or _layer_map(mat, "specular") or _layer_map(mat, "specular_color")):
+            # the Principled inputs the Blender export sets (compare.blender.export.principled_inputs):
+            # glTF's specular 1 is the neutral Specular IOR Level
+            d.update(ior=float(min(mat.ior, 1e3)), specular_ior_level=_layer_value(mat, "specular", scale=NEUTRAL_LEVEL),
+                     specular_tint=_layer_value(mat, "specular_color"))
+        return _normal_mapped(mat, d)
     if mode == "diffuse":
         return _normal_mapped(mat, {"type": "diffuse", "reflectance": base})
     raise ValueError(f"materials: expected one of {', '.join(MATERIAL_MODES)}, got {mode!r}")

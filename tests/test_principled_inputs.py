@@ -1,0 +1,220 @@
+"""The reference's Cycles flavour with Blender's Principled v2 inputs: IOR, Specular IOR Level, Specular Tint.
+
+Closed forms of the numpy model (compare.mitsuba.principled), the Mitsuba plugin against it, and the
+rendered normal-incidence reflectance of a tinted dielectric mirror in the reference and in Blender Cycles.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from compare.mitsuba import principled
+from compare.mitsuba.reference import ReferenceRenderer
+from compare.scene.loader import load_scene
+from test_blender import needs_bpy
+
+Z = np.array([0.0, 0.0, 1.0])
+
+
+def _hemisphere(rng, k):
+    d = rng.normal(size=(k, 3))
+    d[:, 2] = np.abs(d[:, 2]) + 0.05
+    return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+@pytest.mark.parametrize("ior, level", [(1.5, 0.5), (1.5, 1.0), (2.0, 0.25), (1.33, 0.8), (3.0, 0.0)])
+def test_specular_ior_level_scales_f0_and_sets_the_ior(ior, level):
+    eta, f0 = principled.specular_ior(ior, level)
+    f0_ior = ((ior - 1) / (ior + 1)) ** 2
+    assert f0 == pytest.approx(f0_ior * 2 * level, abs=1e-15)
+    # the adjusted IOR's own normal-incidence reflectance is that F0 (Cycles' ior_from_F0)
+    assert principled.f0_from_ior(eta) == pytest.approx(f0, rel=1e-12, abs=1e-15)
+    # the layer's Fresnel at normal incidence is F0 times the tint, at grazing incidence 1 (0 without a layer)
+    tint = np.array([1.0, 0.5, 0.25])
+    f = principled.dielectric_fresnel(np.array([1.0, 0.0]), np.full(2, eta), f0 * tint)
+    np.testing.assert_allclose(f[0], f0 * tint, atol=1e-12)
+    np.testing.assert_allclose(f[1], 1.0 if level > 0 else 0.0)
+
+
+def test_level_zero_removes_the_specular_layer():
+    """Specular IOR Level 0: F0 = 0, IOR 1, no layer: a dielectric is Lambert, whatever the roughness."""
+    rng = np.random.default_rng(5)
+    wi, wo = _hemisphere(rng, 200), _hemisphere(rng, 200)
+    base = rng.random((200, 3))
+    for dist in principled.DISTRIBUTIONS:
+        f = principled.eval_principled(Z, wi, wo, base, 0.0, rng.random(200), dist, ior=1.7, specular_ior_level=0.0)
+        np.testing.assert_allclose(f, base / np.pi, rtol=1e-12)
+
+
+def test_f82_tint_is_schlick_times_the_tint_at_82_degrees():
+    f0 = np.array([0.9, 0.6, 0.2])
+    tint = np.array([0.5, 1.0, 0.8])
+    b = principled.f82_tint_b(f0, tint)
+    c = 1.0 / 7.0
+    schlick = f0 + (1 - f0) * (1 - c) ** 5
+    np.testing.assert_allclose(principled.fresnel_f82(c, f0, b), schlick * tint, rtol=1e-12)
+    np.testing.assert_allclose(principled.fresnel_f82(1.0, f0, b), f0, rtol=1e-12)
+    # a white tint is Schlick (B = 0), and a tint above 1 is clamped to it
+    np.testing.assert_array_equal(principled.f82_tint_b(f0, [1.0, 1.5, 2.0]), 0.0)
+
+
+def test_neutral_inputs_are_the_default_model():
+    rng = np.random.default_rng(6)
+    wi, wo = _hemisphere(rng, 300), _hemisphere(rng, 300)
+    base, m, r = rng.random((300, 3)), rng.choice([0.0, 0.4, 1.0], 300), rng.random(300)
+    for dist in principled.DISTRIBUTIONS:
+        plain = principled.eval_principled(Z, wi, wo, base, m, r, dist)
+        explicit = principled.eval_principled(Z, wi, wo, base, m, r, dist, ior=np.full(300, 1.5),
+                                              specular_ior_level=np.full(300, 0.5), specular_tint=np.ones((300, 3)))
+        np.testing.assert_allclose(explicit, plain, rtol=1e-12)
+
+
+def test_ior_changes_the_dielectric_reflection_and_the_diffuse_under_it():
+    """A higher IOR reflects more at every angle and leaves less to the diffuse (energy stays below 1)."""
+    rng = np.random.default_rng(7)
+    wi, wo = _hemisphere(rng, 400), _hemisphere(rng, 400)
+    lo_s, lo_d = principled.eval_principled_lobes(Z, wi, wo, np.full(3, 0.8), 0.0, 0.3, ior=1.3)
+    hi_s, hi_d = principled.eval_principled_lobes(Z, wi, wo, np.full(3, 0.8), 0.0, 0.3, ior=2.4)
+    assert np.all(hi_s >= lo_s) and np.all(hi_d <= lo_d)
+    assert hi_s.sum() > 2 * lo_s.sum()
+
+
+def test_the_stored_table_is_what_the_tabulation_computes():
+    """principled_table.npz against one slice recomputed (slice 9: F0 = 0.6**4, IOR 2.3)."""
+    np.testing.assert_allclose(principled._s_slice(9 / 15, 128), principled.LAYER_S_TABLE_3D[9], atol=1e-6)
+
+
+def test_per_element_ior_looks_up_as_one_ior():
+    """The trilinear lookup with an IOR per element equals the bilinear one in the IOR's mixed slice."""
+    rng = np.random.default_rng(8)
+    r, mu = rng.random(100), rng.random(100)
+    for eta in (1.05, 1.5, 2.2, 7.0):
+        np.testing.assert_allclose(principled.layer_s(r, mu, np.full(100, eta)), principled.layer_s(r, mu, eta),
+                                   rtol=1e-12, atol=1e-15)
+
+
+def test_plugin_evaluates_the_principled_inputs_as_the_numpy_model():
+    from compare.brdf import REFERENCE_ALPHA_MIN, alpha_from_roughness, pdf_ggx_vndf_reflection
+    from compare.mitsuba.bsdf import evaluate
+
+    rng = np.random.default_rng(9)
+    n = 3000
+    wi, wo = _hemisphere(rng, n), _hemisphere(rng, n)
+    base, m = rng.random((n, 3)), rng.choice([0.0, 0.3, 1.0], n)
+    r = rng.uniform(0.05, 1.0, n)
+    level = rng.choice([0.0, 0.25, 0.5, 0.8, 1.0], n)
+    tint = rng.uniform(0.0, 1.4, (n, 3))
+    for ior in (1.0, 1.33, 2.4):
+        for dist in principled.DISTRIBUTIONS:
+            inputs = {"ior": ior, "specular_ior_level": level, "specular_tint": tint}
+            value, pdf = evaluate(wi, wo, base, m, r, flavour="cycles", distribution=dist, principled_inputs=inputs)
+            want = principled.eval_principled(Z, wi, wo, base, m, r, dist, **inputs) * wo[:, 2:]
+            np.testing.assert_allclose(value, want, rtol=2e-5, atol=1e-6, err_msg=f"ior {ior} {dist}")
+            p = principled.specular_sampling_probability(wi[:, 2], base, m, r, dist, **inputs)
+            want_pdf = (p * pdf_ggx_vndf_reflection(wi, wo, alpha_from_roughness(r, REFERENCE_ALPHA_MIN))
+                        + (1 - p) * wo[:, 2] / np.pi)
+            np.testing.assert_allclose(pdf, want_pdf, rtol=2e-5, atol=1e-6, err_msg=f"ior {ior} {dist} pdf")
+
+
+@pytest.mark.parametrize("props, message", [
+    ({"flavour": "gltf", "ior": 2.0}, "apply to flavour 'cycles' only"),
+    ({"flavour": "cycles", "specular_f0": 0.1}, "apply to flavour 'gltf' only"),
+    ({"flavour": "cycles", "ior": 0.5}, "ior must be a finite number >= 1"),
+])
+def test_plugin_names_inputs_of_the_other_flavour(props, message):
+    from compare.mitsuba.bsdf import PLUGIN_NAME, register
+
+    mi = register()
+    with pytest.raises(Exception, match=message):
+        mi.load_dict({"type": PLUGIN_NAME, **props})
+
+
+def _tinted_mirror(make_scene, maps: str = ""):
+    """A black dielectric mirror facing the camera under a white emitter behind the camera: the camera sees
+    the emitter reflected at normal incidence, the layer's F0 × 2 × level × tint."""
+    return load_scene(make_scene(f"""
+        [camera]
+        position = [0.0, 0.0, 2.0]
+        target = [0.0, 0.0, 0.0]
+        fov = 8.0
+        resolution = [16, 16]
+
+        [render]
+        max_depth = 4
+
+        [materials.mirror]
+        base_color = [0.0, 0.0, 0.0]
+        metallic = 0.0
+        roughness = 0.0
+        ior = 2.0
+        specular = 0.5
+        specular_color = [1.0, 0.5, 0.25]
+        {maps}
+
+        [[meshes]]
+        shape = "quad"
+        corners = [[-2, -2, 0], [2, -2, 0], [2, 2, 0], [-2, 2, 0]]
+        material = "mirror"
+
+        [[lights]]
+        center = [0.0, 0.0, 3.0]
+        size = [4.0, 4.0]
+        normal = [0.0, 0.0, -1.0]
+        radiance = [1.0, 1.0, 1.0]
+        """))
+
+
+MIRROR_F0 = (1.0 / 9.0) * 0.5 * np.array([1.0, 0.5, 0.25])  # F0(2) × specular × colour
+
+
+@pytest.mark.parametrize("mode", ["cycles", "cycles-ggx", "shared"])
+def test_reference_mirror_reflects_the_tinted_f0(make_scene, mode):
+    """Both flavours at normal incidence: glTF's F0 × specular × colour (Cycles: F0 × 2 × level × tint)."""
+    scene = _tinted_mirror(make_scene)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no "keeps IOR 1.5" warning any more
+        image = ReferenceRenderer(scene, materials=mode, cache_dir=False, progress=False).render(16).image
+    np.testing.assert_allclose(image[..., :3].reshape(-1, 3).mean(axis=0), MIRROR_F0, rtol=0.02)
+
+
+@needs_bpy
+def test_cycles_mirror_reflects_the_tinted_f0(make_scene):
+    """The same closed form through Blender's Principled BSDF (IOR, Specular IOR Level, Specular Tint)."""
+    from compare.blender.render import render_blender
+
+    image = render_blender(_tinted_mirror(make_scene), engine="cycles", samples=16).image
+    np.testing.assert_allclose(image[..., :3].reshape(-1, 3).mean(axis=0), MIRROR_F0, rtol=0.03)
+
+
+def test_scene_dict_passes_the_principled_inputs(make_scene):
+    from compare.mitsuba.scene_dict import material_dict
+
+    scene = _tinted_mirror(make_scene)
+    d = material_dict(scene.materials["mirror"], "cycles")
+    while "bsdf" in d:
+        d = d["bsdf"]
+    assert d["ior"] == 2.0
+    assert d["specular_ior_level"] == pytest.approx(0.25)
+    assert d["specular_tint"] == {"type": "rgb", "value": [1.0, 0.5, 0.25]}
+    # a material without the extensions keeps the neutral model's code
+    plain = load_scene(make_scene("""
+        [camera]
+        position = [0.0, 0.0, 2.0]
+        target = [0.0, 0.0, 0.0]
+
+        [materials.grey]
+        base_color = [0.5, 0.5, 0.5]
+
+        [[meshes]]
+        shape = "sphere"
+        radius = 0.5
+        material = "grey"
+
+        [environment]
+        constant = [0.5, 0.5, 0.5]
+        """, name="plain.toml"))
+    d = material_dict(plain.materials["grey"], "cycles")
+    assert not {"ior", "specular_ior_level", "specular_tint"} & set(d)
