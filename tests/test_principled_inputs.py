@@ -132,7 +132,7 @@ def test_plugin_names_inputs_of_the_other_flavour(props, message):
         mi.load_dict({"type": PLUGIN_NAME, **props})
 
 
-def _tinted_mirror(make_scene, maps: str = ""):
+def _tinted_mirror(make_scene, color=(1.0, 0.5, 0.25)):
     """A black dielectric mirror facing the camera under a white emitter behind the camera: the camera sees
     the emitter reflected at normal incidence, the layer's F0 × 2 × level × tint."""
     return load_scene(make_scene(f"""
@@ -151,8 +151,7 @@ def _tinted_mirror(make_scene, maps: str = ""):
         roughness = 0.0
         ior = 2.0
         specular = 0.5
-        specular_color = [1.0, 0.5, 0.25]
-        {maps}
+        specular_color = {list(color)}
 
         [[meshes]]
         shape = "quad"
@@ -167,26 +166,32 @@ def _tinted_mirror(make_scene, maps: str = ""):
         """))
 
 
-MIRROR_F0 = (1.0 / 9.0) * 0.5 * np.array([1.0, 0.5, 0.25])  # F0(2) × specular × colour
+def _mirror_f0(color):
+    return np.minimum((1.0 / 9.0) * 0.5 * np.asarray(color), 1.0)  # F0(2) × specular × colour
 
 
+COLOURS = [(1.0, 0.5, 0.25), (2.0, 1.0, 0.3)]  # glTF's specular colour may exceed 1
+
+
+@pytest.mark.parametrize("color", COLOURS)
 @pytest.mark.parametrize("mode", ["cycles", "cycles-ggx", "shared"])
-def test_reference_mirror_reflects_the_tinted_f0(make_scene, mode):
+def test_reference_mirror_reflects_the_tinted_f0(make_scene, mode, color):
     """Both flavours at normal incidence: glTF's F0 × specular × colour (Cycles: F0 × 2 × level × tint)."""
-    scene = _tinted_mirror(make_scene)
+    scene = _tinted_mirror(make_scene, color)
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # no "keeps IOR 1.5" warning any more
         image = ReferenceRenderer(scene, materials=mode, cache_dir=False, progress=False).render(16).image
-    np.testing.assert_allclose(image[..., :3].reshape(-1, 3).mean(axis=0), MIRROR_F0, rtol=0.02)
+    np.testing.assert_allclose(image[..., :3].reshape(-1, 3).mean(axis=0), _mirror_f0(color), rtol=0.02)
 
 
 @needs_bpy
-def test_cycles_mirror_reflects_the_tinted_f0(make_scene):
+@pytest.mark.parametrize("color", COLOURS)
+def test_cycles_mirror_reflects_the_tinted_f0(make_scene, color):
     """The same closed form through Blender's Principled BSDF (IOR, Specular IOR Level, Specular Tint)."""
     from compare.blender.render import render_blender
 
-    image = render_blender(_tinted_mirror(make_scene), engine="cycles", samples=16).image
-    np.testing.assert_allclose(image[..., :3].reshape(-1, 3).mean(axis=0), MIRROR_F0, rtol=0.03)
+    image = render_blender(_tinted_mirror(make_scene, color), engine="cycles", samples=16).image
+    np.testing.assert_allclose(image[..., :3].reshape(-1, 3).mean(axis=0), _mirror_f0(color), rtol=0.03)
 
 
 def test_scene_dict_passes_the_principled_inputs(make_scene):
@@ -198,7 +203,7 @@ def test_scene_dict_passes_the_principled_inputs(make_scene):
         d = d["bsdf"]
     assert d["ior"] == 2.0
     assert d["specular_ior_level"] == pytest.approx(0.25)
-    assert d["specular_tint"] == {"type": "rgb", "value": [1.0, 0.5, 0.25]}
+    assert d["specular_tint"] == {"type": "srgb", "color": [1.0, 0.5, 0.25], "unbounded": True}
     # a material without the extensions keeps the neutral model's code
     plain = load_scene(make_scene("""
         [camera]

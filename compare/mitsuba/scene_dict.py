@@ -260,6 +260,13 @@ def _specular_f0(mat: Material):
     return bitmap_dict(mat, specular_f0_map(colour[2], mat.specular_color, mat.ior), raw=True)
 
 
+def _unbounded(texture: dict) -> dict:
+    """A constant colour that may exceed 1 (a tint): Mitsuba's ``rgb`` accepts reflectances only."""
+    if texture.get("type") == "rgb":
+        return {"type": "srgb", "color": texture["value"], "unbounded": True}
+    return texture
+
+
 def _layer_map(mat: Material, name: str):
     """The map of a material extension's parameter (field, channel, path), or None."""
     return next((m for m in mat.layer_maps if m[0] == name), None)
@@ -329,7 +336,7 @@ def _surface_dict(mat: Material, mode: str) -> dict:
             # the Principled inputs the Blender export sets (compare.blender.export.principled_inputs):
             # glTF's specular 1 is the neutral Specular IOR Level
             d.update(ior=float(min(mat.ior, 1e3)), specular_ior_level=_layer_value(mat, "specular", scale=NEUTRAL_LEVEL),
-                     specular_tint=_layer_value(mat, "specular_color"))
+                     specular_tint=_unbounded(_layer_value(mat, "specular_color")))
         return _normal_mapped(mat, d)
     if mode == "diffuse":
         return _normal_mapped(mat, {"type": "diffuse", "reflectance": base})
