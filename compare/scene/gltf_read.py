@@ -92,6 +92,8 @@ SUPPORTED_EXTENSIONS = ("KHR_lights_punctual", "KHR_materials_emissive_strength"
                         "KHR_texture_transform", *dict.fromkeys(layer.extension for layer in LAYERS))
 #: Components an accessor without a bufferView (zeros, or sparse) may have: 2^28, a billion bytes as float32.
 MAX_ZERO_ELEMENTS = 1 << 28
+#: Maps of the material extensions read apart from LAYER_MAPS (the coat's own normal map).
+MAPS_READ_APART = ("clearcoatNormalTexture",)
 #: glTF sampler codes → the scene model's texture_wrap and texture_filter.
 GL_WRAPS = {10497: "repeat", 33071: "clamp", 33648: "mirror"}
 GL_FILTERS = {9728: "nearest", 9729: "linear"}
@@ -591,7 +593,8 @@ class _Reader:
             out[layer.field] = float(v)
         for ext in dict.fromkeys(layer.extension for layer in LAYERS):
             maps = sorted(k for k in exts.get(ext, {})
-                          if isinstance(k, str) and k.endswith("Texture") and k not in LAYER_MAPS)
+                          if isinstance(k, str) and k.endswith("Texture") and k not in LAYER_MAPS
+                          and k not in MAPS_READ_APART)
             if maps:
                 self.notes.append(f"{w}.extensions.{ext}: {', '.join(maps)} not read (the factors are)")
         return out
