@@ -71,6 +71,7 @@ import math
 
 from compare.brdf import REFERENCE_ALPHA_MIN, COS_MIN, DIELECTRIC_F0, H_LEN2_MIN, SPECULAR_PROB_MIN, multiscatter
 from compare.mitsuba import principled
+from compare.mitsuba.principled_tables import tables
 
 __all__ = ["FLAVOURS", "PLUGIN_NAME", "evaluate", "register", "registered_variants"]
 
@@ -111,6 +112,16 @@ def register(variant: str | None = None):
     return register_bsdf_plugin(PLUGIN_NAME, _make_class, _CLASSES, variant)
 
 
+class _LazyTables:
+    """compare.mitsuba.principled_tables.tables(mv), built on first use."""
+
+    def __init__(self, mv):
+        self._mv = mv
+
+    def __getattr__(self, name):
+        return getattr(tables(self._mv), name)
+
+
 def _make_class(mv, mitsuba):
     """Build the BSDF class against one variant module ``mv`` (e.g. ``mitsuba.llvm_ad_rgb``).
 
@@ -135,6 +146,8 @@ def _make_class(mv, mitsuba):
     def mean3(c):
         return (c[0] + c[1] + c[2]) * (1.0 / 3.0)
 
+    cycles_tables = _LazyTables(mv)
+
     def fresnel_dielectric(c, eta):
         """Exact dielectric Fresnel at ``eta`` > 1 for c = cos in [0, 1] (no total internal reflection)."""
         g = dr.sqrt(eta * eta - 1.0 + c * c)
@@ -145,41 +158,12 @@ def _make_class(mv, mitsuba):
     def f0_from_ior(eta):
         return dr.square((eta - 1.0) / (eta + 1.0))
 
-    layer = {}
-
-    def make_layer_texture():
-        """The S table as a Texture3f ([z, cos_i, roughness]), once per variant, at load time (never
-        while a kernel is being traced)."""
-        if "texture" not in layer:
-            table = principled.LAYER_S_TABLE_3D.astype("float32")[..., None]
-            # use_accel=False: CUDA's texture units interpolate with 8-bit weights; the software
-            # path is float32 on every backend.
-            layer["texture"] = mv.Texture3f(mv.TensorXf(table), use_accel=False,
-                                            filter_mode=dr.FilterMode.Linear, wrap_mode=dr.WrapMode.Clamp)
-
-    def make_energy_textures():
-        """Cycles' ggx_E (2D: row = cos_i, column = roughness) and ggx_Eavg (1D) as textures."""
-        if "e" not in layer:
-            kw = dict(use_accel=False, filter_mode=dr.FilterMode.Linear, wrap_mode=dr.WrapMode.Clamp)
-            layer["e"] = mv.Texture2f(mv.TensorXf(multiscatter.GGX_E_TABLE.astype("float32")[..., None]), **kw)
-            layer["e_avg"] = mv.Texture1f(mv.TensorXf(multiscatter.GGX_EAVG_TABLE.astype("float32")[..., None]),
-                                          **kw)
-
     def compensation(cc, b, lay, r, cos_i):
         """(K_m, K_d, L_d), each Color3f, of compare.mitsuba.principled: Multiscatter GGX's lobe scales
         and layer factor."""
-        n = multiscatter.ENERGY_TABLE_SIZE
-        u = (dr.clip(r, 0.0, 1.0) * (n - 1) + 0.5) * (1.0 / n)
-        e = layer["e"].eval(mv.Point2f(u, (dr.clip(cos_i, 0.0, 1.0) * (n - 1) + 0.5) * (1.0 / n)))[0]
-        e_avg = layer["e_avg"].eval(mv.Point1f(u))[0]
-        missing = (1.0 - e) / e
-
-        def f_ms(fss):
-            return fss * e_avg / (1.0 - fss * (1.0 - e_avg))
-
-        fms_d = f_ms(lay.fss)
-        return (1.0 + f_ms(cc + (1.0 - cc) * (1.0 / 21.0) - b * (1.0 / 126.0)) * missing,
-                1.0 + fms_d * missing, e + fms_d * (1.0 - e))
+        k_m, _ = cycles_tables.compensation(cc + (1.0 - cc) * (1.0 / 21.0) - b * (1.0 / 126.0), r, cos_i)
+        k_d, l_d = cycles_tables.compensation(lay.fss, r, cos_i)
+        return k_m, k_d, l_d
 
     class CyclesLayer:
         """Per-point constants of the Principled v2 specular layer (compare.mitsuba.principled):
@@ -197,7 +181,6 @@ def _make_class(mv, mitsuba):
             self.f0t = dr.clip(f0 * tint, 0.0, 1.0)
             s_avg = dr.clip((multiscatter_fss(eta) - self.f0e) * self.inv, 0.0, 1.0)
             self.fss = dr.select(self.on, self.f0t + (1.0 - self.f0t) * s_avg, 0.0)
-            self.z = dr.sqrt(dr.abs((eta - 1.0) / (eta + 1.0)))
 
         def fresnel(self, c):
             """Color3f: ``f0t + (1 - f0t) s(c)``, zero where the layer is absent."""
@@ -205,12 +188,8 @@ def _make_class(mv, mitsuba):
             return dr.select(self.on, self.f0t + (1.0 - self.f0t) * s, 0.0)
 
         def albedo(self, r, cos_i):
-            """E_s(r, cos_i) = f0t + (1 - f0t) S(r, cos_i, eta): trilinear in Cycles' grid (texel i at i/15)."""
-            n = principled.LAYER_TABLE_SIZE
-            pos = mv.Point3f((dr.clip(r, 0.0, 1.0) * (n - 1) + 0.5) * (1.0 / n),
-                             (dr.clip(cos_i, 0.0, 1.0) * (n - 1) + 0.5) * (1.0 / n),
-                             (dr.clip(self.z, 0.0, 1.0) * (n - 1) + 0.5) * (1.0 / n))
-            s = layer["texture"].eval(pos)[0]
+            """E_s(r, cos_i) = f0t + (1 - f0t) S(r, cos_i, eta) (Cycles' trilinear lookup)."""
+            s = cycles_tables.layer_s(r, cos_i, self.eta_safe)
             return dr.select(self.on, self.f0t + (1.0 - self.f0t) * s, 0.0)
 
     def multiscatter_fss(eta):
@@ -270,9 +249,7 @@ def _make_class(mv, mitsuba):
             self.specular_ior_level = props.get_texture("specular_ior_level", principled.NEUTRAL_LEVEL)
             self.specular_tint = props.get_texture("specular_tint", 1.0)
             if self.flavour == "cycles":
-                make_layer_texture()
-            if self.multiscatter:
-                make_energy_textures()
+                tables(mv)  # built at load time, never while a kernel is traced
             self.m_components = [diffuse_flags, glossy_flags]
             self.m_flags = diffuse_flags | glossy_flags
 

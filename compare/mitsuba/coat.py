@@ -48,7 +48,7 @@ def _make_class(mv, mitsuba):
             self.base = props["base"]
             self.weight = props.get_texture("clearcoat", 1.0)
             self.roughness = props.get_texture("roughness", 0.0)
-            self.normalmap = props.get_texture("normalmap") if props.has_property("normalmap") else None
+            self.normalmap = props.get_texture("normalmap") if "normalmap" in props else None
             n = self.base.component_count()
             coat = Flags.GlossyReflection | Flags.FrontSide
             self.m_components = [self.base.flags(i) for i in range(n)] + [coat]
