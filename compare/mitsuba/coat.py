@@ -8,6 +8,11 @@ Mitsuba's ``normalmap`` reads one. The coat's lobe (its D, V and cosine) is then
 the frame of that normal; its share at the half vector does not depend on the frame; the base keeps the
 surface's frame. Directions must lie above the surface as well as above the coat's normal.
 
+``flavour``: ``"gltf"`` (default), glTF's layering (the share ``w F_c(v.h)``, Schlick with F0 = 0.04, taken
+from the base per direction), or ``"cycles"``, Principled v2's coat as Cycles builds it
+(:func:`compare.mitsuba.principled.coat_lobe_cycles`: the exact Fresnel of Coat IOR 1.5, Multiscatter GGX's
+energy compensation, and the base scaled by one minus the coat's albedo estimate at the view direction).
+
 Sampling: the coat's GGX visible normals with probability ``p_c = clip(w F_c(cos θ_i), 0.1 w, 0.9)``
 (Schlick at the view's cosine, floored so that a glancing coat over a bright base is still found),
 else the base's own sampling; the returned weight is ``eval / pdf`` of the mixture (one-sample MIS),
@@ -19,11 +24,18 @@ from __future__ import annotations
 
 from compare.brdf import REFERENCE_ALPHA_MIN, COS_MIN, H_LEN2_MIN
 from compare.brdf.coat import COAT_F0
+from compare.mitsuba import principled
+from compare.mitsuba.principled_tables import tables
 
 __all__ = ["PLUGIN_NAME", "register"]
 
 PLUGIN_NAME = "gltf_coat"
+#: Values of the ``flavour`` property: glTF's layering, Blender's Principled v2 coat.
+FLAVOURS = ("gltf", "cycles")
 _CLASSES: dict[str, type] = {}
+#: The Cycles coat's F0 and average Fresnel at Coat IOR 1.5 (Cycles' fresnel_dielectric_Fss).
+COAT_F0_CYCLES = float(principled.f0_from_ior(principled.COAT_IOR))
+FSS_COAT = float(principled.fresnel_dielectric_fss(principled.COAT_IOR))
 _DENOM_MIN = 1e-30
 
 
@@ -40,6 +52,14 @@ def _make_class(mv, mitsuba):
     UInt32, Color3f, Vector3f = mv.UInt32, mv.Color3f, mv.Vector3f
     Flags = mitsuba.BSDFFlags
 
+    def fresnel_coat(c):
+        """Exact dielectric Fresnel at the coat's IOR for c = cos in [0, 1]."""
+        eta = principled.COAT_IOR
+        g = dr.sqrt(eta * eta - 1.0 + c * c)
+        a = (g - c) / (g + c)
+        b = (c * (g + c) - 1.0) / (c * (g - c) + 1.0)
+        return 0.5 * a * a * (1.0 + b * b)
+
     class GltfCoatBSDF(mv.BSDF):
         """A clear coat over the nested BSDF ``base`` (see :mod:`compare.mitsuba.coat`)."""
 
@@ -49,6 +69,12 @@ def _make_class(mv, mitsuba):
             self.weight = props.get_texture("clearcoat", 1.0)
             self.roughness = props.get_texture("roughness", 0.0)
             self.normalmap = props.get_texture("normalmap") if "normalmap" in props else None
+            self.flavour = props.get("flavour", "gltf")
+            if self.flavour not in FLAVOURS:
+                raise ValueError(f"{PLUGIN_NAME}: flavour must be one of {', '.join(FLAVOURS)}, "
+                                 f"got {self.flavour!r}")
+            if self.flavour == "cycles":
+                tables(mv)  # built at load time, never while a kernel is traced
             n = self.base.component_count()
             coat = Flags.GlossyReflection | Flags.FrontSide
             self.m_components = [self.base.flags(i) for i in range(n)] + [coat]
@@ -57,10 +83,11 @@ def _make_class(mv, mitsuba):
         def _params(self, si, active):
             w = dr.clip(self.weight.eval_1(si, active), 0.0, 1.0)
             r = dr.clip(self.roughness.eval_1(si, active), 0.0, 1.0)
-            return w, dr.maximum(r * r, REFERENCE_ALPHA_MIN)
+            return w, (dr.maximum(r * r, REFERENCE_ALPHA_MIN), r)
 
-        def _coat(self, wi, wo, weight, alpha):
-            """(w F_c, w F_c D V cos_o) at the half vector of wi, wo, and the coat's VNDF pdf of wo."""
+        def _coat(self, wi, wo, weight, rough):
+            """(what the base keeps, the coat's lobe w F_c D V cos_o) at wi, wo, and the coat's VNDF pdf of wo."""
+            alpha, r = rough
             cos_i, cos_o = wi.z, wo.z
             hu = wi + wo
             len2 = dr.dot(hu, hu)
@@ -76,13 +103,20 @@ def _make_class(mv, mitsuba):
             nv = dr.maximum(cos_i, COS_MIN)
             nl = dr.maximum(cos_o, COS_MIN)
             vis = 0.5 / (nl * dr.sqrt(nv * nv * (1.0 - a2) + a2) + nv * dr.sqrt(nl * nl * (1.0 - a2) + a2))
-            x = dr.clip(1.0 - vh, 0.0, 1.0)
-            x2 = x * x
-            share = weight * (COAT_F0 + (1.0 - COAT_F0) * x2 * x2 * x)
             ci = dr.maximum(cos_i, 0.0)
             pdf = d / (2.0 * (ci + dr.sqrt(ci * ci * (1.0 - a2) + a2)))
-            return (dr.select(ok, share, 0.0), dr.select(ok, share * d * vis * dr.maximum(cos_o, 0.0), 0.0),
-                    dr.select(ok, pdf, 0.0))
+            if self.flavour == "cycles":
+                t = tables(mv)
+                k, lf = t.compensation(FSS_COAT, r, ci)
+                share = weight * fresnel_coat(vh) * k
+                e = COAT_F0_CYCLES + (1.0 - COAT_F0_CYCLES) * t.layer_s(r, ci, principled.COAT_IOR)
+                keep = dr.select(cos_i > 0.0, dr.clip(1.0 - weight * e * lf, 0.0, 1.0), 1.0)
+            else:
+                x = dr.clip(1.0 - vh, 0.0, 1.0)
+                x2 = x * x
+                share = weight * (COAT_F0 + (1.0 - COAT_F0) * x2 * x2 * x)
+                keep = 1.0 - dr.select(ok, share, 0.0)
+            return (keep, dr.select(ok, share * d * vis * dr.maximum(cos_o, 0.0), 0.0), dr.select(ok, pdf, 0.0))
 
         def _frame(self, si, active):
             """The coat's frame in the shading frame: its own normal map's normal, or None (the surface's)."""
@@ -92,13 +126,13 @@ def _make_class(mv, mitsuba):
             n = dr.normalize(Vector3f(2.0 * c.x - 1.0, 2.0 * c.y - 1.0, 2.0 * c.z - 1.0))
             return mv.Frame3f(n)
 
-        def _coat_at(self, frame, wi, wo, weight, alpha):
+        def _coat_at(self, frame, wi, wo, weight, rough):
             """_coat in the coat's frame; nothing below the surface (wi or wo under the shading normal)."""
             if frame is None:
-                return self._coat(wi, wo, weight, alpha)
-            share, spec, pdf = self._coat(frame.to_local(wi), frame.to_local(wo), weight, alpha)
+                return self._coat(wi, wo, weight, rough)
+            keep, spec, pdf = self._coat(frame.to_local(wi), frame.to_local(wo), weight, rough)
             ok = (wi.z > 0.0) & (wo.z > 0.0)
-            return dr.select(ok, share, 0.0), dr.select(ok, spec, 0.0), dr.select(ok, pdf, 0.0)
+            return dr.select(ok, keep, 1.0), dr.select(ok, spec, 0.0), dr.select(ok, pdf, 0.0)
 
         @staticmethod
         def _p_coat(cos_i, weight):
@@ -109,11 +143,11 @@ def _make_class(mv, mitsuba):
 
         def eval_pdf(self, ctx, si, wo, active=True):
             base_value, base_pdf = self.base.eval_pdf(ctx, si, wo, active)
-            weight, alpha = self._params(si, active)
+            weight, rough = self._params(si, active)
             frame = self._frame(si, active)
-            share, spec, coat_pdf = self._coat_at(frame, si.wi, wo, weight, alpha)
+            keep, spec, coat_pdf = self._coat_at(frame, si.wi, wo, weight, rough)
             p = self._p_coat(si.wi.z if frame is None else dr.dot(si.wi, frame.n), weight)
-            value = base_value * (1.0 - share) + Color3f(spec)
+            value = base_value * keep + Color3f(spec)
             pdf = p * coat_pdf + (1.0 - p) * base_pdf
             return dr.select(active, value, Color3f(0.0)), dr.select(active, pdf, 0.0)
 
@@ -124,7 +158,8 @@ def _make_class(mv, mitsuba):
             return self.eval_pdf(ctx, si, wo, active)[1]
 
         def sample(self, ctx, si, sample1, sample2, active=True):
-            weight, alpha = self._params(si, active)
+            weight, rough = self._params(si, active)
+            alpha = rough[0]
             frame = self._frame(si, active)
             wi = si.wi if frame is None else frame.to_local(si.wi)  # the coat's lobe is sampled in its frame
             p = self._p_coat(wi.z, weight)
@@ -143,7 +178,7 @@ def _make_class(mv, mitsuba):
             # A delta lobe of the base (a smooth dielectric under the coat) has no pdf to mix: its sample
             # keeps the base's weight, less what the coat reflects, over the probability of the base.
             delta = (~pick) & ((bs.sampled_type & UInt32(+Flags.Delta)) != 0)
-            share, _, _ = self._coat_at(frame, si.wi, bs.wo, weight, alpha)
+            keep, _, _ = self._coat_at(frame, si.wi, bs.wo, weight, rough)
             value, pdf = self.eval_pdf(ctx, si, wo, active)
             ok = active & (pdf > 0.0) & ~delta
             out = dr.zeros(mv.BSDFSample3f)
@@ -153,7 +188,7 @@ def _make_class(mv, mitsuba):
             out.sampled_component = dr.select(pick, UInt32(self.base.component_count()), bs.sampled_component)
             out.sampled_type = dr.select(pick, UInt32(+Flags.GlossyReflection), bs.sampled_type)
             weight = dr.select(ok, value / dr.select(ok, pdf, 1.0), Color3f(0.0))
-            weight = dr.select(delta & active, base_weight * (1.0 - share) / dr.maximum(1.0 - p, 1e-6), weight)
+            weight = dr.select(delta & active, base_weight * keep / dr.maximum(1.0 - p, 1e-6), weight)
             return out, weight
 
         def traverse(self, callback):
@@ -163,6 +198,7 @@ def _make_class(mv, mitsuba):
             pass
 
         def to_string(self):
-            return f"GltfCoatBSDF[clearcoat = {self.weight}, roughness = {self.roughness}]"
+            return (f"GltfCoatBSDF[flavour = {self.flavour}, clearcoat = {self.weight}, "
+                    f"roughness = {self.roughness}]")
 
     return GltfCoatBSDF

@@ -32,9 +32,14 @@ Lambert). ``K`` and ``L`` are Multiscatter GGX's energy compensation
 (:mod:`compare.brdf.multiscatter`: ``K = lobe_scale``, ``L = layer_factor``,
 with each lobe's average Fresnel ``F_ss``: ``mix(f0t, 1, s_avg)`` per channel for
 the dielectric, ``s_avg`` the remapped ``fresnel_dielectric_Fss(eta)``, and
-``mix(c, 1, 1/21) - B/126`` for the metal); with ``ggx`` both are 1. Glossy
-materials' coat, sheen and transmission are layered over this as glTF layers them
-(:mod:`compare.mitsuba.scene_dict`), not as Principled's albedo scaling.
+``mix(c, 1, 1/21) - B/126`` for the metal); with ``ggx`` both are 1.
+
+The coat (Coat Weight ``w``, Coat Roughness, Coat IOR 1.5: :func:`coat_lobe_cycles`, the
+``cycles`` flavour of :mod:`compare.mitsuba.coat`) goes over all of it as Cycles layers it: its lobe
+``w F(v.h, 1.5) K_c D V`` and everything below scaled by ``1 - w E_c(r_c, n.v) L_c``, its own albedo
+estimate at the view direction. Sheen and transmission are layered as glTF layers them
+(:mod:`compare.mitsuba.scene_dict`): Cycles' sheen is another lobe (Zeltner et al.'s microfiber
+sheen, not glTF's Charlie), and its glass tints each interface by sqrt(base colour).
 
 D is GGX and G2 the height-correlated Smith term, the same functions as the
 shared BRDF (:mod:`compare.brdf`; ``D G2 / (4 n.v n.l) = D V``). ``E_s`` is
@@ -82,7 +87,7 @@ from pathlib import Path
 
 import numpy as np
 
-from compare.brdf import (REFERENCE_ALPHA_MIN, SPECULAR_PROB_MIN, _geometry, ggx_d, sample_ggx_vndf,
+from compare.brdf import (H_LEN2_MIN, REFERENCE_ALPHA_MIN, SPECULAR_PROB_MIN, _geometry, ggx_d, sample_ggx_vndf,
                           smith_v_height_correlated)
 from compare.brdf.multiscatter import (DEFAULT_DISTRIBUTION, DISTRIBUTIONS, fresnel_dielectric_fss, layer_factor,
                                        lobe_scale, lookup_2d, lookup_3d)
@@ -93,6 +98,8 @@ __all__ = [
     "LAYER_S_TABLE",
     "LAYER_S_TABLE_3D",
     "LAYER_TABLE_SIZE",
+    "COAT_IOR",
+    "coat_lobe_cycles",
     "NEUTRAL_LEVEL",
     "dielectric_fresnel",
     "eval_principled",
@@ -114,6 +121,8 @@ __all__ = [
 
 #: Index of refraction of the dielectric specular layer (Principled's default; F0 = 0.04).
 IOR = 1.5
+#: Coat IOR of the Blender export (glTF's coat has a fixed IOR of 1.5).
+COAT_IOR = 1.5
 #: Specular IOR Level that leaves the IOR as it is (Blender's neutral value).
 NEUTRAL_LEVEL = 0.5
 #: Specular Tint that leaves the layers untinted.
@@ -407,3 +416,34 @@ def specular_sampling_probability(cos_theta_i, base_color, metallic, roughness,
     total = w_s + w_d
     ratio = w_s / np.where(total > 0.0, total, 1.0)
     return np.where(w_d > 0.0, np.maximum(ratio, SPECULAR_PROB_MIN), 1.0)
+
+
+def coat_lobe_cycles(n, v, l, weight, roughness):  # noqa: E741
+    """Principled v2's coat as Cycles builds it: ``(keep, spec)``, what the layers below keep and the
+    coat's lobe (not times n.l), with ``n`` the coat's normal.
+
+    ``keep = 1 - w E_c(r, n.v) L_c`` (Cycles' closure_layering_weight: the coat's albedo estimate
+    ``E_c = F0 + (1 - F0) S(r, n.v, 1.5)`` times the layer factor, at the view direction only) and
+    ``spec = w F(v.h, 1.5) K_c D V``. Cycles always compensates the coat's lost energy (Multiscatter GGX's
+    ``K_c``, ``L_c`` with ``fresnel_dielectric_Fss(1.5)``), whatever the base's distribution.
+    """
+    n, v, l = (np.asarray(a, dtype=np.float64) for a in (n, v, l))
+    nv, nl = np.sum(n * v, -1), np.sum(n * l, -1)
+    hu = v + l
+    len2 = np.sum(hu * hu, -1)
+    ok = (nv > 0) & (nl > 0) & (len2 > H_LEN2_MIN)
+    h = hu / np.sqrt(np.maximum(len2, H_LEN2_MIN))[..., None]
+    nh = np.clip(np.sum(n * h, -1), 0.0, 1.0)
+    vh = np.clip(np.sum(v * h, -1), 0.0, 1.0)
+    r = np.clip(np.asarray(roughness, dtype=np.float64), 0.0, 1.0)
+    alpha = np.maximum(r * r, REFERENCE_ALPHA_MIN)
+    w = np.clip(np.asarray(weight, dtype=np.float64), 0.0, 1.0)
+    mu = np.clip(nv, 0.0, 1.0)
+    fss = fresnel_dielectric_fss(COAT_IOR)
+    f0 = f0_from_ior(COAT_IOR)
+    e_c = f0 + (1.0 - f0) * layer_s(r, mu, COAT_IOR)
+    keep = np.where(nv > 0, np.clip(1.0 - w * e_c * layer_factor(fss, r, mu), 0.0, 1.0), 1.0)
+    sin2 = np.sum(np.cross(n, h) ** 2, -1)
+    spec = (w * fresnel_dielectric(vh, COAT_IOR) * lobe_scale(fss, r, mu) * ggx_d(nh, alpha, sin2)
+            * smith_v_height_correlated(np.maximum(nv, 1e-300), nl, alpha))
+    return keep, np.where(ok, spec, 0.0)

@@ -209,15 +209,16 @@ def _sheened(mat: Material, mode: str, bsdf: dict) -> dict:
 
 def _coated(mat: Material, mode: str, bsdf: dict) -> dict:
     """``bsdf`` under glTF's clear coat (:mod:`compare.mitsuba.coat`, the layering of
-    :mod:`compare.brdf.coat`), outside the base's normal map: on the geometric normal, or its own map
-    (glTF's clearcoatNormalTexture)."""
+    :mod:`compare.brdf.coat`; in the Principled modes Cycles' coat), outside the base's normal map: on the
+    geometric normal, or its own map (glTF's clearcoatNormalTexture)."""
     if mat.clearcoat == 0.0 or mode == "diffuse":
         return bsdf
     from compare.mitsuba.coat import PLUGIN_NAME, register
 
     register()
     coat = {"type": PLUGIN_NAME, "base": bsdf, "clearcoat": _layer_value(mat, "clearcoat"),
-            "roughness": _layer_value(mat, "clearcoat_roughness")}
+            "roughness": _layer_value(mat, "clearcoat_roughness"),
+            "flavour": "cycles" if mode in PRINCIPLED_MODES else "gltf"}
     if mat.clearcoat_normal_texture is not None:
         from compare.scene.textures import normal_map
 
