@@ -308,3 +308,79 @@ def test_cycles_flavour_coats_as_cycles_does(make_scene):
             assert np.max(np.abs(ref / blender - 1.0)) > 0.006
         else:
             np.testing.assert_allclose(ref, blender, rtol=bound)
+
+
+def _glass_ball(make_scene):
+    return load_scene(make_scene("""
+        [camera]
+        position = [0.0, 0.0, 3.0]
+        target = [0.0, 0.0, 0.0]
+        fov = 3.0
+        resolution = [8, 8]
+
+        [render]
+        max_depth = 32
+
+        [materials.glass]
+        base_color = [0.2, 0.6, 0.9]
+        roughness = 0.0
+        transmission = 1.0
+        thickness = 1.0
+
+        [[meshes]]
+        shape = "sphere"
+        radius = 0.5
+        segments = 96
+        rings = 48
+        material = "glass"
+
+        [environment]
+        constant = [1.0, 1.0, 1.0]
+        """, name="glass.toml"))
+
+
+@needs_bpy
+def test_cycles_flavour_tints_glass_as_cycles_does(make_scene):
+    """Through the middle of a coloured glass ball in a white environment (two interfaces at near-normal
+    incidence): Cycles tints each by √(base colour), the colour once in all; the reference's ``cycles``
+    mode does the same, within 2 % per channel. (The ``shared`` mode tints each interface by the colour,
+    glTF's BTDF, and transmits colour².)"""
+    from compare.blender.render import render_blender
+
+    scene = _glass_ball(make_scene)
+    blender = render_blender(scene, engine="cycles", samples=256).image[..., :3].reshape(-1, 3).mean(axis=0)
+    ref = ReferenceRenderer(scene, materials="cycles", cache_dir=False, progress=False).render(256).image
+    np.testing.assert_allclose(ref[..., :3].reshape(-1, 3).mean(axis=0), blender, rtol=0.02)
+    # closed form: the front face reflects R of the white environment; every path through the ball crosses
+    # two interfaces (the colour, √c each) and k internal reflections (R^k, untinted):
+    # R + (1 − R)² c Σ R^k = R + (1 − R) c, with R = 0.04 (0.232 in red; colour² per path would give 0.078)
+    np.testing.assert_allclose(blender, 0.04 + 0.96 * np.array([0.2, 0.6, 0.9]), rtol=0.01)
+
+
+def test_cycles_mode_tints_textured_glass_by_the_square_root_of_its_map(tmp_path, monkeypatch):
+    import dataclasses
+
+    from compare.image.exr import read_exr
+    from compare.mitsuba.scene_dict import material_dict
+    from compare.scene.model import Material
+    from compare.scene.textures import load_texture
+
+    Image = pytest.importorskip("PIL.Image")
+    monkeypatch.setenv("COMPARE_CACHE", str(tmp_path / "cache"))
+    Image.fromarray(np.array([[[255, 128, 0], [30, 200, 90]]], dtype=np.uint8), "RGB").save(tmp_path / "c.png")
+    mat = dataclasses.replace(Material(name="g"), base_color_texture=tmp_path / "c.png", transmission=1.0,
+                              thickness=1.0, metallic=0.0, roughness=0.2)
+
+    def tints(d):
+        found = []
+        if isinstance(d, dict):
+            if "specular_transmittance" in d:
+                found.append(d["specular_transmittance"])
+            for v in d.values():
+                found += tints(v)
+        return found
+
+    (cycles,), (shared,) = tints(material_dict(mat, "cycles")), tints(material_dict(mat, "shared"))
+    assert shared["filename"] == str(tmp_path / "c.png") and shared["raw"] is False
+    got = read_exr(cycles["filename"])[0][..., :3]
+    np.testing.assert_allclose(got, np.sqrt(load_texture(tmp_path / "c.png", srgb=True)[..., :3]), rtol=1e-5)

@@ -233,10 +233,18 @@ def _dielectric(mat: Material, mode: str) -> dict:
     of the material's ``ior`` (exact Fresnel), tinted by the base colour as glTF's BTDF is; rough with GGX
     α = roughness², smooth at roughness 0. With ``thickness`` 0 the surface is thin-walled (glTF: no
     refraction): Mitsuba's ``thindielectric``, which is smooth (the roughness of a thin wall's
-    transmission is not drawn). The base colour's tint applies to the transmitted part only."""
+    transmission is not drawn). The base colour's tint applies to the transmitted part only, at each
+    interface (in the Principled modes its square root, as Cycles' Principled glass)."""
     ior = float(min(mat.ior, 1e3))
-    tint = ({"type": "rgb", "value": list(mat.base_color)} if mat.base_color_texture is None
-            else bitmap_dict(mat, mat.base_color_texture, raw=False))
+    if mode in PRINCIPLED_MODES:  # Cycles tints each interface by √(base colour), two of them the colour
+        from compare.scene.textures import sqrt_colour_map
+
+        tint = ({"type": "rgb", "value": [math.sqrt(min(max(c, 0.0), 1.0)) for c in mat.base_color]}
+                if mat.base_color_texture is None
+                else bitmap_dict(mat, sqrt_colour_map(mat.base_color_texture), raw=True))
+    else:
+        tint = ({"type": "rgb", "value": list(mat.base_color)} if mat.base_color_texture is None
+                else bitmap_dict(mat, mat.base_color_texture, raw=False))
     if mode == "diffuse":
         return {"type": "diffuse", "reflectance": tint}
     if mat.thickness == 0.0:

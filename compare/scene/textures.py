@@ -216,6 +216,12 @@ def specular_f0_map(path: Path, color, ior: float) -> Path:
                     lambda: np.minimum(f0 * load_texture(path, srgb=True)[..., :3] * f, 1.0))
 
 
+def sqrt_colour_map(path: Path) -> Path:
+    """The square root of a base-colour map (sRGB-decoded, clamped to [0, 1]) as a linear EXR in the cache:
+    Cycles' glass tints each of a ray's two interfaces by √(base colour)."""
+    return _derived(path, "sqrt-colour", (), lambda: np.sqrt(np.clip(load_texture(path, srgb=True)[..., :3], 0.0, 1.0)))
+
+
 def emission_map(path: Path, emission) -> Path:
     """An emission map (sRGB) times the material's ``emission`` as a linear EXR in the cache: the
     radiance a renderer emits per texel."""
