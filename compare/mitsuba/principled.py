@@ -37,9 +37,12 @@ the dielectric, ``s_avg`` the remapped ``fresnel_dielectric_Fss(eta)``, and
 The coat (Coat Weight ``w``, Coat Roughness, Coat IOR 1.5: :func:`coat_lobe_cycles`, the
 ``cycles`` flavour of :mod:`compare.mitsuba.coat`) goes over all of it as Cycles layers it: its lobe
 ``w F(v.h, 1.5) K_c D V`` and everything below scaled by ``1 - w E_c(r_c, n.v) L_c``, its own albedo
-estimate at the view direction. Sheen and transmission are layered as glTF layers them
-(:mod:`compare.mitsuba.scene_dict`): Cycles' sheen is another lobe (Zeltner et al.'s microfiber
-sheen, not glTF's Charlie), and its glass tints each interface by sqrt(base colour).
+estimate at the view direction. The sheen (Sheen Weight × Sheen Tint ``s``, Sheen Roughness:
+:func:`sheen_lobe_cycles`, the ``cycles`` flavour of :mod:`compare.mitsuba.sheen`) goes over the coat:
+Zeltner et al.'s linearly transformed cosine ``s albedo D(l)`` from Cycles' table (not glTF's Charlie),
+everything below scaled by ``1 - max(s) albedo``. Transmission is Mitsuba's dielectric at the IOR, tinted
+at each interface by the square root of the base colour as Cycles' Principled glass is
+(:mod:`compare.mitsuba.scene_dict`).
 
 D is GGX and G2 the height-correlated Smith term, the same functions as the
 shared BRDF (:mod:`compare.brdf`; ``D G2 / (4 n.v n.l) = D V``). ``E_s`` is
@@ -100,6 +103,9 @@ __all__ = [
     "LAYER_TABLE_SIZE",
     "COAT_IOR",
     "coat_lobe_cycles",
+    "SHEEN_LTC",
+    "sheen_lobe_cycles",
+    "sheen_ltc",
     "NEUTRAL_LEVEL",
     "dielectric_fresnel",
     "eval_principled",
@@ -129,6 +135,12 @@ NEUTRAL_LEVEL = 0.5
 WHITE = (1.0, 1.0, 1.0)
 #: Cycles' ggx_gen_schlick_ior_s recomputed (:func:`layer_table_3d`).
 TABLE_PATH = Path(__file__).with_name("principled_table.npz")
+#: Cycles' sheen LTC table (``table_sheen_ltc`` of Cycles' ``scene/shader.tables``, Apache-2.0, Blender
+#: Foundation: Zeltner et al.'s fit; see THIRD_PARTY.md): it is a fit to a volumetric microflake model, so
+#: it is copied, not recomputed.
+SHEEN_LTC_PATH = Path(__file__).with_name("sheen_ltc.npz")
+#: Cycles' clamp of the sheen's roughness.
+SHEEN_ROUGHNESS_MIN = 1e-3
 #: Average Fresnel of the dielectric specular layer (Cycles' ``fresnel_dielectric_Fss(1.5)``).
 FSS_DIELECTRIC = float(fresnel_dielectric_fss(IOR))
 #: Points per axis of Cycles' ``ggx_gen_schlick_ior_s`` table.
@@ -447,3 +459,39 @@ def coat_lobe_cycles(n, v, l, weight, roughness):  # noqa: E741
     spec = (w * fresnel_dielectric(vh, COAT_IOR) * lobe_scale(fss, r, mu) * ggx_d(nh, alpha, sin2)
             * smith_v_height_correlated(np.maximum(nv, 1e-300), nl, alpha))
     return keep, np.where(ok, spec, 0.0)
+
+
+def _load_sheen() -> np.ndarray:
+    with np.load(SHEEN_LTC_PATH) as data:
+        return data["sheen_ltc"].astype(np.float64)
+
+
+#: [plane, j, i]: plane 0 the LTC's A, 1 its B, 2 the lobe's albedo; row j: roughness j/31, column i: n.v i/31.
+SHEEN_LTC = _load_sheen()
+
+
+def sheen_ltc(cos_v, roughness):
+    """(A, B, albedo) of Cycles' sheen at the view cosine and roughness (``lookup_table_read_2D``, x = n.v)."""
+    r = np.clip(np.asarray(roughness, dtype=np.float64), SHEEN_ROUGHNESS_MIN, 1.0)
+    return tuple(lookup_2d(SHEEN_LTC[k], cos_v, r) for k in range(3))
+
+
+def sheen_lobe_cycles(v, l, roughness):  # noqa: E741
+    """Principled v2's sheen as Cycles builds it, in the local frame (normal +z): ``(albedo, f)``.
+
+    Zeltner et al.'s linearly transformed cosine, ``f n.l = albedo D(l)`` with
+    ``D = l_z (A / |(A l_x + B l_z, A l_y, l_z)|^2)^2 / pi`` in the frame whose x axis is the view's tangential
+    direction, and the layers below scaled by ``1 - max(colour) albedo`` (the albedo at the view direction,
+    Cycles' closure_layering_weight). Where the table's LTC is degenerate (A or the albedo under 1e-5) Cycles
+    drops the closure: albedo and f are 0 there. Times the sheen colour (Sheen Weight × Sheen Tint).
+    """
+    v, l = np.asarray(v, dtype=np.float64), np.asarray(l, dtype=np.float64)
+    a, b, albedo = sheen_ltc(np.clip(v[..., 2], 0.0, 1.0), roughness)
+    on = (np.abs(a) >= 1e-5) & (albedo >= 1e-5) & (v[..., 2] > 0.0)
+    t_len = np.hypot(v[..., 0], v[..., 1])
+    tx = np.where(t_len > 1e-9, v[..., 0] / np.maximum(t_len, 1e-300), 1.0)
+    ty = np.where(t_len > 1e-9, v[..., 1] / np.maximum(t_len, 1e-300), 0.0)
+    lx, ly, lz = l[..., 0] * tx + l[..., 1] * ty, l[..., 1] * tx - l[..., 0] * ty, l[..., 2]
+    len2 = (a * lx + b * lz) ** 2 + (a * ly) ** 2 + lz ** 2
+    f = albedo * (a / np.maximum(len2, 1e-300)) ** 2 / np.pi
+    return np.where(on, albedo, 0.0), np.where(on & (lz > 0.0), f, 0.0)

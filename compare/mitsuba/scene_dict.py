@@ -191,20 +191,24 @@ def _masked(mat: Material, bsdf: dict) -> dict:
 
 
 def material_dict(mat: Material, mode: str) -> dict:
-    """BSDF dictionary for one material in ``mode`` (one of :data:`MATERIAL_MODES`)."""
-    return _masked(mat, _coated(mat, mode, _sheened(mat, mode, _transmissive(mat, mode, _surface_dict(mat, mode)))))
+    """BSDF dictionary for one material in ``mode`` (one of :data:`MATERIAL_MODES`): glTF layers the coat over
+    the sheen, Blender's Principled BSDF (the Principled modes) the sheen over the coat."""
+    surface = _transmissive(mat, mode, _surface_dict(mat, mode))
+    if mode in PRINCIPLED_MODES:
+        return _masked(mat, _sheened(mat, mode, _coated(mat, mode, surface)))
+    return _masked(mat, _coated(mat, mode, _sheened(mat, mode, surface)))
 
 
 def _sheened(mat: Material, mode: str, bsdf: dict) -> dict:
-    """``bsdf`` under glTF's sheen (:mod:`compare.mitsuba.sheen`, the model of :mod:`compare.brdf.sheen`);
-    the coat goes over it, as glTF layers them."""
+    """``bsdf`` under glTF's sheen (:mod:`compare.mitsuba.sheen`, the model of :mod:`compare.brdf.sheen`; in
+    the Principled modes Cycles' sheen)."""
     if max(mat.sheen_color) == 0.0 or mode == "diffuse":
         return bsdf
     from compare.mitsuba.sheen import PLUGIN_NAME, register
 
     register()
     return {"type": PLUGIN_NAME, "base": bsdf, "roughness": _layer_value(mat, "sheen_roughness"),
-            "color": _layer_value(mat, "sheen_color")}
+            "color": _layer_value(mat, "sheen_color"), "flavour": "cycles" if mode in PRINCIPLED_MODES else "gltf"}
 
 
 def _coated(mat: Material, mode: str, bsdf: dict) -> dict:

@@ -4,6 +4,11 @@
 Properties: ``base`` (the nested BSDF), ``color`` (linear RGB) and ``roughness`` (the sheen's perceptual
 roughness), each a value or a texture (glTF's factor times its map).
 
+``flavour``: ``"gltf"`` (default), glTF's Charlie sheen and its albedo scaling, or ``"cycles"``,
+Principled v2's sheen as Cycles builds it (:func:`compare.mitsuba.principled.sheen_lobe_cycles`: Zeltner
+et al.'s linearly transformed cosine from Cycles' table, the base scaled by one minus the sheen's albedo
+at the view direction).
+
 Sampling: the cosine-weighted hemisphere with probability ``p = clip(max(color) E(cos θ_i), 0.05, 0.5)``
 (the lobe is broad), else the base's own sampling; the weight is ``eval / pdf`` of the mixture.
 """
@@ -12,10 +17,13 @@ from __future__ import annotations
 
 
 from compare.brdf.sheen import SHEEN_ALPHA_MIN, TABLE_SIZE, albedo_table
+from compare.mitsuba import principled
 
 __all__ = ["PLUGIN_NAME", "register"]
 
 PLUGIN_NAME = "gltf_sheen"
+#: Values of the ``flavour`` property: glTF's Charlie sheen, Blender's Principled v2 sheen.
+FLAVOURS = ("gltf", "cycles")
 _CLASSES: dict[str, type] = {}
 
 
@@ -43,6 +51,17 @@ def _make_class(mv, mitsuba):
                          (dr.clip(mu, 0.0, 1.0) * (n - 1) + 0.5) * (1.0 / n))
         return table["e"].eval(pos)[0]
 
+    def ltc(mu, r):
+        """(A, B, albedo) of Cycles' sheen table (x = cos_i, y = roughness), bilinear on its grid."""
+        if "ltc" not in table:
+            data = principled.SHEEN_LTC.transpose(1, 2, 0).astype("float32")
+            table["ltc"] = mv.Texture2f(mv.TensorXf(data), use_accel=False, filter_mode=dr.FilterMode.Linear,
+                                        wrap_mode=dr.WrapMode.Clamp)
+        n = principled.SHEEN_LTC.shape[1]
+        rr = dr.clip(r, principled.SHEEN_ROUGHNESS_MIN, 1.0)
+        pos = mv.Point2f((dr.clip(mu, 0.0, 1.0) * (n - 1) + 0.5) * (1.0 / n), (rr * (n - 1) + 0.5) * (1.0 / n))
+        return table["ltc"].eval(pos)
+
     class GltfSheenBSDF(mv.BSDF):
         """A sheen over the nested BSDF ``base`` (see :mod:`compare.mitsuba.sheen`)."""
 
@@ -51,7 +70,12 @@ def _make_class(mv, mitsuba):
             self.base = props["base"]
             self.color = props.get_texture("color", 0.0)
             self.roughness = props.get_texture("roughness", 0.0)
-            albedo(mv.Float(0.5), mv.Float(0.5))  # the texture, made at load time
+            self.flavour = props.get("flavour", "gltf")
+            if self.flavour not in FLAVOURS:
+                raise ValueError(f"{PLUGIN_NAME}: flavour must be one of {', '.join(FLAVOURS)}, "
+                                 f"got {self.flavour!r}")
+            albedo(mv.Float(0.5), mv.Float(0.5))  # the textures, made at load time
+            ltc(mv.Float(0.5), mv.Float(0.5))
             n = self.base.component_count()
             sheen = Flags.GlossyReflection | Flags.FrontSide
             self.m_components = [self.base.flags(i) for i in range(n)] + [sheen]
@@ -65,6 +89,8 @@ def _make_class(mv, mitsuba):
 
         def _sheen(self, wi, wo, peak, r, alpha):
             """(albedo scaling of the base, sheen value times cos_o) for wi, wo."""
+            if self.flavour == "cycles":
+                return self._sheen_cycles(wi, wo, peak, r)
             cos_i, cos_o = wi.z, wo.z
             ok = (cos_i > 0.0) & (cos_o > 0.0)
             h = dr.normalize(wi + wo)
@@ -76,6 +102,22 @@ def _make_class(mv, mitsuba):
             lobe = d * v * dr.maximum(cos_o, 0.0)
             scale = dr.minimum(1.0 - peak * albedo(cos_i, r), 1.0 - peak * albedo(cos_o, r))
             return dr.select(ok, scale, 1.0), dr.select(ok, lobe, 0.0)
+
+        def _sheen_cycles(self, wi, wo, peak, r):
+            """As _sheen, Cycles' LTC sheen: the frame's x axis is wi's tangential direction."""
+            a, b, alb = ltc(wi.z, r)
+            on = (dr.abs(a) >= 1e-5) & (alb >= 1e-5) & (wi.z > 0.0)
+            t_len = dr.sqrt(dr.fma(wi.x, wi.x, wi.y * wi.y))
+            has_t = t_len > 1e-7
+            tx = dr.select(has_t, wi.x / dr.maximum(t_len, 1e-30), 1.0)
+            ty = dr.select(has_t, wi.y / dr.maximum(t_len, 1e-30), 0.0)
+            lx = wo.x * tx + wo.y * ty
+            ly = wo.y * tx - wo.x * ty
+            lz = wo.z
+            len2 = dr.square(a * lx + b * lz) + dr.square(a * ly) + lz * lz
+            d = lz * dr.square(a / dr.maximum(len2, 1e-30)) * (1.0 / dr.pi)
+            scale = dr.clip(1.0 - peak * alb, 0.0, 1.0)
+            return dr.select(on, scale, 1.0), dr.select(on & (lz > 0.0), alb * d, 0.0)
 
         @staticmethod
         def _p(cos_i, peak, r):
@@ -125,6 +167,7 @@ def _make_class(mv, mitsuba):
             pass
 
         def to_string(self):
-            return f"GltfSheenBSDF[color = {self.color}, roughness = {self.roughness}]"
+            return (f"GltfSheenBSDF[flavour = {self.flavour}, color = {self.color}, "
+                    f"roughness = {self.roughness}]")
 
     return GltfSheenBSDF
