@@ -499,3 +499,20 @@ def test_principled_modes_put_the_sheen_over_the_coat(make_scene):
     assert [material_dict(mat, mode)["type"] for mode in ("cycles", "shared")] == ["gltf_sheen", "gltf_coat"]
     assert material_dict(mat, "cycles")["flavour"] == "cycles"
     assert material_dict(mat, "cycles")["base"]["flavour"] == "cycles"
+
+
+def test_principled_modes_have_no_thin_wall(make_scene):
+    """glTF's thickness 0 is a thin wall in the shared mode; Blender's Principled BSDF has none (a solid)."""
+    import dataclasses
+
+    from compare.mitsuba.scene_dict import material_dict
+
+    glass = dataclasses.replace(_glass_ball(make_scene).materials["glass"], thickness=0.0)
+
+    def inner(d):
+        while d.get("type") in ("blendbsdf", "mask"):
+            d = d.get("bsdf_1") or d.get("bsdf")
+        return d["type"]
+
+    assert inner(material_dict(glass, "shared")) == "thindielectric"
+    assert inner(material_dict(glass, "cycles")) == "dielectric"

@@ -238,7 +238,8 @@ def _dielectric(mat: Material, mode: str) -> dict:
     α = roughness², smooth at roughness 0. With ``thickness`` 0 the surface is thin-walled (glTF: no
     refraction): Mitsuba's ``thindielectric``, which is smooth (the roughness of a thin wall's
     transmission is not drawn). The base colour's tint applies to the transmitted part only, at each
-    interface (in the Principled modes its square root, as Cycles' Principled glass)."""
+    interface. The Principled modes render what Blender renders: the square root of the tint at each
+    interface, and no thin wall (Principled has none: thickness 0 is a solid there)."""
     ior = float(min(mat.ior, 1e3))
     if mode in PRINCIPLED_MODES:  # Cycles tints each interface by √(base colour), two of them the colour
         from compare.scene.textures import sqrt_colour_map
@@ -251,7 +252,7 @@ def _dielectric(mat: Material, mode: str) -> dict:
                 else bitmap_dict(mat, mat.base_color_texture, raw=False))
     if mode == "diffuse":
         return {"type": "diffuse", "reflectance": tint}
-    if mat.thickness == 0.0:
+    if mat.thickness == 0.0 and mode not in PRINCIPLED_MODES:  # Principled has no thin wall: a solid, as Cycles
         return {"type": "thindielectric", "int_ior": ior, "ext_ior": 1.0, "specular_transmittance": tint}
     if mat.roughness == 0.0:
         return {"type": "dielectric", "int_ior": ior, "ext_ior": 1.0, "specular_transmittance": tint}
