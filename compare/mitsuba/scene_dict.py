@@ -81,8 +81,8 @@ from compare.scene.loader import AreaLight, Material, Scene
 #: BSDF plugin name of the shared BRDF (registered by compare.mitsuba.bsdf).
 SHARED_BSDF = "gltf_pbr"
 #: Model identifiers of modes whose model changed (part of the reference's cache key).
-MATERIAL_MODELS = {"cycles": "gltf_pbr:cycles:per-material-distribution:ior-specular",
-                   "cycles-ggx": "gltf_pbr:cycles:ior-specular"}
+MATERIAL_MODELS = {"cycles": "gltf_pbr:cycles:per-material-distribution:principled-layers",
+                   "cycles-ggx": "gltf_pbr:cycles:principled-layers"}
 #: Modes that model Blender's Principled BSDF, with the distribution they force (None: each material's).
 PRINCIPLED_MODES = {"cycles": None, "cycles-ggx": "ggx"}
 
