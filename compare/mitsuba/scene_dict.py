@@ -191,12 +191,18 @@ def _masked(mat: Material, bsdf: dict) -> dict:
 
 
 def material_dict(mat: Material, mode: str) -> dict:
-    """BSDF dictionary for one material in ``mode`` (one of :data:`MATERIAL_MODES`): glTF layers the coat over
-    the sheen, Blender's Principled BSDF (the Principled modes) the sheen over the coat."""
+    """BSDF dictionary for one material in ``mode`` (one of :data:`MATERIAL_MODES`).
+
+    glTF layers the coat over the sheen, and its normal map bends everything but the coat (which has its
+    own): the base, its transmission and the sheen. Blender's Principled BSDF (the Principled modes) layers
+    the sheen over the coat; its sheen takes the normal map where there is no coat (with a coat Cycles
+    mixes the two normals by the coat's weight; here the sheen then keeps the surface's)."""
     surface = _transmissive(mat, mode, _surface_dict(mat, mode))
     if mode in PRINCIPLED_MODES:
-        return _masked(mat, _sheened(mat, mode, _coated(mat, mode, surface)))
-    return _masked(mat, _coated(mat, mode, _sheened(mat, mode, surface)))
+        if mat.clearcoat == 0.0:
+            return _masked(mat, _normal_mapped(mat, _sheened(mat, mode, surface)))
+        return _masked(mat, _sheened(mat, mode, _coated(mat, mode, _normal_mapped(mat, surface))))
+    return _masked(mat, _coated(mat, mode, _normal_mapped(mat, _sheened(mat, mode, surface))))
 
 
 def _sheened(mat: Material, mode: str, bsdf: dict) -> dict:
@@ -338,7 +344,7 @@ def _surface_dict(mat: Material, mode: str) -> dict:
         if ((mat.ior, mat.specular, mat.specular_color) != (1.5, 1.0, (1.0, 1.0, 1.0))
                 or _layer_map(mat, "specular") or _layer_map(mat, "specular_color")):
             d.update(specular_f0=_specular_f0(mat), specular_weight=_layer_value(mat, "specular"))
-        return _normal_mapped(mat, d)
+        return d
     if mode in PRINCIPLED_MODES:
         from compare.mitsuba.bsdf import register
 
@@ -351,9 +357,9 @@ def _surface_dict(mat: Material, mode: str) -> dict:
             # glTF's specular 1 is the neutral Specular IOR Level
             d.update(ior=float(min(mat.ior, 1e3)), specular_ior_level=_layer_value(mat, "specular", scale=NEUTRAL_LEVEL),
                      specular_tint=_unbounded(_layer_value(mat, "specular_color")))
-        return _normal_mapped(mat, d)
+        return d
     if mode == "diffuse":
-        return _normal_mapped(mat, {"type": "diffuse", "reflectance": base})
+        return {"type": "diffuse", "reflectance": base}
     raise ValueError(f"materials: expected one of {', '.join(MATERIAL_MODES)}, got {mode!r}")
 
 
