@@ -1,12 +1,11 @@
-"""Tabulate the albedo of Mitsuba's ``roughdielectric`` (GGX) on Cycles' glass grids
-(``compare/mitsuba/glass_energy.npz``, served by :mod:`compare.mitsuba.glass`): ``python -m tools.fit_glass``.
+"""Tabulate the albedo of the reference's rough glass (``rough_glass`` without compensation: Mitsuba's
+``roughdielectric`` with height-correlated masking) on Cycles' glass grids (``compare/mitsuba/glass_energy.npz``,
+served by :mod:`compare.mitsuba.glass`): ``python -m tools.fit_glass``.
 
-``E[z, mu, r]``: the mean sample weight (importance transport: no radiance scaling at refraction) of the
-single-scattering rough dielectric, reflection and transmission, for a view at cosine ``mu`` (grid point
-j at j/15), roughness ``r`` (i/15, alpha = r²) and relative IOR ``ior_from_F0(z⁴)`` (k/15) seen from outside;
-``_inv``: the same IOR seen from inside. ``E_avg[z, r]``: ``2 ∫ mu E(mu) dmu``. Cycles tabulates its own
-glass (height-correlated Smith masking); Mitsuba's uses the separable form, which loses more energy, so the
-compensation divides by this lobe's albedo.
+``E[z, mu, r]``: the mean sample weight (importance transport: no radiance scaling at refraction), reflection
+and transmission, for a view at cosine ``mu`` (grid point j at j/15), roughness ``r`` (i/15, alpha = r²) and
+relative IOR ``ior_from_F0(z⁴)`` (k/15) seen from outside; ``_inv``: the same IOR seen from inside.
+``E_avg[z, r]``: ``2 ∫ mu E(mu) dmu``. What Cycles' ``cycles_precompute`` tabulates for its own glass.
 """
 
 from __future__ import annotations
@@ -26,9 +25,9 @@ def _ior(z: float) -> float:
 
 def glass_tables(samples: int = 1 << 17, seed: int = 0) -> dict[str, np.ndarray]:
     """The four tables, ``samples`` visible-normal samples per cell (and 16 × that for each E_avg)."""
-    from compare.mitsuba.backend import load_mitsuba
+    from compare.mitsuba.glass import PLUGIN_NAME, register
 
-    mi = load_mitsuba("llvm_ad_rgb")
+    mi = register("llvm_ad_rgb")
     import drjit as dr
 
     ctx = mi.BSDFContext(mi.TransportMode.Importance)
@@ -39,8 +38,10 @@ def glass_tables(samples: int = 1 << 17, seed: int = 0) -> dict[str, np.ndarray]
     for k, z in enumerate(grid):
         ior = _ior(z)
         for i, r in enumerate(grid):
-            bsdf = mi.load_dict({"type": "roughdielectric", "distribution": "ggx", "alpha": max(r, 1e-3) ** 2,
-                                 "int_ior": ior, "ext_ior": 1.0})
+            rough = max(r, 1e-2)
+            bsdf = mi.load_dict({"type": PLUGIN_NAME, "roughness": rough, "ior": ior, "bsdf": {
+                "type": "roughdielectric", "distribution": "ggx", "alpha": rough ** 2, "int_ior": ior,
+                "ext_ior": 1.0}})
             for inside, name in ((False, "ggx_glass"), (True, "ggx_glass_inv")):
                 sampler = mi.load_dict({"type": "independent"})
                 sampler.seed(seed + 7919 * (k * SIZE + i) + inside, count)

@@ -1,23 +1,26 @@
-"""Cycles' energy compensation of rough glass, as a Mitsuba 3 plugin (``cycles_glass``) around a nested
-``roughdielectric``.
+"""Rough glass with height-correlated masking, and Cycles' energy compensation of it, as a Mitsuba 3 plugin
+(``rough_glass``) around a nested ``roughdielectric``.
 
-Multiscatter GGX glass (Blender's default distribution, Principled transmission) scales the
-single-scattering glass BSDF by ``1 + F_ms (1 - E) / E``, ``E`` the single-scattering lobe's albedo
-(reflection and transmission with the dielectric Fresnel) at the view's cosine, roughness and IOR, and
+Masking. Mitsuba's ``roughdielectric`` masks with the separable Smith term ``G1(wi) G1(wo)``; glTF's BRDF and
+BTDF (and the shared BRDF, and Cycles) use the height-correlated one, ``1 / (1 + Λ(wi) + Λ(wo))``, which
+keeps more light: up to 10 % of a rough glass lobe's albedo at roughness 1. The plugin multiplies the nested
+lobe by their ratio ``(1 + Λi)(1 + Λo) / (1 + Λi + Λo)`` (directions only: reflection and transmission
+alike), so the reference's glass is the file's.
+
+Compensation (``compensate = true``: Multiscatter GGX, Blender's default, the Principled modes): Cycles scales
+the single-scattering glass by ``1 + F_ms (1 - E) / E``, ``E`` the lobe's albedo (reflection and
+transmission with the dielectric Fresnel) at the view's cosine, roughness and IOR, and
 ``F_ms = F_ss E_avg / (1 - F_ss (1 - E_avg))`` with ``F_ss`` the transmission tint (Cycles:
-``microfacet_ggx_preserve_energy`` after ``bsdf_microfacet_setup_fresnel_generalized_schlick``).
-Seen from inside (``cos_i < 0``) the relative IOR is 1/ior (the ``_inv`` tables).
-
-``E`` and ``E_avg`` are the albedo of the lobe that is compensated, Mitsuba's ``roughdielectric``,
-tabulated on Cycles' grids by ``python -m tools.fit_glass`` (``glass_energy.npz``): Cycles' own tables
-are of its glass with height-correlated masking, which keeps up to 10 % more energy at roughness 1 than
-Mitsuba's separable masking, so dividing by them would leave Mitsuba's glass dark; divided by its own
-albedo, white rough glass keeps its energy, as Cycles' does. :func:`energy_scale` is the numpy
+``microfacet_ggx_preserve_energy`` after ``bsdf_microfacet_setup_fresnel_generalized_schlick``). Seen from
+inside (``cos_i < 0``) the relative IOR is 1/ior (the ``_inv`` tables). ``E`` and ``E_avg`` are this
+plugin's own lobe's, tabulated on Cycles' grids by ``python -m tools.fit_glass`` (``glass_energy.npz``);
+they agree with Cycles' own tables (``tests/test_principled_inputs.py``). :func:`energy_scale` is the numpy
 definition.
 
-Properties: ``bsdf`` (the nested ``roughdielectric``), ``roughness`` (perceptual; alpha = roughness²),
-``ior`` (> 1) and ``tint`` (the transmission tint, rgb or texture). ``pdf`` is the nested one; ``eval`` and
-``sample``'s weight are the nested ones times the scale.
+Properties: ``bsdf`` (the nested ``roughdielectric``), ``roughness`` (perceptual; alpha = roughness², as the
+nested one's), ``compensate`` (bool, default false), ``ior`` (> 1) and ``tint`` (the transmission tint, rgb
+or texture). ``pdf`` is the nested one; ``eval`` and ``sample``'s weight are the nested ones times the
+masking ratio (and the scale).
 """
 
 from __future__ import annotations
@@ -28,9 +31,9 @@ import numpy as np
 
 from compare.brdf.multiscatter import lookup_2d, lookup_3d
 
-__all__ = ["PLUGIN_NAME", "TABLE_PATH", "energy_scale", "register"]
+__all__ = ["PLUGIN_NAME", "TABLE_PATH", "energy_scale", "masking_ratio", "register"]
 
-PLUGIN_NAME = "cycles_glass"
+PLUGIN_NAME = "rough_glass"
 TABLE_PATH = Path(__file__).with_name("glass_energy.npz")
 _CLASSES: dict[str, type] = {}
 
@@ -64,8 +67,21 @@ def energy_scale(roughness, cos_i, ior, tint=(1.0, 1.0, 1.0)):
     return 1.0 + f_ms * (1.0 - e) / e
 
 
+def masking_ratio(wi, wo, roughness):
+    """``(1 + Λi)(1 + Λo) / (1 + Λi + Λo)``: height-correlated over separable GGX Smith masking, per pair of
+    directions (local frame, normal +z; either side)."""
+    a2 = max(float(roughness) ** 2, 1e-4) ** 2
+
+    def lam(c):
+        c2 = np.maximum(np.asarray(c, dtype=np.float64) ** 2, 1e-12)
+        return 0.5 * (np.sqrt(1.0 + a2 * np.maximum(1.0 / c2 - 1.0, 0.0)) - 1.0)
+
+    li, lo = lam(np.asarray(wi)[..., 2]), lam(np.asarray(wo)[..., 2])
+    return (1.0 + li) * (1.0 + lo) / (1.0 + li + lo)
+
+
 def register(variant: str | None = None):
-    """Register ``cycles_glass`` with the active (or given) variant; returns the ``mitsuba`` module."""
+    """Register ``rough_glass`` with the active (or given) variant; returns the ``mitsuba`` module."""
     from compare.mitsuba.backend import register_bsdf_plugin  # noqa: PLC0415 - Mitsuba is loaded lazily
 
     return register_bsdf_plugin(PLUGIN_NAME, _make_class, _CLASSES, variant)
@@ -84,13 +100,16 @@ def _make_class(mv, mitsuba):
     def coord(x):
         return (dr.clip(x, 0.0, 1.0) * (n - 1) + 0.5) * (1.0 / n)
 
-    class CyclesGlassBSDF(mv.BSDF):
-        """Cycles' energy compensation around a nested rough dielectric (see :mod:`compare.mitsuba.glass`)."""
+    class RoughGlassBSDF(mv.BSDF):
+        """Height-correlated masking (and Cycles' compensation) around a nested rough dielectric
+        (see :mod:`compare.mitsuba.glass`)."""
 
         def __init__(self, props):
             mv.BSDF.__init__(self, props)
             self.nested = props["bsdf"]
             self.roughness = float(props.get("roughness", 0.0))
+            self.alpha = max(self.roughness * self.roughness, 1e-4)
+            self.compensate = bool(props.get("compensate", False))
             self.ior = float(props.get("ior", 1.5))
             if not self.ior > 1.0:
                 raise ValueError(f"{PLUGIN_NAME}: ior must be > 1, got {self.ior}")
@@ -99,7 +118,20 @@ def _make_class(mv, mitsuba):
             self.m_components = [self.nested.flags(i) for i in range(self.nested.component_count())]
             self.m_flags = self.nested.flags()
 
+        def _masking(self, wi, wo):
+            """(1 + Λi)(1 + Λo) / (1 + Λi + Λo): height-correlated over separable Smith masking."""
+            a2 = self.alpha * self.alpha
+
+            def lam(c):
+                c2 = dr.maximum(c * c, 1e-12)
+                return 0.5 * (dr.sqrt(1.0 + a2 * dr.maximum(1.0 / c2 - 1.0, 0.0)) - 1.0)
+
+            li, lo = lam(wi.z), lam(wo.z)
+            return (1.0 + li) * (1.0 + lo) / (1.0 + li + lo)
+
         def _scale(self, si, active):
+            if not self.compensate:
+                return 1.0
             inside = si.wi.z < 0.0
             mu = dr.abs(si.wi.z)
             p3 = mv.Point3f(coord(self.roughness), coord(mu), coord(self.z))
@@ -111,18 +143,18 @@ def _make_class(mv, mitsuba):
             return 1.0 + f_ms * ((1.0 - e) / dr.maximum(e, 1e-6))
 
         def eval(self, ctx, si, wo, active=True):
-            return self.nested.eval(ctx, si, wo, active) * self._scale(si, active)
+            return self.nested.eval(ctx, si, wo, active) * (self._masking(si.wi, wo) * self._scale(si, active))
 
         def pdf(self, ctx, si, wo, active=True):
             return self.nested.pdf(ctx, si, wo, active)
 
         def eval_pdf(self, ctx, si, wo, active=True):
             value, pdf = self.nested.eval_pdf(ctx, si, wo, active)
-            return value * self._scale(si, active), pdf
+            return value * (self._masking(si.wi, wo) * self._scale(si, active)), pdf
 
         def sample(self, ctx, si, sample1, sample2, active=True):
             bs, weight = self.nested.sample(ctx, si, sample1, sample2, active)
-            return bs, weight * self._scale(si, active)
+            return bs, weight * (self._masking(si.wi, bs.wo) * self._scale(si, active))
 
         def traverse(self, callback):
             pass
@@ -131,6 +163,7 @@ def _make_class(mv, mitsuba):
             pass
 
         def to_string(self):
-            return f"CyclesGlassBSDF[roughness = {self.roughness}, ior = {self.ior}]"
+            return (f"RoughGlassBSDF[roughness = {self.roughness}, ior = {self.ior}, "
+                    f"compensate = {self.compensate}]")
 
-    return CyclesGlassBSDF
+    return RoughGlassBSDF

@@ -41,9 +41,9 @@ estimate at the view direction. The sheen (Sheen Weight × Sheen Tint ``s``, She
 :func:`sheen_lobe_cycles`, the ``cycles`` flavour of :mod:`compare.mitsuba.sheen`) goes over the coat:
 Zeltner et al.'s linearly transformed cosine ``s albedo D(l)`` from Cycles' table (not glTF's Charlie),
 everything below scaled by ``1 - max(s) albedo``. Transmission is Mitsuba's dielectric at the IOR, tinted
-at each interface by the square root of the base colour as Cycles' Principled glass is, rough glass under
-Multiscatter GGX with Cycles' energy compensation (:mod:`compare.mitsuba.scene_dict`,
-:mod:`compare.mitsuba.glass`).
+at each interface by the square root of the base colour as Cycles' Principled glass is, rough glass masked
+as Cycles masks it (height-correlated) and under Multiscatter GGX with Cycles' energy compensation
+(:mod:`compare.mitsuba.scene_dict`, :mod:`compare.mitsuba.glass`).
 
 D is GGX and G2 the height-correlated Smith term, the same functions as the
 shared BRDF (:mod:`compare.brdf`; ``D G2 / (4 n.v n.l) = D V``). ``E_s`` is

@@ -246,7 +246,8 @@ def _dielectric(mat: Material, mode: str) -> dict:
     transmission is not drawn). The base colour's tint applies to the transmitted part only, at each
     interface. The Principled modes render what Blender renders: the square root of the tint at each
     interface, no thin wall (Principled has none: thickness 0 is a solid there), and with Multiscatter GGX
-    Cycles' energy compensation of rough glass (:mod:`compare.mitsuba.glass`)."""
+    Cycles' energy compensation of rough glass. Rough glass is masked as glTF's BTDF is (height-correlated
+    Smith, :mod:`compare.mitsuba.glass`)."""
     ior = float(min(mat.ior, 1e3))
     if mode in PRINCIPLED_MODES:  # Cycles tints each interface by √(base colour), two of them the colour
         from compare.scene.textures import sqrt_colour_map
@@ -265,12 +266,14 @@ def _dielectric(mat: Material, mode: str) -> dict:
         return {"type": "dielectric", "int_ior": ior, "ext_ior": 1.0, "specular_transmittance": tint}
     rough = {"type": "roughdielectric", "distribution": "ggx", "alpha": float(mat.roughness) ** 2, "int_ior": ior,
              "ext_ior": 1.0, "specular_transmittance": tint}
-    if mode in PRINCIPLED_MODES and (PRINCIPLED_MODES[mode] or mat.distribution) == "multi_ggx" and ior > 1.0:
-        from compare.mitsuba.glass import PLUGIN_NAME, register
+    if ior <= 1.0:  # no interface: nothing is reflected or bent
+        return rough
+    from compare.mitsuba.glass import PLUGIN_NAME, register
 
-        register()  # Multiscatter GGX glass: Cycles' energy compensation (compare.mitsuba.glass)
-        return {"type": PLUGIN_NAME, "bsdf": rough, "roughness": float(mat.roughness), "ior": ior, "tint": tint}
-    return rough
+    register()  # height-correlated masking, as glTF's BTDF; Multiscatter GGX glass: Cycles' compensation
+    compensate = mode in PRINCIPLED_MODES and (PRINCIPLED_MODES[mode] or mat.distribution) == "multi_ggx"
+    return {"type": PLUGIN_NAME, "bsdf": rough, "roughness": float(mat.roughness), "ior": ior, "tint": tint,
+            "compensate": compensate}
 
 
 def _specular_f0(mat: Material):
