@@ -518,7 +518,7 @@ def test_principled_modes_have_no_thin_wall(make_scene):
     assert inner(material_dict(glass, "cycles")) == "dielectric"
 
 
-# -- rough glass: glTF's height-correlated masking, and Cycles' energy compensation (compare.mitsuba.glass) --
+# -- rough glass: the shared BRDF's height-correlated masking, and Cycles' energy compensation (compare.mitsuba.glass) --
 
 @pytest.mark.parametrize("rough, mu, ior, inside", [(0.7, 0.6, 1.5, False), (0.7, 0.6, 1.5, True),
                                                     (0.5, 0.3, 2.0, True), (1.0, 0.5, 1.33, False)])

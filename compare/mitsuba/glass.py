@@ -1,11 +1,13 @@
 """Rough glass with height-correlated masking, and Cycles' energy compensation of it, as a Mitsuba 3 plugin
 (``rough_glass``) around a nested ``roughdielectric``.
 
-Masking. Mitsuba's ``roughdielectric`` masks with the separable Smith term ``G1(wi) G1(wo)``; glTF's BRDF and
-BTDF (and the shared BRDF, and Cycles) use the height-correlated one, ``1 / (1 + Λ(wi) + Λ(wo))``, which
+Masking. Mitsuba's ``roughdielectric`` masks with the separable Smith term ``G1(wi) G1(wo)``; the suite's
+one BRDF (:mod:`compare.brdf`) and Cycles use the height-correlated one, ``1 / (1 + Λ(wi) + Λ(wo))``, which
 keeps more light: up to 10 % of a rough glass lobe's albedo at roughness 1. The plugin multiplies the nested
 lobe by their ratio ``(1 + Λi)(1 + Λo) / (1 + Λi + Λo)`` (directions only: reflection and transmission
-alike), so the reference's glass is the file's.
+alike), so that the reference's glass reflects and transmits with the masking of its other surfaces.
+(``KHR_materials_transmission``'s non-normative implementation notes write the BTDF with the separable form;
+its normative text names only the distribution.)
 
 Compensation (``compensate = true``: Multiscatter GGX, Blender's default, the Principled modes): Cycles scales
 the single-scattering glass by ``1 + F_ms (1 - E) / E``, ``E`` the lobe's albedo (reflection and

@@ -246,7 +246,7 @@ def _dielectric(mat: Material, mode: str) -> dict:
     transmission is not drawn). The base colour's tint applies to the transmitted part only, at each
     interface. The Principled modes render what Blender renders: the square root of the tint at each
     interface, no thin wall (Principled has none: thickness 0 is a solid there), and with Multiscatter GGX
-    Cycles' energy compensation of rough glass. Rough glass is masked as glTF's BTDF is (height-correlated
+    Cycles' energy compensation of rough glass. Rough glass is masked as the shared BRDF is (height-correlated
     Smith, :mod:`compare.mitsuba.glass`)."""
     ior = float(min(mat.ior, 1e3))
     if mode in PRINCIPLED_MODES:  # Cycles tints each interface by √(base colour), two of them the colour
@@ -270,7 +270,7 @@ def _dielectric(mat: Material, mode: str) -> dict:
         return rough
     from compare.mitsuba.glass import PLUGIN_NAME, register
 
-    register()  # height-correlated masking, as glTF's BTDF; Multiscatter GGX glass: Cycles' compensation
+    register()  # height-correlated masking, as the shared BRDF; Multiscatter GGX glass: Cycles' compensation
     compensate = mode in PRINCIPLED_MODES and (PRINCIPLED_MODES[mode] or mat.distribution) == "multi_ggx"
     return {"type": PLUGIN_NAME, "bsdf": rough, "roughness": float(mat.roughness), "ior": ior, "tint": tint,
             "compensate": compensate}
