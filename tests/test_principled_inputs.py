@@ -11,6 +11,7 @@ import warnings
 import numpy as np
 import pytest
 
+from compare.brdf.multiscatter import lookup_2d
 from compare.mitsuba import principled
 from compare.mitsuba.reference import ReferenceRenderer
 from compare.scene.loader import load_scene
@@ -23,6 +24,75 @@ def _hemisphere(rng, k):
     d = rng.normal(size=(k, 3))
     d[:, 2] = np.abs(d[:, 2]) + 0.05
     return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+def _sphere(make_scene, name: str, material: str, *, fov: float = 24.0, size: int = 24, depth: int = 16):
+    """A sphere of ``material`` (TOML lines) in a white environment, filling most of a small square image."""
+    return load_scene(make_scene(f"""
+        [camera]
+        position = [0.0, 0.0, 3.0]
+        target = [0.0, 0.0, 0.0]
+        fov = {fov}
+        resolution = [{size}, {size}]
+
+        [render]
+        max_depth = {depth}
+
+        [materials.m]
+        {material}
+
+        [[meshes]]
+        shape = "sphere"
+        radius = 0.5
+        segments = 96
+        rings = 48
+        material = "m"
+
+        [environment]
+        constant = [1.0, 1.0, 1.0]
+        """, name=f"{name}.toml"))
+
+
+def _mean(image):
+    return image[..., :3].reshape(-1, 3).mean(axis=0)
+
+
+def _eval_over_lambert(plugin: dict, wi, wo, rho: float):
+    """(value (N, 3), pdf) of a layer plugin over a Lambert base of albedo ``rho``, per direction pair."""
+    from compare.mitsuba.coat import register as register_coat
+    from compare.mitsuba.sheen import register as register_sheen
+
+    register_sheen()
+    mi = register_coat()
+    import drjit as dr
+
+    bsdf = mi.load_dict({**plugin, "base": {"type": "diffuse", "reflectance": {"type": "rgb", "value": [rho] * 3}}})
+    si = dr.zeros(mi.SurfaceInteraction3f)
+    si.wi = mi.Vector3f(*(wi[:, k].astype(np.float32) for k in range(3)))
+    value, pdf = bsdf.eval_pdf(mi.BSDFContext(), si, mi.Vector3f(*(wo[:, k].astype(np.float32) for k in range(3))))
+    value = np.array(value)
+    return (value.T if value.shape[0] == 3 else value), np.array(pdf)
+
+
+def _gain_against_cycles(scene_with, amounts, bound: float, other_off: float):
+    """What a layer adds (the scene with ``amounts[1]`` of it over the scene with ``amounts[0]``, per channel)
+    in the reference's ``cycles`` mode against Blender Cycles, each against itself so that what the two share
+    without the layer cancels: within ``bound``; the ``shared`` mode (glTF's model of the layer) differs by
+    more than ``other_off`` somewhere, so the check tells the two apart at this noise."""
+    from compare.blender.render import render_blender
+
+    def gain(render):
+        a, b = (_mean(render(scene_with(x))) for x in amounts)
+        return b / a
+
+    blender = gain(lambda scene: render_blender(scene, engine="cycles", samples=128).image)
+    for mode in ("cycles", "shared"):
+        ref = gain(lambda scene: ReferenceRenderer(scene, materials=mode, cache_dir=False,
+                                                   progress=False).render(128).image)
+        if mode == "cycles":
+            np.testing.assert_allclose(ref, blender, rtol=bound)
+        else:
+            assert np.max(np.abs(ref / blender - 1.0)) > other_off
 
 
 @pytest.mark.parametrize("ior, level", [(1.5, 0.5), (1.5, 1.0), (2.0, 0.25), (1.33, 0.8), (3.0, 0.0)])
@@ -92,8 +162,8 @@ def test_per_element_ior_looks_up_as_one_ior():
     rng = np.random.default_rng(8)
     r, mu = rng.random(100), rng.random(100)
     for eta in (1.05, 1.5, 2.2, 7.0):
-        np.testing.assert_allclose(principled.layer_s(r, mu, np.full(100, eta)), principled.layer_s(r, mu, eta),
-                                   rtol=1e-12, atol=1e-15)
+        np.testing.assert_allclose(principled.layer_s(r, mu, np.full(100, eta)),
+                                   lookup_2d(principled._slice_at(eta), r, mu), rtol=1e-12, atol=1e-15)
 
 
 def test_plugin_evaluates_the_principled_inputs_as_the_numpy_model():
@@ -229,29 +299,21 @@ def test_scene_dict_passes_the_principled_inputs(make_scene):
 
 def test_cycles_coat_plugin_evaluates_the_numpy_model():
     """The coat plugin's ``cycles`` flavour against principled.coat_lobe_cycles over a Lambert base."""
-    from compare.mitsuba.coat import register
-
-    mi = register()
-    import drjit as dr
-
     rng = np.random.default_rng(11)
     n = 2000
     wi, wo = _hemisphere(rng, n), _hemisphere(rng, n)
     rho = 0.6
     for weight, rough in ((1.0, 0.3), (0.5, 0.05), (0.8, 1.0), (1.0, 0.0)):
-        bsdf = mi.load_dict({"type": "gltf_coat", "flavour": "cycles", "clearcoat": weight, "roughness": rough,
-                             "base": {"type": "diffuse", "reflectance": {"type": "rgb", "value": [rho] * 3}}})
-        si = dr.zeros(mi.SurfaceInteraction3f)
-        si.wi = mi.Vector3f(*(wi[:, k].astype(np.float32) for k in range(3)))
-        value, pdf = bsdf.eval_pdf(mi.BSDFContext(), si, mi.Vector3f(*(wo[:, k].astype(np.float32) for k in range(3))))
-        got = np.array(value)[0] if np.array(value).shape[0] == 3 else np.array(value)[:, 0]
+        value, pdf = _eval_over_lambert({"type": "gltf_coat", "flavour": "cycles", "clearcoat": weight,
+                                         "roughness": rough}, wi, wo, rho)
+        got = value[:, 0]
         keep, spec = principled.coat_lobe_cycles(np.broadcast_to(Z, (n, 3)), wi, wo, weight, rough)
         want = (rho / np.pi * keep + spec) * wo[:, 2]
         if rough == 0.0:  # the lobe is 1e-4 rad wide: only the base is comparable at random directions
             want = rho / np.pi * keep * wo[:, 2]
             got = np.where(spec * wo[:, 2] > 1e-7, want, got)
         np.testing.assert_allclose(got, want, rtol=2e-3, atol=1e-6, err_msg=f"w {weight} r {rough}")
-        assert np.all(np.array(pdf) > 0)
+        assert np.all(pdf > 0)
 
 
 def test_cycles_coat_keeps_what_its_albedo_estimate_leaves():
@@ -262,81 +324,20 @@ def test_cycles_coat_keeps_what_its_albedo_estimate_leaves():
 
 
 def _coated_sphere(make_scene, clearcoat: float):
-    return load_scene(make_scene(f"""
-        [camera]
-        position = [0.0, 0.0, 3.0]
-        target = [0.0, 0.0, 0.0]
-        fov = 24.0
-        resolution = [24, 24]
-
-        [render]
-        max_depth = 16
-
-        [materials.paint]
-        base_color = [0.1, 0.3, 0.8]
-        roughness = 0.5
-        clearcoat = {clearcoat}
-        clearcoat_roughness = 0.3
-
-        [[meshes]]
-        shape = "sphere"
-        radius = 0.5
-        material = "paint"
-
-        [environment]
-        constant = [1.0, 1.0, 1.0]
-        """, name=f"coat{clearcoat}.toml"))
+    return _sphere(make_scene, f"coat{clearcoat}", f"base_color = [0.1, 0.3, 0.8]\nroughness = 0.5\n"
+                   f"clearcoat = {clearcoat}\nclearcoat_roughness = 0.3")
 
 
 @needs_bpy
 def test_cycles_flavour_coats_as_cycles_does(make_scene):
-    """What the coat adds (coated over uncoated, per channel, a blue base in a white environment) in the
-    reference's Principled modes and in Blender Cycles, each against itself, so that what they share without
-    a coat cancels. Measured: the ``cycles`` mode within 0.1 % at 128 spp (0.03 % at 1024); glTF's layering
-    (the ``shared`` mode) 1.1 % off in blue."""
-    from compare.blender.render import render_blender
-
-    def gain(render):
-        means = [render(_coated_sphere(make_scene, cc))[..., :3].reshape(-1, 3).mean(axis=0) for cc in (0.0, 1.0)]
-        return means[1] / means[0]
-
-    blender = gain(lambda scene: render_blender(scene, engine="cycles", samples=128).image)
-    for mode, bound in (("cycles", 0.004), ("shared", None)):
-        ref = gain(lambda scene: ReferenceRenderer(scene, materials=mode, cache_dir=False,
-                                                   progress=False).render(128).image)
-        if bound is None:  # the other layering is told apart at this noise
-            assert np.max(np.abs(ref / blender - 1.0)) > 0.006
-        else:
-            np.testing.assert_allclose(ref, blender, rtol=bound)
+    """What a coat adds to a blue sphere in a white environment, the reference's ``cycles`` mode against Cycles.
+    Measured: within 0.1 % at 128 spp (0.03 % at 1024); glTF's layering (the ``shared`` mode) 1.1 % off in blue."""
+    _gain_against_cycles(lambda cc: _coated_sphere(make_scene, cc), (0.0, 1.0), bound=0.004, other_off=0.006)
 
 
 def _glass_ball(make_scene):
-    return load_scene(make_scene("""
-        [camera]
-        position = [0.0, 0.0, 3.0]
-        target = [0.0, 0.0, 0.0]
-        fov = 3.0
-        resolution = [8, 8]
-
-        [render]
-        max_depth = 32
-
-        [materials.glass]
-        base_color = [0.2, 0.6, 0.9]
-        roughness = 0.0
-        transmission = 1.0
-        thickness = 1.0
-
-        [[meshes]]
-        shape = "sphere"
-        radius = 0.5
-        segments = 96
-        rings = 48
-        material = "glass"
-
-        [environment]
-        constant = [1.0, 1.0, 1.0]
-        """, name="glass.toml"))
+    return _sphere(make_scene, "glass", "base_color = [0.2, 0.6, 0.9]\nroughness = 0.0\ntransmission = 1.0\n"
+                   "thickness = 1.0", fov=3.0, size=8, depth=32)
 
 
 @needs_bpy
@@ -348,9 +349,9 @@ def test_cycles_flavour_tints_glass_as_cycles_does(make_scene):
     from compare.blender.render import render_blender
 
     scene = _glass_ball(make_scene)
-    blender = render_blender(scene, engine="cycles", samples=256).image[..., :3].reshape(-1, 3).mean(axis=0)
+    blender = _mean(render_blender(scene, engine="cycles", samples=256).image)
     ref = ReferenceRenderer(scene, materials="cycles", cache_dir=False, progress=False).render(256).image
-    np.testing.assert_allclose(ref[..., :3].reshape(-1, 3).mean(axis=0), blender, rtol=0.02)
+    np.testing.assert_allclose(_mean(ref), blender, rtol=0.02)
     # closed form: the front face reflects R of the white environment; every path through the ball crosses
     # two interfaces (the colour, √c each) and k internal reflections (R^k, untinted):
     # R + (1 − R)² c Σ R^k = R + (1 − R) c, with R = 0.04 (0.232 in red; colour² per path would give 0.078)
@@ -403,76 +404,31 @@ def test_cycles_sheen_lobe_integrates_to_its_albedo(rough, mu):
 
 
 def test_cycles_sheen_plugin_evaluates_the_numpy_model():
-    from compare.mitsuba.sheen import register
-
-    mi = register()
-    import drjit as dr
-
     rng = np.random.default_rng(13)
     n = 2000
     wi, wo = _hemisphere(rng, n), _hemisphere(rng, n)
     rho, color = 0.6, np.array([1.0, 0.8, 0.5])
     for rough in (0.3, 0.7, 1.0):
-        bsdf = mi.load_dict({"type": "gltf_sheen", "flavour": "cycles", "roughness": rough,
-                             "color": {"type": "rgb", "value": color.tolist()},
-                             "base": {"type": "diffuse", "reflectance": {"type": "rgb", "value": [rho] * 3}}})
-        si = dr.zeros(mi.SurfaceInteraction3f)
-        si.wi = mi.Vector3f(*(wi[:, k].astype(np.float32) for k in range(3)))
-        value, pdf = bsdf.eval_pdf(mi.BSDFContext(), si, mi.Vector3f(*(wo[:, k].astype(np.float32) for k in range(3))))
-        got = np.array(value).T if np.array(value).shape[0] == 3 else np.array(value)
+        got, pdf = _eval_over_lambert({"type": "gltf_sheen", "flavour": "cycles", "roughness": rough,
+                                       "color": {"type": "rgb", "value": color.tolist()}}, wi, wo, rho)
         albedo, f = principled.sheen_lobe_cycles(wi, wo, rough)
         keep = np.where(albedo > 0, np.clip(1 - color.max() * albedo, 0, 1), 1.0)
         want = (rho / np.pi * keep[:, None] + color * f[:, None]) * wo[:, 2:]
         np.testing.assert_allclose(got, want, rtol=2e-3, atol=1e-6, err_msg=f"r {rough}")
-        assert np.all(np.array(pdf) > 0)
+        assert np.all(pdf > 0)
 
 
 def _sheen_sphere(make_scene, sheen: float):
-    return load_scene(make_scene(f"""
-        [camera]
-        position = [0.0, 0.0, 3.0]
-        target = [0.0, 0.0, 0.0]
-        fov = 24.0
-        resolution = [24, 24]
-
-        [render]
-        max_depth = 16
-
-        [materials.cloth]
-        base_color = [0.1, 0.3, 0.8]
-        roughness = 0.8
-        sheen_color = [{sheen}, {0.8 * sheen}, {0.5 * sheen}]
-        sheen_roughness = 0.3
-
-        [[meshes]]
-        shape = "sphere"
-        radius = 0.5
-        material = "cloth"
-
-        [environment]
-        constant = [1.0, 1.0, 1.0]
-        """, name=f"sheen{sheen}.toml"))
+    return _sphere(make_scene, f"sheen{sheen}", f"base_color = [0.1, 0.3, 0.8]\nroughness = 0.8\n"
+                   f"sheen_color = [{sheen}, {0.8 * sheen}, {0.5 * sheen}]\nsheen_roughness = 0.3")
 
 
 @needs_bpy
 def test_cycles_flavour_sheens_as_cycles_does(make_scene):
-    """What a sheen adds (sheened over plain, per channel, a blue cloth in a white environment) in the
-    reference's ``cycles`` mode and in Blender Cycles, each against itself. Measured: within 0.07 % at
-    256 spp (0.4 % in a studio environment); glTF's Charlie sheen (the ``shared`` mode) 4.9 % off in red."""
-    from compare.blender.render import render_blender
-
-    def gain(render):
-        means = [render(_sheen_sphere(make_scene, s))[..., :3].reshape(-1, 3).mean(axis=0) for s in (0.0, 1.0)]
-        return means[1] / means[0]
-
-    blender = gain(lambda scene: render_blender(scene, engine="cycles", samples=128).image)
-    for mode, bound in (("cycles", 0.004), ("shared", None)):
-        ref = gain(lambda scene: ReferenceRenderer(scene, materials=mode, cache_dir=False,
-                                                   progress=False).render(128).image)
-        if bound is None:
-            assert np.max(np.abs(ref / blender - 1.0)) > 0.02
-        else:
-            np.testing.assert_allclose(ref, blender, rtol=bound)
+    """What a sheen adds to a blue cloth in a white environment, the reference's ``cycles`` mode against Cycles.
+    Measured: within 0.07 % at 256 spp (0.4 % in a studio environment); glTF's Charlie sheen (the ``shared``
+    mode) 4.9 % off in red."""
+    _gain_against_cycles(lambda s: _sheen_sphere(make_scene, s), (0.0, 1.0), bound=0.004, other_off=0.02)
 
 
 def test_principled_modes_put_the_sheen_over_the_coat(make_scene):
@@ -507,7 +463,7 @@ def test_principled_modes_have_no_thin_wall(make_scene):
 
     from compare.mitsuba.scene_dict import material_dict
 
-    glass = dataclasses.replace(_glass_ball(make_scene).materials["glass"], thickness=0.0)
+    glass = dataclasses.replace(_glass_ball(make_scene).materials["m"], thickness=0.0)
 
     def inner(d):
         while d.get("type") in ("blendbsdf", "mask"):
@@ -592,32 +548,8 @@ def test_glass_plugin_masks_and_scales_the_rough_dielectric_as_numpy_says():
 
 
 def _rough_glass_ball(make_scene, rough: float):
-    return load_scene(make_scene(f"""
-        [camera]
-        position = [0.0, 0.0, 3.0]
-        target = [0.0, 0.0, 0.0]
-        fov = 24.0
-        resolution = [24, 24]
-
-        [render]
-        max_depth = 64
-
-        [materials.glass]
-        base_color = [1.0, 1.0, 1.0]
-        roughness = {rough}
-        transmission = 1.0
-        thickness = 1.0
-
-        [[meshes]]
-        shape = "sphere"
-        radius = 0.5
-        segments = 96
-        rings = 48
-        material = "glass"
-
-        [environment]
-        constant = [1.0, 1.0, 1.0]
-        """, name=f"rough{rough}.toml"))
+    return _sphere(make_scene, f"rough{rough}", f"base_color = [1.0, 1.0, 1.0]\nroughness = {rough}\n"
+                   "transmission = 1.0\nthickness = 1.0", depth=64)
 
 
 def test_multiscatter_rough_glass_keeps_its_energy(make_scene):

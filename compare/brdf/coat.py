@@ -19,14 +19,16 @@ import numpy as np
 
 from compare.brdf import DIELECTRIC_F0, H_LEN2_MIN, REFERENCE_ALPHA_MIN, alpha_from_roughness, fresnel_schlick, ggx_d, smith_v_height_correlated
 
-__all__ = ["COAT_F0", "coat_lobe", "coated"]
+__all__ = ["COAT_F0", "coat_geometry", "coat_lobe", "coated"]
 
 #: F0 of the coat (glTF: IOR 1.5).
 COAT_F0 = DIELECTRIC_F0
 
 
-def coat_lobe(n, v, l, clearcoat, roughness):  # noqa: E741
-    """(w F_c, w F_c D V): the coat's share at the half vector and its specular term (not times n·l)."""
+def coat_geometry(n, v, l, roughness):  # noqa: E741
+    """(n·v, v·h, D V, ok) of a coat's GGX lobe about ``n`` at the reference's α floor; D V is 0 where not ``ok``
+    (either direction below the coat, or a degenerate half vector). Shared by glTF's coat and the reference's
+    model of Cycles' (:func:`compare.mitsuba.principled.coat_lobe_cycles`), which differ in Fresnel and layering."""
     n, v, l = (np.asarray(a, dtype=np.float64) for a in (n, v, l))
     nv, nl = np.sum(n * v, -1), np.sum(n * l, -1)
     hu = v + l
@@ -36,10 +38,16 @@ def coat_lobe(n, v, l, clearcoat, roughness):  # noqa: E741
     nh = np.clip(np.sum(n * h, -1), 0.0, 1.0)
     vh = np.clip(np.sum(v * h, -1), 0.0, 1.0)
     alpha = alpha_from_roughness(roughness, REFERENCE_ALPHA_MIN)  # the reference's coat
-    share = np.asarray(clearcoat, dtype=np.float64) * fresnel_schlick(COAT_F0, vh)
     sin2 = np.sum(np.cross(n, h) ** 2, -1)  # |n × h|², exact where 1 − (n·h)² cancels
-    spec = share * ggx_d(nh, alpha, sin2) * smith_v_height_correlated(nv, nl, alpha)
-    return np.where(ok, share, 0.0), np.where(ok, spec, 0.0)
+    dv = ggx_d(nh, alpha, sin2) * smith_v_height_correlated(np.where(ok, nv, 1.0), nl, alpha)
+    return nv, vh, np.where(ok, dv, 0.0), ok
+
+
+def coat_lobe(n, v, l, clearcoat, roughness):  # noqa: E741
+    """(w F_c, w F_c D V): the coat's share at the half vector and its specular term (not times n·l)."""
+    _, vh, dv, ok = coat_geometry(n, v, l, roughness)
+    share = np.asarray(clearcoat, dtype=np.float64) * fresnel_schlick(COAT_F0, vh)
+    return np.where(ok, share, 0.0), share * dv
 
 
 def coated(base_value, n, v, l, clearcoat, roughness):  # noqa: E741

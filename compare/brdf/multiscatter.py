@@ -114,10 +114,10 @@ def lookup_3d(table, x, y, z):
     y = j / (ny - 1), k at z = k / (nz - 1)."""
     t = np.asarray(table, dtype=np.float64)
     k0, k1, tz = _axis(z, t.shape[0])
-    return lookup_2d_at(t, k0, x, y) * (1.0 - tz) + lookup_2d_at(t, k1, x, y) * tz
+    return _lookup_2d_at(t, k0, x, y) * (1.0 - tz) + _lookup_2d_at(t, k1, x, y) * tz
 
 
-def lookup_2d_at(table, k, x, y):
+def _lookup_2d_at(table, k, x, y):
     """:func:`lookup_2d` in slice ``k`` (per element) of a 3D table."""
     i0, i1, tx = _axis(x, table.shape[2])
     j0, j1, ty = _axis(y, table.shape[1])
@@ -137,8 +137,8 @@ def ggx_eavg(roughness):
 
 
 def fresnel_dielectric_fss(eta):
-    """Average dielectric Fresnel (Cycles' ``fresnel_dielectric_Fss``, its fit for IOR >= 1)."""
-    eta = np.asarray(eta, dtype=np.float64)
+    """Average dielectric Fresnel (Cycles' ``fresnel_dielectric_Fss``, its fit for IOR >= 1); arithmetic only,
+    so a number, a numpy array or a Dr.Jit array (the plugins) all work."""
     return (eta - 1.0) / (4.08567 + 1.00071 * eta)
 
 

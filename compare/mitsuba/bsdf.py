@@ -78,7 +78,7 @@ __all__ = ["FLAVOURS", "PLUGIN_NAME", "evaluate", "register", "registered_varian
 #: Name under which the plugin is registered (``{"type": PLUGIN_NAME, ...}``).
 PLUGIN_NAME = "gltf_pbr"
 #: Values of the ``flavour`` property: the shared glTF BRDF, Blender's Principled BSDF v2.
-FLAVOURS = ("gltf", "cycles")
+FLAVOURS = principled.FLAVOURS
 #: Properties of flavour ``cycles`` only: Blender's Principled BSDF v2 inputs of the same names.
 CYCLES_INPUTS = ("ior", "specular_ior_level", "specular_tint")
 
@@ -112,16 +112,6 @@ def register(variant: str | None = None):
     return register_bsdf_plugin(PLUGIN_NAME, _make_class, _CLASSES, variant)
 
 
-class _LazyTables:
-    """compare.mitsuba.principled_tables.tables(mv), built on first use."""
-
-    def __init__(self, mv):
-        self._mv = mv
-
-    def __getattr__(self, name):
-        return getattr(tables(self._mv), name)
-
-
 def _make_class(mv, mitsuba):
     """Build the BSDF class against one variant module ``mv`` (e.g. ``mitsuba.llvm_ad_rgb``).
 
@@ -146,23 +136,11 @@ def _make_class(mv, mitsuba):
     def mean3(c):
         return (c[0] + c[1] + c[2]) * (1.0 / 3.0)
 
-    cycles_tables = _LazyTables(mv)
-
-    def fresnel_dielectric(c, eta):
-        """Exact dielectric Fresnel at ``eta`` > 1 for c = cos in [0, 1] (no total internal reflection)."""
-        g = dr.sqrt(eta * eta - 1.0 + c * c)
-        a = (g - c) / (g + c)
-        b = (c * (g + c) - 1.0) / (c * (g - c) + 1.0)
-        return 0.5 * a * a * (1.0 + b * b)
-
-    def f0_from_ior(eta):
-        return dr.square((eta - 1.0) / (eta + 1.0))
-
     def compensation(cc, b, lay, r, cos_i):
         """(K_m, K_d, L_d), each Color3f, of compare.mitsuba.principled: Multiscatter GGX's lobe scales
         and layer factor."""
-        k_m, _ = cycles_tables.compensation(cc + (1.0 - cc) * (1.0 / 21.0) - b * (1.0 / 126.0), r, cos_i)
-        k_d, l_d = cycles_tables.compensation(lay.fss, r, cos_i)
+        k_m, _ = tables(mv).compensation(cc + (1.0 - cc) * (1.0 / 21.0) - b * (1.0 / 126.0), r, cos_i)
+        k_d, l_d = tables(mv).compensation(lay.fss, r, cos_i)
         return k_m, k_d, l_d
 
     class CyclesLayer:
@@ -170,31 +148,27 @@ def _make_class(mv, mitsuba):
         its IOR after Specular IOR Level, tinted F0, remapping of the real Fresnel, F_ss, presence."""
 
         def __init__(self, ior, level, tint):
-            f0 = f0_from_ior(ior) * 2.0 * dr.maximum(level, 0.0)
+            f0 = principled.f0_from_ior(ior) * 2.0 * dr.maximum(level, 0.0)
             sq = dr.sqrt(dr.clip(f0, 0.0, 0.99))
             self.eta = dr.select(level == principled.NEUTRAL_LEVEL, ior, (1.0 + sq) / (1.0 - sq))
             self.on = self.eta != 1.0
             eta = dr.select(self.on, self.eta, 1.5)  # keeps the remapping finite where the layer is absent
             self.eta_safe = eta
-            self.f0e = f0_from_ior(eta)
+            self.f0e = principled.f0_from_ior(eta)
             self.inv = 1.0 / (1.0 - self.f0e)
             self.f0t = dr.clip(f0 * tint, 0.0, 1.0)
-            s_avg = dr.clip((multiscatter_fss(eta) - self.f0e) * self.inv, 0.0, 1.0)
+            s_avg = dr.clip((multiscatter.fresnel_dielectric_fss(eta) - self.f0e) * self.inv, 0.0, 1.0)
             self.fss = dr.select(self.on, self.f0t + (1.0 - self.f0t) * s_avg, 0.0)
 
         def fresnel(self, c):
             """Color3f: ``f0t + (1 - f0t) s(c)``, zero where the layer is absent."""
-            s = dr.clip((fresnel_dielectric(c, self.eta_safe) - self.f0e) * self.inv, 0.0, 1.0)
+            s = dr.clip((tables(mv).fresnel_dielectric(c, self.eta_safe) - self.f0e) * self.inv, 0.0, 1.0)
             return dr.select(self.on, self.f0t + (1.0 - self.f0t) * s, 0.0)
 
         def albedo(self, r, cos_i):
             """E_s(r, cos_i) = f0t + (1 - f0t) S(r, cos_i, eta) (Cycles' trilinear lookup)."""
-            s = cycles_tables.layer_s(r, cos_i, self.eta_safe)
+            s = tables(mv).layer_s(r, cos_i, self.eta_safe)
             return dr.select(self.on, self.f0t + (1.0 - self.f0t) * s, 0.0)
-
-    def multiscatter_fss(eta):
-        """Cycles' fresnel_dielectric_Fss (its fit for IOR >= 1)."""
-        return (eta - 1.0) / (4.08567 + 1.00071 * eta)
 
     def max3(c):
         return dr.maximum(dr.maximum(c[0], c[1]), c[2])
@@ -218,10 +192,7 @@ def _make_class(mv, mitsuba):
             self.base_color = props.get_texture("base_color", 1.0)
             self.metallic = props.get_texture("metallic", 1.0)
             self.roughness = props.get_texture("roughness", 1.0)
-            self.flavour = props.get("flavour", "gltf")
-            if self.flavour not in FLAVOURS:
-                raise ValueError(f"{PLUGIN_NAME}: flavour must be one of {', '.join(FLAVOURS)}, "
-                                 f"got {self.flavour!r}")
+            self.flavour = principled.check_flavour(PLUGIN_NAME, props.get("flavour", "gltf"))
             self.distribution = props.get("distribution", multiscatter.DEFAULT_DISTRIBUTION)
             if self.flavour != "cycles" and "distribution" in props:
                 raise ValueError(f"{PLUGIN_NAME}: distribution applies to flavour 'cycles' only "
@@ -268,6 +239,16 @@ def _make_class(mv, mitsuba):
             cc = dr.clip(c, 0.0, 1.0)
             return cc, f82_b(cc, tint), lay
 
+        def _cycles_lobes(self, extra, m, r, cos_i, x):
+            """Flavour ``cycles``: (the specular lobes' Fresnel-and-compensation at x = v.h, per channel;
+            the diffuse weight at the view's cos_i)."""
+            cc, b, lay = extra
+            f_m, f_d, e_s = fresnel_f82(cc, b, x), lay.fresnel(x), lay.albedo(r, cos_i)
+            if self.multiscatter:
+                k_m, k_d, l_d = compensation(cc, b, lay, r, cos_i)
+                f_m, f_d, e_s = f_m * k_m, f_d * k_d, e_s * l_d
+            return f_m * m + f_d * (1.0 - m), (1.0 - m) * dr.clip(1.0 - max3(e_s), 0.0, 1.0)
+
         def _extra_params(self, si, c, active):
             """What the flavour needs besides c, m, r: the Principled layer (``cycles``), glTF's
             dielectric (F0, weight) with the ior/specular extensions, or None (the core model)."""
@@ -295,13 +276,9 @@ def _make_class(mv, mitsuba):
             ci = dr.clip(cos_i, 0.0, 1.0)
             w = schlick_weight(ci)
             if self.flavour == "cycles":
-                cc, b, lay = extra
-                f_m, f_d, e_s = fresnel_f82(cc, b, ci), lay.fresnel(ci), lay.albedo(r, ci)
-                if self.multiscatter:
-                    k_m, k_d, l_d = compensation(cc, b, lay, r, ci)
-                    f_m, f_d, e_s = f_m * k_m, f_d * k_d, e_s * l_d
-                w_s = mean3(f_m) * m + mean3(f_d) * (1.0 - m)
-                w_d = (1.0 - m) * dr.clip(1.0 - max3(e_s), 0.0, 1.0) * mean3(c)
+                f, w_diff = self._cycles_lobes(extra, m, r, ci, ci)
+                w_s = mean3(f)
+                w_d = w_diff * mean3(c)
             elif self.dielectric:
                 f0d, sw = extra
                 fr = f0d + (1.0 - f0d) * w
@@ -345,13 +322,7 @@ def _make_class(mv, mitsuba):
             w = schlick_weight(vh)
             extra = self._extra_params(si, c, valid)
             if self.flavour == "cycles":
-                cc, b, lay = extra
-                f_m, f_d, e_s = fresnel_f82(cc, b, vh), lay.fresnel(vh), lay.albedo(r, cos_i)
-                if self.multiscatter:
-                    k_m, k_d, l_d = compensation(cc, b, lay, r, cos_i)
-                    f_m, f_d, e_s = f_m * k_m, f_d * k_d, e_s * l_d
-                f = f_m * m + f_d * (1.0 - m)
-                w_diff = (1.0 - m) * dr.clip(1.0 - max3(e_s), 0.0, 1.0)
+                f, w_diff = self._cycles_lobes(extra, m, r, cos_i, vh)
             elif self.dielectric:
                 f0d, sw = extra
                 fr = f0d + (1.0 - f0d) * w

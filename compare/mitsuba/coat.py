@@ -24,18 +24,17 @@ from __future__ import annotations
 
 from compare.brdf import REFERENCE_ALPHA_MIN, COS_MIN, H_LEN2_MIN
 from compare.brdf.coat import COAT_F0
+from compare.brdf.multiscatter import fresnel_dielectric_fss
 from compare.mitsuba import principled
 from compare.mitsuba.principled_tables import tables
 
 __all__ = ["PLUGIN_NAME", "register"]
 
 PLUGIN_NAME = "gltf_coat"
-#: Values of the ``flavour`` property: glTF's layering, Blender's Principled v2 coat.
-FLAVOURS = ("gltf", "cycles")
 _CLASSES: dict[str, type] = {}
 #: The Cycles coat's F0 and average Fresnel at Coat IOR 1.5 (Cycles' fresnel_dielectric_Fss).
 COAT_F0_CYCLES = float(principled.f0_from_ior(principled.COAT_IOR))
-FSS_COAT = float(principled.fresnel_dielectric_fss(principled.COAT_IOR))
+FSS_COAT = float(fresnel_dielectric_fss(principled.COAT_IOR))
 _DENOM_MIN = 1e-30
 
 
@@ -52,14 +51,6 @@ def _make_class(mv, mitsuba):
     UInt32, Color3f, Vector3f = mv.UInt32, mv.Color3f, mv.Vector3f
     Flags = mitsuba.BSDFFlags
 
-    def fresnel_coat(c):
-        """Exact dielectric Fresnel at the coat's IOR for c = cos in [0, 1]."""
-        eta = principled.COAT_IOR
-        g = dr.sqrt(eta * eta - 1.0 + c * c)
-        a = (g - c) / (g + c)
-        b = (c * (g + c) - 1.0) / (c * (g - c) + 1.0)
-        return 0.5 * a * a * (1.0 + b * b)
-
     class GltfCoatBSDF(mv.BSDF):
         """A clear coat over the nested BSDF ``base`` (see :mod:`compare.mitsuba.coat`)."""
 
@@ -69,10 +60,7 @@ def _make_class(mv, mitsuba):
             self.weight = props.get_texture("clearcoat", 1.0)
             self.roughness = props.get_texture("roughness", 0.0)
             self.normalmap = props.get_texture("normalmap") if "normalmap" in props else None
-            self.flavour = props.get("flavour", "gltf")
-            if self.flavour not in FLAVOURS:
-                raise ValueError(f"{PLUGIN_NAME}: flavour must be one of {', '.join(FLAVOURS)}, "
-                                 f"got {self.flavour!r}")
+            self.flavour = principled.check_flavour(PLUGIN_NAME, props.get("flavour", "gltf"))
             if self.flavour == "cycles":
                 tables(mv)  # built at load time, never while a kernel is traced
             n = self.base.component_count()
@@ -108,7 +96,7 @@ def _make_class(mv, mitsuba):
             if self.flavour == "cycles":
                 t = tables(mv)
                 k, lf = t.compensation(FSS_COAT, r, ci)
-                share = weight * fresnel_coat(vh) * k
+                share = weight * t.fresnel_dielectric(vh, principled.COAT_IOR) * k
                 e = COAT_F0_CYCLES + (1.0 - COAT_F0_CYCLES) * t.layer_s(r, ci, principled.COAT_IOR)
                 keep = dr.select(cos_i > 0.0, dr.clip(1.0 - weight * e * lf, 0.0, 1.0), 1.0)
             else:

@@ -70,16 +70,15 @@ def energy_scale(roughness, cos_i, ior, tint=(1.0, 1.0, 1.0)):
 
 
 def masking_ratio(wi, wo, roughness):
-    """``(1 + Λi)(1 + Λo) / (1 + Λi + Λo)``: height-correlated over separable GGX Smith masking, per pair of
-    directions (local frame, normal +z; either side)."""
-    a2 = max(float(roughness) ** 2, 1e-4) ** 2
+    """``(1 + Λi)(1 + Λo) / (1 + Λi + Λo)``: the shared BRDF's height-correlated masking (:mod:`compare.brdf`)
+    over the separable one, ``G2 / (G1(wi) G1(wo))``, per pair of directions (local frame, normal +z; either
+    side)."""
+    from compare.brdf import smith_g1, smith_v_height_correlated
 
-    def lam(c):
-        c2 = np.maximum(np.asarray(c, dtype=np.float64) ** 2, 1e-12)
-        return 0.5 * (np.sqrt(1.0 + a2 * np.maximum(1.0 / c2 - 1.0, 0.0)) - 1.0)
-
-    li, lo = lam(np.asarray(wi)[..., 2]), lam(np.asarray(wo)[..., 2])
-    return (1.0 + li) * (1.0 + lo) / (1.0 + li + lo)
+    alpha = max(float(roughness) ** 2, 1e-4)
+    ci, co = np.abs(np.asarray(wi)[..., 2]), np.abs(np.asarray(wo)[..., 2])
+    g2 = 4.0 * ci * co * smith_v_height_correlated(ci, co, alpha)
+    return g2 / (smith_g1(ci, alpha) * smith_g1(co, alpha))
 
 
 def register(variant: str | None = None):

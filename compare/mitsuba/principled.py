@@ -91,12 +91,14 @@ from pathlib import Path
 
 import numpy as np
 
-from compare.brdf import (H_LEN2_MIN, REFERENCE_ALPHA_MIN, SPECULAR_PROB_MIN, _geometry, ggx_d, sample_ggx_vndf,
+from compare.brdf import (REFERENCE_ALPHA_MIN, SPECULAR_PROB_MIN, _geometry, ggx_d, sample_ggx_vndf,
                           smith_v_height_correlated)
+from compare.brdf.coat import coat_geometry
 from compare.brdf.multiscatter import (DEFAULT_DISTRIBUTION, DISTRIBUTIONS, fresnel_dielectric_fss, layer_factor,
                                        lobe_scale, lookup_2d, lookup_3d)
 
 __all__ = [
+    "FLAVOURS",
     "FSS_DIELECTRIC",
     "IOR",
     "LAYER_S_TABLE",
@@ -128,6 +130,9 @@ __all__ = [
 
 #: Index of refraction of the dielectric specular layer (Principled's default; F0 = 0.04).
 IOR = 1.5
+#: Values of the reference plugins' ``flavour`` property (``gltf_pbr``, ``gltf_coat``, ``gltf_sheen``,
+#: ``rough_glass`` by ``compensate``): glTF's model, and this module's model of Blender's Principled BSDF v2.
+FLAVOURS = ("gltf", "cycles")
 #: Coat IOR of the Blender export (glTF's coat has a fixed IOR of 1.5).
 COAT_IOR = 1.5
 #: Specular IOR Level that leaves the IOR as it is (Blender's neutral value).
@@ -147,9 +152,16 @@ FSS_DIELECTRIC = float(fresnel_dielectric_fss(IOR))
 #: Points per axis of Cycles' ``ggx_gen_schlick_ior_s`` table.
 LAYER_TABLE_SIZE = 16
 
+def check_flavour(plugin: str, flavour: str) -> str:
+    """``flavour`` if it is one of :data:`FLAVOURS`, else one clear error naming the plugin."""
+    if flavour not in FLAVOURS:
+        raise ValueError(f"{plugin}: flavour must be one of {', '.join(FLAVOURS)}, got {flavour!r}")
+    return flavour
+
+
 def f0_from_ior(eta):
-    """``((eta - 1)/(eta + 1))**2`` (Cycles' ``F0_from_ior``)."""
-    eta = np.asarray(eta, dtype=np.float64)
+    """``((eta - 1)/(eta + 1))**2`` (Cycles' ``F0_from_ior``); arithmetic only, so a number, a numpy array or a
+    Dr.Jit array (the plugins) all work."""
     return ((eta - 1.0) / (eta + 1.0)) ** 2
 
 
@@ -286,9 +298,6 @@ LAYER_S_TABLE = _slice_at(IOR)
 def layer_s(roughness, cos_v, eta=IOR):
     """``S(r, n.v)`` at ``eta``: the 3D table looked up as Cycles' ``lookup_table_read_3D`` (trilinear,
     texel i at i/15 on each axis; ``eta`` may vary per element)."""
-    eta = np.asarray(eta, dtype=np.float64)
-    if eta.ndim == 0:
-        return lookup_2d(_slice_at(float(eta)), roughness, cos_v)
     return lookup_3d(LAYER_S_TABLE_3D, roughness, cos_v, _table_z(eta))
 
 
@@ -440,26 +449,14 @@ def coat_lobe_cycles(n, v, l, weight, roughness):  # noqa: E741
     ``spec = w F(v.h, 1.5) K_c D V``. Cycles always compensates the coat's lost energy (Multiscatter GGX's
     ``K_c``, ``L_c`` with ``fresnel_dielectric_Fss(1.5)``), whatever the base's distribution.
     """
-    n, v, l = (np.asarray(a, dtype=np.float64) for a in (n, v, l))
-    nv, nl = np.sum(n * v, -1), np.sum(n * l, -1)
-    hu = v + l
-    len2 = np.sum(hu * hu, -1)
-    ok = (nv > 0) & (nl > 0) & (len2 > H_LEN2_MIN)
-    h = hu / np.sqrt(np.maximum(len2, H_LEN2_MIN))[..., None]
-    nh = np.clip(np.sum(n * h, -1), 0.0, 1.0)
-    vh = np.clip(np.sum(v * h, -1), 0.0, 1.0)
+    nv, vh, dv, _ = coat_geometry(n, v, l, roughness)
     r = np.clip(np.asarray(roughness, dtype=np.float64), 0.0, 1.0)
-    alpha = np.maximum(r * r, REFERENCE_ALPHA_MIN)
     w = np.clip(np.asarray(weight, dtype=np.float64), 0.0, 1.0)
     mu = np.clip(nv, 0.0, 1.0)
     fss = fresnel_dielectric_fss(COAT_IOR)
-    f0 = f0_from_ior(COAT_IOR)
-    e_c = f0 + (1.0 - f0) * layer_s(r, mu, COAT_IOR)
-    keep = np.where(nv > 0, np.clip(1.0 - w * e_c * layer_factor(fss, r, mu), 0.0, 1.0), 1.0)
-    sin2 = np.sum(np.cross(n, h) ** 2, -1)
-    spec = (w * fresnel_dielectric(vh, COAT_IOR) * lobe_scale(fss, r, mu) * ggx_d(nh, alpha, sin2)
-            * smith_v_height_correlated(np.maximum(nv, 1e-300), nl, alpha))
-    return keep, np.where(ok, spec, 0.0)
+    keep = np.where(nv > 0, np.clip(1.0 - w * specular_layer_albedo(r, mu, COAT_IOR) * layer_factor(fss, r, mu),
+                                    0.0, 1.0), 1.0)
+    return keep, w * fresnel_dielectric(vh, COAT_IOR) * lobe_scale(fss, r, mu) * dv
 
 
 def _load_sheen() -> np.ndarray:

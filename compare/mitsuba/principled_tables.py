@@ -1,4 +1,5 @@
-"""Cycles' lookup tables as Dr.Jit textures, shared by the plugins that model Blender's Principled BSDF.
+"""The Dr.Jit side of :mod:`compare.mitsuba.principled`, shared by the plugins that model Blender's
+Principled BSDF: Cycles' lookup tables as textures, and the exact dielectric Fresnel.
 
 :func:`tables` builds, once per Mitsuba variant and at load time (never while a kernel is being
 traced), the textures of :mod:`compare.mitsuba.principled` (``ggx_gen_schlick_ior_s``, 3D) and of
@@ -19,8 +20,10 @@ _TABLES: dict[str, object] = {}
 def tables(mv):
     """The lookups for variant module ``mv`` (e.g. ``mitsuba.llvm_ad_rgb``): an object with
     ``layer_s(r, cos_i, eta)`` (S of the specular layer's albedo estimate), ``energy(r, cos_i)``
-    (E and E_avg of GGX) and ``compensation(fss, r, cos_i)`` (Multiscatter GGX's lobe scale ``K``
-    and layer factor ``L`` for an average Fresnel ``fss``: a Float or a Color3f)."""
+    (E and E_avg of GGX), ``compensation(fss, r, cos_i)`` (Multiscatter GGX's lobe scale ``K``
+    and layer factor ``L`` for an average Fresnel ``fss``: a Float or a Color3f) and
+    ``fresnel_dielectric(c, eta)`` (:func:`compare.mitsuba.principled.fresnel_dielectric` for
+    c in [0, 1] and eta > 1)."""
     key = repr((mv.Float, mv.Color3f))  # one per variant (every variant module is named 'mitsuba')
     if key not in _TABLES:
         _TABLES[key] = _Tables(mv)
@@ -60,3 +63,11 @@ class _Tables:
         e, e_avg = self.energy(r, cos_i)
         f_ms = fss * e_avg / (1.0 - fss * (1.0 - e_avg))
         return 1.0 + f_ms * ((1.0 - e) / e), e + f_ms * (1.0 - e)
+
+    def fresnel_dielectric(self, c, eta):
+        """Unpolarised Fresnel reflectance at ``eta`` > 1 for c = cos in [0, 1] (no total internal reflection)."""
+        dr = self.dr
+        g = dr.sqrt(eta * eta - 1.0 + c * c)
+        a = (g - c) / (g + c)
+        b = (c * (g + c) - 1.0) / (c * (g - c) + 1.0)
+        return 0.5 * a * a * (1.0 + b * b)

@@ -205,6 +205,11 @@ def material_dict(mat: Material, mode: str) -> dict:
     return _masked(mat, _coated(mat, mode, _normal_mapped(mat, _sheened(mat, mode, surface))))
 
 
+def _flavour(mode: str) -> str:
+    """The layer plugins' ``flavour`` for a material mode: Blender's Principled model in its modes, else glTF's."""
+    return "cycles" if mode in PRINCIPLED_MODES else "gltf"
+
+
 def _sheened(mat: Material, mode: str, bsdf: dict) -> dict:
     """``bsdf`` under glTF's sheen (:mod:`compare.mitsuba.sheen`, the model of :mod:`compare.brdf.sheen`; in
     the Principled modes Cycles' sheen)."""
@@ -214,7 +219,7 @@ def _sheened(mat: Material, mode: str, bsdf: dict) -> dict:
 
     register()
     return {"type": PLUGIN_NAME, "base": bsdf, "roughness": _layer_value(mat, "sheen_roughness"),
-            "color": _layer_value(mat, "sheen_color"), "flavour": "cycles" if mode in PRINCIPLED_MODES else "gltf"}
+            "color": _layer_value(mat, "sheen_color"), "flavour": _flavour(mode)}
 
 
 def _coated(mat: Material, mode: str, bsdf: dict) -> dict:
@@ -228,7 +233,7 @@ def _coated(mat: Material, mode: str, bsdf: dict) -> dict:
     register()
     coat = {"type": PLUGIN_NAME, "base": bsdf, "clearcoat": _layer_value(mat, "clearcoat"),
             "roughness": _layer_value(mat, "clearcoat_roughness"),
-            "flavour": "cycles" if mode in PRINCIPLED_MODES else "gltf"}
+            "flavour": _flavour(mode)}
     if mat.clearcoat_normal_texture is not None:
         from compare.scene.textures import normal_map
 
@@ -359,7 +364,7 @@ def _surface_dict(mat: Material, mode: str) -> dict:
         from compare.mitsuba.bsdf import register
 
         register()
-        d = {"type": SHARED_BSDF, "flavour": "cycles", "base_color": base, "metallic": metallic,
+        d = {"type": SHARED_BSDF, "flavour": _flavour(mode), "base_color": base, "metallic": metallic,
              "roughness": roughness, "distribution": PRINCIPLED_MODES[mode] or mat.distribution}
         if ((mat.ior, mat.specular, mat.specular_color) != (1.5, 1.0, (1.0, 1.0, 1.0))
                 or _layer_map(mat, "specular") or _layer_map(mat, "specular_color")):

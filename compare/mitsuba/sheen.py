@@ -22,8 +22,6 @@ from compare.mitsuba import principled
 __all__ = ["PLUGIN_NAME", "register"]
 
 PLUGIN_NAME = "gltf_sheen"
-#: Values of the ``flavour`` property: glTF's Charlie sheen, Blender's Principled v2 sheen.
-FLAVOURS = ("gltf", "cycles")
 _CLASSES: dict[str, type] = {}
 
 
@@ -70,10 +68,7 @@ def _make_class(mv, mitsuba):
             self.base = props["base"]
             self.color = props.get_texture("color", 0.0)
             self.roughness = props.get_texture("roughness", 0.0)
-            self.flavour = props.get("flavour", "gltf")
-            if self.flavour not in FLAVOURS:
-                raise ValueError(f"{PLUGIN_NAME}: flavour must be one of {', '.join(FLAVOURS)}, "
-                                 f"got {self.flavour!r}")
+            self.flavour = principled.check_flavour(PLUGIN_NAME, props.get("flavour", "gltf"))
             albedo(mv.Float(0.5), mv.Float(0.5))  # the textures, made at load time
             ltc(mv.Float(0.5), mv.Float(0.5))
             n = self.base.component_count()
