@@ -14,6 +14,7 @@ The protocol (documented for renderer authors in ``docs/renderers.md``):
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import re
@@ -47,18 +48,22 @@ def _vec(v) -> list[float]:
     return [float(x) for x in np.asarray(v, dtype=np.float64).ravel()]
 
 
-def export_gltf(scene, path: Path) -> Path:
+def export_gltf(scene, out: Path) -> Path:
     """Write ``scene`` as glTF 2.0 (``.gltf`` with an embedded buffer) beside copies of its textures.
 
     Meshes are in world space (their nodes have no transform), one material per
     scene material (base colour, metallic, roughness, emission, textures), one
     perspective camera node looking down its −Z. Area lights are not meshes of
-    the file: the job lists them (glTF has no rectangular light).
+    the file: the job lists them (glTF has no rectangular light). Nothing but ``out`` and the copies
+    ``texture-<n>.<ext>`` beside it is written, and never over one of the scene's own files.
     """
     from compare.scene.gltf_write import GltfWriter
     from compare.scene.model import LAYER_MAPS, LAYERS
 
-    path = Path(path)
+    out = Path(out)
+    sources = {Path(p).resolve() for p in _scene_files(scene)}
+    if out.resolve() in sources:
+        raise RendererError(f"the job's glTF {out} would replace a file of the scene; give the job its own folder")
     w = GltfWriter(generator="compare job")
     index: dict[str, int] = {}
     textures: dict[Path, int] = {}
@@ -67,7 +72,11 @@ def export_gltf(scene, path: Path) -> Path:
         """The image index of ``src``, copied beside the glTF once."""
         if src not in textures:
             name = f"texture-{len(textures)}{src.suffix.lower()}"
-            shutil.copyfile(src, path.parent / name)
+            dest = out.parent / name
+            if dest.resolve() in sources:  # a job folder inside the model's own: never over its maps
+                raise RendererError(f"the job's copy {dest} would replace a map of the scene; give the job "
+                                    "its own folder")
+            shutil.copyfile(src, dest)
             textures[src] = w._add("images", {"uri": name})  # noqa: SLF001 - the writer's own list
         return textures[src]
 
@@ -116,11 +125,11 @@ def export_gltf(scene, path: Path) -> Path:
                 exts.setdefault(layer.extension, {})[layer.key] = (
                     [float(c) for c in value] if layer.color else float(value))
                 w._use(layer.extension)  # noqa: SLF001
-        for fld, _, path in m.layer_maps:  # and the maps that multiply them
+        for fld, _, src in m.layer_maps:  # and the maps that multiply them
             key = next(k for k, (f, _) in LAYER_MAPS.items() if f == fld)
             ext = next(layer.extension for layer in LAYERS if layer.field == fld)
             table = w.doc["materials"][index[name]].setdefault("extensions", {}).setdefault(ext, {})
-            table[key] = info(m, path)
+            table[key] = info(m, src)
             w._use(ext)  # noqa: SLF001
         if m.clearcoat_normal_texture is not None and m.clearcoat > 0.0:
             table = w.doc["materials"][index[name]].setdefault("extensions", {}).setdefault(
@@ -137,18 +146,32 @@ def export_gltf(scene, path: Path) -> Path:
         w.node(mesh.name, mesh=w.mesh(mesh.name, [(tri, index[mesh.material])], uvs=uvs))
     for light in scene.punctual:  # glTF's units (cd, lux) at 683 lm/W; the node's −Z along the light
         peak = max(light.intensity)
-        index = w.light(light.name, light.kind, peak * LUMENS_PER_WATT, tuple(c / peak for c in light.intensity))
-        entry = w.doc["extensions"]["KHR_lights_punctual"]["lights"][index]
+        li = w.light(light.name, light.kind, peak * LUMENS_PER_WATT, tuple(c / peak for c in light.intensity))
+        entry = w.doc["extensions"]["KHR_lights_punctual"]["lights"][li]
         if light.kind == "spot":
             entry["spot"] = {"innerConeAngle": math.radians(light.inner_cone),
                              "outerConeAngle": math.radians(light.outer_cone)}
         if light.range is not None:
             entry["range"] = float(light.range)
-        w.node(light.name, light=index, matrix=light.node_matrix())
+        w.node(light.name, light=li, matrix=light.node_matrix())
     cam = scene.camera
     m = np.linalg.inv(cam.view_matrix())  # camera → world: glTF cameras look down their −Z, +Y up
     w.node("camera", camera=w.camera("camera", cam.fov, aspect=cam.aspect), matrix=m)
-    return w.write(path)
+    return w.write(out)
+
+
+def _scene_files(scene) -> list[Path]:
+    """Every map file a material of ``scene`` names (what the job writer must never write over)."""
+    from compare.scene.model import Material
+
+    files: list[Path] = []
+    for m in scene.materials.values():
+        for f in dataclasses.fields(Material):
+            value = getattr(m, f.name)
+            if isinstance(value, Path):
+                files.append(value)
+        files.extend(p for _, _, p in m.layer_maps)
+    return files
 
 
 def write_job(scene, folder: Path, *, renderer: str, unit: str, checkpoints: list[int], seed: int,

@@ -1,0 +1,130 @@
+"""The job writer: the glTF and files it hands to external and web renderers, and what it never touches."""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from compare.scene.loader import load_scene
+from test_web import needs_web
+
+
+def _png(rgb: np.ndarray) -> bytes:
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.fromarray(rgb, "RGB").save(buf, format="PNG")
+    return buf.getvalue()
+
+
+def _digest(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _coated_model(folder: Path) -> Path:
+    """A .gltf beside its own maps (as a download unpacks): a card whose clearcoat and clearcoat
+    roughness come from external PNGs, the last of them the extension's last map."""
+    from compare.scene import geometry
+    from compare.scene.gltf_write import GltfWriter
+
+    stripes = np.zeros((4, 8, 3), dtype=np.uint8)
+    stripes[:, 4:] = 255
+    (folder / "CoatStrength.png").write_bytes(_png(stripes))
+    (folder / "RoughnessStripes.png").write_bytes(_png(stripes[:, ::-1].copy()))
+    w = GltfWriter()
+    mat = w.material("card", (0.8, 0.2, 0.1), 0.0, 0.5)
+    infos = []
+    for uri in ("CoatStrength.png", "RoughnessStripes.png"):
+        image = w._add("images", {"uri": uri})  # noqa: SLF001 - an external image, as downloads have
+        infos.append({"index": w._add("textures", {"source": image})})  # noqa: SLF001
+    w.doc["materials"][mat]["extensions"] = {"KHR_materials_clearcoat": {
+        "clearcoatFactor": 1.0, "clearcoatTexture": infos[0],
+        "clearcoatRoughnessFactor": 1.0, "clearcoatRoughnessTexture": infos[1]}}
+    w._use("KHR_materials_clearcoat")  # noqa: SLF001
+    w.node("card", mesh=w.mesh("card", [(geometry.quad((2.0, 2.0)), mat)], uvs=True),
+           rotation=[np.sin(np.pi / 4), 0.0, 0.0, np.cos(np.pi / 4)])  # +Y normal turned to +Z
+    return w.write(folder / "card.gltf")
+
+
+SCENE = """
+    include = "model/card.gltf"
+
+    [camera]
+    position = [0.0, 0.0, 3.0]
+    target = [0.0, 0.0, 0.0]
+    fov = 50.0
+    resolution = [24, 16]
+
+    [environment]
+    constant = [0.5, 0.5, 0.5]
+    """
+
+
+@pytest.fixture
+def coated_scene(tmp_path, make_scene):
+    (tmp_path / "model").mkdir()
+    _coated_model(tmp_path / "model")
+    return load_scene(make_scene(SCENE))
+
+
+def test_the_job_glTF_is_written_where_asked_and_no_map_of_the_model_changes(tmp_path, coated_scene):
+    """A material with extension maps: the job's glTF lands at the path asked for, carries both maps,
+    and the model's own files are byte for byte what they were."""
+    from compare.renderers.job import export_gltf
+    from compare.scene.gltf_read import load_gltf
+
+    (m,) = coated_scene.materials.values()
+    assert {f for f, _, _ in m.layer_maps} == {"clearcoat", "clearcoat_roughness"}
+    model = tmp_path / "model"
+    before = {p.name: _digest(p) for p in model.iterdir()}
+    (tmp_path / "job").mkdir()
+    out = tmp_path / "job" / "scene.gltf"
+    assert export_gltf(coated_scene, out) == out
+    assert {p.name: _digest(p) for p in model.iterdir()} == before
+    doc = json.loads(out.read_text())
+    coat = doc["materials"][0]["extensions"]["KHR_materials_clearcoat"]
+    assert {"clearcoatTexture", "clearcoatRoughnessTexture"} <= set(coat)
+    back = load_gltf(out).materials[0]
+    assert {f for f, _, _ in back.layer_images} == {"clearcoat", "clearcoat_roughness"}
+    assert sorted(p.name for p in (tmp_path / "job").iterdir()) == ["scene.gltf", "texture-0.png", "texture-1.png"]
+
+
+def test_the_job_writer_refuses_a_folder_where_it_would_replace_a_map(tmp_path, coated_scene):
+    """A job folder that is the model's own folder: the writer stops with one message before it copies a
+    map over another of the model's maps or its glTF over the model."""
+    from compare.renderers.base import RendererError
+    from compare.renderers.job import export_gltf
+
+    model = tmp_path / "model"
+    (model / "texture-0.png").write_bytes((model / "CoatStrength.png").read_bytes())  # a user's file
+    (m,) = coated_scene.materials.values()
+    before = {p.name: _digest(p) for p in model.iterdir()}
+    # the copy made for the map named texture-0.png itself would be harmless; pretend the material names it
+    import dataclasses
+
+    scene = dataclasses.replace(coated_scene, materials={
+        "card": dataclasses.replace(m, base_color_texture=model / "texture-0.png")})
+    with pytest.raises(RendererError, match="would replace a map of the scene"):
+        export_gltf(scene, model / "scene.gltf")
+    with pytest.raises(RendererError, match="would replace a file of the scene"):
+        export_gltf(scene, model / "texture-0.png")
+    assert {p.name: _digest(p) for p in model.iterdir()} == before
+
+
+@needs_web
+def test_threejs_renders_a_model_with_extension_maps(coated_scene):
+    """The case that lost a user's map: a web engine renders a scene whose material has clearcoat maps
+    (it read the job's glTF, not a 404)."""
+    from compare.renderers import Registry, RenderContext
+    from compare.report.results import RunSettings
+
+    renderer = Registry().get("threejs")
+    with RenderContext(RunSettings(frames=2)) as context:
+        image = renderer.render(coated_scene, steps=2, checkpoints=[2], seed=0, context=context).checkpoints[-1].image
+    assert image.shape == (16, 24, 3) and np.isfinite(image).all()
+    assert float(image.mean()) > 0.0
