@@ -262,6 +262,40 @@ def _terminate(signum, frame) -> None:
     raise Terminated(signum)
 
 
+#: Seconds a SIGTERM or SIGHUP waits for the unwinding above before the process ends without it.
+TERMINATE_GRACE_S = 10.0
+
+
+def _watch_signals() -> None:
+    """End the process on SIGTERM/SIGHUP even while the main thread is inside native code.
+
+    Python runs a signal handler only when the main thread is back in the interpreter; a render blocked in
+    a library (a Dr.Jit kernel, an OpenEXR read) would never see it. The C-level handler writes the signal
+    to a wake-up pipe; this thread reads it, gives the main thread :data:`TERMINATE_GRACE_S` to unwind
+    (its ``finally`` blocks kill child process groups and remove temporary folders), and then exits hard."""
+    import os
+    import signal
+    import threading
+    import time
+
+    r, w = os.pipe()
+    os.set_blocking(w, False)
+    signal.set_wakeup_fd(w, warn_on_full_buffer=False)
+    ends = {int(signal.SIGTERM), int(signal.SIGHUP)}
+
+    def watch() -> None:
+        while True:
+            got = os.read(r, 64)
+            for signum in got:
+                if signum in ends:
+                    time.sleep(TERMINATE_GRACE_S)
+                    print(f"compare: terminated by signal {signum} while inside native code", file=sys.stderr,
+                          flush=True)
+                    os._exit(128 + signum)
+
+    threading.Thread(target=watch, name="compare-signal-watch", daemon=True).start()
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``compare`` console script."""
     import signal
@@ -272,6 +306,8 @@ def main(argv: list[str] | None = None) -> int:
     if threading.current_thread() is threading.main_thread():
         for sig in (signal.SIGTERM, signal.SIGHUP):
             signal.signal(sig, _terminate)
+        if argv is None:  # the console script's own process, not a caller's
+            _watch_signals()
     try:
         return args.func(args)
     except CompareError as exc:

@@ -86,6 +86,21 @@ def configure_llvm() -> str | None:
 MITSUBA_VARIANTS = ("cuda_ad_rgb", "llvm_ad_rgb", "scalar_rgb")
 
 
+#: Fewest worker threads Dr.Jit may have. With one, Mitsuba's loader deadlocks on the first EXR or texture:
+#: it reads the file inside a task of Dr.Jit's pool and OpenEXR's line reads go back to the same pool, whose
+#: only thread is the one waiting (a machine or container with one CPU, or one job per core).
+MIN_THREADS = 2
+
+
+def set_thread_count(n: int) -> int:
+    """Give Dr.Jit ``n`` worker threads, at least :data:`MIN_THREADS`; returns the count set."""
+    import drjit as dr
+
+    n = max(MIN_THREADS, int(n))
+    dr.set_thread_count(n)
+    return n
+
+
 def load_mitsuba(variant: str | None = None):
     """Import Mitsuba, select a variant and return the ``mitsuba`` module.
 
@@ -96,7 +111,11 @@ def load_mitsuba(variant: str | None = None):
     """
     requested = variant or os.environ.get("COMPARE_MITSUBA_VARIANT") or None
     llvm_path = configure_llvm()
-    import mitsuba as mi  # noqa: PLC0415  (must follow configure_llvm)
+    import drjit as dr  # noqa: PLC0415  (must follow configure_llvm)
+    import mitsuba as mi  # noqa: PLC0415
+
+    if dr.thread_count() < MIN_THREADS:  # a one-CPU machine: see MIN_THREADS
+        set_thread_count(MIN_THREADS)
 
     if requested:
         if "llvm" in requested and llvm_path is None:

@@ -105,9 +105,10 @@ def run_job(job: Job) -> JobResult:
     from compare.run.scene_job import SceneJob
 
     if job.threads:
-        import drjit as dr
+        from compare.mitsuba.backend import configure_llvm, set_thread_count
 
-        dr.set_thread_count(job.threads)
+        configure_llvm()  # before Dr.Jit's first import
+        set_thread_count(job.threads)
     scene = load_scene(job.scene_path).with_resolution(*job.size)
     if scene.hash != job.scene_hash:
         raise CompareError(f"{job.scene_path}: the scene on worker {platform.node()} differs from the client's "
