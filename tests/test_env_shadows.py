@@ -93,7 +93,7 @@ def test_directions_follow_the_maps_luminance():
 
 
 def test_envshadows_is_a_variant_of_the_registry():
-    from compare.renderers import Registry
+    from compare.renderers.registry import Registry
 
     r = Registry().get("progressive:envshadows")
     assert r.options == {"env_occlusion": "shadows"} and "environment shadow maps" in r.label

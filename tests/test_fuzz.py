@@ -428,7 +428,7 @@ def test_fuzz_image_headers(template, case_dir, width, height, depth, colour):
 def test_fuzz_renderer_names(tmp_path_factory, name):
     """Any name of a renderer file's table: refused with one error naming the file, or a name that is a
     folder of its own (lowercase, no separator) and no reserved word."""
-    from compare.renderers import Registry
+    from compare.renderers.registry import Registry
     from compare.renderers.registry import NAME
 
     folder = tmp_path_factory.mktemp("names")

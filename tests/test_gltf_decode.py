@@ -169,7 +169,7 @@ def test_an_external_buffer_and_image_are_part_of_the_decoded_files_key(tmp_path
 
 
 def _builtins():
-    from compare.renderers import Registry
+    from compare.renderers.registry import Registry
 
     # The browser path tracer's set-up (its shaders on SwiftShader, a BVH of five cars) is about a minute.
     # EEVEE's renders are slow (about a second a sample, whatever the size), as in tests/test_blender.py.
@@ -181,7 +181,8 @@ def _builtins():
 def test_variants_render_alike_in_every_available_renderer(spec, tmp_path, make_scene, gl_ctx):
     """The plain car and its four variants side by side in one image, per renderer: each variant's
     column has the plain car's mean within 2 % (what differs is the codecs' error)."""
-    from compare.renderers import Registry, RenderContext
+    from compare.renderers import RenderContext
+    from compare.renderers.registry import Registry
     from compare.report.results import RunSettings
     from compare.scene.loader import load_scene
 

@@ -120,7 +120,8 @@ def test_the_job_writer_refuses_a_folder_where_it_would_replace_a_map(tmp_path, 
 def test_threejs_renders_a_model_with_extension_maps(coated_scene):
     """The case that lost a user's map: a web engine renders a scene whose material has clearcoat maps
     (it read the job's glTF, not a 404)."""
-    from compare.renderers import Registry, RenderContext
+    from compare.renderers import RenderContext
+    from compare.renderers.registry import Registry
     from compare.report.results import RunSettings
 
     renderer = Registry().get("threejs")

@@ -53,7 +53,7 @@ def test_rasterizer_key_follows_every_module_it_imports(package_copy):
 
 
 def test_every_renderer_key_holds_its_code():
-    from compare.renderers import Registry
+    from compare.renderers.registry import Registry
 
     reg = Registry()
     keys = {name: reg.get(name).code_key() for name in reg.builtins()}
@@ -136,3 +136,55 @@ def test_the_command_line_imports_no_renderer_or_decoder_until_a_command_needs_i
     heavy = {"mitsuba", "drjit", "moderngl", "matplotlib", "skimage", "flip_evaluator", "meshopt", "DracoPy",
              "opengl_basisu", "PIL", "jinja2", "playwright", "scipy", "dask"}
     assert not loaded & heavy, sorted(loaded & heavy)
+
+
+#: What renders no pixel and must stay out of every engine's key: measuring, reporting, the command line,
+#: the run and bench stages, the registry that selects renderers and the external-command adapter.
+NOT_RENDERING = ("metrics/", "report/", "cli/", "run/", "bench/", "renderers/registry.py", "renderers/external.py")
+
+
+# (Not yet compare.blender.renderer: a Cycles render's record carries the likeness measurement, FLIP of
+# Cycles against Mitsuba, so its key holds compare.metrics.images until that moves to the measure stage.)
+@pytest.mark.parametrize("module", ["compare.mitsuba.reference", "compare.mitsuba.renderer",
+                                    "compare.progressive.renderer", "compare.web.renderer"])
+def test_no_engine_key_holds_code_that_renders_nothing(module):
+    """An engine's render key (and the reference's pass-cache key) is the import closure of its code: a
+    FLIP parameter, the registry or the external adapter changing must not throw away its renders."""
+    closure = {p.relative_to(PACKAGE).as_posix() for p in import_closure(module, {"compare": PACKAGE})}
+    held = sorted(f for f in closure if f.startswith(NOT_RENDERING))
+    assert not held, f"{module}'s key holds {held}"
+
+
+def test_editing_a_metric_renders_nothing_again(tmp_path):
+    """A finished run, then a change to the metrics' code (a FLIP parameter, say): the rerun measures again
+    but renders nothing, neither the reference (its pass cache and its finished unit) nor the rasterizer."""
+    import os
+    import subprocess
+    import sys
+
+    copy = tmp_path / "src" / "compare"
+    shutil.copytree(PACKAGE, copy, ignore=shutil.ignore_patterns("__pycache__"))
+    scene = tmp_path / "box.toml"
+    scene.write_text((PACKAGE.parent / "scenes" / "cornell.toml").read_text(encoding="utf-8"), encoding="utf-8")
+    env = {**os.environ, "PYTHONPATH": str(copy.parent), "COMPARE_CACHE": str(tmp_path / "cache")}
+    code = "import compare; print(compare.__file__)"
+    used = subprocess.run([sys.executable, "-c", code], env=env, cwd=tmp_path, capture_output=True, text=True)
+    assert Path(used.stdout.strip()).parent == copy, used.stdout + used.stderr
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "compare.cli.main", "run", "--scenes", str(scene), "--renderers",
+           "mitsuba,progressive", "--size", "16x12", "--spp", "4", "--frames", "2", "-o", str(out)]
+
+    def run() -> dict[str, int]:
+        # cwd outside the checkout: `-m` puts the working folder first on the path, before PYTHONPATH's copy
+        done = subprocess.run(cmd, env=env, cwd=tmp_path, capture_output=True, text=True, timeout=600)
+        assert done.returncode == 0, done.stderr[-2000:]
+        return {p.relative_to(tmp_path).as_posix(): p.stat().st_mtime_ns
+                for p in [*out.rglob("*.exr"), *(tmp_path / "cache").rglob("*")] if p.is_file()}
+
+    first = run()
+    assert any(f.startswith("cache/") for f in first) and any(f.startswith("out/") for f in first)
+    images = copy / "metrics" / "images.py"
+    images.write_text(images.read_text(encoding="utf-8") + "\n# a metric edited\n", encoding="utf-8")
+    second = run()
+    assert {f: t for f, t in second.items() if f in first} == first, "a file rendered before was written again"
+    assert not [f for f in second if f not in first and f.endswith(".exr")], "something was rendered again"

@@ -143,7 +143,7 @@ def test_a_blended_card_covers_alpha_of_what_is_behind_it(make_scene):
 def test_each_extension_reads_writes_and_is_declared(tmp_path, make_scene):
     """Every parameter of LAYERS: from TOML, into the job's glTF, back from that glTF; the features the
     materials use; and each renderer's note for what it leaves out."""
-    from compare.renderers import Registry
+    from compare.renderers.registry import Registry
     from compare.renderers.job import export_gltf
     from compare.scene.gltf_read import load_gltf
 
@@ -257,7 +257,8 @@ def test_cycles_blends_a_card_by_its_alpha(make_scene):
 @needs_web
 def test_threejs_blends_a_card_by_its_alpha(make_scene):
     """three.js reads alphaMode BLEND from the job's glTF: a transparent material over the background."""
-    from compare.renderers import Registry, RenderContext
+    from compare.renderers import RenderContext
+    from compare.renderers.registry import Registry
     from compare.report.results import RunSettings
 
     scene = _card_scene(make_scene)
@@ -467,7 +468,7 @@ def test_the_material_furnace_holds_per_material():
 
 @pytest.mark.parametrize("path", sorted(EFFECTS.glob("materials_*.toml")), ids=lambda p: p.stem)
 def test_material_effect_scenes_render_and_each_renderer_declares_them(path):
-    from compare.renderers import Registry
+    from compare.renderers.registry import Registry
 
     scene = load_scene(path).with_resolution(48, 24)
     image = _render(scene, spp=4)

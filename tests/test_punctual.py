@@ -121,7 +121,7 @@ def test_stand_ins_keep_a_points_power_and_a_spots_axis_intensity():
 
 
 def test_a_renderer_with_area_lights_only_gets_stand_ins_and_says_so(tmp_path, make_scene):
-    from compare.renderers import Registry
+    from compare.renderers.registry import Registry
 
     scene = load_scene(make_scene(PLANE, LIGHTS["point"], LIGHTS["directional"]))
     given, changed = Registry().get("threejs-pathtracer").prepare(scene)
@@ -248,7 +248,9 @@ def test_threejs_draws_each_punctual_light_as_the_reference_does(tmp_path, make_
     here is given that curve, and the difference of the two curves is three's, not the suite's."""
     import dataclasses
 
-    from compare.renderers import Registry, RenderContext
+    from compare.renderers import RenderContext
+
+    from compare.renderers.registry import Registry
     from compare.report.results import RunSettings
 
     scene = _effect(kind).with_resolution(48, 36)

@@ -20,7 +20,8 @@ import pytest
 from compare.run import runner as run_mod
 from compare.cli.main import main
 from compare.image.exr import read_exr, write_exr
-from compare.renderers import Checkpoint, Registry, Renderer, RendererError, Rendering
+from compare.renderers import Checkpoint, Renderer, RendererError, Rendering
+from compare.renderers.registry import Registry
 from compare.renderers.job import export_gltf, read_checkpoints
 from compare.report.results import Results, RunSettings
 from compare.scene.loader import load_scene
@@ -475,7 +476,7 @@ def test_budgets_come_from_the_renderer_unless_the_run_names_one():
     ("x" * 65, "a renderer's name is 1 to 64 lowercase letters"),
 ])
 def test_renderer_names_that_would_corrupt_results_are_refused(tmp_path, name, message):
-    from compare.renderers import Registry
+    from compare.renderers.registry import Registry
     from compare.renderers.external import ConfigError
 
     path = tmp_path / "r.toml"

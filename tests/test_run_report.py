@@ -21,7 +21,7 @@ import pytest
 
 from compare.cli import run as cli_run
 from compare.cli.argtypes import parse_sizes
-from compare.renderers import Registry
+from compare.renderers.registry import Registry
 from compare.run import runner as run_mod
 from compare.run import scene_job
 from compare.progressive import renderer as progressive_adapter

@@ -307,7 +307,7 @@ def test_textures_are_checked_when_the_scene_loads(tmp_path):
 
 
 def test_reference_spp_is_the_scenes_choice_under_spp_auto(tmp_path, make_scene):
-    from compare.renderers import Registry
+    from compare.renderers.registry import Registry
     from compare.renderers.base import RenderContext
     from compare.report.results import RunSettings
     from compare.run.scene_job import SceneJob

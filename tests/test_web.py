@@ -20,7 +20,7 @@ import pytest
 from compare.run import runner as run_mod
 from compare.metrics.images import compare_images
 from compare.renderers import RenderContext, RendererError
-from compare.renderers import Registry
+from compare.renderers.registry import Registry
 from compare.report.results import RunSettings
 from compare.scene.loader import load_scene
 

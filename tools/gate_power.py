@@ -30,7 +30,9 @@ from pathlib import Path
 
 import numpy as np
 
-from compare.renderers import Checkpoint, Registry, Renderer, Rendering
+from compare.renderers import Checkpoint, Renderer, Rendering
+
+from compare.renderers.registry import Registry
 from compare.report.baseline import save_baseline
 from compare.report.gate import GateSettings, run_gate
 from compare.report.results import Results, RunSettings

@@ -231,7 +231,8 @@ def measure_features(specs: list[str], *, frames: int = 8, spp: int = 128, featu
     from the probes of :data:`FEATURES` (all, or ``features``). A renderer that fails a probe gets
     ``{"error": message}`` for it."""
     from compare.mitsuba.reference import ReferenceRenderer
-    from compare.renderers import Registry, RenderContext
+    from compare.renderers import RenderContext
+    from compare.renderers.registry import Registry
     from compare.renderers.base import RendererError
     from compare.report.results import RunSettings
 

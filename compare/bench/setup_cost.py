@@ -92,7 +92,8 @@ _PROBE = r"""
 import json, resource, sys, time, warnings
 warnings.simplefilter("ignore")
 start = time.perf_counter()
-from compare.renderers import Registry, RenderContext
+from compare.renderers import RenderContext
+from compare.renderers.registry import Registry
 from compare.report.results import RunSettings
 from compare.scene.loader import load_scene
 spec, path, width, height = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4])

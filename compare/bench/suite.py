@@ -5,8 +5,8 @@ alternate between the two sides (A, B, A, B, …) so slow drift hits both alike;
 absolute times are printed for context only. Renderers are reached through the
 registry (:mod:`compare.renderers`): the items that compare renderers render through
 the protocol; ``first-frame``, ``depth-floor``, ``area-models``, ``textures`` (the rasterizer's) and
-``wrapper-overhead`` (Mitsuba's) time a renderer's internals and are items that
-renderer declares (:meth:`~compare.renderers.base.Renderer.benchmarks`). How to read
+``wrapper-overhead`` (Mitsuba's) time a renderer's internals (:mod:`compare.bench.progressive`,
+:mod:`compare.bench.reference`). How to read
 each figure:
 
 ``first-frame``
@@ -75,7 +75,8 @@ from pathlib import Path
 
 from compare.util.figures import Figure, median as _median, time_to_error
 
-#: The items this module measures itself; renderers declare their own (:meth:`Renderer.benchmarks`).
+#: The items this module measures itself; those about an engine's internals are in compare.bench.progressive
+#: and compare.bench.reference.
 SUITE_ITEMS = ("equal-error", "frame-budget", "peak-rss", "eevee", "setup-seconds", "setup-rss")
 #: The items measured together by one series of runs (compare.bench.setup_cost).
 SETUP_ITEMS = ("setup-seconds", "setup-rss")
@@ -213,7 +214,8 @@ def bench_frame_budget(scene, *, frames: int, spp: int, repeats: int, registry, 
 
 _RSS_SCRIPT = """
 import resource, sys
-from compare.renderers import RenderContext, Registry
+from compare.renderers import RenderContext
+from compare.renderers.registry import Registry
 from compare.report.results import RunSettings
 from compare.scene.loader import load_scene
 scene = load_scene(sys.argv[2]).with_resolution(1920, 1080)
@@ -281,13 +283,12 @@ def machine_info(ctx=None) -> dict:
     return info
 
 
-def _renderer_items(registry) -> dict:
-    """The benchmark items renderers declare (:meth:`Renderer.benchmarks`), by name."""
-    items = {}
-    for name in ("progressive", "mitsuba"):
-        for item, fn in registry.get(name).benchmarks().items():
-            items.setdefault(item, fn)
-    return items
+def _engine_items() -> dict:
+    """The items about one engine's internals (:mod:`compare.bench.progressive`,
+    :mod:`compare.bench.reference`), by name."""
+    from compare.bench import progressive, reference
+
+    return {**progressive.ITEMS, **reference.ITEMS}
 
 
 def _bench_setup(setup_scene, size, repeats: int, registry) -> list[Figure]:
@@ -304,11 +305,9 @@ def _bench_setup(setup_scene, size, repeats: int, registry) -> list[Figure]:
                            progress=lambda what: (bar.set_postfix_str(what), bar.update()))
 
 
-def all_items(registry=None) -> tuple[str, ...]:
-    """Every benchmark item: those the registry's renderers declare, then the suite's own."""
-    from compare.renderers import Registry
-
-    return tuple(_renderer_items(registry or Registry())) + SUITE_ITEMS
+def all_items() -> tuple[str, ...]:
+    """Every benchmark item: those about one engine's internals, then the suite's own."""
+    return tuple(_engine_items()) + SUITE_ITEMS
 
 
 def run_bench(scene_path: str | Path, *, size: tuple[int, int], frames: int, spp: int, repeats: int,
@@ -321,15 +320,17 @@ def run_bench(scene_path: str | Path, *, size: tuple[int, int], frames: int, spp
     """
     from tqdm.auto import tqdm
 
-    from compare.renderers import RenderContext, Registry
+    from compare.renderers import RenderContext
+
+    from compare.renderers.registry import Registry
     from compare.report.results import RunSettings
     from compare.scene.loader import load_scene
 
     scene = load_scene(scene_path).with_resolution(*size)
     registry = Registry()
-    own = _renderer_items(registry)
+    own = _engine_items()
     if items is None:
-        items = all_items(registry)
+        items = all_items()
     figures: list[Figure] = []
     setup_figures: list[Figure] | None = None
     skipped: dict[str, str] = {}
@@ -353,12 +354,12 @@ def run_bench(scene_path: str | Path, *, size: tuple[int, int], frames: int, spp
                         setup_figures = _bench_setup(setup_scene, size, repeats, registry)
                     figures += [f for f in setup_figures if f.name == item]
                 else:
-                    raise ValueError(f"unknown benchmark item {item!r} (known: {', '.join(all_items(registry))})")
+                    raise ValueError(f"unknown benchmark item {item!r} (known: {', '.join(all_items())})")
             except RuntimeError as exc:
                 skipped[item] = str(exc)
-        from compare.progressive.renderer import _create_gl_context  # noqa: PLC2701 - the context the items used
+        from compare.progressive.renderer import gl_context  # the context the items used
 
-        env = machine_info(context.resource("gl", _create_gl_context, lambda c: c.release()))
+        env = machine_info(gl_context(context))
     return {"schema": 1, "scene": str(scene_path), "size": list(size), "frames": frames, "spp": spp,
             "repeats": repeats, "figures": [f.to_json() for f in figures], "skipped": skipped, "machine": env}
 

@@ -24,7 +24,7 @@ __all__ = ["main", "parse_size", "positive_float", "positive_int"]
 def _renderer_arg(text: str) -> str:
     """``--renderer``: a built-in's spec (e.g. a variant's options) is checked here, before any work;
     other names against the registry (which may need ``--renderer-config``) in the command."""
-    from compare.renderers import Registry
+    from compare.renderers.registry import Registry
 
     registry = Registry()
     if text.partition(":")[0] in registry.builtins():
@@ -40,7 +40,7 @@ class UsageError(CompareError, ValueError):
 
 
 def _build_parser() -> argparse.ArgumentParser:
-    from compare.renderers import Registry
+    from compare.renderers.registry import Registry
 
     p = argparse.ArgumentParser(prog="compare", description=__doc__.splitlines()[0],
                                 formatter_class=argparse.ArgumentDefaultsHelpFormatter)
@@ -131,7 +131,8 @@ def cmd_render(args: argparse.Namespace) -> int:
     from compare.util.errors import MissingComponentError
     from compare.image.exr import write_exr
     from compare.util.files import check_outputs
-    from compare.renderers import RenderContext, Registry, check_rendering
+    from compare.renderers import RenderContext, check_rendering
+    from compare.renderers.registry import Registry
     from compare.report.results import RunSettings
     from compare.scene.loader import load_scene
     from compare.image.tonemap import write_png
@@ -188,7 +189,7 @@ def cmd_render(args: argparse.Namespace) -> int:
 
 def cmd_renderers(args: argparse.Namespace) -> int:
     """``compare renderers``: every renderer known here, available or not, and why."""
-    from compare.renderers import Registry
+    from compare.renderers.registry import Registry
 
     rows = Registry(args.renderer_config).listing()
     if args.json:

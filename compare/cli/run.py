@@ -8,7 +8,7 @@ from pathlib import Path
 
 from compare.brdf import CLOSED_FORM_MODES, MATERIAL_MODES
 from compare.cli.argtypes import parse_sizes, positive_float, positive_int
-from compare.renderers import Registry
+from compare.renderers.registry import Registry
 from compare.report.results import RunSettings
 from compare.run.runner import run
 from compare.util.errors import CompareError

@@ -1,6 +1,6 @@
 """Error per kind of light: a renderer's layers against the per-effect ground truths.
 
-For every layer (:data:`LAYERS`, written by the reference's integrator :mod:`compare.mitsuba.layers`) that the ground truth has,
+For every layer (:data:`compare.image.layers.LAYERS`, written by the reference's integrator :mod:`compare.mitsuba.layers`) that the ground truth has,
 :func:`layer_metrics` gives FLIP and relMSE of the renderer's layer against the
 ground truth's, the ratio of their mean luminances, and the layer's **share** of
 the full image's relMSE::
@@ -19,16 +19,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from compare.image.layers import EXTRA_LAYERS, LAYERS, SUM_LAYERS
 from compare.metrics.images import LUMINANCE_WEIGHTS, RELMSE_EPS, compare_images
 
 __all__ = ["EXTRA_LAYERS", "LAYERS", "SUM_LAYERS", "layer_metrics"]
-
-#: The layers that sum to the image, in order.
-SUM_LAYERS = ("emission", "direct_area", "direct_env", "direct_punctual", "indirect_diffuse", "indirect_specular")
-#: Layers beside the sum.
-EXTRA_LAYERS = ("direct_area_unshadowed",)
-#: Every layer a renderer may give (:attr:`compare.renderers.base.Rendering.layers`).
-LAYERS = SUM_LAYERS + EXTRA_LAYERS
 
 #: A layer whose mean luminance is below this (of the full image's) carries no light worth a ratio.
 DARK_FRACTION = 1e-6

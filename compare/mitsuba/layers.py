@@ -1,6 +1,6 @@
 """Per-effect ground truths: a path tracer that writes each kind of light into its own layer.
 
-The layers (:data:`compare.metrics.layers.LAYERS`) split the image by where its light comes from, so that a
+The layers (:data:`compare.image.layers.LAYERS`) split the image by where its light comes from, so that a
 renderer's error can be attributed to the approximation that causes it::
 
     image = emission + direct_area + direct_env + direct_punctual + indirect_diffuse + indirect_specular
@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from compare.metrics.layers import LAYERS
+from compare.image.layers import LAYERS
 
 __all__ = ["INTEGRATOR_NAME", "register", "split_layers"]
 

@@ -335,24 +335,6 @@ class ReferenceRenderer:
             out.append((acc / total).astype(np.float32))
         return np.stack(out)
 
-    def noise_floor(self, spp: int, seed: int = 0) -> dict:
-        """Error between two independent renders of ``spp // 2`` samples each.
-
-        Two half-budget renders A and B differ only by noise: E|A−B|² = 2·Var(half)
-        = 4·Var(full) per pixel. So ``mse_full_estimate`` = MSE(A, B) / 4 is the
-        expected MSE of a full ``spp`` render against the (unknown) converged
-        image: a metric below the noise floor cannot be resolved by this reference.
-        """
-        from compare.metrics.images import compare_images
-
-        half = max(1, int(spp) // 2)
-        a = self.render(half, seed=derive_seed("noise-floor-a", seed)).image
-        b = self.render(half, seed=derive_seed("noise-floor-b", seed)).image
-        metrics = compare_images(a, b)
-        metrics["mse_full_estimate"] = metrics["mse"] / 4.0
-        metrics["spp_each"] = half
-        return metrics
-
 
 def _pixels_hash(image: np.ndarray) -> str:
     """Checksum of a pass's float32 pixels, written into its cache entry and checked on read."""

@@ -12,7 +12,7 @@ from compare.mitsuba.backend import MITSUBA_VARIANTS
 from compare.renderers.options import parse_spec
 from compare.scene.model import MATERIAL_FEATURE_NAMES
 
-__all__ = ["MitsubaRenderer", "bench_wrapper_overhead"]
+__all__ = ["MitsubaRenderer"]
 
 
 #: Bytes per pixel a Mitsuba render holds at once: its film (RGBA and weight, float32, and the
@@ -118,37 +118,3 @@ class MitsubaRenderer(Renderer):
     def facts(self, metadata: dict) -> dict[str, str]:
         v = metadata.get("variant")
         return {"mitsuba_variant": v} if isinstance(v, str) else {}
-
-    def benchmarks(self) -> dict:
-        return {"wrapper-overhead": _bench_wrapper_overhead}
-
-
-def _bench_wrapper_overhead(scene, *, frames: int, spp: int, repeats: int, context) -> list:
-    return bench_wrapper_overhead(scene, spp=min(spp, 64), repeats=repeats)
-
-
-def bench_wrapper_overhead(scene, *, spp: int, repeats: int) -> list:
-    """ReferenceRenderer.render_chunk against a bare mi.render of the same dictionary."""
-    import time
-
-    import numpy as np
-
-    from compare.util.figures import Figure, median as _median
-    from compare.mitsuba.scene_dict import scene_dict
-    from compare.mitsuba.reference import ReferenceRenderer
-
-    r = ReferenceRenderer(scene, cache_dir=False, progress=False)
-    mi = r.mi
-    bare_scene = mi.load_dict(scene_dict(scene, spp=1))
-    r.render_chunk(spp, 0)  # JIT both once
-    np.array(mi.render(bare_scene, spp=spp, seed=0))
-    wrapped, bare = [], []
-    for k in range(repeats):
-        t0 = time.perf_counter()
-        r.render_chunk(spp, 1000 + k)
-        wrapped.append(time.perf_counter() - t0)
-        t0 = time.perf_counter()
-        np.array(mi.render(bare_scene, spp=spp, seed=2000 + k))
-        bare.append(time.perf_counter() - t0)
-    return [Figure("wrapper-overhead", "ReferenceRenderer pass", "bare mi.render", _median(wrapped), _median(bare),
-                   "s", repeats, f"{spp} spp, cache off", wrapped, bare)]

@@ -3,7 +3,6 @@ registry: ``progressive`` and ``progressive:<option>[+<option>]`` (:mod:`compare
 
 from __future__ import annotations
 
-import functools
 import time
 
 import numpy as np
@@ -12,13 +11,18 @@ from compare.progressive.gpu_scene import RENDERED_LAYERS
 from compare.progressive.options import OPTIONS, describe, renderer_options
 from compare.renderers.base import Checkpoint, RenderContext, Renderer, Rendering
 
-__all__ = ["ProgressiveRenderer"]
+__all__ = ["ProgressiveRenderer", "gl_context"]
 
 
 def _create_gl_context():
     from compare.progressive.context import create_context
 
     return create_context()
+
+
+def gl_context(context: RenderContext):
+    """The run's one OpenGL context (made on first use, released with ``context``)."""
+    return context.resource("gl", _create_gl_context, lambda c: c.release())
 
 
 def _progressive_checkpoints(scene, *, frames: int, seed: int, options: dict, checkpoints: list[int],
@@ -75,7 +79,7 @@ class ProgressiveRenderer(Renderer):
     def preflight(self, scene, context: RenderContext) -> None:
         from compare.progressive.context import check_image_size
 
-        ctx = context.resource("gl", _create_gl_context, lambda c: c.release())
+        ctx = gl_context(context)
         if ctx is not None:
             check_image_size(ctx, scene.camera.resolution, str(scene.path))
 
@@ -83,7 +87,7 @@ class ProgressiveRenderer(Renderer):
         return [self.name]  # the code it runs is in every render key (Renderer.code_key)
 
     def render(self, scene, *, steps: int, checkpoints: list[int], seed: int, context: RenderContext) -> Rendering:
-        ctx = context.resource("gl", _create_gl_context, lambda c: c.release())
+        ctx = gl_context(context)
         cps, setup, meta, layers = _progressive_checkpoints(scene, frames=steps, seed=seed, options=self.options,
                                                             checkpoints=list(checkpoints), ctx=ctx)
         if self.open_ended:  # the budget decided the count: keep what was asked for below it and the end
@@ -91,25 +95,9 @@ class ProgressiveRenderer(Renderer):
             cps = [c for c in cps if c[0] in checkpoints and c[0] < done] + [cps[-1]]
         return Rendering([Checkpoint(s, t, img) for s, t, img in cps], setup, meta, layers)
 
-    def benchmarks(self) -> dict:
-        if self.name != "progressive":
-            return {}
-        return {name: functools.partial(_own_bench, name) for name in ("first-frame", "depth-floor", "area-models",
-                                                                    "textures", "punctual-lights", "env-shadows")}
-
     def facts(self, metadata: dict) -> dict[str, str]:
         g, e = metadata.get("gl_renderer"), metadata.get("gl_srgb_decode_error")
         return {**({"gl_renderer": g} if isinstance(g, str) else {}),
                 **({"gl_srgb_decode_error": f"{e:.2g}"} if isinstance(e, float) else {})}
 
-
-def _own_bench(name: str, scene, *, frames: int, spp: int, repeats: int, context) -> list:
-    """One of the rasterizer's own benchmark items (:mod:`compare.progressive.bench`)."""
-    from compare.progressive import bench
-
-    ctx = context.resource("gl", _create_gl_context, lambda c: c.release())
-    fn = {"first-frame": bench.bench_first_frame, "depth-floor": bench.bench_depth_floor,
-          "area-models": bench.bench_area_models, "textures": bench.bench_textures,
-          "punctual-lights": bench.bench_punctual, "env-shadows": bench.bench_env_shadows}[name]
-    return fn(scene, frames=frames, repeats=repeats, ctx=ctx)
 

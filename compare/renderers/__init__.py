@@ -5,20 +5,19 @@ Every renderer the suite measures, its own (one package per engine: ``compare.mi
 ``compare.progressive``, ``compare.blender``, ``compare.web``) and any a user plugs in,
 is reached through :class:`~compare.renderers.registry.Registry` and subclasses
 :class:`~compare.renderers.base.Renderer`; ``docs/renderers.md`` describes both for
-renderer authors.
+renderer authors. The registry is imported from :mod:`compare.renderers.registry` by those who select
+renderers (the run, the CLI, the bench), never from this face: every engine's render key holds the import
+closure of its code, package faces included, and the registry and external adapter render no pixel of theirs.
 """
 
 from compare.renderers.base import (Checkpoint, RenderContext, Renderer, RendererError, Rendering, check_layers,
                                     check_renderer, check_rendering, doubling_steps)
-from compare.renderers.registry import ENTRY_POINT_GROUP, Registry
 
 __all__ = [
-    "ENTRY_POINT_GROUP",
     "Checkpoint",
     "RenderContext",
     "Renderer",
     "RendererError",
-    "Registry",
     "Rendering",
     "check_layers",
     "check_renderer",

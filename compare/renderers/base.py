@@ -72,7 +72,7 @@ class Rendering:
     checkpoints: list[Checkpoint]
     setup_seconds: float = 0.0
     metadata: dict[str, Any] = field(default_factory=dict)
-    #: The last checkpoint's image split by kind of light: layer name (compare.metrics.layers.LAYERS)
+    #: The last checkpoint's image split by kind of light: layer name (compare.image.layers.LAYERS)
     #: → H×W×3 image. A layer left out is light the renderer does not render (zero).
     layers: dict[str, np.ndarray] = field(default_factory=dict)
     #: Per-pixel variance of the last checkpoint's image (H×W×3) and its degrees of freedom, where
@@ -245,11 +245,6 @@ class Renderer(abc.ABC):
         :meth:`render` gives none); default: none."""
         return {}
 
-    def benchmarks(self) -> dict[str, Any]:
-        """``compare bench`` items about this renderer's own internals: name → a function
-        ``(scene, *, frames, spp, repeats, context) -> list[compare.util.figures.Figure]``."""
-        return {}
-
     def facts(self, metadata: dict) -> dict[str, str]:
         """Facts about the machine this renderer's metadata reveals (e.g. ``gl_renderer``), for the report's
         machine table."""
@@ -333,7 +328,7 @@ def check_rendering(renderer: Renderer, rendering: Any, *, scene, checkpoints: l
 
 def check_layers(name: str, layers: Any, scene) -> dict[str, np.ndarray]:
     """A renderer's layers as float32 images, each named, of the scene's size and finite."""
-    from compare.metrics.layers import LAYERS
+    from compare.image.layers import LAYERS
 
     if not layers:
         return {}

@@ -99,7 +99,8 @@ def run_job(job: Job) -> JobResult:
     With ``job.files`` set (a remote worker), the job runs in a private
     staging folder seeded with those files, and every output is sent back.
     """
-    from compare.renderers import RenderContext, Registry
+    from compare.renderers import RenderContext
+    from compare.renderers.registry import Registry
     from compare.report.results import RunSettings
     from compare.scene.loader import load_scene
     from compare.run.scene_job import SceneJob

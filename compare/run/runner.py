@@ -42,7 +42,8 @@ from tqdm.auto import tqdm
 from compare import __version__
 from compare.util.errors import MissingComponentError
 from compare.util.files import check_output_folder, folder_lock, remove_stale_parts
-from compare.renderers import RenderContext, Registry, doubling_steps
+from compare.renderers import RenderContext, doubling_steps
+from compare.renderers.registry import Registry
 from compare.report.results import Machine, Results, RunSettings, SceneResult
 from compare.scene.loader import Scene, load_scene
 from compare.run.scene_job import SceneJob, cpu_model, scene_id

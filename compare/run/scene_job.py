@@ -44,7 +44,8 @@ from compare import __version__
 from compare.util.errors import ImageError
 from compare.image.exr import read_exr, write_exr
 from compare.util.files import sha256_bytes, write_text_atomic
-from compare.renderers import RenderContext, Registry, Renderer, check_layers, check_rendering
+from compare.renderers import RenderContext, Renderer, check_layers, check_rendering
+from compare.renderers.registry import Registry
 from compare.renderers.registry import TRUTH_FOLDER
 from compare.report.results import (NoiseFloor, Point, Reference, RendererRun, RunSettings, SceneResult, SeedRun,
                                     check_json_finite)

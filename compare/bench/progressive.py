@@ -1,6 +1,7 @@
-"""The progressive rasterizer's own benchmarks (``compare bench`` items it declares): its first
+"""The progressive rasterizer's own benchmarks (``compare bench`` items about its internals): its first
 frame against its mean frame, its frame against a depth-only pass, and each area model's frame
-against the radiometric one. They time parts of the renderer that :meth:`render` does not expose."""
+against the radiometric one. They time parts of the renderer that :meth:`render` does not expose.
+They live here, not in the engine, so that the rasterizer's render key holds no bench code."""
 
 from __future__ import annotations
 
@@ -10,8 +11,8 @@ import numpy as np
 
 from compare.util.figures import Figure, median as _median
 
-__all__ = ["bench_area_models", "bench_depth_floor", "bench_env_shadows", "bench_first_frame", "bench_punctual",
-           "bench_textures"]
+__all__ = ["ITEMS", "bench_area_models", "bench_depth_floor", "bench_env_shadows", "bench_first_frame",
+           "bench_punctual", "bench_textures"]
 
 
 def bench_first_frame(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
@@ -179,3 +180,18 @@ def _alternating_mean_frames(options: list[dict], scene, *, frames: int, repeats
         for r in renderers:
             r.release()
     return mean
+
+
+def _item(fn):
+    """``fn`` as a bench item ``(scene, *, frames, spp, repeats, context)`` on the run's GL context."""
+    def item(scene, *, frames: int, spp: int, repeats: int, context) -> list[Figure]:
+        from compare.progressive.renderer import gl_context
+
+        return fn(scene, frames=frames, repeats=repeats, ctx=gl_context(context))
+    return item
+
+
+#: The rasterizer's bench items, by name (``compare bench --only``).
+ITEMS = {"first-frame": _item(bench_first_frame), "depth-floor": _item(bench_depth_floor),
+         "area-models": _item(bench_area_models), "textures": _item(bench_textures),
+         "punctual-lights": _item(bench_punctual), "env-shadows": _item(bench_env_shadows)}

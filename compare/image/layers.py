@@ -1,0 +1,16 @@
+"""The names of the light layers a rendering may split its last image into (by where the light comes from).
+
+A leaf: engines name their layers with these, :mod:`compare.metrics.layers` measures them. Kept apart
+from the metrics so that an engine's render key (the import closure of its code) holds no metric code.
+"""
+
+from __future__ import annotations
+
+__all__ = ["EXTRA_LAYERS", "LAYERS", "SUM_LAYERS"]
+
+#: The layers that sum to the image, in order.
+SUM_LAYERS = ("emission", "direct_area", "direct_env", "direct_punctual", "indirect_diffuse", "indirect_specular")
+#: Layers beside the sum.
+EXTRA_LAYERS = ("direct_area_unshadowed",)
+#: Every layer a renderer may give (:attr:`compare.renderers.base.Rendering.layers`).
+LAYERS = SUM_LAYERS + EXTRA_LAYERS
