@@ -37,7 +37,7 @@ _PREFIX = "compare-test-cache-"  # then the pid of the run that made it
 
 def pytest_addoption(parser):
     parser.addoption("--update-golden", action="store_true",
-                     help="rewrite the golden results (tests/data/*-before.json) from this code instead of "
+                     help="rewrite the golden results (tests/data/*-golden.json) from this code instead of "
                           "comparing with them; review the diff before committing it")
 
 
@@ -205,7 +205,7 @@ def gl_session_ctx(request):
 
     Tests take :func:`gl_ctx`; this one is for fixtures wider than a function.
     """
-    from compare.progressive.context import create_context
+    from compare.progressive.gl.context import create_context
     from compare.util.errors import MissingComponentError
 
     try:

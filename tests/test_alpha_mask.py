@@ -11,7 +11,7 @@ from PIL import Image
 
 from compare.util.errors import SceneError
 from compare.progressive.rasterizer import render_progressive
-from compare.progressive.gpu_scene import GpuScene
+from compare.progressive.frame.gpu_scene import GpuScene
 from compare.mitsuba.reference import ReferenceRenderer
 from compare.scene.loader import load_scene
 
@@ -278,7 +278,7 @@ def test_the_mask_round_trips_through_gltf(tmp_path):
 def test_mip_levels_keep_the_coverage_of_the_map():
     """Coverage-preserving alpha mips: every level passes the cutoff on level 0's fraction of its texels
     (within one texel), where plain box mips of sparse foliage lose most of it."""
-    from compare.progressive.mipmaps import box_levels, coverage, coverage_preserving_alpha
+    from compare.progressive.gl.mipmaps import box_levels, coverage, coverage_preserving_alpha
 
     rng = np.random.default_rng(1)
     alpha = (rng.random((64, 64)) < 0.3).astype(np.float64)  # sparse 1-texel leaves: 30 % coverage

@@ -114,7 +114,7 @@ def plane_points(scene, jitters):
 
 def ltc_frames(result) -> list[int]:
     """The frames in which ``ltc`` evaluated light 0's unshadowed light: the first G-buffer frame
-    (frame 1 after the forward frame 0) and every ``ltc_stride``-th after it (compare.progressive.ltc)."""
+    (frame 1 after the forward frame 0) and every ``ltc_stride``-th after it (compare.progressive.lights.ltc)."""
     stride = result.metadata["ltc_stride"]
     return [1 + g for g in range(len(result.plan) - 1) if g % stride == 0]
 
@@ -335,7 +335,7 @@ def test_ltc_glsl_matches_the_numpy_polygon_integral(gl_ctx, make_scene, case):
     # The closed form itself: the LTC pass's unshadowed specular sum of the one frame (the image scales
     # it by the shadow ratio, which also corrects the fitted lobe's shape through the samples).
     from compare.progressive.rasterizer import Rasterizer
-    from compare.progressive.readback import read_texture_rgb
+    from compare.progressive.gl.readback import read_texture_rgb
 
     with Rasterizer(scene, frames=1, ctx=gl_ctx, shadow_size=64, area_model="ltc") as pr:
         for _ in pr.frames():

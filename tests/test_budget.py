@@ -1,4 +1,4 @@
-"""The adaptive frame budget (compare.progressive.budget): scheduling and the renders it drives."""
+"""The adaptive frame budget (compare.progressive.schedule.budget): scheduling and the renders it drives."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from compare.progressive.rasterizer import Rasterizer, render_progressive
-from compare.progressive.distributor import plan
-from compare.progressive.budget import BudgetScheduler, FrameCosts
+from compare.progressive.schedule.distributor import plan
+from compare.progressive.schedule.budget import BudgetScheduler, FrameCosts
 from compare.scene.loader import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from compare.progressive.env_shadows import luminance_sampler
+from compare.progressive.environment.env_shadows import luminance_sampler
 from compare.progressive.rasterizer import render_progressive
 from compare.scene.loader import load_scene
 from test_punctual import _plane_points
@@ -194,7 +194,7 @@ def test_environment_shadows_only_take_light_away(gl_ctx, make_scene):
     assert (shadowed[hit] / unshadowed[hit]).mean() == pytest.approx((1.0 - hidden[hit]).mean(), rel=0.03)
 
 
-# -- progressive:sun (compare/progressive/sun.py) -------------------------------------------------
+# -- progressive:sun (compare/progressive/environment/sun.py) -------------------------------------------------
 
 def _sky_with_sun(direction, radius_deg: float, radiance, sky: float = 0.5, size=(256, 512)):
     from compare.scene.equirect import uv_to_direction
@@ -212,7 +212,7 @@ def test_the_sun_is_taken_out_of_the_map_with_its_irradiance_and_direction():
     """A uniform sky of 0.5 with a disc of 2° radius and radiance (4000, 3000, 2000): the sun points at the
     disc's centre within 0.3°, its irradiance is (L − 0.5) times the disc's solid angle within 3 % (the
     texels that cover it: exactly theirs), the rest of the map is the sky; a map without a compact bright region has none."""
-    from compare.progressive.sun import extract_sun
+    from compare.progressive.environment.sun import extract_sun
 
     d = np.array([0.3, 0.8, -0.52])
     d /= np.linalg.norm(d)

@@ -276,7 +276,7 @@ def check_cli(tmp: Path, argv: list[str], capsys) -> None:
 
 
 def _results_template() -> dict:
-    return json.loads((ROOT / "tests" / "data" / "cornell-48x36-before.json").read_text())
+    return json.loads((ROOT / "tests" / "data" / "cornell-48x36-golden.json").read_text())
 
 
 def _cli_argv():

@@ -293,8 +293,8 @@ def env_scene(frames_hint: str = "constant", **env):
 
 @pytest.mark.parametrize("frames, count", [(128, None), (16, 16), (16, 5), (9, 40), (2, None)])
 def test_plan_env_samples_follow_the_paper(frames, count):
-    from compare.progressive.distributor import plan
-    from compare.progressive.distributor import round_half_up
+    from compare.progressive.schedule.distributor import plan
+    from compare.progressive.schedule.distributor import round_half_up
 
     p = plan(env_scene(), frames, env_samples=count)
     n = frames if count is None else count
@@ -316,7 +316,7 @@ def test_plan_env_samples_follow_the_paper(frames, count):
 
 
 def test_plan_without_environment_or_occlusion_has_no_env_samples(tmp_path):
-    from compare.progressive.distributor import plan
+    from compare.progressive.schedule.distributor import plan
 
     cornell = __import__("compare.scene.loader", fromlist=["load_scene"]).load_scene(ROOT / "scenes" / "cornell.toml")
     assert cornell.environment is None

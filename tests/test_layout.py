@@ -188,3 +188,41 @@ def test_editing_a_metric_renders_nothing_again(tmp_path):
     second = run()
     assert {f: t for f, t in second.items() if f in first} == first, "a file rendered before was written again"
     assert not [f for f in second if f not in first and f.endswith(".exr")], "something was rendered again"
+
+
+def test_the_rasterizer_lives_in_wings():
+    """compare/progressive/ is split in wings (sub-packages) and no folder of it holds more than about 15
+    modules and shaders, so a pass and its shaders are found together."""
+    progressive = PACKAGE / "progressive"
+    wings = [d for d in progressive.iterdir() if (d / "__init__.py").is_file()]
+    assert len(wings) >= 4
+    for folder in [progressive, *wings]:
+        files = [f for f in folder.iterdir() if f.suffix in (".py", ".glsl") and f.name != "__init__.py"]
+        assert len(files) <= 16, f"{folder.relative_to(PACKAGE)} holds {len(files)} modules and shaders"
+
+
+def test_shader_includes_resolve_recursively_once_and_refuse_ambiguity(tmp_path, monkeypatch):
+    """The loader's search path: an include of an include is expanded, a file named twice is included
+    once, a circle and a name in two folders are errors naming the files."""
+    from compare.progressive.gl import shaders
+
+    a, b = tmp_path / "a", tmp_path / "b"
+    a.mkdir()
+    b.mkdir()
+    (a / "prog.glsl").write_text('#include "one.glsl"\n#include "two.glsl"\nvoid main() {}\n')
+    (a / "one.glsl").write_text('#include "two.glsl"\nfloat one() { return two(); }\n')
+    (b / "two.glsl").write_text("float two() { return 2.0; }\n")
+    monkeypatch.setattr(shaders, "SEARCH_PATH", (a, b))
+    shaders._find.cache_clear()
+    try:
+        src = shaders.shader_source("prog.glsl", "FRAGMENT_SHADER")
+        assert src.count("float two()") == 1 and src.index("float two()") < src.index("float one()")
+        (b / "two.glsl").write_text('#include "one.glsl"\n')
+        with pytest.raises(RuntimeError, match="include circle"):
+            shaders.shader_source("prog.glsl", "FRAGMENT_SHADER")
+        (b / "one.glsl").write_text("\n")
+        shaders._find.cache_clear()
+        with pytest.raises(FileNotFoundError, match="one name, one file"):
+            shaders.shader_source("one.glsl", "FRAGMENT_SHADER")
+    finally:
+        shaders._find.cache_clear()

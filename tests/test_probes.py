@@ -1,4 +1,4 @@
-"""The irradiance volume (compare.progressive.probes): SH projection, scene options, quality, leaks.
+"""The irradiance volume (compare.progressive.indirect.probes): SH projection, scene options, quality, leaks.
 
 The GL tests render tiny images (64×48) on the session's headless context. The
 quality and leak bounds were measured (llvmpipe, seed 0) and are noted beside
@@ -20,7 +20,7 @@ from compare.ibl.irradiance import irradiance_at, sh9_irradiance
 from compare.metrics.images import compare_images
 from compare.progressive.rasterizer import Rasterizer, render_progressive
 from compare.progressive import rasterizer as renderer_module
-from compare.progressive.probes import ProbeVolume, backface_fraction, distance_moments, probe_grid, project_sh9
+from compare.progressive.indirect.probes import ProbeVolume, backface_fraction, distance_moments, probe_grid, project_sh9
 from compare.scene.loader import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent

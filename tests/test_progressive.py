@@ -17,9 +17,9 @@ import pytest
 
 from compare.util.errors import ImageError, MissingComponentError
 from compare.progressive.rasterizer import Rasterizer, render_progressive
-from compare.progressive.distributor import plan
-from compare.progressive.distributor import default_samples_per_light, round_half_up
-from compare.progressive.sampling import light_sample_points, pixel_jitter
+from compare.progressive.schedule.distributor import plan
+from compare.progressive.schedule.distributor import default_samples_per_light, round_half_up
+from compare.progressive.schedule.sampling import light_sample_points, pixel_jitter
 from compare.scene.loader import Camera, load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -260,7 +260,7 @@ def test_plan_rejects_bad_arguments(cornell):
 def test_create_context_names_packages_when_egl_is_missing(monkeypatch):
     import moderngl
 
-    from compare.progressive import context
+    from compare.progressive.gl import context
 
     def broken(**kwargs):
         raise Exception("libEGL.so.1: cannot open shared object file")
@@ -480,7 +480,7 @@ def test_environment_lights_the_scene_with_the_area_light(gl_ctx, tmp_path, make
 
 
 def test_readback_rejects_non_finite_pixels(gl_ctx):
-    from compare.progressive.readback import read_rgb
+    from compare.progressive.gl.readback import read_rgb
 
     tex = gl_ctx.texture((4, 2), 4, dtype="f4")
     fbo = gl_ctx.framebuffer([tex])
@@ -590,7 +590,7 @@ def test_image_sizes_beyond_the_context_are_refused_up_front(gl_ctx, monkeypatch
     """Before any GL object is made: a side beyond GL_MAX_TEXTURE_SIZE, or targets beyond the machine's
     memory, is one error naming the scene file and the limit (before: a moderngl traceback)."""
     from compare.util.errors import SceneError
-    from compare.progressive import context
+    from compare.progressive.gl import context
 
     limit = int(gl_ctx.info["GL_MAX_TEXTURE_SIZE"])
     scene = load_scene(CORNELL).with_resolution(limit + 1, 8)

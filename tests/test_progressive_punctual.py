@@ -8,9 +8,9 @@ import math
 import numpy as np
 import pytest
 
-from compare.progressive.budget import BudgetScheduler, FrameCosts
-from compare.progressive.distributor import plan, punctual_frames
-from compare.progressive.punctual import ShadowMap
+from compare.progressive.schedule.budget import BudgetScheduler, FrameCosts
+from compare.progressive.schedule.distributor import plan, punctual_frames
+from compare.progressive.lights.punctual import ShadowMap
 from compare.progressive.rasterizer import Rasterizer, render_progressive
 from compare.scene.loader import load_scene
 from compare.scene.model import PUNCTUAL_KINDS, PunctualLight

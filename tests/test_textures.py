@@ -7,12 +7,12 @@ import textwrap
 
 import numpy as np
 
-from compare.progressive.srgb_probe import srgb_decode_table
+from compare.progressive.gl.srgb_probe import srgb_decode_table
 import pytest
 from PIL import Image
 
 from compare.progressive.rasterizer import render_progressive
-from compare.progressive.gpu_scene import GpuScene
+from compare.progressive.frame.gpu_scene import GpuScene
 from compare.mitsuba.reference import ReferenceRenderer
 from compare.scene.loader import load_scene
 
@@ -162,7 +162,7 @@ def test_emission_map_multiplies_the_emission(tmp_path, gl_ctx):
         m = regions[f"quadrant {r}{c}"]
         want = np.array([2.0, 1.0, 0.5]) * srgb_decode(np.array(colour) / 255.0)
         # the rasterizer's map is an sRGB texture: this OpenGL's sampler decodes it (exact on GPUs, within
-        # 0.0012 of the curve on llvmpipe; compare.progressive.srgb_probe)
+        # 0.0012 of the curve on llvmpipe; compare.progressive.gl.srgb_probe)
         sampled = np.array([2.0, 1.0, 0.5]) * srgb_decode_table(gl_ctx)[np.array(colour)]
         # no light but the floor's own: its pixels are its emission alone
         np.testing.assert_allclose(raster[m].mean(0), sampled, rtol=0.01, err_msg=f"rasterizer {r}{c}")

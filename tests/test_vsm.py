@@ -1,4 +1,4 @@
-"""Variance shadow maps (``shadow_filter="vsm"``; compare.progressive.shadow).
+"""Variance shadow maps (``shadow_filter="vsm"``; compare.progressive.lights.shadow).
 
 The GL tests render the Cornell box at 96×72 (32 frames, a 256² shadow atlas)
 on the session's headless context. Ground truth for "lit" and "umbra" comes
@@ -15,13 +15,13 @@ import numpy as np
 import pytest
 
 from compare.progressive.rasterizer import Rasterizer, render_progressive
-from compare.progressive.shadow import (SHADOW_FILTERS, VSM_FILTER_TEXELS, ShadowAtlas, chebyshev_visibility,
+from compare.progressive.lights.shadow import (SHADOW_FILTERS, VSM_FILTER_TEXELS, ShadowAtlas, chebyshev_visibility,
                                         vsm_face_size, vsm_filter_width)
 from compare.scene.loader import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 CORNELL = ROOT / "scenes" / "cornell.toml"
-VSM_GLSL = ROOT / "compare" / "progressive" / "vsm.glsl"
+VSM_GLSL = ROOT / "compare" / "progressive" / "lights" / "vsm.glsl"
 SHADOW_SIZE = 256
 
 
@@ -202,7 +202,7 @@ void main() {
 
 def test_blur_stays_within_each_face(gl_ctx, cornell):
     """Each tile filled with its own constant keeps it exactly: nothing bleeds across the five faces."""
-    from compare.progressive.gpu_scene import GpuScene
+    from compare.progressive.frame.gpu_scene import GpuScene
 
     gpu = GpuScene(gl_ctx, cornell)
     atlas = ShadowAtlas(gl_ctx, gpu, size=64, extent=1.0, filter="vsm", lights=cornell.lights,

@@ -103,7 +103,7 @@ def _verdict(report, kind: str) -> bool:
 
 
 def main() -> None:
-    from compare.progressive.context import create_context
+    from compare.progressive.gl.context import create_context
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--pairs", type=int, default=24)

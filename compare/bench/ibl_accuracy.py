@@ -103,7 +103,7 @@ def split_sum_table(envs: dict[str, dict] | None = None, *, roughness=(0.0, 0.1,
                     ibl_samples: int = DEFAULT_SAMPLES, ctx=None) -> list[dict]:
     """Rasterizer frame 1 against brute-force MC on a sphere; see the module notes."""
     from compare.progressive.rasterizer import Rasterizer
-    from compare.progressive.context import create_context
+    from compare.progressive.gl.context import create_context
 
     envs = environments() if envs is None else envs
     own = ctx is None

@@ -53,7 +53,7 @@ def bench_first_frame(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
 def bench_depth_floor(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
     """Mean frame time against a depth-only pass of the same geometry and size."""
     from compare.progressive.rasterizer import Rasterizer
-    from compare.progressive.depth_only import DepthOnlyPass
+    from compare.progressive.frame.depth_only import DepthOnlyPass
 
     frame_t, floor_t = [], []
     with Rasterizer(scene, frames=frames, ctx=ctx) as r:

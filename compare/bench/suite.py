@@ -31,7 +31,7 @@ each figure:
     frames: > 1 means the rasterizer reaches that error faster; both times are medians of
     ``--repeats`` alternating runs. Given against
     the full reference and against the direct-light-only reference; ``equal-error-direct-ltc``
-    is the same for the ``ltc`` area model (:mod:`compare.progressive.ltc`) against the
+    is the same for the ``ltc`` area model (:mod:`compare.progressive.lights.ltc`) against the
     direct-light-only reference, ``equal-error-full-ltc-probes`` for ``ltc`` with the
     irradiance probes against the full reference; ``equal-error-full-envshadows`` and
     ``-direct-envshadows`` for the environment shadow maps (scenes with an environment).
@@ -49,7 +49,7 @@ each figure:
 ``frame-budget``
     seconds to reach a target FLIP (1.1 × the fixed plan's final FLIP against
     the direct-light-only reference, which more samples converge to) with a per-frame time budget
-    (:mod:`compare.progressive.budget`; 16 ms and 100 ms) ÷ the same with the
+    (:mod:`compare.progressive.schedule.budget`; 16 ms and 100 ms) ÷ the same with the
     paper's fixed plan of ``--frames`` frames. < 1 means the budget gets there
     sooner. Medians of ``--repeats`` alternating runs.
 ``peak-rss``

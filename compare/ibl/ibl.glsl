@@ -1,6 +1,6 @@
 // Environment lighting for the rasterizer: background, split-sum specular, diffuse irradiance.
 //
-// Reads what compare.ibl.preprocess made (uploaded by compare/progressive/environment.py):
+// Reads what compare.ibl.preprocess made (uploaded by compare/progressive/environment/environment.py):
 //   u_env_map         the equirectangular radiance map itself (background), mapping.glsl's convention
 //   u_env_atlas       the prefiltered chain as a 2D atlas (compare/ibl/atlas.py): cube faces or
 //                     octahedral squares with 1-texel borders, level i for roughness i / (L - 1)

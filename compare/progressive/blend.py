@@ -18,17 +18,17 @@ blended meshes composite in the wrong order.
 
 What it leaves out: the blended surfaces' own shadows (they are lit unshadowed), and their partial
 shadows on the rest (a blended mesh casts a shadow map's hard shadow where its coverage is at least
-½, :meth:`~compare.progressive.gpu_scene.GpuScene.draw_occluders`).
+½, :meth:`~compare.progressive.frame.gpu_scene.GpuScene.draw_occluders`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from compare.progressive.accumulate import PingPong
+from compare.progressive.frame.accumulate import PingPong
 from compare.progressive.first_frame import bind_tables, first_frame_defines, set_light_uniforms
-from compare.progressive.gpu_scene import mat_bytes
-from compare.progressive.shaders import load_program, set_uniform
+from compare.progressive.frame.gpu_scene import mat_bytes
+from compare.progressive.gl.shaders import load_program, set_uniform
 
 #: Texture unit of the G-buffer's positions in the blend pass (after the environment's units).
 POSITION_UNIT = 9

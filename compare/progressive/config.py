@@ -9,11 +9,11 @@ from dataclasses import dataclass
 from typing import Sequence
 
 from compare.ibl import DEFAULT_LEVELS, DEFAULT_SAMPLES, DEFAULT_SIZE
-from compare.progressive.direct import AREA_MODELS, SUPPORTED_MATERIALS
-from compare.progressive.distributor import DEFAULT_FRAMES
-from compare.progressive.environment import ENV_DIFFUSE
+from compare.progressive.lights.direct import AREA_MODELS, SUPPORTED_MATERIALS
+from compare.progressive.schedule.distributor import DEFAULT_FRAMES
+from compare.progressive.environment.environment import ENV_DIFFUSE
 from compare.progressive.first_frame import FIRST_FRAME_MODES, check_scale
-from compare.progressive.shadow import DEFAULT_BIAS, DEFAULT_SHADOW_SIZE, SHADOW_FILTERS
+from compare.progressive.lights.shadow import DEFAULT_BIAS, DEFAULT_SHADOW_SIZE, SHADOW_FILTERS
 
 __all__ = ["DEFAULT_D_OCC_FRACTION", "DEFAULT_OCCLUSION_BIAS", "RasterizerOptions"]
 
@@ -47,14 +47,14 @@ class RasterizerOptions:
     seed : int
         Selects the jitter and light-sample offsets; a fixed seed gives the same image.
     area_model : {"radiometric", "paper", "ltc"}
-        Light-sample contribution; see :mod:`compare.progressive.direct`; ``"ltc"``:
-        the closed-form unshadowed light times a shadow ratio (:mod:`compare.progressive.ltc`).
+        Light-sample contribution; see :mod:`compare.progressive.lights.direct`; ``"ltc"``:
+        the closed-form unshadowed light times a shadow ratio (:mod:`compare.progressive.lights.ltc`).
     materials : {"shared", "diffuse"}
         The shared glTF BRDF, or Lambert only (for closed-form validation; same
         meaning as in :mod:`compare.mitsuba.scene_dict`).
     direct_fraction : float or None
         f_d: light samples start at frame round(f_d·m); None uses the paper's 0.3, or 0 with
-        ``area_model="ltc"`` (:data:`compare.progressive.ltc.LTC_DIRECT_FRACTION`: its light
+        ``area_model="ltc"`` (:data:`compare.progressive.lights.ltc.LTC_DIRECT_FRACTION`: its light
         is exact from the first frame, and only its shadows wait for samples).
     samples_per_light : int or sequence of int
         n_i; None uses the paper's round(m / lights / 4).
@@ -89,7 +89,7 @@ class RasterizerOptions:
         that lazy shader compilation is not counted in frame 1 (default True).
     indirect : {"none", "probes"} or None
         Indirect diffuse light: none (the paper's technique) or an irradiance
-        volume (:mod:`compare.progressive.probes`); None uses the scene's
+        volume (:mod:`compare.progressive.indirect.probes`); None uses the scene's
         ``[render] indirect``.
     probe_grid : (int, int, int) or None
         Probes along x, y, z; None uses the scene's ``probe_grid``.
@@ -109,13 +109,13 @@ class RasterizerOptions:
         1 draws it at full size as the first value of the every-frame mean.
     env_occlusion : {"screen", "shadows"}
         How the environment light is shadowed: screen-space occlusion samples (the paper's), or
-        environment shadow maps of luminance-sampled directions (:mod:`compare.progressive.env_shadows`).
+        environment shadow maps of luminance-sampled directions (:mod:`compare.progressive.environment.env_shadows`).
     sun : bool
         Take the environment's brightest compact region out of the map as a directional light with its
-        own shadow map (:mod:`compare.progressive.sun`; ``progressive:sun``).
+        own shadow map (:mod:`compare.progressive.environment.sun`; ``progressive:sun``).
     frame_budget_ms : float or None
         A per-frame time budget: each frame evaluates as many of the plan's
-        samples as a measured cost model says fit (:mod:`compare.progressive.budget`),
+        samples as a measured cost model says fit (:mod:`compare.progressive.schedule.budget`),
         at least one, so the render takes as many frames as it needs; None
         keeps the paper's fixed plan of ``frames`` frames.
     """

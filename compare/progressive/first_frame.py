@@ -33,10 +33,10 @@ import numbers
 
 import numpy as np
 
-from compare.progressive.accumulate import PingPong
-from compare.progressive.gpu_scene import mat_bytes
-from compare.progressive.ltc import LTC_UNIT
-from compare.progressive.shaders import load_program, set_uniform
+from compare.progressive.frame.accumulate import PingPong
+from compare.progressive.frame.gpu_scene import mat_bytes
+from compare.progressive.lights.ltc import LTC_UNIT
+from compare.progressive.gl.shaders import load_program, set_uniform
 
 #: How frame 0 is drawn (Rasterizer's ``first_frame``).
 FIRST_FRAME_MODES = ("forward", "gbuffer")
@@ -97,7 +97,7 @@ def bind_tables(program, gpu_scene, *, lut_texture=None, ltc_table=None, environ
 
 def set_light_uniforms(program, lights, punctual=None) -> None:
     """The lights' uniform arrays of ``first_frame.glsl`` (frame 0, and the blend pass): the area
-    ``lights`` and the :class:`~compare.progressive.punctual.PunctualLights` ``punctual`` (or None)."""
+    ``lights`` and the :class:`~compare.progressive.lights.punctual.PunctualLights` ``punctual`` (or None)."""
     if punctual is not None:
         for name, values in punctual.uniform_arrays().items():
             set_uniform(program, name, values)
@@ -121,12 +121,12 @@ class FirstFramePass:
 
     ``lut_texture`` is the direct pass's split-sum table (None with Lambert-only
     materials), ``ltc_table`` the LTC table of the ``ltc`` area model (its preview is the
-    closed-form unshadowed light, :mod:`compare.progressive.ltc`); ``environment`` an
-    :class:`~compare.progressive.environment.EnvironmentLighting` or None.
+    closed-form unshadowed light, :mod:`compare.progressive.lights.ltc`); ``environment`` an
+    :class:`~compare.progressive.environment.environment.EnvironmentLighting` or None.
     ``scale`` in (0, 1]: 1 draws frame 0 at full size into the every-frame mean's
     next target; below 1 at that fraction of each axis into :attr:`targets`, a
     preview only (:attr:`reduced`). ``punctual`` (a
-    :class:`~compare.progressive.punctual.PunctualLights` or None): their exact
+    :class:`~compare.progressive.lights.punctual.PunctualLights` or None): their exact
     unshadowed light goes into their running mean's next target (reduced: into
     :attr:`punctual_texture`).
     """

@@ -8,15 +8,15 @@ gains against the same ground truth (an ablation):
     ``area_model``: the paper's isotropic point-light form, the
     radiometric point-on-area form (the default), or the closed-form unshadowed
     light of linearly transformed cosines times a stochastic shadow ratio
-    (:mod:`compare.progressive.ltc`).
+    (:mod:`compare.progressive.lights.ltc`).
 ``probes``
     ``indirect="probes"``: indirect diffuse light from an irradiance volume
-    (:mod:`compare.progressive.probes`), with the scene's grid and bounces.
+    (:mod:`compare.progressive.indirect.probes`), with the scene's grid and bounces.
 ``vsm``
     ``shadow_filter="vsm"``: variance shadow maps instead of hard shadow tests.
 ``budget<ms>``
     ``frame_budget_ms``: as many samples per frame as fit in ``<ms>``
-    milliseconds (:mod:`compare.progressive.budget`), e.g. ``budget16``.
+    milliseconds (:mod:`compare.progressive.schedule.budget`), e.g. ``budget16``.
 ``fullfirst``
     ``first_frame_scale=1``: frame 0 drawn at full size, as the paper's first
     frame, instead of the default half-size preview from 320×240 up

@@ -1,23 +1,23 @@
 """The progressive renderer: frames, accumulation, timing, checkpoints.
 
-One frame f of the :class:`~compare.progressive.distributor.Plan`:
+One frame f of the :class:`~compare.progressive.schedule.distributor.Plan`:
 
 1. G-buffer pass with frame f's sub-pixel jitter (``gbuffer.glsl``);
 2. the every-frame running mean over all frames (``accumulate.glsl``):
    emission and the background, and — with an environment, in a second
    target — the unoccluded environment light (split-sum specular + diffuse
-   irradiance, ``compare/ibl/ibl.glsl``; :mod:`compare.progressive.environment`);
+   irradiance, ``compare/ibl/ibl.glsl``; :mod:`compare.progressive.environment.environment`);
    with ``indirect="probes"``, in the first frames only, the running mean of the
    indirect diffuse light of an irradiance volume baked at setup
-   (:mod:`compare.progressive.probes`, ``probe_bake_seconds``;
-   :mod:`compare.progressive.indirect` says why only the first frames);
+   (:mod:`compare.progressive.indirect.probes`, ``probe_bake_seconds``;
+   :mod:`compare.progressive.indirect.indirect` says why only the first frames);
 3. frame 0 only (frame 1 after a reduced frame 0, see below): the unshadowed
    preview of the direct light from each light's centre (``direct.glsl``
    without shadows), shown until every light has a sample;
 4. for each light sample of the frame: its shadow atlas (``shadow.glsl``, five
    faces) and its direct-light pass (``direct.glsl``); the last one folds the
    frame's sum into the direct-light running mean over light frames;
-5. with point, spot or directional lights (:mod:`compare.progressive.punctual`): the shadow
+5. with point, spot or directional lights (:mod:`compare.progressive.lights.punctual`): the shadow
    maps the frame's plan names (each light's once, kept), then every punctual light's exact
    light, shadowed where its map exists, folded into its own running mean;
 6. frames with environment samples (1 … m−1, never frame 0): the screen-space
@@ -25,7 +25,7 @@ One frame f of the :class:`~compare.progressive.distributor.Plan`:
    light, folded into one running mean per kind (diffuse, specular) over that
    kind's samples.
 
-With ``area_model="ltc"`` (:mod:`compare.progressive.ltc`) step 3 goes: the
+With ``area_model="ltc"`` (:mod:`compare.progressive.lights.ltc`) step 3 goes: the
 lights' unshadowed light in closed form is added to per-light sums in the first
 G-buffer frame and about 32 more, and each light sample of step 4 adds to its
 light's shadow-ratio sums instead of a running mean.
@@ -71,26 +71,26 @@ import numpy as np
 
 from compare import __version__
 from compare.renderers.base import Checkpoint
-from compare.progressive.accumulate import AccumulatePass, ComposePass, PingPong, Target
+from compare.progressive.frame.accumulate import AccumulatePass, ComposePass, PingPong, Target
 from compare.progressive.config import DEFAULT_D_OCC_FRACTION, RasterizerOptions
-from compare.progressive.context import check_image_size, create_context, gl_renderer_name
-from compare.progressive.srgb_probe import srgb_decode_error
-from compare.progressive.direct import DirectPass
-from compare.progressive.environment import (MAX_SAMPLES_PER_FRAME, EnvironmentLighting, EnvOcclusionPass,
+from compare.progressive.gl.context import check_image_size, create_context, gl_renderer_name
+from compare.progressive.gl.srgb_probe import srgb_decode_error
+from compare.progressive.lights.direct import DirectPass
+from compare.progressive.environment.environment import (MAX_SAMPLES_PER_FRAME, EnvironmentLighting, EnvOcclusionPass,
                           EnvOcclusionTargets)
-from compare.progressive.budget import BudgetScheduler, FrameCosts
-from compare.progressive.distributor import DEFAULT_DIRECT_FRACTION, DEFAULT_FRAMES, FramePlan, Plan, plan
+from compare.progressive.schedule.budget import BudgetScheduler, FrameCosts
+from compare.progressive.schedule.distributor import DEFAULT_DIRECT_FRACTION, DEFAULT_FRAMES, FramePlan, Plan, plan
 from compare.progressive.first_frame import FirstFramePass, auto_scale
-from compare.progressive.gbuffer import GBuffer
-from compare.progressive.indirect import IndirectPass
-from compare.progressive.ltc import LTC_DIRECT_FRACTION, LtcLights, ltc_texture
-from compare.progressive.gpu_scene import CameraSetup, GpuScene, mat_bytes
-from compare.progressive.probes import ProbeVolume, indirect_options
-from compare.progressive.readback import read_rgb
+from compare.progressive.frame.gbuffer import GBuffer
+from compare.progressive.indirect.indirect import IndirectPass
+from compare.progressive.lights.ltc import LTC_DIRECT_FRACTION, LtcLights, ltc_texture
+from compare.progressive.frame.gpu_scene import CameraSetup, GpuScene, mat_bytes
+from compare.progressive.indirect.probes import ProbeVolume, indirect_options
+from compare.progressive.gl.readback import read_rgb
 from compare.progressive.blend import BlendPass
-from compare.progressive.env_shadows import EnvShadows
-from compare.progressive.punctual import PunctualLights
-from compare.progressive.shadow import ShadowAtlas
+from compare.progressive.environment.env_shadows import EnvShadows
+from compare.progressive.lights.punctual import PunctualLights
+from compare.progressive.lights.shadow import ShadowAtlas
 
 
 
@@ -138,7 +138,7 @@ class Rasterizer:
         #: Whether the only punctual light is the environment's sun (its light is reported as environment's).
         self._sun_only_punctual = False
         if o.sun:  # before anything reads the scene: the map without its sun, and the sun as a light
-            from compare.progressive.sun import scene_with_sun
+            from compare.progressive.environment.sun import scene_with_sun
 
             self._sun_only_punctual = not scene.punctual
             scene, sun_notes = scene_with_sun(scene, o.cache_dir)
@@ -565,7 +565,7 @@ class Rasterizer:
             raise RuntimeError("no frame rendered yet; iterate frames() or call render_frame() first")
         if (self.frame == 1 and self._reduced_first) or self.blend is not None:
             return {}  # blended surfaces composite over every kind of light: the image has no such split
-        from compare.progressive.readback import read_texture_rgb
+        from compare.progressive.gl.readback import read_texture_rgb
 
         what = f"progressive render of {self.scene.path} (frame {self.frame})"
         out = {"emission": read_texture_rgb(self.ctx, self.base.current, what=what)}

@@ -7,7 +7,7 @@ import time
 
 import numpy as np
 
-from compare.progressive.gpu_scene import RENDERED_LAYERS
+from compare.progressive.frame.gpu_scene import RENDERED_LAYERS
 from compare.progressive.options import OPTIONS, describe, renderer_options
 from compare.renderers.base import Checkpoint, RenderContext, Renderer, Rendering
 
@@ -15,7 +15,7 @@ __all__ = ["ProgressiveRenderer", "gl_context"]
 
 
 def _create_gl_context():
-    from compare.progressive.context import create_context
+    from compare.progressive.gl.context import create_context
 
     return create_context()
 
@@ -77,7 +77,7 @@ class ProgressiveRenderer(Renderer):
         return True, ""
 
     def preflight(self, scene, context: RenderContext) -> None:
-        from compare.progressive.context import check_image_size
+        from compare.progressive.gl.context import check_image_size
 
         ctx = gl_context(context)
         if ctx is not None:

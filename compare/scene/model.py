@@ -27,7 +27,7 @@ ENV_FILE_SUFFIXES = (".exr", ".hdr")
 GLOSSY_ROUGHNESS = 0.6
 #: Indirect diffuse light in the rasterizer: none (the paper's technique) or an irradiance volume.
 INDIRECT_MODES = ("none", "probes")
-#: Default probes per axis and bounces of the irradiance volume (compare.progressive.probes).
+#: Default probes per axis and bounces of the irradiance volume (compare.progressive.indirect.probes).
 DEFAULT_PROBE_GRID = (6, 6, 6)
 DEFAULT_PROBE_BOUNCES = 2
 #: Largest number of probes along one axis (keeps the volume's textures small).

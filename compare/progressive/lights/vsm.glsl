@@ -1,7 +1,7 @@
 // Variance shadow maps: visibility from the filtered moments (mu, m2) = (E[z], E[z^2]) of
 // the occluder distance z around the lookup (Donnelly & Lauritzen 2006; Lauritzen, GPU
 // Gems 3, ch. 8). Included by direct.glsl; mirrored in numpy by
-// compare.progressive.shadow.chebyshev_visibility (tests/test_vsm.py checks one against
+// compare.progressive.lights.shadow.chebyshev_visibility (tests/test_vsm.py checks one against
 // the other). See shadow.py for the maths and the choice of the constants.
 
 // Chebyshev's one-tailed bound P(z >= d) <= p_max = s2 / (s2 + (d - mu)^2) for d > mu,

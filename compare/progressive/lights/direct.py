@@ -12,7 +12,7 @@ Area models
     angle Ω (two spherical triangles).
 ``"ltc"``
     The unshadowed light in closed form (linearly transformed cosines) times a
-    shadow ratio estimated from the samples: :mod:`compare.progressive.ltc`. This
+    shadow ratio estimated from the samples: :mod:`compare.progressive.lights.ltc`. This
     pass then writes the ratio's sums instead of an estimate.
 ``"paper"``
     Otto et al.'s point-light form: each sample is an isotropic point light
@@ -54,9 +54,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from compare.progressive.accumulate import PingPong, Target
-from compare.progressive.shaders import load_program, set_uniform
-from compare.progressive.shadow import SHADOW_FILTERS
+from compare.progressive.frame.accumulate import PingPong, Target
+from compare.progressive.gl.shaders import load_program, set_uniform
+from compare.progressive.lights.shadow import SHADOW_FILTERS
 
 AREA_MODELS = ("radiometric", "paper", "ltc")
 #: The material modes (compare.brdf.SUPPORTED_MATERIALS) the rasterizer has: the shared BRDF, and Lambert only.
@@ -162,9 +162,9 @@ class DirectPass:
         """Add ``weight``·estimate of one sample to this frame's ``partial`` sum (not the last sample).
 
         With the ``ltc`` model: add the sample's shadow-ratio terms to the light's ratio
-        target ``partial`` (:mod:`compare.progressive.ltc`; ``weight`` is not used);
+        target ``partial`` (:mod:`compare.progressive.lights.ltc`; ``weight`` is not used);
         ``ltc_specular`` is (the light's unshadowed specular sum, its frames), whose alpha
-        bounds the specular term (:meth:`~compare.progressive.ltc.LtcLights.specular_sum`)."""
+        bounds the specular term (:meth:`~compare.progressive.lights.ltc.LtcLights.specular_sum`)."""
         ctx = self.ctx
         partial.fbo.use()
         ctx.enable_only(ctx.BLEND)

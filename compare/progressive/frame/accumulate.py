@@ -8,7 +8,7 @@ read the texture it writes.
 
 from __future__ import annotations
 
-from compare.progressive.shaders import load_program, set_uniform
+from compare.progressive.gl.shaders import load_program, set_uniform
 
 
 class PingPong:
@@ -79,7 +79,7 @@ class Target:
 class AccumulatePass:
     """Running mean of the every-frame terms: emission where a surface was hit, background elsewhere.
 
-    With an ``environment`` (:class:`compare.progressive.environment.EnvironmentLighting`)
+    With an ``environment`` (:class:`compare.progressive.environment.environment.EnvironmentLighting`)
     the background is the environment map, and a second attachment of the
     ping-pong (``PingPong(..., attachments=2)``) holds the running mean of the
     unoccluded environment light of shaded surfaces (``accumulate.glsl``).
@@ -154,7 +154,7 @@ class ComposePass:
         ``base`` is the every-frame ping-pong (a second attachment holds the
         unoccluded environment light); ``env_visible`` the per-kind running means
         of the occluded environment light
-        (:class:`~compare.progressive.environment.EnvOcclusionTargets`) or None.
+        (:class:`~compare.progressive.environment.environment.EnvOcclusionTargets`) or None.
         The environment term is the unoccluded mean until both kinds have
         samples, then the two means of visible light. ``indirect_texture`` is
         the irradiance volume's indirect light (:mod:`.indirect`), or None;

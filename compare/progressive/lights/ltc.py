@@ -62,9 +62,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from compare.progressive.accumulate import Target
-from compare.progressive.direct import LTC_UNIT, set_light
-from compare.progressive.shaders import load_program, set_uniform
+from compare.progressive.frame.accumulate import Target
+from compare.progressive.lights.direct import LTC_UNIT, set_light
+from compare.progressive.gl.shaders import load_program, set_uniform
 
 #: f_d of the ``ltc`` model: shadow samples from frame 1 on (see the module notes).
 LTC_DIRECT_FRACTION = 0.0

@@ -30,7 +30,7 @@ from compare.scene.environments import environment_image
 from compare.scene.equirect import rotation_matrix
 from compare.ibl import DEFAULT_LEVELS, DEFAULT_SAMPLES, DEFAULT_SIZE, ENV_FORMATS, build_atlas, preprocess, split_sum
 from compare.ibl.irradiance import SH_BAND_FACTORS
-from compare.progressive.shaders import load_program, set_uniform
+from compare.progressive.gl.shaders import load_program, set_uniform
 
 #: How the diffuse irradiance is stored.
 ENV_DIFFUSE = ("cube", "sh9")

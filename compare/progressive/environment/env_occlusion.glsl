@@ -1,6 +1,6 @@
 // Progressive screen-space occlusion of the environment light (Otto et al. 2020, section 3.2).
 //
-// Each environment sample s of this frame (compare/progressive/distributor.py) is either
+// Each environment sample s of this frame (compare/progressive/schedule/distributor.py) is either
 // diffuse (a cosine-weighted direction) or specular (a GGX visible normal reflected about
 // the view vector, compare/brdf/brdf.glsl), in the tangent frame of the pixel's normal.
 // The point p = x + dir * d_occ * xi_3 is projected with this frame's camera; if the

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from compare.progressive.gpu_scene import mat_bytes
-from compare.progressive.shaders import set_uniform
+from compare.progressive.frame.gpu_scene import mat_bytes
+from compare.progressive.gl.shaders import set_uniform
 
 
 class DepthOnlyPass:

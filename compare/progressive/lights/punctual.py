@@ -7,11 +7,11 @@ spread over frames as an estimate:
 
 * **From the first frame** every frame adds the exact unshadowed light of every
   punctual light (the forward-shaded frame 0 too, ``first_frame.glsl``) to its
-  own running mean over frames (a :class:`~compare.progressive.accumulate.PingPong`,
+  own running mean over frames (a :class:`~compare.progressive.frame.accumulate.PingPong`,
   ``punctual.glsl``, up to :data:`MAX_BATCH` lights per full-screen draw), which
   gives the light's anti-aliasing the same jitter as everything else.
 * **The shadow map** of each light is the one costly step, and the sample
-  distributor places it (:func:`compare.progressive.distributor.punctual_frames`,
+  distributor places it (:func:`compare.progressive.schedule.distributor.punctual_frames`,
   the frame budget's ``c_p``): light k in frame 1 + k. The scene is static, so
   the map is kept; from that frame on the light's term is shadowed. The mean
   restarts whenever a map arrives, so it never mixes shadowed and unshadowed
@@ -43,9 +43,9 @@ import math
 
 import numpy as np
 
-from compare.progressive.accumulate import PingPong
-from compare.progressive.gpu_scene import frustum, look_at, mat_bytes
-from compare.progressive.shaders import load_program, set_uniform
+from compare.progressive.frame.accumulate import PingPong
+from compare.progressive.frame.gpu_scene import frustum, look_at, mat_bytes
+from compare.progressive.gl.shaders import load_program, set_uniform
 
 #: Widest spot cone (full angle, degrees) drawn through one perspective face; wider ones get a cube.
 MAX_SPOT_FACE_DEGREES = 120.0
@@ -200,7 +200,7 @@ def set_shadow_maps(program, maps) -> None:
 class PunctualLights:
     """Shadow maps, programs and the running mean of a scene's punctual lights.
 
-    ``camera`` is the rasterizer's :class:`~compare.progressive.gpu_scene.CameraSetup` (a
+    ``camera`` is the rasterizer's :class:`~compare.progressive.frame.gpu_scene.CameraSetup` (a
     directional light's map is fitted to what it sees); ``shadow_size`` is S (module notes).
     """
 

@@ -8,8 +8,8 @@ frame however many light samples the frame evaluates.
 
 from __future__ import annotations
 
-from compare.progressive.gpu_scene import LAYER_TARGETS, mat_bytes
-from compare.progressive.shaders import load_program, set_uniform
+from compare.progressive.frame.gpu_scene import LAYER_TARGETS, mat_bytes
+from compare.progressive.gl.shaders import load_program, set_uniform
 
 
 class GBuffer:

@@ -1,6 +1,6 @@
 """The adaptive frame budget: as many samples per frame as fit in a time budget.
 
-The paper's distributor (:mod:`compare.progressive.distributor`) fixes before
+The paper's distributor (:mod:`compare.progressive.schedule.distributor`) fixes before
 the first frame which frame evaluates which sample, so every frame after the
 direct-light start costs about the same on any device: a fast GPU idles, a
 slow one misses its frame rate. The paper leaves an automatic adaptation to the
@@ -42,8 +42,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
-from compare.progressive.distributor import FramePlan, Plan
-from compare.progressive.sampling import pixel_jitter
+from compare.progressive.schedule.distributor import FramePlan, Plan
+from compare.progressive.schedule.sampling import pixel_jitter
 
 #: Weight of the newest observation in the moving average of observed ÷ predicted frame time.
 SMOOTHING = 0.3

@@ -3,7 +3,7 @@
 A render of ``m`` frames (paper default 128) is planned before the first frame.
 
 * **Pixel jitter**: every frame has its own sub-pixel offset (R2 sequence,
-  :func:`compare.progressive.sampling.pixel_jitter`).
+  :func:`compare.progressive.schedule.sampling.pixel_jitter`).
 * **Direct-light samples** (area lights): light ``i`` gets ``n_i`` sample points
   on its rectangle, centre first and then outwards. They are evaluated only in
   frames ``f0 = round(f_d·m) … m−1`` (``f_d`` = ``direct_fraction``, default
@@ -27,7 +27,7 @@ A render of ``m`` frames (paper default 128) is planned before the first frame.
   for light ``k`` (several per frame when there are more lights than frames
   after frame 0), as early as possible: once every map exists, every later
   frame adds the exact shadowed light at its own jitter
-  (:mod:`compare.progressive.punctual`).
+  (:mod:`compare.progressive.lights.punctual`).
 
 Weights
 -------
@@ -64,7 +64,7 @@ from typing import Iterator, Sequence
 
 import numpy as np
 
-from compare.progressive.sampling import env_sample_points, light_sample_points, pixel_jitter
+from compare.progressive.schedule.sampling import env_sample_points, light_sample_points, pixel_jitter
 
 #: Paper default: direct-light samples start at 30 % of the frames.
 DEFAULT_DIRECT_FRACTION = 0.3

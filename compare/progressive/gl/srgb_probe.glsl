@@ -1,6 +1,6 @@
 // What this OpenGL's sampler returns for each code of an sRGB8 texture: one texel per fragment,
 // fetched unfiltered, written as float. The maps' sRGB decode is the driver's (exact on GPUs, an
-// approximation on some software rasterizers); compare.progressive.srgb_probe measures it.
+// approximation on some software rasterizers); compare.progressive.gl.srgb_probe measures it.
 
 #if defined VERTEX_SHADER
 

@@ -14,8 +14,8 @@ Bake (setup time, :class:`ProbeVolume`)
        all faces in one atlas, one instanced draw per mesh (``probes_gbuffer.glsl``).
     2. Direct irradiance at every texel from the scene's area lights, with the
        rasterizer's own shadows: a few points per light (the light sampler's
-       centre-first R2 points, :func:`~compare.progressive.sampling.light_sample_points`),
-       a hard-shadow :class:`~compare.progressive.shadow.ShadowAtlas` each
+       centre-first R2 points, :func:`~compare.progressive.schedule.sampling.light_sample_points`),
+       a hard-shadow :class:`~compare.progressive.lights.shadow.ShadowAtlas` each
        (``probes_direct.glsl``). The bake keeps its own atlas (512² faces): the
        renderer's may hold filtered moments (``shadow_filter="vsm"``), and the
        bake's 16² faces need no finer shadows.
@@ -95,9 +95,9 @@ from compare.ibl.cubemap import FACE_AXES, padded_directions, texel_solid_angles
 from compare.ibl.irradiance import SH_BAND_FACTORS, sh9_basis
 from compare.image.encodings import octahedral_directions, octahedral_pad
 from compare.scene.loader import DEFAULT_PROBE_BOUNCES, DEFAULT_PROBE_GRID, INDIRECT_MODES, MAX_PROBES_PER_AXIS
-from compare.progressive.sampling import light_sample_points
-from compare.progressive.shaders import load_program, set_uniform
-from compare.progressive.shadow import DEFAULT_BIAS, ShadowAtlas
+from compare.progressive.schedule.sampling import light_sample_points
+from compare.progressive.gl.shaders import load_program, set_uniform
+from compare.progressive.lights.shadow import DEFAULT_BIAS, ShadowAtlas
 
 #: Face size S of each probe's cube map in the bake.
 DEFAULT_FACE_SIZE = 16
@@ -227,7 +227,7 @@ class ProbeVolume:
     ----------
     ctx : moderngl.Context
     scene : compare.scene.loader.Scene
-    gpu_scene : compare.progressive.gpu_scene.GpuScene
+    gpu_scene : compare.progressive.frame.gpu_scene.GpuScene
         The uploaded scene (the bake draws it).
     grid : (int, int, int), keyword-only
         Probes along x, y, z (each >= 2, at most :data:`MAX_PROBES` in all).

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from compare.progressive.shaders import set_uniform
+from compare.progressive.gl.shaders import set_uniform
 
 
 #: OpenGL internal formats of 8-bit maps: colour (sRGB-encoded) and factors (linear).
@@ -261,7 +261,7 @@ class GpuScene:
         """The programs of a pass that only rasterizes the scene (depth, shadow maps), by whether the mesh
         they draw is alpha-masked: ``{False: positions only}``, and with alpha masks ``True``: texture
         coordinates and the base-colour map's alpha test (:meth:`draw_occluders` picks per mesh)."""
-        from compare.progressive.shaders import load_program
+        from compare.progressive.gl.shaders import load_program
 
         base = dict(defines or {})
         programs = {False: load_program(ctx, name, {**base, "TEXTURES": 0, "ALPHA_MASK": 0})}
@@ -279,7 +279,7 @@ class GpuScene:
         (``alpha``, float in [0, 1]), the fraction of texels at or above ``cutoff``: Castaño's
         coverage-preserving mipmaps. Averaged alpha drifts towards its mean, so plain mips make
         alpha-tested foliage thin out with distance, where a path tracer (which does not mipmap) keeps it."""
-        from compare.progressive.mipmaps import coverage_preserving_alpha
+        from compare.progressive.gl.mipmaps import coverage_preserving_alpha
 
         h, w = alpha.shape
         eight = tex.dtype == "f1"

@@ -132,8 +132,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from compare.progressive.gpu_scene import frustum, look_at, mat_bytes
-from compare.progressive.shaders import load_program, set_uniform
+from compare.progressive.frame.gpu_scene import frustum, look_at, mat_bytes
+from compare.progressive.gl.shaders import load_program, set_uniform
 
 #: Default bias in texels: (normal offset, constant, slope-scaled).
 DEFAULT_BIAS = (1.0, 1.0, 1.0)

@@ -1,5 +1,5 @@
 // Irradiance-volume bake, step 1: the scene from every probe into six cube faces, one instance
-// per (probe, face), all in one atlas of S x S tiles (compare/progressive/probes.py).
+// per (probe, face), all in one atlas of S x S tiles (compare/progressive/indirect/probes.py).
 //
 // Instance i draws probe i / 6, face i % 6. The face's camera looks along A with U to the
 // right and V up (compare/ibl/cubemap.py's table, so texel (column, row) of a tile, counted

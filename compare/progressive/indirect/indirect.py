@@ -11,8 +11,8 @@ every later image does.
 
 from __future__ import annotations
 
-from compare.progressive.accumulate import PingPong
-from compare.progressive.shaders import load_program, set_uniform
+from compare.progressive.frame.accumulate import PingPong
+from compare.progressive.gl.shaders import load_program, set_uniform
 
 #: Frames whose jitter anti-aliases the indirect light (then its mean is kept).
 PROBE_FRAMES = 16

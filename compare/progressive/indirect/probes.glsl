@@ -1,5 +1,5 @@
 // Irradiance volume lookup: E_indirect(x, n) from a regular grid of SH9 probes
-// (compare/progressive/probes.py bakes the grid and documents the method).
+// (compare/progressive/indirect/probes.py bakes the grid and documents the method).
 //
 //   E(x, n) = sum_p w_p E_p(n) / sum_p w_p        over the 8 probes of x's grid cell
 //   E_p(n)  = max(0, sum_k c_pk Y_k(n))          c_pk already multiplied by A_l (Ramamoorthi & Hanrahan)

@@ -3,7 +3,7 @@
 A sky with a sun, or a studio map with a soft box, holds most of its light in a small bright region.
 Sampled as environment light, that region's shadows need many samples to converge (``envshadows``) or are
 never drawn (screen-space occlusion). Here the brightest compact region of the map is taken out of it and
-rendered as a directional light with its own shadow map (:mod:`compare.progressive.punctual`); the rest
+rendered as a directional light with its own shadow map (:mod:`compare.progressive.lights.punctual`); the rest
 of the map stays environment light (Debevec 2005, "A median cut algorithm for light probe sampling", keeps
 the brightest region as one light in the same way).
 

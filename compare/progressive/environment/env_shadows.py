@@ -2,10 +2,10 @@
 (``progressive:envshadows``).
 
 Screen-space occlusion (``env_occlusion.glsl``) sees only occluders on screen and within ``d_occ``.
-Here each environment sample of the distributor's plan (:class:`~compare.progressive.distributor.EnvSample`;
+Here each environment sample of the distributor's plan (:class:`~compare.progressive.schedule.distributor.EnvSample`;
 its index picks a point of one R2 sequence) is instead a direction drawn from the environment map in proportion to its
 luminance, with an orthographic shadow map fitted to the scene (the directional light's map of
-:mod:`compare.progressive.punctual`), so every occluder of the scene casts its environment shadow,
+:mod:`compare.progressive.lights.punctual`), so every occluder of the scene casts its environment shadow,
 on screen or not.
 
 Estimator
@@ -39,10 +39,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from compare.progressive.gpu_scene import mat_bytes
-from compare.progressive.punctual import ShadowMap, set_shadow_maps, visible_points
-from compare.progressive.sampling import r2, seed_offset
-from compare.progressive.shaders import load_program, set_uniform
+from compare.progressive.frame.gpu_scene import mat_bytes
+from compare.progressive.lights.punctual import ShadowMap, set_shadow_maps, visible_points
+from compare.progressive.schedule.sampling import r2, seed_offset
+from compare.progressive.gl.shaders import load_program, set_uniform
 from compare.scene.equirect import rotation_matrix, uv_to_direction
 
 #: Texture unit of the shadow map in env_shadows.glsl (0-2 hold the G-buffer).
@@ -170,7 +170,7 @@ class EnvShadows:
 
     def ratio(self, what: str) -> np.ndarray:
         """The display's ratio per pixel, (H, W) float32, as ``compose.glsl`` computes it."""
-        from compare.progressive.readback import read_texture_rgba
+        from compare.progressive.gl.readback import read_texture_rgba
 
         sums = read_texture_rgba(self.ctx, self.sums, what=what).astype(np.float64)
         e = read_texture_rgba(self.ctx, self.weights, what=what).astype(np.float64)

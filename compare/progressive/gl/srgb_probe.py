@@ -1,6 +1,6 @@
 """The sRGB decode of this OpenGL's texture sampler, measured: what an 8-bit colour map becomes.
 
-8-bit colour maps are uploaded as sRGB textures (:mod:`compare.progressive.gpu_scene`), so the sampler
+8-bit colour maps are uploaded as sRGB textures (:mod:`compare.progressive.frame.gpu_scene`), so the sampler
 decodes them to linear before filtering, as a GPU does. The decode is the driver's: exact to 8 bits on
 GPUs, an approximation on Mesa's llvmpipe (up to 2.5 % below code 10, 0.12 % of full scale). The
 rasterizer records the measured deviation from the exact sRGB curve as a fact of its runs, and tests
@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from compare.progressive.shaders import load_program
+from compare.progressive.gl.shaders import load_program
 
 __all__ = ["srgb_decode_table", "srgb_decode_error"]
 

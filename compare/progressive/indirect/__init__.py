@@ -1,0 +1,1 @@
+"""Indirect diffuse light: irradiance probes and their shading."""

@@ -1,0 +1,1 @@
+"""Direct light: area-light shadow maps (and VSM), the shading of area lights, LTC, punctual lights."""
