@@ -753,7 +753,7 @@ def _core_model(scene):
 _SHEEN_UNDER_ENV_SHADOWS = pytest.mark.xfail(
     reason="measured 7.2 % added at 24 frames (6.1 % at 96) on the white sheen of roughness 0.3: the sheen's "
            "environment light is its albedo times the irradiance, a few % bright for a lobe at grazing angles, "
-           "which the default variant's screen-space occlusion happens to offset", strict=False)
+           "which the default variant's screen-space occlusion happens to offset", strict=True)
 
 
 @pytest.mark.parametrize("effect", ["clearcoat", "sheen", "specular"])

@@ -90,6 +90,7 @@ import numpy as np
 __all__ = [
     "ALPHA_MIN",
     "COS_MIN",
+    "DENOM_MIN",
     "DIELECTRIC_F0",
     "H_LEN2_MIN",
     "REFERENCE_ALPHA_MIN",
@@ -134,7 +135,7 @@ H_LEN2_MIN = 1e-12
 #: Smallest probability of sampling the specular lobe while a diffuse lobe exists.
 SPECULAR_PROB_MIN = 0.1
 
-_DENOM_MIN = 1e-30  # guard of D's denominator; never active for unit vectors
+DENOM_MIN = 1e-30  # guard of D's denominator; never active for unit vectors
 
 
 def _dot(a, b):
@@ -188,7 +189,7 @@ def ggx_d(n_dot_h, alpha, sin2_theta_h=None):
     if sin2_theta_h is None:
         sin2_theta_h = np.maximum(1.0 - nh * nh, 0.0)
     a = nh * alpha
-    k = alpha / np.maximum(np.asarray(sin2_theta_h, dtype=np.float64) + a * a, _DENOM_MIN)
+    k = alpha / np.maximum(np.asarray(sin2_theta_h, dtype=np.float64) + a * a, DENOM_MIN)
     return k * k / np.pi
 
 

@@ -69,8 +69,8 @@ from __future__ import annotations
 
 import math
 
-from compare.brdf import REFERENCE_ALPHA_MIN, COS_MIN, DIELECTRIC_F0, H_LEN2_MIN, SPECULAR_PROB_MIN, multiscatter
-from compare.mitsuba import principled
+from compare.brdf import REFERENCE_ALPHA_MIN, DIELECTRIC_F0, H_LEN2_MIN, SPECULAR_PROB_MIN, multiscatter
+from compare.mitsuba import ggx, principled
 from compare.mitsuba.principled_tables import tables
 
 __all__ = ["FLAVOURS", "PLUGIN_NAME", "evaluate", "register", "registered_variants"]
@@ -83,7 +83,6 @@ FLAVOURS = principled.FLAVOURS
 CYCLES_INPUTS = ("ior", "specular_ior_level", "specular_tint")
 
 _CLASSES: dict[str, type] = {}
-_DENOM_MIN = 1e-30
 
 
 def registered_variants() -> tuple[str, ...]:
@@ -300,24 +299,13 @@ def _make_class(mv, mitsuba):
             wi = si.wi
             cos_i = wi.z
             cos_o = wo.z
-            hu = wi + wo
-            len2 = dr.dot(hu, hu)
+            h, len2 = ggx.half_vector(dr, wi, wo)
             valid = active & (cos_i > 0.0) & (cos_o > 0.0) & (len2 > H_LEN2_MIN)
             c, m, alpha, r = self._params(si, valid)
 
-            h = hu * dr.rsqrt(dr.maximum(len2, H_LEN2_MIN))
-            nh = dr.clip(h.z, 0.0, 1.0)
             vh = dr.clip(dr.dot(wi, h), 0.0, 1.0)
-            sin2 = dr.fma(h.x, h.x, h.y * h.y)
-            a = nh * alpha
-            k = alpha / dr.maximum(sin2 + a * a, _DENOM_MIN)
-            d = k * k * (1.0 / dr.pi)
-
-            a2 = alpha * alpha
-            nv = dr.maximum(cos_i, COS_MIN)
-            nl = dr.maximum(cos_o, COS_MIN)
-            vis = 0.5 / (nl * dr.sqrt(nv * nv * (1.0 - a2) + a2)
-                         + nv * dr.sqrt(nl * nl * (1.0 - a2) + a2))
+            d = ggx.ggx_d(dr, h, alpha)
+            vis = ggx.smith_vis(dr, cos_i, cos_o, alpha)
 
             w = schlick_weight(vh)
             extra = self._extra_params(si, c, valid)
@@ -341,8 +329,7 @@ def _make_class(mv, mitsuba):
                 value += c * (w_diff * (1.0 / dr.pi))
             value = value * dr.maximum(cos_o, 0.0)
 
-            ci = dr.maximum(cos_i, 0.0)
-            pdf_spec = d / (2.0 * (ci + dr.sqrt(ci * ci * (1.0 - a2) + a2)))
+            pdf_spec = ggx.vndf_pdf(dr, d, cos_i, alpha)
             pdf_diff = dr.maximum(cos_o, 0.0) * (1.0 / dr.pi)
             p_spec, p_diff = self._lobe_probabilities(cos_i, c, m, r, has_d, has_s, extra)
             pdf = p_spec * pdf_spec + p_diff * pdf_diff
@@ -375,14 +362,7 @@ def _make_class(mv, mitsuba):
             pick_spec = sample1 < p_spec
 
             # specular: reflect wi about a GGX visible normal (spherical caps)
-            ws = dr.normalize(Vector3f(wi.x * alpha, wi.y * alpha, wi.z))
-            sin_phi, cos_phi = dr.sincos(2.0 * dr.pi * sample2.x)
-            z = dr.fma(1.0 - sample2.y, 1.0 + ws.z, -ws.z)
-            sin_t = dr.sqrt(dr.clip(1.0 - z * z, 0.0, 1.0))
-            hs = Vector3f(sin_t * cos_phi + ws.x, sin_t * sin_phi + ws.y, z + ws.z)
-            hv = Vector3f(hs.x * alpha, hs.y * alpha, hs.z)
-            hv = hv * dr.rsqrt(dr.maximum(dr.dot(hv, hv), _DENOM_MIN))
-            wo_spec = 2.0 * dr.dot(wi, hv) * hv - wi
+            wo_spec = ggx.sample_visible_reflection(dr, Vector3f, wi, alpha, sample2)
             # diffuse: cosine-weighted hemisphere
             wo_diff = mv.warp.square_to_cosine_hemisphere(sample2)
 

@@ -22,10 +22,10 @@ so either lobe may have produced the direction.
 from __future__ import annotations
 
 
-from compare.brdf import REFERENCE_ALPHA_MIN, COS_MIN, H_LEN2_MIN
+from compare.brdf import REFERENCE_ALPHA_MIN, H_LEN2_MIN
 from compare.brdf.coat import COAT_F0
 from compare.brdf.multiscatter import fresnel_dielectric_fss
-from compare.mitsuba import principled
+from compare.mitsuba import ggx, principled
 from compare.mitsuba.principled_tables import tables
 
 __all__ = ["PLUGIN_NAME", "register"]
@@ -35,7 +35,6 @@ _CLASSES: dict[str, type] = {}
 #: The Cycles coat's F0 and average Fresnel at Coat IOR 1.5 (Cycles' fresnel_dielectric_Fss).
 COAT_F0_CYCLES = float(principled.f0_from_ior(principled.COAT_IOR))
 FSS_COAT = float(fresnel_dielectric_fss(principled.COAT_IOR))
-_DENOM_MIN = 1e-30
 
 
 def register(variant: str | None = None):
@@ -77,22 +76,13 @@ def _make_class(mv, mitsuba):
             """(what the base keeps, the coat's lobe w F_c D V cos_o) at wi, wo, and the coat's VNDF pdf of wo."""
             alpha, r = rough
             cos_i, cos_o = wi.z, wo.z
-            hu = wi + wo
-            len2 = dr.dot(hu, hu)
+            h, len2 = ggx.half_vector(dr, wi, wo)
             ok = (cos_i > 0.0) & (cos_o > 0.0) & (len2 > H_LEN2_MIN)
-            h = hu * dr.rsqrt(dr.maximum(len2, H_LEN2_MIN))
-            nh = dr.clip(h.z, 0.0, 1.0)
             vh = dr.clip(dr.dot(wi, h), 0.0, 1.0)
-            sin2 = dr.fma(h.x, h.x, h.y * h.y)
-            a = nh * alpha
-            k = alpha / dr.maximum(sin2 + a * a, _DENOM_MIN)
-            d = k * k * (1.0 / dr.pi)
-            a2 = alpha * alpha
-            nv = dr.maximum(cos_i, COS_MIN)
-            nl = dr.maximum(cos_o, COS_MIN)
-            vis = 0.5 / (nl * dr.sqrt(nv * nv * (1.0 - a2) + a2) + nv * dr.sqrt(nl * nl * (1.0 - a2) + a2))
+            d = ggx.ggx_d(dr, h, alpha)
+            vis = ggx.smith_vis(dr, cos_i, cos_o, alpha)
             ci = dr.maximum(cos_i, 0.0)
-            pdf = d / (2.0 * (ci + dr.sqrt(ci * ci * (1.0 - a2) + a2)))
+            pdf = ggx.vndf_pdf(dr, d, cos_i, alpha)
             if self.flavour == "cycles":
                 t = tables(mv)
                 k, lf = t.compensation(FSS_COAT, r, ci)
@@ -154,14 +144,7 @@ def _make_class(mv, mitsuba):
             pick = (sample1 < p) & (wi.z > 0.0) & (si.wi.z > 0.0)
             bs, base_weight = self.base.sample(ctx, si, dr.clip((sample1 - p) / dr.maximum(1.0 - p, 1e-6), 0.0,
                                                                 0.999999), sample2, active & ~pick)
-            ws = dr.normalize(Vector3f(wi.x * alpha, wi.y * alpha, wi.z))
-            sin_phi, cos_phi = dr.sincos(2.0 * dr.pi * sample2.x)
-            z = dr.fma(1.0 - sample2.y, 1.0 + ws.z, -ws.z)
-            sin_t = dr.sqrt(dr.clip(1.0 - z * z, 0.0, 1.0))
-            hs = Vector3f(sin_t * cos_phi + ws.x, sin_t * sin_phi + ws.y, z + ws.z)
-            hv = Vector3f(hs.x * alpha, hs.y * alpha, hs.z)
-            hv = hv * dr.rsqrt(dr.maximum(dr.dot(hv, hv), _DENOM_MIN))
-            wo_coat = 2.0 * dr.dot(wi, hv) * hv - wi
+            wo_coat = ggx.sample_visible_reflection(dr, Vector3f, wi, alpha, sample2)
             wo = dr.select(pick, wo_coat if frame is None else frame.to_world(wo_coat), bs.wo)
             # A delta lobe of the base (a smooth dielectric under the coat) has no pdf to mix: its sample
             # keeps the base's weight, less what the coat reflects, over the probability of the base.

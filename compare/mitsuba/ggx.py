@@ -1,0 +1,56 @@
+"""GGX in Dr.Jit, once for every Mitsuba plugin of the suite (the base, the coat): the half vector, the
+distribution D, the height-correlated Smith visibility V, the pdf of a reflection sampled from the visible
+normals, and that sampling itself. They are the Dr.Jit form of :mod:`compare.brdf`'s NumPy definitions
+(one BRDF, checked against each other by the tests). Plain functions of Dr.Jit arrays: a plugin class built
+for any variant calls them.
+"""
+
+from __future__ import annotations
+
+from compare.brdf import COS_MIN, DENOM_MIN, H_LEN2_MIN
+
+__all__ = ["ggx_d", "half_vector", "sample_visible_reflection", "smith_vis", "vndf_pdf"]
+
+
+def half_vector(dr, wi, wo):
+    """(unit half vector, squared length of wi + wo): the length decides whether it is defined."""
+    hu = wi + wo
+    len2 = dr.dot(hu, hu)
+    return hu * dr.rsqrt(dr.maximum(len2, H_LEN2_MIN)), len2
+
+
+def ggx_d(dr, h, alpha):
+    """GGX's normal distribution D(h) for roughness ``alpha`` (in the form that keeps a tiny alpha finite)."""
+    nh = dr.clip(h.z, 0.0, 1.0)
+    sin2 = dr.fma(h.x, h.x, h.y * h.y)
+    a = nh * alpha
+    k = alpha / dr.maximum(sin2 + a * a, DENOM_MIN)
+    return k * k * (1.0 / dr.pi)
+
+
+def smith_vis(dr, cos_i, cos_o, alpha):
+    """The height-correlated Smith visibility V = G2 / (4 cos_i cos_o)."""
+    a2 = alpha * alpha
+    nv = dr.maximum(cos_i, COS_MIN)
+    nl = dr.maximum(cos_o, COS_MIN)
+    return 0.5 / (nl * dr.sqrt(nv * nv * (1.0 - a2) + a2) + nv * dr.sqrt(nl * nl * (1.0 - a2) + a2))
+
+
+def vndf_pdf(dr, d, cos_i, alpha):
+    """The pdf of a reflected direction sampled from GGX's visible normals, given D at its half vector."""
+    a2 = alpha * alpha
+    ci = dr.maximum(cos_i, 0.0)
+    return d / (2.0 * (ci + dr.sqrt(ci * ci * (1.0 - a2) + a2)))
+
+
+def sample_visible_reflection(dr, vector3f, wi, alpha, sample2):
+    """``wi`` reflected about a normal sampled from GGX's visible normals (spherical caps, Dupuy & Benyoub
+    2023); ``vector3f`` is the variant's Vector3f."""
+    ws = dr.normalize(vector3f(wi.x * alpha, wi.y * alpha, wi.z))
+    sin_phi, cos_phi = dr.sincos(2.0 * dr.pi * sample2.x)
+    z = dr.fma(1.0 - sample2.y, 1.0 + ws.z, -ws.z)
+    sin_t = dr.sqrt(dr.clip(1.0 - z * z, 0.0, 1.0))
+    hs = vector3f(sin_t * cos_phi + ws.x, sin_t * sin_phi + ws.y, z + ws.z)
+    hv = vector3f(hs.x * alpha, hs.y * alpha, hs.z)
+    hv = hv * dr.rsqrt(dr.maximum(dr.dot(hv, hv), DENOM_MIN))
+    return 2.0 * dr.dot(wi, hv) * hv - wi
