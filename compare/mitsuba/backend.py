@@ -158,17 +158,17 @@ def load_active_mitsuba(variant: str | None = None):
     return load_mitsuba(variant)
 
 
-def register_bsdf_plugin(name: str, make_class, classes: dict, variant: str | None = None):
-    """Register the Python BSDF plugin ``name`` with the active (or given) variant, once per variant:
-    ``make_class(variant_module, mitsuba)`` builds its class, kept in ``classes`` by variant. Returns the
-    ``mitsuba`` module with that variant active."""
+def register_bsdf_plugin(name: str, make_class, classes: dict, variant: str | None = None, *, kind: str = "bsdf"):
+    """Register the Python plugin ``name`` (a BSDF, or ``kind="texture"``) with the active (or given)
+    variant, once per variant: ``make_class(variant_module, mitsuba)`` builds its class, kept in ``classes``
+    by variant. Returns the ``mitsuba`` module with that variant active."""
     mi = load_active_mitsuba(variant)
     active = mi.variant()
     if active not in classes:
         import mitsuba  # noqa: PLC0415 - already imported by load_mitsuba
 
         cls = make_class(getattr(mitsuba, active), mitsuba)
-        mi.register_bsdf(name, lambda props, _cls=cls: _cls(props))
+        getattr(mi, f"register_{kind}")(name, lambda props, _cls=cls: _cls(props))
         classes[active] = cls
     return mi
 

@@ -166,23 +166,30 @@ def _normal_mapped(mat: Material, bsdf: dict) -> dict:
                                      raw=True)}
 
 
-def _masked(mat: Material, bsdf: dict) -> dict:
+def _masked(mat: Material, bsdf: dict, vc: bool = False) -> dict:
     """``bsdf`` under Mitsuba's ``mask`` when the material is alpha-masked: the opacity is glTF's test,
     coverage >= cutoff, per texel (:func:`compare.scene.textures.opacity_map`). A hole lets camera rays, light
     paths and shadows through: ``mask`` is a null interaction, which Mitsuba's path tracer continues.
     ``alpha_mode = "blend"`` is the same with the coverage itself as the opacity (stochastic coverage:
-    a ray passes with probability 1 − α, so the mean over paths is glTF's over-blend, shadows included)."""
+    a ray passes with probability 1 − α, so the mean over paths is glTF's over-blend, shadows included).
+    ``vc``: the mesh's vertex alpha multiplies the coverage of a blended material (a masked one's test is
+    on the map's coverage; the importer says where a vertex alpha under a mask is not applied)."""
     if mat.alpha_mode == "blend":
         if mat.base_color_texture is None:
-            return {"type": "mask", "opacity": float(mat.alpha), "bsdf": bsdf}
-        from compare.scene.textures import blend_map
+            opacity: dict | float = float(mat.alpha)
+        else:
+            from compare.scene.textures import blend_map
 
-        return {"type": "mask", "opacity": bitmap_dict(mat, blend_map(mat.base_color_texture, mat.alpha), raw=True),
-                "bsdf": bsdf}
+            opacity = bitmap_dict(mat, blend_map(mat.base_color_texture, mat.alpha), raw=True)
+        if vc:
+            from compare.mitsuba.vertex_color import tinted
+
+            opacity = tinted(opacity, alpha=True)
+        return {"type": "mask", "opacity": opacity, "bsdf": bsdf}
     if not mat.is_masked:
         return bsdf
     if mat.base_color_texture is None:
-        opacity: dict | float = float(mat.alpha >= mat.alpha_cutoff)
+        opacity = float(mat.alpha >= mat.alpha_cutoff)
     else:
         from compare.scene.textures import opacity_map
 
@@ -190,19 +197,21 @@ def _masked(mat: Material, bsdf: dict) -> dict:
     return {"type": "mask", "opacity": opacity, "bsdf": bsdf}
 
 
-def material_dict(mat: Material, mode: str) -> dict:
-    """BSDF dictionary for one material in ``mode`` (one of :data:`MATERIAL_MODES`).
+def material_dict(mat: Material, mode: str, *, vertex_colors: bool = False) -> dict:
+    """BSDF dictionary for one material in ``mode`` (one of :data:`MATERIAL_MODES`); ``vertex_colors``:
+    on a mesh with glTF's COLOR_0, which multiplies the base colour (and the tint of its glass) and alpha.
 
     glTF layers the coat over the sheen, and its normal map bends everything but the coat (which has its
     own): the base, its transmission and the sheen. Blender's Principled BSDF (the Principled modes) layers
     the sheen over the coat; its sheen takes the normal map where there is no coat (with a coat Cycles
     mixes the two normals by the coat's weight; here the sheen then keeps the surface's)."""
-    surface = _transmissive(mat, mode, _surface_dict(mat, mode))
+    vc = vertex_colors
+    surface = _transmissive(mat, mode, _surface_dict(mat, mode, vc), vc)
     if mode in PRINCIPLED_MODES:
         if mat.clearcoat == 0.0:
-            return _masked(mat, _normal_mapped(mat, _sheened(mat, mode, surface)))
-        return _masked(mat, _sheened(mat, mode, _coated(mat, mode, _normal_mapped(mat, surface))))
-    return _masked(mat, _coated(mat, mode, _normal_mapped(mat, _sheened(mat, mode, surface))))
+            return _masked(mat, _normal_mapped(mat, _sheened(mat, mode, surface)), vc)
+        return _masked(mat, _sheened(mat, mode, _coated(mat, mode, _normal_mapped(mat, surface))), vc)
+    return _masked(mat, _coated(mat, mode, _normal_mapped(mat, _sheened(mat, mode, surface))), vc)
 
 
 def _flavour(mode: str) -> str:
@@ -243,7 +252,7 @@ def _coated(mat: Material, mode: str, bsdf: dict) -> dict:
     return coat
 
 
-def _dielectric(mat: Material, mode: str) -> dict:
+def _dielectric(mat: Material, mode: str, vc: bool = False) -> dict:
     """glTF's transmission lobe (``KHR_materials_transmission``) with its reflection: Mitsuba's dielectric
     of the material's ``ior`` (exact Fresnel), tinted by the base colour as glTF's BTDF is; rough with GGX
     α = roughness², smooth at roughness 0. With ``thickness`` 0 the surface is thin-walled (glTF: no
@@ -252,7 +261,8 @@ def _dielectric(mat: Material, mode: str) -> dict:
     interface. The Principled modes render what Blender renders: the square root of the tint at each
     interface, no thin wall (Principled has none: thickness 0 is a solid there), and with Multiscatter GGX
     Cycles' energy compensation of rough glass. Rough glass is masked as the shared BRDF is (height-correlated
-    Smith, :mod:`compare.mitsuba.glass`)."""
+    Smith, :mod:`compare.mitsuba.glass`). ``vc``: the mesh's vertex colour multiplies the tint (in the
+    Principled modes at each interface, as it multiplies the square root of the base colour there)."""
     ior = float(min(mat.ior, 1e3))
     if mode in PRINCIPLED_MODES:  # Cycles tints each interface by √(base colour), two of them the colour
         from compare.scene.textures import sqrt_colour_map
@@ -263,6 +273,10 @@ def _dielectric(mat: Material, mode: str) -> dict:
     else:
         tint = ({"type": "rgb", "value": list(mat.base_color)} if mat.base_color_texture is None
                 else bitmap_dict(mat, mat.base_color_texture, raw=False))
+    if vc:
+        from compare.mitsuba.vertex_color import tinted
+
+        tint = tinted(tint)
     if mode == "diffuse":
         return {"type": "diffuse", "reflectance": tint}
     if mat.thickness == 0.0 and mode not in PRINCIPLED_MODES:  # Principled has no thin wall: a solid, as Cycles
@@ -323,26 +337,30 @@ def _layer_value(mat: Material, name: str, scale: float = 1.0):
     return float(factor)
 
 
-def _transmissive(mat: Material, mode: str, bsdf: dict) -> dict:
+def _transmissive(mat: Material, mode: str, bsdf: dict, vc: bool = False) -> dict:
     """``bsdf`` blended with the transmission lobe by glTF's layering: the dielectric part
     ((1 − metallic) of the base) is ``mix(diffuse base, transmission, transmission)``. Mitsuba's
     ``blendbsdf`` picks one by the weight per interaction; a metallic part stays the metal of ``bsdf``."""
     if mat.transmission == 0.0 or mode == "diffuse":
         return bsdf
-    glass = _dielectric(mat, mode)
+    glass = _dielectric(mat, mode, vc)
     weight = _layer_value(mat, "transmission")
     if mat.metallic == 0.0:
         return {"type": "blendbsdf", "weight": weight, "bsdf_0": bsdf, "bsdf_1": glass}
-    dielectric = _surface_dict(dataclasses.replace(mat, metallic=0.0), mode)
-    metal = _surface_dict(dataclasses.replace(mat, metallic=1.0), mode)
+    dielectric = _surface_dict(dataclasses.replace(mat, metallic=0.0), mode, vc)
+    metal = _surface_dict(dataclasses.replace(mat, metallic=1.0), mode, vc)
     return {"type": "blendbsdf", "weight": float(mat.metallic), "bsdf_0": {
         "type": "blendbsdf", "weight": weight, "bsdf_0": dielectric, "bsdf_1": glass},
         "bsdf_1": metal}
 
 
-def _surface_dict(mat: Material, mode: str) -> dict:
+def _surface_dict(mat: Material, mode: str, vc: bool = False) -> dict:
     base = (bitmap_dict(mat, mat.base_color_texture, raw=False)
             if mat.base_color_texture else {"type": "rgb", "value": list(mat.base_color)})
+    if vc:  # glTF's COLOR_0 multiplies the base colour
+        from compare.mitsuba.vertex_color import tinted
+
+        base = tinted(base)
     metallic, roughness = mat.metallic, mat.roughness
     if mat.metallic_roughness_texture is not None and mode != "diffuse":
         from compare.scene.textures import split_metallic_roughness
@@ -496,7 +514,7 @@ def mesh_object(name: str, scene: Scene, mesh_index: int, mode: str, scale: floa
     tri = mesh.triangles()
     mat = scene.materials[mesh.material]
     props = mi.Properties()
-    props["bsdf"] = mi.load_dict(material_dict(mat, mode))
+    props["bsdf"] = mi.load_dict(material_dict(mat, mode, vertex_colors=tri.colors is not None))
     if absorbs(mat) and mode != "diffuse":
         props["interior"] = mi.load_dict(medium_dict(mat, scale))
     if mat.is_emissive:
@@ -514,6 +532,11 @@ def mesh_object(name: str, scene: Scene, mesh_index: int, mode: str, scale: floa
     params["vertex_texcoords"] = tri.uvs.ravel()
     params["faces"] = tri.indices.ravel()
     params.update()
+    if tri.colors is not None:  # read by compare.mitsuba.vertex_color's texture
+        from compare.mitsuba.vertex_color import ATTRIBUTE_ALPHA, ATTRIBUTE_RGB
+
+        m.add_attribute(ATTRIBUTE_RGB, 3, tri.colors[:, :3].ravel())
+        m.add_attribute(ATTRIBUTE_ALPHA, 1, tri.colors[:, 3].ravel())
     return m
 
 

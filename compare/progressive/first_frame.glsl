@@ -184,6 +184,7 @@ void main() {
 #if TEXTURES
     coverage *= HAS_BASE_COLOR_MAP ? sample_map(u_base_color_map).a : 1.0;
 #endif
+    coverage *= VERTEX_ALPHA;
     out_color = vec4((c + env + direct + punctual) * coverage, coverage);
 #else
     out_color = vec4(c, 1.0);

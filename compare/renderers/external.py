@@ -33,7 +33,7 @@ from compare.util.files import sha256_bytes
 from compare.renderers.base import RenderContext, Renderer, RendererError, Rendering, UNITS
 from compare.renderers.job import JOB_SCHEMAS, read_checkpoints, write_job
 from compare.util.files import log_tail
-from compare.scene.model import MATERIAL_FEATURE_NAMES
+from compare.scene.model import FEATURE_NAMES
 
 __all__ = ["ExternalRenderer", "external_from_table"]
 
@@ -210,9 +210,9 @@ def external_from_table(name: str, table, *, source: Path) -> ExternalRenderer:
         raise ConfigError(f"{where}.job_schema: expected one of {', '.join(map(str, JOB_SCHEMAS))} (the job file it "
                           f"reads, docs/renderers.md), got {schema!r}")
     renders = table.get("renders", [])
-    if not (isinstance(renders, list) and all(r in MATERIAL_FEATURE_NAMES for r in renders)):
-        raise ConfigError(f"{where}.renders: expected a list of the material features it renders, of "
-                          f"{', '.join(MATERIAL_FEATURE_NAMES)}; got {renders!r}")
+    if not (isinstance(renders, list) and all(r in FEATURE_NAMES for r in renders)):
+        raise ConfigError(f"{where}.renders: expected a list of the features it renders, of "
+                          f"{', '.join(FEATURE_NAMES)}; got {renders!r}")
     return ExternalRenderer(name, command, label=label, unit=unit, steps=steps, timeout=float(timeout),
                             checkpoints=cps, env=env, cwd=source.resolve().parent, source=str(source),
                             job_schema=schema, renders=tuple(renders))

@@ -18,12 +18,14 @@ import numpy as np
 
 @dataclass(frozen=True)
 class TriangleMesh:
-    """World-space triangles: positions (N,3), normals (N,3), uvs (N,2) float32; indices (M,3) uint32."""
+    """World-space triangles: positions (N,3), normals (N,3), uvs (N,2) float32; indices (M,3) uint32;
+    colors (N,4) float32 or None: glTF's COLOR_0, linear RGBA multiplying the base colour and alpha."""
 
     positions: np.ndarray
     normals: np.ndarray
     uvs: np.ndarray
     indices: np.ndarray
+    colors: np.ndarray | None = None
 
     @property
     def triangle_count(self) -> int:
@@ -43,7 +45,7 @@ class TriangleMesh:
         indices = self.indices
         if np.linalg.det(m[:3, :3]) < 0:  # mirroring flips winding; keep faces front-facing
             indices = indices[:, ::-1].copy()
-        return TriangleMesh(p.astype(np.float32), n.astype(np.float32), self.uvs, indices)
+        return TriangleMesh(p.astype(np.float32), n.astype(np.float32), self.uvs, indices, self.colors)
 
     def surface_area(self) -> float:
         p = self.positions.astype(np.float64)
@@ -51,12 +53,13 @@ class TriangleMesh:
         return float(0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1).sum())
 
 
-def _mesh(p, n, uv, idx) -> TriangleMesh:
+def _mesh(p, n, uv, idx, colors=None) -> TriangleMesh:
     return TriangleMesh(
         np.ascontiguousarray(p, dtype=np.float32),
         np.ascontiguousarray(n, dtype=np.float32),
         np.ascontiguousarray(uv, dtype=np.float32),
         np.ascontiguousarray(idx, dtype=np.uint32).reshape(-1, 3),
+        None if colors is None else np.ascontiguousarray(colors, dtype=np.float32),
     )
 
 

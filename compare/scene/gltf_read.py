@@ -438,6 +438,7 @@ class _Reader:
         if "TEXCOORD_0" not in attrs and self._has_maps(prim.get("material")):
             self.notes.append(f"{w}: its material has texture maps but the primitive has no TEXCOORD_0: "
                               f"every map is read at texture coordinate (0, 0)")
+        colors = self._colors(attrs, w, nv)
         if "NORMAL" in attrs:
             n = self.accessor(attrs["NORMAL"], f"{w}.attributes.NORMAL")
             length = np.linalg.norm(n, axis=1)
@@ -447,14 +448,31 @@ class _Reader:
                 n[bad] = geometry.vertex_normals(p, tri)[bad]
                 length = np.linalg.norm(n, axis=1)
             n = n / length[:, None]
-            return geometry._mesh(p, n, uv, tri)
+            return geometry._mesh(p, n, uv, tri, colors)
         # glTF: without normals, flat shading. Unweld so every triangle has its own face normal.
         pa, pb, pc = p[tri[:, 0]], p[tri[:, 1]], p[tri[:, 2]]
         fn = np.cross(pb - pa, pc - pa)
         length = np.linalg.norm(fn, axis=1, keepdims=True)
         fn = np.where(length > 1e-30, fn / np.maximum(length, 1e-30), np.array([0.0, 1.0, 0.0]))
         flat = tri.ravel()
-        return geometry._mesh(p[flat], np.repeat(fn, 3, axis=0), uv[flat], np.arange(len(flat)).reshape(-1, 3))
+        return geometry._mesh(p[flat], np.repeat(fn, 3, axis=0), uv[flat], np.arange(len(flat)).reshape(-1, 3),
+                              None if colors is None else colors[flat])
+
+    def _colors(self, attrs: dict, w: str, nv: int) -> np.ndarray | None:
+        """COLOR_0 as linear RGBA (nv, 4), alpha 1 for VEC3; None without it (or where it is all white)."""
+        if "COLOR_0" not in attrs:
+            return None
+        where = f"{w}.attributes.COLOR_0"
+        c = self.accessor(attrs["COLOR_0"], where)
+        if c.shape[1] not in (3, 4):
+            raise self.err(where, f"expected VEC3 or VEC4 colours, got {c.shape[1]} components")
+        if len(c) != nv:
+            raise self.err(where, f"{len(c)} colours for {nv} vertices")
+        if not np.all(np.isfinite(c)) or c.min() < 0.0 or c.max() > 1.0:
+            raise self.err(where, "colours must be finite and in [0, 1] (glTF's COLOR_0 is linear RGB(A))")
+        if c.shape[1] == 3:
+            c = np.concatenate([c, np.ones((len(c), 1))], axis=1)
+        return None if np.all(c == 1.0) else c.astype(np.float32)
 
     def _has_maps(self, index) -> bool:
         """Whether material ``index`` (None: the default material) names any texture (an alpha mask too)."""

@@ -111,6 +111,8 @@ class GltfWriter:
                 attrs["NORMAL"] = self.accessor(tri.normals)
             if uvs:
                 attrs["TEXCOORD_0"] = self.accessor(tri.uvs)
+            if tri.colors is not None:  # glTF's COLOR_0: linear RGBA, multiplying base colour and alpha
+                attrs["COLOR_0"] = self.accessor(tri.colors)
             prim: dict[str, Any] = {"attributes": attrs, "indices": self.accessor(tri.indices, indices=True)}
             if material is not None:
                 prim["material"] = material

@@ -149,6 +149,11 @@ LAYER_MAPS = {"transmissionTexture": ("transmission", "r"), "clearcoatTexture": 
 #: (Channel "rgb": an sRGB colour map; the others: one channel of a linear map.)
 #: Every material feature a renderer may declare it renders (Renderer.renders).
 MATERIAL_FEATURE_NAMES = ("alpha_blend", *MATERIAL_FEATURES.values(), "layer_maps")
+#: What a mesh's vertices may carry beyond the core model, declared like a material feature (the materials
+#: of the meshes that carry it): "vertex_colors", glTF's COLOR_0 multiplying base colour and alpha.
+GEOMETRY_FEATURE_NAMES = ("vertex_colors",)
+#: Every feature a renderer may declare it renders (Renderer.renders, an external renderer's `renders`).
+FEATURE_NAMES = MATERIAL_FEATURE_NAMES + GEOMETRY_FEATURE_NAMES
 #: glTF's alpha modes in the scene model.
 ALPHA_MODES = ("opaque", "mask", "blend")
 
@@ -286,6 +291,12 @@ class Mesh:
     params: dict[str, Any]
     transform: np.ndarray = field(default_factory=lambda: np.eye(4), compare=False)
     file: Path | None = None
+
+    @property
+    def has_vertex_colors(self) -> bool:
+        """Whether the mesh's vertices carry colours (glTF's COLOR_0, not all white)."""
+        tri = self.params.get("triangles") if self.shape == "gltf" else None
+        return tri is not None and tri.colors is not None
 
     def triangles(self) -> geometry.TriangleMesh:
         """World-space triangles of this mesh."""
@@ -495,6 +506,7 @@ class Features:
     sheen: bool = False
     specular: bool = False
     layer_maps: bool = False
+    vertex_colors: bool = False
 
     def names(self) -> list[str]:
         """Names of the features present."""
@@ -555,15 +567,20 @@ class Scene:
             alpha_mask=any(m.is_masked for m in used),
             punctual_lights=bool(self.punctual),
             **{name: any(name in m.uses() for m in used) for name in MATERIAL_FEATURE_NAMES},
+            vertex_colors=any(m.has_vertex_colors for m in self.meshes),
         )
 
     def material_features(self) -> dict[str, list[str]]:
         """The material features beyond the core model (alpha blending, the extensions of :data:`LAYERS`)
-        that the meshes' materials use: feature → the names of the materials that use it."""
+        that the meshes' materials use, and the geometry features (:data:`GEOMETRY_FEATURE_NAMES`) of the
+        meshes: feature → the names of the materials that use it (or whose meshes carry it)."""
         out: dict[str, list[str]] = {}
         for name in dict.fromkeys(m.material for m in self.meshes):
             for feature in sorted(self.materials[name].uses()):
                 out.setdefault(feature, []).append(name)
+        colored = dict.fromkeys(m.material for m in self.meshes if m.has_vertex_colors)
+        if colored:
+            out["vertex_colors"] = list(colored)
         return out
 
     @cached_property

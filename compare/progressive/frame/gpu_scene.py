@@ -162,13 +162,15 @@ class GpuScene:
         #: Whether any mesh has clearcoat, sheen, ior or specular: the LAYERS define (layers.glsl), the
         #: G-buffer's layer targets and the sheen albedo table.
         self.layered = bool(RENDERED_LAYERS & set().union(*(scene.materials[m.material].uses() for m in scene.meshes)))
+        #: Whether any mesh carries glTF's COLOR_0: the VERTEX_COLORS define (material.glsl).
+        self.colored = any(m.has_vertex_colors for m in scene.meshes)
         self.sheen_table = None
         try:
             for mesh in scene.meshes:
                 tri = mesh.triangles()
                 mat = scene.materials[mesh.material]
                 gm = self._upload(mesh.name, tri.positions, tri.normals, tri.indices, mat.base_color, mat.metallic,
-                                  mat.roughness, mat.emission, 1.0, uvs=tri.uvs)
+                                  mat.roughness, mat.emission, 1.0, uvs=tri.uvs, colors=tri.colors)
                 self.meshes.append(gm)  # owned (and released on failure) before its maps are made
                 gm.centre = tuple(float(x) for x in (tri.positions.min(0) + tri.positions.max(0)) / 2)
                 if mat.alpha_mode == "blend":
@@ -214,7 +216,8 @@ class GpuScene:
 
     def defines(self) -> dict[str, int]:
         """The material defines of a pass that shades the scene (material.glsl)."""
-        return {"TEXTURES": int(self.textured), "ALPHA_MASK": int(self.masked), "LAYERS": int(self.layered)}
+        return {"TEXTURES": int(self.textured), "ALPHA_MASK": int(self.masked), "LAYERS": int(self.layered),
+                "VERTEX_COLORS": int(self.colored)}
 
     def layers_for(self, materials: str = "shared") -> bool:
         """Whether a lighting pass draws the material layers (layers.glsl): not for Lambert-only materials."""
@@ -339,7 +342,7 @@ class GpuScene:
         return self._maps[key]
 
     def _upload(self, name, positions, normals, indices, base, metallic, roughness, emission, kind, light=None,
-                uvs=None):
+                uvs=None, colors=None):
         from compare.scene.geometry import vertex_tangents
 
         n = len(positions)
@@ -347,8 +350,10 @@ class GpuScene:
         # Tangents only for normal maps: a scene without maps does no tangent work.
         tangents = (vertex_tangents(positions, normals, uv, indices) if uvs is not None and self.textured
                     else np.zeros((n, 4), dtype=np.float32))
-        data = np.hstack([np.asarray(positions, dtype=np.float32), np.asarray(normals, dtype=np.float32), uv,
-                          tangents])
+        columns = [np.asarray(positions, dtype=np.float32), np.asarray(normals, dtype=np.float32), uv, tangents]
+        if self.colored:  # COLOR_0 (white for meshes without it); no column in a scene without any
+            columns.append(np.ones((n, 4), dtype=np.float32) if colors is None else np.asarray(colors, np.float32))
+        data = np.hstack(columns)
         vbo = self.ctx.buffer(np.ascontiguousarray(data, dtype=np.float32).tobytes())
         ibo = self.ctx.buffer(np.ascontiguousarray(indices, dtype=np.uint32).tobytes())
         return GpuMesh(name, vbo, ibo, tuple(base), float(metallic), float(roughness), tuple(emission), float(kind),
@@ -360,7 +365,8 @@ class GpuScene:
         if vao is None:
             # The attributes the program reads, the others skipped (the vertex buffer is interleaved).
             fmt, names = [], []
-            for name, size in (("in_position", 3), ("in_normal", 3), ("in_uv", 2), ("in_tangent", 4)):
+            attributes = (("in_position", 3), ("in_normal", 3), ("in_uv", 2), ("in_tangent", 4))
+            for name, size in attributes + ((("in_color", 4),) if self.colored else ()):
                 if program.get(name, None) is not None:
                     fmt.append(f"{size}f")
                     names.append(name)

@@ -12,6 +12,20 @@
 // forward first frame and its depth pre-pass, probe bake, shadow maps), so a hole is one for
 // camera rays and light alike. The test is on the filtered alpha, as GPUs do it.
 
+// VERTEX_COLORS (always defined, 0 or 1): glTF's COLOR_0 (material_vertex.glsl's v_color) multiplies
+// the base colour and the alpha; without it the factors are 1 and the code is what it always was.
+#ifndef VERTEX_COLORS
+#define VERTEX_COLORS 0
+#endif
+#if VERTEX_COLORS
+in vec4 v_color;
+#define VERTEX_RGB v_color.rgb
+#define VERTEX_ALPHA v_color.a
+#else
+#define VERTEX_RGB vec3(1.0)
+#define VERTEX_ALPHA 1.0
+#endif
+
 uniform vec3 u_base_color;
 uniform float u_metallic;
 uniform float u_roughness;
@@ -82,7 +96,7 @@ vec4 sample_map(sampler2D map) {
     return textureGrad(map, uv, dx, dy);
 }
 vec3 material_base_color() {
-    return HAS_BASE_COLOR_MAP ? sample_map(u_base_color_map).rgb : u_base_color;
+    return (HAS_BASE_COLOR_MAP ? sample_map(u_base_color_map).rgb : u_base_color) * VERTEX_RGB;
 }
 float material_metallic() {
     return HAS_METALLIC_ROUGHNESS_MAP ? sample_map(u_metallic_roughness_map).b : u_metallic;
@@ -113,7 +127,7 @@ uniform float u_alpha;
 uniform float u_alpha_cutoff;
 void alpha_test() {
     if (IS_MASKED) {
-        float a = u_alpha * (HAS_BASE_COLOR_MAP ? sample_map(u_base_color_map).a : 1.0);
+        float a = u_alpha * (HAS_BASE_COLOR_MAP ? sample_map(u_base_color_map).a : 1.0) * VERTEX_ALPHA;
         if (a < u_alpha_cutoff) {
             discard;
         }
@@ -127,7 +141,7 @@ void alpha_test() {}
 #define material_normal(n) (n)
 #define material_emission() u_emission
 #define material_occlusion() 1.0
-#define material_base_color() u_base_color
+#define material_base_color() (u_base_color * VERTEX_RGB)
 #define material_metallic() u_metallic
 #define material_roughness() u_roughness
 #endif

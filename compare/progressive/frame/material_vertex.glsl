@@ -1,16 +1,26 @@
 // The vertex side of material.glsl: with TEXTURES, the texture coordinates and the tangent pass
-// through to the fragment stage (call material_vertex() in main).
+// through to the fragment stage; with VERTEX_COLORS, glTF's COLOR_0 (call material_vertex() in main).
 
+#ifndef VERTEX_COLORS
+#define VERTEX_COLORS 0
+#endif
 #if TEXTURES
 in vec2 in_uv;
 in vec4 in_tangent;
 out vec2 v_uv;
 out vec4 v_tangent;
+#endif
+#if VERTEX_COLORS
+in vec4 in_color;
+out vec4 v_color;
+#endif
 
 void material_vertex() {
+#if TEXTURES
     v_uv = in_uv;
     v_tangent = in_tangent;
-}
-#else
-void material_vertex() {}
 #endif
+#if VERTEX_COLORS
+    v_color = in_color;
+#endif
+}
