@@ -11,7 +11,6 @@ import numpy as np
 import pytest
 
 from compare.scene.loader import load_scene
-from test_web import needs_web
 
 
 def _png(rgb: np.ndarray) -> bytes:
@@ -115,17 +114,3 @@ def test_the_job_writer_refuses_a_folder_where_it_would_replace_a_map(tmp_path, 
         export_gltf(scene, model / "texture-0.png")
     assert {p.name: _digest(p) for p in model.iterdir()} == before
 
-
-@needs_web
-def test_threejs_renders_a_model_with_extension_maps(coated_scene):
-    """The case that lost a user's map: a web engine renders a scene whose material has clearcoat maps
-    (it read the job's glTF, not a 404)."""
-    from compare.renderers import RenderContext
-    from compare.renderers.registry import Registry
-    from compare.report.results import RunSettings
-
-    renderer = Registry().get("threejs")
-    with RenderContext(RunSettings(frames=2)) as context:
-        image = renderer.render(coated_scene, steps=2, checkpoints=[2], seed=0, context=context).checkpoints[-1].image
-    assert image.shape == (16, 24, 3) and np.isfinite(image).all()
-    assert float(image.mean()) > 0.0

@@ -10,7 +10,6 @@ import pytest
 
 from compare.scene.loader import load_scene
 from compare.util.errors import SceneError
-from test_web import RASTER, needs_web
 
 SCENE = """
     include = "plane.gltf"
@@ -165,26 +164,3 @@ def test_a_blended_cards_vertex_alpha_is_its_coverage(tmp_path, make_scene, gl_c
         a, b = float(render(scene)[4:12, 4:12].mean()), float(render(factor)[4:12, 4:12].mean())
         assert a == pytest.approx(b, rel=0.03) and 0.6 < a < 0.9  # 3/4 of the background comes through
 
-
-@needs_web
-@pytest.mark.parametrize("engine", RASTER)
-def test_web_engines_that_declare_vertex_colours_draw_them(tmp_path, make_scene, engine):
-    """A rasterizing web engine reads COLOR_0 from the job's glTF: the tinted grey card renders as the red
-    one (each engine's own shading on both sides); one that does not draw them must not declare them."""
-    from compare.renderers import RenderContext
-    from compare.renderers.registry import Registry
-    from compare.report.results import RunSettings
-
-    r = Registry().get(engine)
-    assert "vertex_colors" in r.renders
-    _plane(tmp_path, base=(0.8, 0.8, 0.8, 1.0), colors=RED)
-    tinted = load_scene(make_scene(SCENE))
-    (tmp_path / "plain").mkdir()
-    _plane(tmp_path / "plain", base=(0.8, 0.0, 0.0, 1.0))
-    (tmp_path / "plain" / "scene.toml").write_text(SCENE)
-    plain = load_scene(tmp_path / "plain" / "scene.toml")
-    with RenderContext(RunSettings(frames=2)) as context:
-        a, b = (r.render(s, steps=2, checkpoints=[2], seed=0, context=context).checkpoints[-1].image
-                for s in (tinted, plain))
-    np.testing.assert_allclose(a[4:12, 4:12].mean((0, 1)), b[4:12, 4:12].mean((0, 1)), rtol=0.02, atol=0.005)
-    assert a[4:12, 4:12, 0].mean() > 5 * a[4:12, 4:12, 1].mean()

@@ -325,3 +325,34 @@ def test_run_features_land_in_the_reports_machine_section(tmp_path, monkeypatch)
     assert saved["machine"]["facts"]["features of progressive"] == "clearcoat yes (0.50); area-light shadows no (1.00)"
     html = (tmp_path / "r" / "index.html").read_text()
     assert "features of progressive" in html and "clearcoat yes (0.50)" in html
+
+
+@needs_web
+@pytest.mark.parametrize("engine", RASTER)
+def test_web_engines_that_declare_vertex_colours_draw_them(tmp_path, make_scene, engine):
+    """A rasterizing web engine reads COLOR_0 from the job's glTF: the tinted grey card renders as the red
+    one (each engine's own shading on both sides)."""
+    from test_vertex_colors import RED, SCENE, _plane
+
+    assert "vertex_colors" in Registry().get(engine).renders
+    _plane(tmp_path, base=(0.8, 0.8, 0.8, 1.0), colors=RED)
+    tinted = load_scene(make_scene(SCENE))
+    (tmp_path / "plain").mkdir()
+    _plane(tmp_path / "plain", base=(0.8, 0.0, 0.0, 1.0))
+    (tmp_path / "plain" / "scene.toml").write_text(SCENE)
+    plain = load_scene(tmp_path / "plain" / "scene.toml")
+    a, b = (_render(engine, s, 2).checkpoints[-1].image for s in (tinted, plain))
+    np.testing.assert_allclose(a[4:12, 4:12].mean((0, 1)), b[4:12, 4:12].mean((0, 1)), rtol=0.02, atol=0.005)
+    assert a[4:12, 4:12, 0].mean() > 5 * a[4:12, 4:12, 1].mean()
+
+
+@needs_web
+def test_threejs_renders_a_model_with_extension_maps(tmp_path, make_scene):
+    """The case that lost a user's map: a web engine renders a scene whose material has clearcoat maps
+    (it read the job's glTF, not a 404)."""
+    from test_job_writer import SCENE as COATED, _coated_model
+
+    (tmp_path / "model").mkdir()
+    _coated_model(tmp_path / "model")
+    image = _render("threejs", load_scene(make_scene(COATED)), 2).checkpoints[-1].image
+    assert image.shape == (16, 24, 3) and np.isfinite(image).all() and float(image.mean()) > 0.0
