@@ -29,6 +29,8 @@ CORNELL = ROOT / "scenes" / "cornell.toml"
 _REGISTRY = Registry()
 #: The web engines that rasterize (counted in frames), from the registry's ``web`` group.
 RASTER = [n for n in _REGISTRY.groups()["web"] if _REGISTRY.get(n).unit == "frame"]
+#: The same, three.js in the default run and the others among the slow tests (each page load costs seconds).
+RASTER_THREE_FIRST = [e if e == "threejs" else pytest.param(e, marks=pytest.mark.slow) for e in RASTER]
 _MISSING = [why for n in _REGISTRY.groups()["web"] for ok, why in [_REGISTRY.get(n).available()] if not ok]
 needs_web = pytest.mark.skipif(bool(_MISSING), reason=f"web engines unavailable: {_MISSING[:1]}")
 _CONTEXT: list[RenderContext] = []
@@ -328,7 +330,7 @@ def test_run_features_land_in_the_reports_machine_section(tmp_path, monkeypatch)
 
 
 @needs_web
-@pytest.mark.parametrize("engine", RASTER)
+@pytest.mark.parametrize("engine", RASTER_THREE_FIRST)
 def test_web_engines_that_declare_vertex_colours_draw_them(tmp_path, make_scene, engine):
     """A rasterizing web engine reads COLOR_0 from the job's glTF: the tinted grey card renders as the red
     one (each engine's own shading on both sides)."""
@@ -356,3 +358,21 @@ def test_threejs_renders_a_model_with_extension_maps(tmp_path, make_scene):
     _coated_model(tmp_path / "model")
     image = _render("threejs", load_scene(make_scene(COATED)), 2).checkpoints[-1].image
     assert image.shape == (16, 24, 3) and np.isfinite(image).all() and float(image.mean()) > 0.0
+
+
+@needs_web
+@pytest.mark.parametrize("engine", RASTER_THREE_FIRST)
+def test_web_engines_cull_single_sided_back_faces(tmp_path, make_scene, engine):
+    """The job's glTF carries doubleSided: from behind, a single-sided card is the background around it, a
+    double-sided one its front's grey."""
+    from test_sides import _centre, _scene
+
+    assert "single_sided" in Registry().get(engine).renders
+    images = {}
+    for sided, behind in ((False, False), (False, True), (True, True)):
+        scene = _scene(make_scene, tmp_path, double_sided=sided, from_behind=behind)
+        images[sided, behind] = _render(engine, scene, 2).checkpoints[-1].image
+    culled = images[False, True]
+    assert _centre(culled) == pytest.approx(float(culled[0:2, 0:2].mean()), rel=0.02)  # the background
+    assert _centre(images[True, True]) == pytest.approx(_centre(images[False, False]), rel=0.1)
+    assert _centre(images[False, False]) < 0.7 * float(culled[0:2, 0:2].mean())

@@ -293,7 +293,7 @@ class ReferenceRenderer:
         d = scene_dict(self.scene, spp=1, materials=self.materials, sampler=self.sampler,
                        max_depth=self.max_depth, scale=self.world_scale)
         d["integrator"] = {"type": reference_layers.INTEGRATOR_NAME, "max_depth": int(self.max_depth),
-                           "holes": self.scene.features().alpha_mask or self.scene.features().alpha_blend}
+                           "holes": self.scene.features().holes}
         scene = self.mi.load_dict(d)
         acc = None
         total, seconds = 0, 0.0

@@ -166,14 +166,12 @@ def _normal_mapped(mat: Material, bsdf: dict) -> dict:
                                      raw=True)}
 
 
-def _masked(mat: Material, bsdf: dict, vc: bool = False) -> dict:
-    """``bsdf`` under Mitsuba's ``mask`` when the material is alpha-masked: the opacity is glTF's test,
-    coverage >= cutoff, per texel (:func:`compare.scene.textures.opacity_map`). A hole lets camera rays, light
-    paths and shadows through: ``mask`` is a null interaction, which Mitsuba's path tracer continues.
-    ``alpha_mode = "blend"`` is the same with the coverage itself as the opacity (stochastic coverage:
-    a ray passes with probability 1 − α, so the mean over paths is glTF's over-blend, shadows included).
-    ``vc``: the mesh's vertex alpha multiplies the coverage of a blended material (a masked one's test is
-    on the map's coverage; the importer says where a vertex alpha under a mask is not applied)."""
+def _opacity(mat: Material, vc: bool = False) -> dict | float | None:
+    """glTF's alpha as Mitsuba's ``mask`` opacity, or None for an opaque material. A masked material's
+    opacity is glTF's test, coverage >= cutoff, per texel (:func:`compare.scene.textures.opacity_map`); a
+    blended one's is the coverage itself (stochastic coverage: a ray passes with probability 1 − α, so the
+    mean over paths is glTF's over-blend, shadows included). ``vc``: the mesh's vertex alpha multiplies the
+    coverage of a blended material (a masked one's test is on the map's coverage)."""
     if mat.alpha_mode == "blend":
         if mat.base_color_texture is None:
             opacity: dict | float = float(mat.alpha)
@@ -182,19 +180,35 @@ def _masked(mat: Material, bsdf: dict, vc: bool = False) -> dict:
 
             opacity = bitmap_dict(mat, blend_map(mat.base_color_texture, mat.alpha), raw=True)
         if vc:
-            from compare.mitsuba.vertex_color import tinted
+            from compare.mitsuba.textures import tinted
 
             opacity = tinted(opacity, alpha=True)
-        return {"type": "mask", "opacity": opacity, "bsdf": bsdf}
+        return opacity
     if not mat.is_masked:
-        return bsdf
+        return None
     if mat.base_color_texture is None:
-        opacity = float(mat.alpha >= mat.alpha_cutoff)
-    else:
-        from compare.scene.textures import opacity_map
+        return float(mat.alpha >= mat.alpha_cutoff)
+    from compare.scene.textures import opacity_map
 
-        opacity = bitmap_dict(mat, opacity_map(mat.base_color_texture, mat.alpha, mat.alpha_cutoff), raw=True)
-    return {"type": "mask", "opacity": opacity, "bsdf": bsdf}
+    return bitmap_dict(mat, opacity_map(mat.base_color_texture, mat.alpha, mat.alpha_cutoff), raw=True)
+
+
+def _masked(mat: Material, bsdf: dict, vc: bool = False) -> dict:
+    """``bsdf`` with glTF's sides and alpha. Double-sided: Mitsuba's ``twosided`` (a back face shades as the
+    front, its normal turned to the ray). Single-sided (glTF's ``doubleSided: false``): back faces culled,
+    for every ray (the specification culls them for rasterized camera rays; a path tracer meets a back face
+    from behind only, so no ray sees it), as opacity 0 behind under ``mask``. Transmissive materials are
+    neither: a solid's inside is its back, which refraction needs. Alpha (:func:`_opacity`): under ``mask``,
+    a null interaction where the surface is a hole, which camera rays, light paths and shadows pass."""
+    opacity = _opacity(mat, vc)
+    if mat.transmission == 0.0:
+        if mat.double_sided:
+            bsdf = {"type": "twosided", "bsdf": bsdf}
+        else:
+            from compare.mitsuba.textures import front_side, product
+
+            opacity = front_side() if opacity is None else product(opacity, front_side())
+    return bsdf if opacity is None else {"type": "mask", "opacity": opacity, "bsdf": bsdf}
 
 
 def material_dict(mat: Material, mode: str, *, vertex_colors: bool = False) -> dict:
@@ -274,7 +288,7 @@ def _dielectric(mat: Material, mode: str, vc: bool = False) -> dict:
         tint = ({"type": "rgb", "value": list(mat.base_color)} if mat.base_color_texture is None
                 else bitmap_dict(mat, mat.base_color_texture, raw=False))
     if vc:
-        from compare.mitsuba.vertex_color import tinted
+        from compare.mitsuba.textures import tinted
 
         tint = tinted(tint)
     if mode == "diffuse":
@@ -358,7 +372,7 @@ def _surface_dict(mat: Material, mode: str, vc: bool = False) -> dict:
     base = (bitmap_dict(mat, mat.base_color_texture, raw=False)
             if mat.base_color_texture else {"type": "rgb", "value": list(mat.base_color)})
     if vc:  # glTF's COLOR_0 multiplies the base colour
-        from compare.mitsuba.vertex_color import tinted
+        from compare.mitsuba.textures import tinted
 
         base = tinted(base)
     metallic, roughness = mat.metallic, mat.roughness
@@ -532,8 +546,8 @@ def mesh_object(name: str, scene: Scene, mesh_index: int, mode: str, scale: floa
     params["vertex_texcoords"] = tri.uvs.ravel()
     params["faces"] = tri.indices.ravel()
     params.update()
-    if tri.colors is not None:  # read by compare.mitsuba.vertex_color's texture
-        from compare.mitsuba.vertex_color import ATTRIBUTE_ALPHA, ATTRIBUTE_RGB
+    if tri.colors is not None:  # read by compare.mitsuba.textures's texture
+        from compare.mitsuba.textures import ATTRIBUTE_ALPHA, ATTRIBUTE_RGB
 
         m.add_attribute(ATTRIBUTE_RGB, 3, tri.colors[:, :3].ravel())
         m.add_attribute(ATTRIBUTE_ALPHA, 1, tri.colors[:, 3].ravel())
@@ -546,7 +560,7 @@ def _integrator(scene: Scene, depth: int) -> dict:
     features = scene.features()
     if features.volume:  # absorbing solids: Mitsuba's volumetric path tracer (its masks count as bounces)
         return {"type": "volpath", "max_depth": depth, "hide_emitters": False}
-    if features.alpha_mask or features.alpha_blend:
+    if features.holes:
         from compare.mitsuba import layers as reference_layers
 
         reference_layers.register()

@@ -130,6 +130,7 @@ void main() {
     }
 #endif
     alpha_test();
+    cull_back_face();
 #if BLEND
     // behind the nearest opaque surface (the G-buffer's, a hair of tolerance): hidden
     vec4 opaque = texelFetch(u_gbuffer_position, ivec2(gl_FragCoord.xy), 0);
@@ -141,6 +142,7 @@ void main() {
     vec3 n = normalize(v_normal);
     vec3 v = normalize(u_camera_position - v_position);
     vec3 c = dot(n, v) > 0.0 ? material_emission() : vec3(0.0);
+    n = facing_normal(n);
     vec3 direct = vec3(0.0);
     vec3 env = vec3(0.0);
     vec3 punctual = vec3(0.0);

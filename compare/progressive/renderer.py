@@ -54,7 +54,7 @@ class ProgressiveRenderer(Renderer):
     """Otto et al.'s progressive rasterizer (moderngl), with the options of :mod:`compare.progressive.options`."""
 
     unit = "frame"
-    renders = frozenset({"punctual_lights", "alpha_blend", "vertex_colors"}) | RENDERED_LAYERS
+    renders = frozenset({"punctual_lights", "alpha_blend", "vertex_colors", "single_sided"}) | RENDERED_LAYERS
     #: A frame budget decides the frame count itself: its last checkpoint is the frames it rendered.
     open_ended = False
     OPTIONS = OPTIONS

@@ -100,6 +100,7 @@ def export_gltf(scene, out: Path) -> Path:
 
     for name, m in scene.materials.items():
         index[name] = w.material(name, m.base_color, m.metallic, m.roughness, m.emission)
+        w.doc["materials"][index[name]]["doubleSided"] = bool(m.double_sided)
         pbr = w.doc["materials"][index[name]]["pbrMetallicRoughness"]
         # a map replaces its factor in the scene model; glTF multiplies them: the factor it replaces is 1
         if m.base_color_texture is not None:

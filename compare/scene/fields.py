@@ -14,7 +14,7 @@ import numpy as np
 
 from compare.util.errors import SceneError
 
-__all__ = ["Ctx", "color", "file_field", "fmt", "number", "require", "table", "unit_vector", "vector"]
+__all__ = ["Ctx", "boolean", "color", "file_field", "fmt", "number", "require", "table", "unit_vector", "vector"]
 
 class Ctx:
     """Carries the file name for error messages and the scene folder for paths."""
@@ -53,6 +53,12 @@ def float32_problem(v: float) -> str | None:
     if abs(v) > _FLOAT32_MAX:
         return f"{v:g} is beyond float32's range (3.4e38): every renderer would compute infinity"
     return None
+
+
+def boolean(ctx: Ctx, where: str, v: Any) -> bool:
+    if not isinstance(v, bool):
+        raise ctx.err(where, f"expected true or false, got {fmt(v)}")
+    return v
 
 
 def number(ctx: Ctx, where: str, v: Any, *, lo: float | None = None, hi: float | None = None,

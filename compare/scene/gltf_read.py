@@ -131,6 +131,8 @@ class GltfMaterial:
     alpha_mode: str = "opaque"
     alpha: float = 1.0
     alpha_cutoff: float = 0.5
+    #: doubleSided (glTF's default: false, back faces culled).
+    double_sided: bool = False
     #: The material extensions' factors (compare.scene.model.LAYERS) the file sets: field → value.
     layers: dict = field(default_factory=dict)
     #: Their maps that are read (compare.scene.model.LAYER_MAPS): (field, channel, image index).
@@ -579,11 +581,18 @@ class _Reader:
             alpha_mode=mode.lower(),
             alpha=clamp(base[3]),
             alpha_cutoff=float(cutoff),
+            double_sided=self._double_sided(m, w),
             layers=self._layers(m, w),
             layer_images=tuple(layer_images),
             clearcoat_normal_image=coat_normal_image,
             clearcoat_normal_scale=float(coat_normal_scale),
         )
+
+    def _double_sided(self, m: dict, w: str) -> bool:
+        value = m.get("doubleSided", False)
+        if not isinstance(value, bool):
+            raise self.err(f"{w}.doubleSided", f"expected true or false, got {value!r}")
+        return value
 
     def _layers(self, m: dict, w: str) -> dict:
         """The factors of the material extensions (LAYERS) that ``m`` sets; their maps are not read."""

@@ -33,6 +33,7 @@ TEXTURE_WRAPS = ("repeat", "clamp", "mirror")
 TEXTURE_FILTERS = ("linear", "nearest")
 from compare.util.errors import CompareError, MissingComponentError, SceneError
 from compare.util.files import sha256_bytes
+from compare.scene.fields import boolean as _boolean
 from compare.scene.fields import Ctx as _Ctx, color as _color, file_field as _file, fmt as _fmt, number as _number
 from compare.scene.fields import float32_problem as _float32_problem, require as _require, table as _table
 from compare.scene.fields import unit_vector as _unit, vector as _vector
@@ -113,7 +114,8 @@ def _material(ctx: _Ctx, name: str, raw: Any) -> Material:
                              "metallic_roughness_texture", "emissive_texture", "occlusion_texture",
                              "occlusion_strength", "normal_texture", "normal_scale", "distribution", "texture_offset",
                              "texture_rotation", "texture_scale", "texture_wrap", "texture_filter",
-                             "alpha_mode", "alpha", "alpha_cutoff", *(layer.field for layer in LAYERS)})
+                             "alpha_mode", "alpha", "alpha_cutoff", "double_sided",
+                             *(layer.field for layer in LAYERS)})
     wrap = t.get("texture_wrap", "repeat")
     if wrap not in TEXTURE_WRAPS:
         raise ctx.err(f"{w}.texture_wrap", f"expected one of {', '.join(map(repr, TEXTURE_WRAPS))}, got {_fmt(wrap)}")
@@ -157,6 +159,7 @@ def _material(ctx: _Ctx, name: str, raw: Any) -> Material:
         alpha_mode=alpha_mode,
         alpha=_number(ctx, f"{w}.alpha", t.get("alpha", 1.0), lo=0.0, hi=1.0),
         alpha_cutoff=_number(ctx, f"{w}.alpha_cutoff", t.get("alpha_cutoff", 0.5), lo=0.0, hi=1.0),
+        double_sided=_boolean(ctx, f"{w}.double_sided", t.get("double_sided", True)),
         **{layer.field: _layer(ctx, f"{w}.{layer.field}", layer, t[layer.field]) for layer in LAYERS
            if layer.field in t},
     )

@@ -150,8 +150,9 @@ LAYER_MAPS = {"transmissionTexture": ("transmission", "r"), "clearcoatTexture": 
 #: Every material feature a renderer may declare it renders (Renderer.renders).
 MATERIAL_FEATURE_NAMES = ("alpha_blend", *MATERIAL_FEATURES.values(), "layer_maps")
 #: What a mesh's vertices may carry beyond the core model, declared like a material feature (the materials
-#: of the meshes that carry it): "vertex_colors", glTF's COLOR_0 multiplying base colour and alpha.
-GEOMETRY_FEATURE_NAMES = ("vertex_colors",)
+#: of the meshes that carry it): "vertex_colors", glTF's COLOR_0 multiplying base colour and alpha;
+#: "single_sided", a material with doubleSided false, whose back faces are culled.
+GEOMETRY_FEATURE_NAMES = ("vertex_colors", "single_sided")
 #: Every feature a renderer may declare it renders (Renderer.renders, an external renderer's `renders`).
 FEATURE_NAMES = MATERIAL_FEATURE_NAMES + GEOMETRY_FEATURE_NAMES
 #: glTF's alpha modes in the scene model.
@@ -195,6 +196,10 @@ class Material:
     alpha_mode: str = "opaque"
     alpha: float = 1.0
     alpha_cutoff: float = 0.5
+    #: glTF's doubleSided: False culls back faces (they are not there for camera rays, in every renderer;
+    #: for the ground truth's other rays too); True shades them with the normal turned to the viewer. A
+    #: scene file's own materials default to True, a glTF's to glTF's default, False.
+    double_sided: bool = True
     #: The material extensions (:data:`LAYERS`): ``KHR_materials_transmission``, ``_ior``, ``_volume``
     #: (thickness 0: thin-walled), ``_clearcoat``, ``_sheen`` (Charlie), ``_specular``; glTF's defaults
     #: leave the core material as it is. ``alpha_mode = "blend"``: coverage ``alpha`` (times the base-colour
@@ -507,6 +512,12 @@ class Features:
     specular: bool = False
     layer_maps: bool = False
     vertex_colors: bool = False
+    single_sided: bool = False
+
+    @property
+    def holes(self) -> bool:
+        """Whether rays pass some surfaces (alpha masks, alpha blending, culled back faces)."""
+        return self.alpha_mask or self.alpha_blend or self.single_sided
 
     def names(self) -> list[str]:
         """Names of the features present."""
@@ -568,6 +579,7 @@ class Scene:
             punctual_lights=bool(self.punctual),
             **{name: any(name in m.uses() for m in used) for name in MATERIAL_FEATURE_NAMES},
             vertex_colors=any(m.has_vertex_colors for m in self.meshes),
+            single_sided=any(not m.double_sided for m in used),
         )
 
     def material_features(self) -> dict[str, list[str]]:
@@ -581,6 +593,10 @@ class Scene:
         colored = dict.fromkeys(m.material for m in self.meshes if m.has_vertex_colors)
         if colored:
             out["vertex_colors"] = list(colored)
+        culled = [name for name in dict.fromkeys(m.material for m in self.meshes)
+                  if not self.materials[name].double_sided]
+        if culled:
+            out["single_sided"] = culled
         return out
 
     @cached_property

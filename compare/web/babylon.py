@@ -31,7 +31,7 @@ class BabylonRenderer(WebRenderer):
     OPTIONS = {"shadows": "shadow-mapped spot lights of the area lights' L·A instead of RectAreaLight "
                           "(which casts no shadow)"}
     VARIANTS = ("babylon:shadows",)
-    renders = frozenset(MATERIAL_FEATURE_NAMES) | {"punctual_lights", "vertex_colors"}
+    renders = frozenset(MATERIAL_FEATURE_NAMES) | {"punctual_lights", "vertex_colors", "single_sided"}
 
     def describe(self, opts: list[str]) -> str:
         return "Babylon.js (" + ("shadow-mapped spot lights" if "shadows" in opts else "RectAreaLight") \

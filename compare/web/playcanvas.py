@@ -34,7 +34,7 @@ class PlayCanvasRenderer(WebRenderer):
     # StandardMaterial from the glTF: clearcoat, sheen, transmission (refraction), ior, specular, volume
     # (thickness, attenuation) and BLEND are read by PlayCanvas' glTF parser; the extensions' maps are not
     # checked here, so they are declared left out
-    renders = (frozenset(MATERIAL_FEATURE_NAMES) - {"layer_maps"}) | {"punctual_lights", "vertex_colors"}
+    renders = (frozenset(MATERIAL_FEATURE_NAMES) - {"layer_maps"}) | {"punctual_lights", "vertex_colors", "single_sided"}
 
     def describe(self, opts: list[str]) -> str:
         return "PlayCanvas (rectangular lights" + (" with spot shadow maps" if "shadows" in opts else "") \

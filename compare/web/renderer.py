@@ -40,7 +40,7 @@ class ThreeJsRenderer(WebRenderer):
     VARIANTS = ("threejs:shadows",)
     # GLTFLoader reads every material extension of the job's glTF into MeshPhysicalMaterial, and BLEND as a
     # transparent material; three's PointLight, SpotLight and DirectionalLight too; COLOR_0 as vertexColors.
-    renders = frozenset(MATERIAL_FEATURE_NAMES) | {"punctual_lights", "vertex_colors"}
+    renders = frozenset(MATERIAL_FEATURE_NAMES) | {"punctual_lights", "vertex_colors", "single_sided"}
 
     def describe(self, opts: list[str]) -> str:
         what = ("shadow-mapped spot lights" if "shadows" in opts else "RectAreaLight") + ", PMREM" \

@@ -22,6 +22,7 @@ void main() {
 
 void main() {
     alpha_test();
+    cull_back_face();
 }
 
 #endif

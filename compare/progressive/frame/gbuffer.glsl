@@ -45,8 +45,10 @@ layout(location = 6) out vec4 out_layer_sheen;  // sheen colour, a = sheen rough
 
 void main() {
     alpha_test();
+    cull_back_face();
     vec3 n = normalize(v_normal);
     bool front = dot(n, u_camera_position - v_position) > 0.0;
+    n = facing_normal(n);
     out_position = vec4(v_position, u_kind);
     out_normal = vec4(material_normal(n), material_roughness());
     out_material = vec4(material_base_color(), material_metallic());

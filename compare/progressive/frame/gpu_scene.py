@@ -133,6 +133,8 @@ class GpuMesh:
     alpha_cutoff: float = -1.0
     """glTF's alpha mask: the coverage test's cutoff, negative for an opaque mesh."""
     blend: float = -1.0
+    sides: float = 2.0
+    """glTF's doubleSided: 2 double-sided, 1 single-sided (back faces culled for camera rays)."""
     """glTF's alphaMode BLEND: the coverage factor (times the base-colour map's alpha), negative otherwise.
     A blended mesh is drawn by the blend pass alone (:mod:`compare.progressive.blend`)."""
     centre: tuple[float, float, float] = (0.0, 0.0, 0.0)
@@ -175,6 +177,7 @@ class GpuScene:
                 gm.centre = tuple(float(x) for x in (tri.positions.min(0) + tri.positions.max(0)) / 2)
                 if mat.alpha_mode == "blend":
                     gm.blend = float(mat.alpha)
+                gm.sides = 2.0 if mat.double_sided else 1.0
                 if self.layered:
                     gm.layers = material_layers(mat)
                 if self.textured:
@@ -399,6 +402,7 @@ class GpuScene:
         set_uniform(program, "u_emission", mesh.emission)
         set_uniform(program, "u_kind", mesh.kind)
         set_uniform(program, "u_blend_alpha", max(mesh.blend, 0.0))
+        set_uniform(program, "u_sides", mesh.sides)
         if mesh.layers:
             for name, value in zip(LAYER_UNIFORMS, mesh.layers):
                 set_uniform(program, name, value)
@@ -436,6 +440,7 @@ class GpuScene:
                 continue
             masked = mesh.alpha_cutoff >= 0.0 and True in programs
             program = programs[masked]
+            set_uniform(program, "u_sides", mesh.sides)  # a depth pre-pass culls as the camera's passes do
             if masked:
                 self._bind_maps(program, mesh, all_maps=False)
             self._vao(program, index, mesh).render()

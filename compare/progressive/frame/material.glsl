@@ -28,6 +28,19 @@ in vec4 v_color;
 
 uniform vec3 u_base_color;
 uniform float u_metallic;
+
+// glTF's doubleSided, per mesh: 2 (double-sided) shades a back face with its normal turned to the viewer;
+// 1 (single-sided) culls it: cull_back_face() discards it in the passes of camera rays (G-buffer, first
+// frame, its depth pre-pass); shadow maps and the probes' bake draw every face.
+uniform float u_sides;
+void cull_back_face() {
+    if (u_sides < 1.5 && !gl_FrontFacing) {
+        discard;
+    }
+}
+vec3 facing_normal(vec3 n) {
+    return gl_FrontFacing ? n : -n;
+}
 uniform float u_roughness;
 uniform vec3 u_emission;   // radiance leaving the front side (the side the normal faces)
 
