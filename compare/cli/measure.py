@@ -36,6 +36,9 @@ def _cmd_measure(args) -> int:
     res = measure(args.images, args.scene, args.output, name=args.name, label=args.label, unit=UNITS[args.unit],
                   settings=settings, progress=not args.quiet, fresh=args.fresh)
     run = res.scenes[0].runs[0]
+    flip = run.final.metrics.get("flip")
+    # None where FLIP is undefined (a ground truth that tone-maps to a constant, e.g. black): said, not scored
+    said = f"{flip:.4f}" if flip is not None else "undefined (the ground truth tone-maps to a constant)"
     print(f"{args.output / 'results.json'}: {run.label}, {len(run.points)} checkpoints, final FLIP "
-          f"{run.final.metrics.get('flip'):.4f}; open {args.output / 'index.html'}", file=sys.stdout)
+          f"{said}; open {args.output / 'index.html'}", file=sys.stdout)
     return 0

@@ -295,12 +295,13 @@ def _dielectric(mat: Material, mode: str, vc: bool = False) -> dict:
         return {"type": "diffuse", "reflectance": tint}
     if mat.thickness == 0.0 and mode not in PRINCIPLED_MODES:  # Principled has no thin wall: a solid, as Cycles
         return {"type": "thindielectric", "int_ior": ior, "ext_ior": 1.0, "specular_transmittance": tint}
-    if mat.roughness == 0.0:
+    if mat.roughness == 0.0 or ior <= 1.0:
+        # ior 1 (valid glTF, an index-matched interface): refraction by any microfacet leaves the direction
+        # as it is, so rough or smooth the light goes straight through, tinted; Mitsuba's rough dielectric
+        # refuses equal indices, its smooth one is exact here
         return {"type": "dielectric", "int_ior": ior, "ext_ior": 1.0, "specular_transmittance": tint}
     rough = {"type": "roughdielectric", "distribution": "ggx", "alpha": float(mat.roughness) ** 2, "int_ior": ior,
              "ext_ior": 1.0, "specular_transmittance": tint}
-    if ior <= 1.0:  # no interface: nothing is reflected or bent
-        return rough
     from compare.mitsuba.glass import PLUGIN_NAME, register
 
     register()  # height-correlated masking, as the shared BRDF; Multiscatter GGX glass: Cycles' compensation
@@ -430,6 +431,15 @@ def light_dict(light: AreaLight, scale: float = 1.0) -> dict:
 
 #: Texels a side of the spot lights' cone profile (compare.mitsuba.scene_dict.punctual_dict).
 SPOT_PROFILE_SIZE = 1024
+#: The widest cone (degrees) Mitsuba's ``spot`` maps its texture over: it looks the texture up at
+#: tan(θ) / tan(cutoff), which at a cutoff of exactly 90° is 0 everywhere (a black light). glTF allows 90°;
+#: its falloff is the square of a ramp that reaches 0 at the outer cone, so what lies beyond 89.5° of a
+#: 90° cone is below 1e-4 of the peak and is left out.
+SPOT_MAPPING_MAX_DEG = 89.5
+
+
+def _spot_mapping_cone(light) -> float:
+    return min(float(light.outer_cone), SPOT_MAPPING_MAX_DEG)
 
 
 def spot_profile(light) -> np.ndarray:
@@ -438,7 +448,7 @@ def spot_profile(light) -> np.ndarray:
     ``direction_to_uv``), so the square of glTF's clamped ramp in cos θ is reproduced to the texture's
     bilinear interpolation, where Mitsuba's own falloff is linear in the angle."""
     n = SPOT_PROFILE_SIZE
-    t = math.tan(math.radians(light.outer_cone))
+    t = math.tan(math.radians(_spot_mapping_cone(light)))
     c = (np.arange(n) + 0.5) / n * 2.0 - 1.0
     x, y = np.meshgrid(c * t, c * t)
     values = light.falloff(1.0 / np.sqrt(1.0 + x * x + y * y)).astype(np.float32)
@@ -462,8 +472,8 @@ def punctual_dict(light, scale: float = 1.0) -> dict:
     up = [0.0, 1.0, 0.0] if abs(d[1]) < 0.9 else [1.0, 0.0, 0.0]
     target = (np.asarray(position) + d).tolist()
     return {"type": "spot", "to_world": mi.ScalarTransform4f().look_at(origin=position, target=target, up=up),
-            "intensity": rgb(intensity), "cutoff_angle": float(light.outer_cone),
-            "beam_width": float(light.outer_cone),  # no falloff of Mitsuba's own: the profile is glTF's
+            "intensity": rgb(intensity), "cutoff_angle": _spot_mapping_cone(light),
+            "beam_width": _spot_mapping_cone(light),  # no falloff of Mitsuba's own: the profile is glTF's
             "texture": {"type": "bitmap", "bitmap": mi.Bitmap(spot_profile(light)), "raw": True,
                         "filter_type": "bilinear", "wrap_mode": "clamp"}}
 

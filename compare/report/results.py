@@ -188,6 +188,17 @@ def _require(d: Any, key: str, where: str, types: type | tuple[type, ...] | None
     return v
 
 
+def _seconds(d: Any, key: str, where: str, default: float | None = None) -> float:
+    """A time of ``d``: a finite number of seconds >= 0 (a negative or infinite time would let an equal-time
+    comparison or the gate's timing tests pass on nothing)."""
+    if default is not None and isinstance(d, dict) and key not in d:
+        return default
+    v = _require(d, key, where)
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
+        raise ResultsError(f"{where}.{key}: expected a finite number of seconds >= 0, got {v!r}")
+    return float(v)
+
+
 def metric_value(metrics: dict[str, float | None], name: str) -> float | None:
     """Read a metric as an *error* (lower is better), or None if absent.
 
@@ -360,7 +371,7 @@ class Point:
         """Inverse of :meth:`to_json`."""
         return cls(
             step=int(_require(d, "step", where, int)),
-            seconds=float(_require(d, "seconds", where, (int, float))),
+            seconds=_seconds(d, "seconds", where),
             metrics=dict(_require(d, "metrics", where, dict)),
             image=d.get("image"),
             preview=d.get("preview"),
@@ -406,10 +417,10 @@ class SeedRun:
         for i, p in enumerate(_require(d, "points", where, list)):
             w = f"{where}.points[{i}]"
             points.append({"step": int(_require(p, "step", w, int)),
-                           "seconds": float(_require(p, "seconds", w, (int, float))),
+                           "seconds": _seconds(p, "seconds", w),
                            "metrics": dict(_require(p, "metrics", w, dict))})
         return cls(seed=int(_require(d, "seed", where, int)),
-                   setup_seconds=float(_require(d, "setup_seconds", where, (int, float))),
+                   setup_seconds=_seconds(d, "setup_seconds", where),
                    image=d.get("image"), points=points)
 
 
@@ -597,9 +608,9 @@ class RendererRun:
             unit=str(_require(d, "unit", where, str)),
             steps=int(_require(d, "steps", where, int)),
             key=str(d.get("key", "")),
-            seconds=float(_require(d, "seconds", where, (int, float))),
-            first_frame_seconds=float(_require(d, "first_frame_seconds", where, (int, float))),
-            setup_seconds=float(d.get("setup_seconds", 0.0)),
+            seconds=_seconds(d, "seconds", where),
+            first_frame_seconds=_seconds(d, "first_frame_seconds", where),
+            setup_seconds=_seconds(d, "setup_seconds", where, 0.0),
             metadata=dict(d.get("metadata") or {}),
             image=d.get("image"),
             preview=d.get("preview"),
@@ -650,9 +661,9 @@ class Reference:
         return cls(
             spp=int(_require(d, "spp", where, int)),
             seed=int(_require(d, "seed", where, int)),
-            seconds=float(_require(d, "seconds", where, (int, float))),
+            seconds=_seconds(d, "seconds", where),
             variant=str(_require(d, "variant", where, str)),
-            load_seconds=float(d.get("load_seconds", 0.0)),
+            load_seconds=_seconds(d, "load_seconds", where, 0.0),
             renderer=str(d.get("renderer", "mitsuba")),
             key=str(d.get("key", "")),
             image=d.get("image"),

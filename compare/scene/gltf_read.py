@@ -499,9 +499,17 @@ class _Reader:
         cutoff = m.get("alphaCutoff", 0.5)
         if isinstance(cutoff, bool) or not isinstance(cutoff, (int, float)) or not 0.0 <= cutoff <= 1.0:
             raise self.err(f"{w}.alphaCutoff", f"expected a number in [0, 1], got {cutoff!r}")
-        emission = np.asarray(m.get("emissiveFactor", [0.0, 0.0, 0.0]), dtype=np.float64)
+        factor = m.get("emissiveFactor", [0.0, 0.0, 0.0])
+        if (not isinstance(factor, list) or len(factor) != 3
+                or not all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) and x >= 0
+                           for x in factor)):
+            raise self.err(f"{w}.emissiveFactor", f"expected three numbers >= 0, got {factor!r}")
         strength = m.get("extensions", {}).get("KHR_materials_emissive_strength", {}).get("emissiveStrength", 1.0)
-        emission = emission * float(strength)
+        if isinstance(strength, bool) or not isinstance(strength, (int, float)) or not (
+                math.isfinite(strength) and strength >= 0):
+            raise self.err(f"{w}.extensions.KHR_materials_emissive_strength.emissiveStrength",
+                           f"expected a finite number >= 0, got {strength!r}")
+        emission = np.asarray(factor, dtype=np.float64) * float(strength)
 
         sampling: list[tuple[str, tuple]] = []  # (texture key, its transform and sampler) of each map
 
@@ -607,9 +615,10 @@ class _Reader:
             if layer.color:
                 ok = (isinstance(v, list) and len(v) == 3 and all(isinstance(x, (int, float)) and not isinstance(x, bool)
                                                                   and math.isfinite(x) and x >= 0 for x in v))
-                if not ok:
-                    raise self.err(where, f"expected three numbers >= 0, got {v!r}")
-                out[layer.field] = tuple(float(min(x, layer.hi)) for x in v)
+                if not ok or max(v) > layer.hi:
+                    rng = ">= 0" if math.isinf(layer.hi) else f"in [0, {layer.hi:g}]"
+                    raise self.err(where, f"expected three numbers {rng}, got {v!r}")
+                out[layer.field] = tuple(float(x) for x in v)
                 continue
             if isinstance(v, bool) or not isinstance(v, (int, float)) or math.isnan(v):
                 raise self.err(where, f"expected a number, got {v!r}")
@@ -661,18 +670,31 @@ def _cache_image(data: bytes, suffix: str) -> Path:
     return path
 
 
-def _node_matrix(node: dict) -> np.ndarray:
+def _numbers(node: dict, key: str, count: int, default, where: str, err) -> list[float]:
+    """``node[key]``: ``count`` finite numbers, or one error naming the node's field."""
+    v = node.get(key, default)
+    if (not isinstance(v, list) or len(v) != count
+            or not all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in v)):
+        raise err(f"{where}.{key}", f"expected {count} finite numbers, got {v!r}")
+    return [float(x) for x in v]
+
+
+def _node_matrix(node: dict, where: str = "node", err=None) -> np.ndarray:
+    """The node's local matrix (``matrix``, or translation · rotation · scale), every value checked."""
+    err = err or (lambda field, msg: GltfError(f"{field}: {msg}"))
     if "matrix" in node:
-        return np.asarray(node["matrix"], dtype=np.float64).reshape(4, 4).T  # column-major
+        return np.asarray(_numbers(node, "matrix", 16, None, where, err), dtype=np.float64).reshape(4, 4).T
     m = np.eye(4)
-    x, y, z, w = (float(v) for v in node.get("rotation", [0, 0, 0, 1]))
-    norm = math.sqrt(x * x + y * y + z * z + w * w) or 1.0
+    x, y, z, w = _numbers(node, "rotation", 4, [0, 0, 0, 1], where, err)
+    norm = math.sqrt(x * x + y * y + z * z + w * w)
+    if not norm > 1e-12:
+        raise err(f"{where}.rotation", f"a rotation quaternion must have unit length, got {[x, y, z, w]}")
     x, y, z, w = x / norm, y / norm, z / norm, w / norm
     r = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
                   [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
                   [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
-    m[:3, :3] = r @ np.diag(np.asarray(node.get("scale", [1, 1, 1]), dtype=np.float64))
-    m[:3, 3] = node.get("translation", [0, 0, 0])
+    m[:3, :3] = r @ np.diag(np.asarray(_numbers(node, "scale", 3, [1, 1, 1], where, err), dtype=np.float64))
+    m[:3, 3] = _numbers(node, "translation", 3, [0, 0, 0], where, err)
     return m
 
 
@@ -731,7 +753,7 @@ def _read_document(path: Path, r: "_Reader") -> GltfDocument:
         if index in on_path:
             raise r.err(f"nodes[{index}]", "the node hierarchy has a cycle")
         node = r.item("nodes", index, f"nodes[{parent_index}].children" if parent_index is not None else "scene.nodes")
-        world = parent @ _node_matrix(node)
+        world = parent @ _node_matrix(node, f"nodes[{index}]", r.err)
         # A part's name: its node's, else its mesh's, else its nearest named ancestor's (optimisers such as
         # gltfpack put a mesh on an unnamed child node that holds the dequantisation transform).
         own = node.get("name") or None
@@ -776,6 +798,14 @@ def _read_document(path: Path, r: "_Reader") -> GltfDocument:
                 raise r.err(f"{where}.spot", f"expected 0 <= innerConeAngle < outerConeAngle <= pi/2, got {inner} "
                                              f"and {outer}")
             rng = d.get("range")
+            reach = float(np.max(np.abs(world[:3, 3])))
+            problem = (geometry.world_range_problem(reach) if np.all(np.isfinite(world))
+                       else "a transform that is not finite (its node's or an ancestor's)")
+            if problem:
+                raise r.err(f"nodes[{index}]", f"the light's position reaches {problem}")
+            if kind != "point" and not np.linalg.norm(world[:3, 2]) > 1e-12:
+                raise r.err(f"nodes[{index}]", f"the {kind} light's node transform has zero scale along its -Z: "
+                                               "it has no direction")
             lights.append(GltfLight(str(d.get("name") or f"light{li}"), kind,
                                     tuple(float(c) for c in d.get("color", [1, 1, 1])),  # type: ignore[arg-type]
                                     float(d.get("intensity", 1.0)), world, inner, outer,

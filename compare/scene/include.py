@@ -180,6 +180,11 @@ def _objects(st: _Settings, doc, materials: _Materials, notes: list[str]) -> tup
         base = f"{st.prefix}{prim.name}"
         used[base] = used.get(base, 0) + 1
         name = base if used[base] == 1 else f"{base}#{used[base]}"
+        lo, hi = _world_bounds(matrix, prim.mesh)
+        reach = float(max(np.max(np.abs(lo)), np.max(np.abs(hi))))
+        problem = geometry.world_range_problem(reach) if math.isfinite(reach) else "infinity (not finite)"
+        if problem:  # at load, not in a renderer: one error naming the file and the part
+            raise GltfError(f"{st.path}: {prim.name}: its vertices reach {problem}")
         mesh = sm.Mesh(name=name, shape="gltf", material=mat, params={"triangles": prim.mesh}, transform=matrix,
                        file=st.path)
         # A light has one radiance: a quad whose emission has a map stays a mesh (its map is drawn).
@@ -308,7 +313,9 @@ def _punctual_light(light: GltfLight, xf: np.ndarray, side: float, light_scale: 
                      "finite, non-negative and emit something)")
         return None
     d = m[:3, :3] @ np.array([0.0, 0.0, -1.0])  # a glTF light shines down its node's -Z
-    d = d / np.linalg.norm(d)
+    peak = float(np.max(np.abs(d)))
+    # a point light under a zero scale has no direction and needs none (the reader refuses the others)
+    d = d / peak / np.linalg.norm(d / peak) if peak > 0 else np.array([0.0, 0.0, -1.0])
     return sm.PunctualLight(f"{prefix}{light.name}", light.kind, tuple(float(x) for x in m[:3, 3]),
                             tuple(float(x) for x in d), tuple(float(x) for x in intensity),
                             math.degrees(light.inner_cone), math.degrees(light.outer_cone), light.range, side)

@@ -174,6 +174,8 @@ def _layer(ctx: _Ctx, where: str, layer, v: Any):
     if layer.color:
         return _color(ctx, where, v, hi=None if math.isinf(layer.hi) else layer.hi)
     if math.isinf(layer.hi):
+        if isinstance(v, float) and v == math.inf:  # TOML's inf: the extension's own default (no absorption)
+            return math.inf
         return _number(ctx, where, v, lo=layer.lo, positive=layer.lo > 0)
     return _number(ctx, where, v, lo=layer.lo, hi=layer.hi)
 
