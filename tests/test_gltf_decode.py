@@ -75,7 +75,7 @@ def test_a_decoded_file_is_cached_by_content_and_plain(tmp_path, monkeypatch):
     cache = tmp_path / "cache"
     monkeypatch.setenv("COMPARE_CACHE", str(cache))
     load_gltf(CAR / "coupe-meshopt.glb")
-    (decoded,) = (cache / "gltf-decoded").iterdir()
+    (decoded,) = (cache / "gltf-decoded").glob("*.glb")
     doc, binary = parse_glb(decoded.read_bytes())
     assert "EXT_meshopt_compression" not in json.dumps(doc) and len(doc["buffers"]) == 1
     stamp = decoded.stat().st_mtime_ns
@@ -86,7 +86,29 @@ def test_a_decoded_file_is_cached_by_content_and_plain(tmp_path, monkeypatch):
     data = bytearray((CAR / "coupe-meshopt.glb").read_bytes())
     copy.write_bytes(data)
     load_gltf(copy)
-    assert len(list((cache / "gltf-decoded").iterdir())) == 1  # same bytes, same entry
+    assert len(list((cache / "gltf-decoded").glob("*.glb"))) == 1  # same bytes, same entry
+
+
+@pytest.mark.parametrize("damage", ["truncate", "swap", "checksum"])
+def test_a_damaged_decoded_entry_is_rebuilt_not_trusted(tmp_path, monkeypatch, damage):
+    """A truncated entry (a killed write, a full disk), another model's entry in its place, or a lost
+    checksum: the next load decodes the model again instead of failing on it or using other geometry."""
+    cache = tmp_path / "cache"
+    monkeypatch.setenv("COMPARE_CACHE", str(cache))
+    want = load_gltf(CAR / "coupe-meshopt.glb")
+    (entry,) = (cache / "gltf-decoded").glob("*.glb")
+    good = entry.read_bytes()
+    if damage == "truncate":
+        entry.write_bytes(good[: len(good) // 2])
+    elif damage == "swap":
+        doc, binary = parse_glb(good)
+        doc["meshes"][0]["name"] = "someone else's"
+        entry.write_bytes(pack_glb(doc, binary))
+    else:
+        entry.with_suffix(".sha256").unlink()
+    got = load_gltf(CAR / "coupe-meshopt.glb")
+    assert entry.read_bytes() == good
+    assert [p.name for p in got.primitives] == [p.name for p in want.primitives]
 
 
 def _meshopt_doc():

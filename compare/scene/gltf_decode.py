@@ -100,9 +100,16 @@ def decoded_glb(doc: dict, buffer: Callable[[int], bytes], image_bytes: Callable
         versions.append(f"{ext}={getattr(module, '__version__', '')}")
     name = sha256_bytes(key, code_fingerprint(__name__), *versions)[:32]
     path = default_cache_dir() / "gltf-decoded" / f"{name}.glb"
-    if not path.is_file():
-        plain, data = _Decoder(doc, buffer, image_bytes).run()
-        write_bytes_atomic(path, pack_glb(plain, data))
+    digest = path.with_suffix(".sha256")  # the entry's checksum, written after it: no checksum, no entry
+    try:
+        if path.is_file() and digest.read_text(encoding="ascii").strip() == sha256_bytes(path.read_bytes()):
+            return path
+    except (OSError, UnicodeDecodeError):
+        pass  # missing, unreadable, truncated or edited: decoded again below
+    plain, data = _Decoder(doc, buffer, image_bytes).run()
+    glb = pack_glb(plain, data)
+    write_bytes_atomic(path, glb)
+    write_bytes_atomic(digest, sha256_bytes(glb).encode("ascii"))
     return path
 
 
