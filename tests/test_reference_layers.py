@@ -57,7 +57,8 @@ def test_furnace_layers_are_closed_forms():
     environment (emission 1) around it; on it the environment's direct light is the albedo, and a
     convex object has no indirect light and no area lights."""
     size = 24
-    r = ReferenceRenderer(furnace_scene(0.5, size), materials="diffuse", cache_dir=False, progress=False)
+    r = ReferenceRenderer(furnace_scene(0.5, size, double_sided=False), materials="diffuse", cache_dir=False,
+                          progress=False)
     image, layers, _ = r.render_layers(1024, seed=1)
     inside = sphere_mask(size)
     corner = np.zeros((size, size), dtype=bool)

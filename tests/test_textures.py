@@ -523,4 +523,6 @@ def test_normal_map_bends_the_transmission_and_not_the_coat(tmp_path):
     coated = dataclasses.replace(glass, transmission=0.0, clearcoat=1.0)
     for mode in ("shared", "cycles"):
         d = material_dict(coated, mode)
+        assert d["type"] == "twosided", mode  # double-sided and opaque: the stack under Mitsuba's twosided
+        d = d["bsdf"]
         assert d["type"] == "gltf_coat" and d["base"]["type"] == "normalmap", mode

@@ -133,7 +133,17 @@ async function buildScene(renderer, job, base, options) {
   if (options.shadows || punctual) {
     renderer.shadowMap.enabled = true;
     renderer.shadowMap.type = THREE.PCFSoftShadowMap;
-    scene.traverse((o) => { if (o.isMesh && !o.userData.isLightFace) { o.castShadow = true; o.receiveShadow = true; } });
+    scene.traverse((o) => {
+      if (o.isMesh && !o.userData.isLightFace) {
+        o.castShadow = true;
+        o.receiveShadow = true;
+        // a double-sided material's shadow from the faces turned away from the light, as three does for a
+        // single-sided one (its default for DoubleSide, both sides, shadows every lit surface on itself)
+        for (const m of Array.isArray(o.material) ? o.material : [o.material]) {
+          if (m.side === THREE.DoubleSide) m.shadowSide = THREE.BackSide;
+        }
+      }
+    });
   }
   return scene;
 }
