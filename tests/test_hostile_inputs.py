@@ -250,3 +250,33 @@ def test_measure_against_a_black_ground_truth_says_flip_is_undefined(tmp_path, m
     out = capsys.readouterr()
     assert rc == 0, out.err
     assert "final FLIP undefined" in out.out
+
+
+def test_text_from_files_is_inert_in_a_terminal_markdown_and_xml():
+    from xml.etree import ElementTree as ET
+
+    from compare.util.text import markdown_text, terminal_text, xml_text
+
+    title = "\x1b]0;owned\x07car\x1b]52;c;ZWNobyBoaQ==\x07"  # a window title and a clipboard write
+    assert "\x1b" not in terminal_text(title) and "\x07" not in terminal_text(title)
+    assert terminal_text("plain name — ok\n") == "plain name — ok\n"
+    md = markdown_text("<img src=x onerror=alert(1)> [click](javascript:x) **bold** | cell")
+    assert "<img" not in md and "](" not in md and "**" not in md and " | " not in md
+    raw = "a\x00b\x1bc"
+    ET.fromstring("<a>" + xml_text(raw) + "</a>")  # would raise on a control character
+
+
+def test_inspect_prints_a_glTFs_escape_sequences_inert(tmp_path, capsys):
+    from compare.cli.main import main
+    from compare.scene import geometry
+    from compare.scene.gltf_write import GltfWriter
+
+    w = GltfWriter()
+    mat = w.material("\x1b]0;owned\x07paint", (0.8, 0.8, 0.8), 0.0, 0.5)
+    w.node("\x1b[2Jcard", mesh=w.mesh("card", [(geometry.quad((1.0, 1.0)), mat)]))
+    w.doc["extensionsUsed"] = ["\x1b]0;owned\x07EXT_evil"]  # listed by inspect among the extensions
+    path = w.write(tmp_path / "evil.gltf")
+    assert main(["inspect", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "EXT_evil" in out and "\\x1b" in out
+    assert "\x1b" not in out and "\x07" not in out

@@ -11,6 +11,7 @@ from pathlib import Path
 from compare.cli.argtypes import positive_float, positive_int
 from compare.report.check import check, load_thresholds
 from compare.util.errors import CompareError
+from compare.util.text import terminal_text
 
 
 class CheckUsageError(CompareError, ValueError):
@@ -93,7 +94,7 @@ def _thresholds(args: argparse.Namespace, path: Path) -> int:
     if violations:
         print(f"{args.results}: {len(violations)} threshold violation(s) out of {checked} bound(s) ({path}):")
         for v in violations:
-            print(f"  - {v}")
+            print(f"  - {terminal_text(v)}")
         return 1
     print(f"{args.results}: all {checked} bound(s) of {len(rules)} rule(s) in {path} hold")
     return 0
@@ -125,7 +126,7 @@ def _gate(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(report.to_json(), indent=1, allow_nan=False))
     else:
-        print(report.table(everything=args.all))
+        print(terminal_text(report.table(everything=args.all)))
     return 1 if report.failed else 0
 
 

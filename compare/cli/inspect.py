@@ -27,5 +27,8 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     from compare.scene.inspect import format_inspection, inspect_path
 
     info = inspect_path(args.scene)
-    print(json.dumps(info, indent=1) if args.json else format_inspection(info))
+    from compare.util.text import terminal_text
+
+    # JSON escapes control characters itself; the text names what the file says, made inert for the terminal
+    print(json.dumps(info, indent=1) if args.json else terminal_text(format_inspection(info)))
     return 0

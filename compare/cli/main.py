@@ -312,7 +312,9 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return args.func(args)
     except CompareError as exc:
-        print(f"compare: error: {exc}", file=sys.stderr)
+        from compare.util.text import terminal_text
+
+        print(f"compare: error: {terminal_text(exc)}", file=sys.stderr)  # it may quote a file's strings
         return 2
     except KeyboardInterrupt:
         print("compare: interrupted; finished work is cached and will be reused", file=sys.stderr)

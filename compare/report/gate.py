@@ -228,8 +228,7 @@ class GateReport:
 
     def markdown(self) -> str:
         """Markdown for a CI step summary: the verdict, every test that is not a plain pass, the counts."""
-        def cell(x: str) -> str:
-            return x.replace("|", "\\|").replace("\n", " ")
+        from compare.util.text import markdown_text as cell  # names come from users' files
 
         icon = {"failed": "❌", "inconclusive": "⚠️"}.get(self.verdict, "✅")
         out = [f"## {icon} Regression gate", "", cell(self.summary_line()), ""]

@@ -13,6 +13,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 from compare.util.files import write_text_atomic
+from compare.util.text import xml_text
 from compare.report.gate import GateReport
 
 __all__ = ["junit_xml", "write_junit"]
@@ -30,17 +31,17 @@ def junit_xml(report: GateReport) -> str:
     props = ET.SubElement(suite, "properties")
     for k, v in (("baseline", report.baseline), ("candidate", report.candidate),
                  ("alpha", f"{report.settings.alpha:g}"), ("machine", report.machine or "same")):
-        ET.SubElement(props, "property", name=k, value=v)
+        ET.SubElement(props, "property", name=k, value=xml_text(v))
     for g, row in zip(gates, report.rows()):
         at = f"{g.unit or 'step'} {g.step}: " if g.step is not None else ""
-        case = ET.SubElement(suite, "testcase", classname=f"compare.gate.{g.scene} {g.size}.{g.renderer}",
-                             name=f"{at}{g.kind} {g.metric}", time="0")
-        text = (f"{g.status}: baseline {row[2] or '-'}, candidate {row[3] or '-'} ({row[4] or '-'}); "
-                f"p (Holm) {row[5] or '-'}; {g.note}")
+        case = ET.SubElement(suite, "testcase", classname=xml_text(f"compare.gate.{g.scene} {g.size}.{g.renderer}"),
+                             name=xml_text(f"{at}{g.kind} {g.metric}"), time="0")
+        text = xml_text(f"{g.status}: baseline {row[2] or '-'}, candidate {row[3] or '-'} ({row[4] or '-'}); "
+                        f"p (Holm) {row[5] or '-'}; {g.note}")
         if g.failed(report.settings):
-            ET.SubElement(case, "failure", message=f"{g.status}: {g.name}", type=g.status).text = text
+            ET.SubElement(case, "failure", message=xml_text(f"{g.status}: {g.name}"), type=g.status).text = text
         elif g.status in ("inconclusive", "skipped"):
-            ET.SubElement(case, "skipped", message=f"{g.status}: {g.note}")
+            ET.SubElement(case, "skipped", message=xml_text(f"{g.status}: {g.note}"))
         ET.SubElement(case, "system-out").text = text
     ET.indent(root)
     return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
