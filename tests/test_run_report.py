@@ -397,12 +397,17 @@ def test_nan_from_a_renderer_is_an_error_not_a_number(tmp_path):
         cps[-1][2][3, 4, 1] = np.nan
         return cps, setup, meta, layers
 
+    message = "renderer 'progressive' at step 4: 1 pixel(s) are NaN or infinite (first at x=4, y=3)"
     with synthetic_renderers(progressive=nan_progressive):
-        with pytest.raises(RendererError, match=r"^renderer 'progressive' at step 4: 1 pixel\(s\) are NaN or "
-                                                r"infinite \(first at x=4, y=3\)$"):
+        with pytest.raises(RendererError, match="^" + re.escape(message) + "$"):
             run_mod.run([CORNELL], tmp_path, RunSettings(frames=4, spp=4, sizes=[[48, 36]]), progress=False,
-                        report=False)
-    assert not (tmp_path / "results.json").exists()
+                        report=False, keep_going=False)
+        assert not (tmp_path / "results.json").exists()
+        # kept going (the default for more than one unit): the failure is recorded, not a number
+        res = run_mod.run([CORNELL], tmp_path, RunSettings(frames=4, spp=4, sizes=[[48, 36]]), progress=False,
+                          report=False)
+    assert [f["message"] for f in res.failures if f["renderer"] == "progressive"] == [message]
+    assert all(r.renderer != "progressive" for r in res.scenes[0].runs)
 
 
 def test_report_escapes_scene_strings(tmp_path):
@@ -814,3 +819,49 @@ def test_an_ablation_row_names_the_kind_of_light_it_moved_most():
     run.layers["indirect_diffuse"]["relmse"] = 0.9
     assert _layer_moved(run, base) == "indirect diffuse: 0.05 → 0.9"
     assert _layer_moved(SimpleNamespace(layers={}), base) == "—"
+
+
+def test_a_failing_unit_is_recorded_and_the_run_goes_on(tmp_path, gl_ctx):
+    """One renderer failing on one scene no longer voids the sweep: its failure is in results.json and the
+    report, every other unit is measured; --no-keep-going stops at it."""
+    from compare.renderers import Renderer
+
+    class Broken(Renderer):
+        name = "broken"
+        label = "A broken renderer"
+        unit = "frame"
+        default_budget = "frames"
+
+        def key(self, scene, settings):
+            return ["broken", 1]
+
+        def render(self, scene, *, steps, checkpoints, seed, context):
+            raise RuntimeError("the GPU is on fire")
+
+    settings = RunSettings(frames=2, spp=4, sizes=[[16, 12]], renderers=["mitsuba", "broken", "progressive"])
+    out = tmp_path / "out"
+    res = run_mod.run([CORNELL], out, settings, progress=False, gl_ctx=gl_ctx, renderers=[Broken()],
+                      cache_dir=tmp_path / "cache")
+    (scene,) = res.scenes
+    assert [r.renderer for r in scene.runs] == ["mitsuba", "progressive"]
+    assert res.failures == [{"scene": scene.id, "renderer": "broken", "message": "RuntimeError: the GPU is on fire"}]
+    assert Results.load(out / "results.json").failures == res.failures
+    html = (out / "index.html").read_text()
+    assert "Failed units" in html and "the GPU is on fire" in html
+    with pytest.raises(RuntimeError, match="on fire"):
+        run_mod.run([CORNELL], tmp_path / "strict", settings, progress=False, gl_ctx=gl_ctx, renderers=[Broken()],
+                    cache_dir=tmp_path / "cache", keep_going=False)
+
+
+def test_the_command_line_exits_1_after_a_run_with_failed_units(tmp_path, capsys):
+    from compare.cli.main import main
+
+    config = tmp_path / "renderers.toml"
+    config.write_text('[renderer.failing]\ncommand = ["{python}", "-c", "import sys; sys.exit(3)", "{job}"]\n'
+                      'unit = "frames"\nsteps = 2\n')
+    rc = main(["run", "--scenes", str(CORNELL), "--renderer-config", str(config), "--renderers",
+               "progressive,failing", "--size", "16x12", "--spp", "4", "--frames", "2", "-o", str(tmp_path / "o"),
+               "--quiet"])
+    err = capsys.readouterr().err
+    assert rc == 1 and "1 unit(s) failed" in err and "failing" in err
+    assert (tmp_path / "o" / "results.json").is_file()

@@ -89,6 +89,10 @@ def add_run_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--seeds", type=positive_int, default=1,
                    help="independent runs of every renderer (different seeds); 2 or more split each checkpoint's "
                         "error into squared bias and variance (compare/metrics/bias.py), at that many times the cost")
+    p.add_argument("--keep-going", action=argparse.BooleanOptionalAction, default=None,
+                   help="a unit that fails is recorded with its message in results.json and the report, and the "
+                        "run goes on without it, exiting 1 at the end (default: so for a run of more than one "
+                        "unit; --no-keep-going stops at the first failure)")
     p.add_argument("--fresh", action="store_true", help="redo finished units instead of reusing them (also into "
                                                          "a folder that holds the results of other settings)")
     p.add_argument("--update", action="store_true",
@@ -130,7 +134,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     out = args.output or Path("reports") / scenes[0].stem
     try:
         res = run(scenes, out, settings, progress=not args.quiet, fresh=args.fresh, report=not args.no_report,
-                  executor=args.executor, update=args.update)
+                  executor=args.executor, update=args.update, keep_going=args.keep_going)
     except ValueError as e:
         if isinstance(e, CompareError):
             raise
@@ -141,6 +145,14 @@ def cmd_run(args: argparse.Namespace) -> int:
     where = out / ("index.html" if not args.no_report else "results.json")
     print(f"{out / 'results.json'}: {n} scene/size combination{'s' if n != 1 else ''}; open {where}",
           file=sys.stdout)
+    if res.failures:
+        from compare.util.text import terminal_text
+
+        print(f"compare: {len(res.failures)} unit(s) failed:", file=sys.stderr)
+        for f in res.failures:
+            print(f"  - {terminal_text(f['scene'])}: {terminal_text(f['renderer'])}: {terminal_text(f['message'])}",
+                  file=sys.stderr)
+        return 1
     return 0
 
 

@@ -791,6 +791,8 @@ class Results:
     created: str = ""
     compare_version: str = ""
     schema: int = SCHEMA
+    #: Units that failed in a run that kept going: {"scene": id, "renderer": spec, "message": the error}.
+    failures: list[dict] = field(default_factory=list)
 
     def to_json(self) -> dict:
         """JSON-ready dict, checked for NaN/Inf.
@@ -808,6 +810,8 @@ class Results:
             "machine": self.machine.to_json(),
             "scenes": [s.to_json() for s in self.scenes],
         }
+        if self.failures:
+            d["failures"] = [dict(f) for f in self.failures]
         check_json_finite(d)
         return d
 
@@ -843,6 +847,8 @@ class Results:
             created=str(d.get("created", "")),
             compare_version=str(d.get("compare_version", "")),
             schema=SCHEMA,
+            failures=[{k: str(_require(f, k, f"results.failures[{i}]", str)) for k in ("scene", "renderer", "message")}
+                      for i, f in enumerate(_require(d, "failures", "results", list) if "failures" in d else [])],
         )
 
     @classmethod

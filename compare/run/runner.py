@@ -34,13 +34,14 @@ import contextlib
 import datetime
 import os
 import platform
+import sys
 from pathlib import Path
 from typing import Iterable
 
 from tqdm.auto import tqdm
 
 from compare import __version__
-from compare.util.errors import MissingComponentError
+from compare.util.errors import CompareError, MissingComponentError
 from compare.util.files import check_output_folder, folder_lock, remove_stale_parts
 from compare.renderers import RenderContext, doubling_steps
 from compare.renderers.registry import Registry
@@ -128,7 +129,7 @@ def _check_settings(settings: RunSettings, registry: Registry) -> None:
 def run(scene_paths: Iterable[str | os.PathLike], out: str | os.PathLike, settings: RunSettings | None = None, *,
         progress: bool = True, cache_dir: str | os.PathLike | None | bool = None, fresh: bool = False,
         report: bool = True, gl_ctx=None, executor: str | object = "serial", renderers: Iterable = (),
-        update: bool = False) -> Results:
+        update: bool = False, keep_going: bool | None = None) -> Results:
     """Render, measure and report every scene at every size with every renderer.
 
     Parameters
@@ -160,6 +161,10 @@ def run(scene_paths: Iterable[str | os.PathLike], out: str | os.PathLike, settin
         ``"serial"`` (this process), ``"local"``, ``"local:N"`` or
         ``"dask://HOST:PORT"``, see :mod:`compare.run.executor`; or a connected
         ``distributed.Client``. Workers render; this process measures.
+    keep_going : bool, optional
+        A unit that fails (a renderer's error, a time-out, NaN pixels) is recorded in ``results.failures``
+        with its message and the run goes on without it (a scene whose ground truth fails is left out);
+        default: so for a run of more than one unit. False: the first failure ends the run.
     renderers : iterable of Renderer, optional
         Renderer objects of this process (:mod:`compare.renderers.base`), found by
         their names in ``settings.renderers`` and ``settings.ground_truth``; a run
@@ -198,8 +203,10 @@ def run(scene_paths: Iterable[str | os.PathLike], out: str | os.PathLike, settin
     with contextlib.ExitStack() as held:
         held.enter_context(folder_lock(out, "compare run"))
         _prepare_folder(out, settings, jobs, fresh=fresh, update=update, cache_dir=cache_dir)
+        if keep_going is None:
+            keep_going = len(jobs) * (1 + len(settings.renderers)) > 1
         return _run_held(jobs, out, settings, registry, progress=progress, cache_dir=cache_dir, fresh=fresh,
-                         report=report, gl_ctx=gl_ctx, executor=executor)
+                         report=report, gl_ctx=gl_ctx, executor=executor, keep_going=keep_going)
 
 
 def _settings_changes(old: Results, settings: RunSettings, ids: list[str]) -> list[str]:
@@ -244,7 +251,7 @@ def _prepare_folder(out: Path, settings: RunSettings, jobs: dict, *, fresh: bool
 
 
 def _run_held(jobs: dict, out: Path, settings: RunSettings, registry: Registry, *, progress: bool, cache_dir,
-              fresh: bool, report: bool, gl_ctx, executor) -> Results:
+              fresh: bool, report: bool, gl_ctx, executor, keep_going: bool = False) -> Results:
     if isinstance(executor, str):
         from compare.run.executor import parse_executor
 
@@ -259,7 +266,8 @@ def _run_held(jobs: dict, out: Path, settings: RunSettings, registry: Registry, 
         for sc in jobs.values():  # a size no renderer can render here is refused before any work
             for spec in dict.fromkeys([settings.ground_truth, *settings.renderers]):
                 registry.get(spec).preflight(sc, context)
-        scene_job = SceneJob(settings, out, registry=registry, context=context, fresh=fresh, progress=progress)
+        scene_job = SceneJob(settings, out, registry=registry, context=context, fresh=fresh, progress=progress,
+                             keep_going=keep_going)
         units = len(jobs) * (1 + len(settings.renderers))
         if executor == "serial":
             with tqdm(total=units, desc="compare run", unit="unit", disable=not progress) as bar:
@@ -274,15 +282,24 @@ def _run_held(jobs: dict, out: Path, settings: RunSettings, registry: Registry, 
                             fresh=fresh)
                         for sid, sc in jobs.items()]
             with tqdm(total=len(job_list), desc="compare run", unit="job", disable=not progress) as bar:
-                for _, res_i in execute(job_list, executor):
-                    for k, v in res_i.facts.items():
-                        facts.setdefault(k, v)
-                    bar.update(1)
+                try:
+                    for _, res_i in execute(job_list, executor):
+                        for k, v in res_i.facts.items():
+                            facts.setdefault(k, v)
+                        bar.update(1)
+                except CompareError as exc:
+                    if not keep_going:
+                        raise
+                    # the measure stage renders here what the workers left undone, unit by unit, and records
+                    # each unit that fails
+                    tqdm.write(f"compare: a worker failed ({exc}); the rest renders here", file=sys.stderr)
             scene_job.fresh = False  # the workers' fresh renders are this run's
         results: list[SceneResult] = []
         with tqdm(total=len(jobs), desc="metrics", unit="scene", disable=not progress) as bar:
             for sc in jobs.values():
-                results.append(scene_job.measure(sc, bar))
+                measured = scene_job.measure(sc, bar)
+                if measured is not None:
+                    results.append(measured)
                 bar.update(1)
         facts = {**scene_job.facts, **facts}
     finally:
@@ -294,6 +311,7 @@ def _run_held(jobs: dict, out: Path, settings: RunSettings, registry: Registry, 
         scenes=results,
         created=datetime.datetime.now(datetime.timezone.utc).replace(microsecond=0).isoformat().replace("+00:00", "Z"),
         compare_version=__version__,
+        failures=list(scene_job.failures),
     )
     _save_with_report(res, out, report)
     return res

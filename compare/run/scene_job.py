@@ -33,6 +33,7 @@ import os
 import platform
 import re
 import dataclasses
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterable
@@ -41,7 +42,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from compare import __version__
-from compare.util.errors import ImageError
+from compare.util.errors import CompareError, ImageError
 from compare.image.exr import read_exr, write_exr
 from compare.util.files import sha256_bytes, write_text_atomic
 from compare.renderers import RenderContext, Renderer, check_layers, check_rendering
@@ -228,8 +229,12 @@ class SceneJob:
     """
 
     def __init__(self, settings: RunSettings, out: Path, *, registry: Registry, context: RenderContext,
-                 fresh: bool = False, progress: bool = False):
+                 fresh: bool = False, progress: bool = False, keep_going: bool = False):
         self.settings = settings
+        #: Whether a unit that fails is recorded (:attr:`failures`) and the run goes on without it.
+        self.keep_going = keep_going
+        #: The failed units: {"scene": id, "renderer": spec, "message": the error}, in order.
+        self.failures: list[dict] = []
         self.out = Path(out)
         self.registry = registry
         self.context = context
@@ -376,26 +381,54 @@ class SceneJob:
         for k, v in r.facts(meta).items():
             self.facts.setdefault(k, v)
 
+    def failed(self, sid: str, spec: str) -> bool:
+        """Whether unit ``spec`` of scene ``sid`` failed in this run (and is left out)."""
+        return any(f["scene"] == sid and f["renderer"] == spec for f in self.failures)
+
+    def _attempt(self, sid: str, spec: str, work) -> bool:
+        """Run ``work()``; with :attr:`keep_going`, a failure (any error of the suite's, or a renderer's own
+        exception) is recorded for the unit instead of ending the run. True if it succeeded."""
+        if self.failed(sid, spec):
+            return False
+        if not self.keep_going:
+            work()
+            return True
+        try:
+            work()
+            return True
+        except Exception as exc:  # noqa: BLE001 - a renderer's failure of any kind is the unit's, recorded
+            message = str(exc) if isinstance(exc, CompareError) else f"{type(exc).__name__}: {exc}"
+            self.failures.append({"scene": sid, "renderer": spec, "message": message})
+            tqdm.write(f"compare: {sid}: {spec} failed, the run goes on without it: {message}", file=sys.stderr)
+            return False
+
     def render(self, scene: Scene, bar=None) -> None:
         """Stage 1 for this scene: the ground truth and every renderer's checkpoints."""
         sid = scene_id(scene)
-        self._render_unit(scene, sid, self.settings.ground_truth, truth=True, bar=bar)
+        truth_ok = self._attempt(sid, self.settings.ground_truth,
+                                 lambda: self._render_unit(scene, sid, self.settings.ground_truth, truth=True, bar=bar))
         if bar is not None:
             bar.update(1)
         for spec in self.settings.renderers:
-            self._render_unit(scene, sid, spec, truth=False, bar=bar)
-            for k in range(1, self._replicas(spec) + 1):
-                self._render_unit(scene, sid, spec, truth=False, bar=bar, replica=k)
+            if truth_ok:
+                self._attempt(sid, spec, lambda spec=spec: [
+                    self._render_unit(scene, sid, spec, truth=False, bar=bar, replica=k)
+                    for k in range(self._replicas(spec) + 1)])
             if bar is not None:
                 bar.update(1)
 
     # -- stage 2: measure -----------------------------------------------------------------------
 
-    def measure(self, scene: Scene, bar=None) -> SceneResult:
-        """Stage 2 for this scene (rendering first what stage 1 has not left behind)."""
+    def measure(self, scene: Scene, bar=None) -> SceneResult | None:
+        """Stage 2 for this scene (rendering first what stage 1 has not left behind); None when its ground
+        truth failed in a run that keeps going (the failure is recorded)."""
         s = self.settings
         sid = scene_id(scene)
-        gt_key, gt = self._render_unit(scene, sid, s.ground_truth, truth=True)
+        found: list = []
+        if not self._attempt(sid, s.ground_truth,
+                             lambda: found.append(self._render_unit(scene, sid, s.ground_truth, truth=True))):
+            return None
+        gt_key, gt = found[0]
         final = gt["points"][-1]
         ref = Reference(spp=int(final["step"]), seed=int(gt["seed"]), seconds=float(final["seconds"]),
                         variant=str(gt["metadata"].get("variant", "")), load_seconds=float(gt["setup_seconds"]),
@@ -428,8 +461,16 @@ class SceneJob:
         runs: list[RendererRun] = []
         noise_floor = None
         for spec in s.renderers:
-            key, record = self._render_unit(scene, sid, spec, truth=False)
-            run = self._measure_unit(scene, sid, spec, key, record, gt_key, truth, bar, hdr_range, truth_layers)
+            measured: list[RendererRun] = []
+
+            def unit(spec=spec, measured=measured) -> None:
+                key, record = self._render_unit(scene, sid, spec, truth=False)
+                measured.append(self._measure_unit(scene, sid, spec, key, record, gt_key, truth, bar, hdr_range,
+                                                   truth_layers))
+
+            if not self._attempt(sid, spec, unit):
+                continue
+            run = measured[0]
             if spec == s.ground_truth:
                 nf = run.final.metrics
                 noise_floor = NoiseFloor(method="independent-full", spp=ref.spp, seeds=[ref.seed, ref.seed + 1],
