@@ -376,3 +376,15 @@ def test_web_engines_cull_single_sided_back_faces(tmp_path, make_scene, engine):
     assert _centre(culled) == pytest.approx(float(culled[0:2, 0:2].mean()), rel=0.02)  # the background
     assert _centre(images[True, True]) == pytest.approx(_centre(images[False, False]), rel=0.1)
     assert _centre(images[False, False]) < 0.7 * float(culled[0:2, 0:2].mean())
+
+
+@needs_web
+def test_a_page_that_does_not_answer_in_time_is_stopped_with_one_message(make_scene):
+    """A page that waits forever (an image that never decodes) used to hang the run: each call into the
+    page is bounded by the render's deadline; past it the tab is closed and the error says where it was."""
+    from test_sides import _scene
+
+    scene = _scene(make_scene, make_scene("").parent, double_sided=True, from_behind=False)
+    with RenderContext(RunSettings(frames=2), timeout=0.05) as context:
+        with pytest.raises(RendererError, match=r"no answer from the page within 0.05 s \(--timeout\) while"):
+            Registry().get("threejs").render(scene, steps=2, checkpoints=[2], seed=0, context=context)

@@ -69,6 +69,8 @@ def _build_parser() -> argparse.ArgumentParser:
     r.add_argument("--variant", default=None,
                    help="Mitsuba variant (default: best available); the same as --renderer mitsuba:VARIANT")
     r.add_argument("--no-cache", action="store_true", help="do not read or write the reference cache")
+    r.add_argument("--timeout", type=positive_float, default=None, metavar="SECONDS",
+                   help="stop the render if it takes longer, with one message; default: the renderer's own limit")
     r.add_argument("--png", type=Path, default=None, help="PNG preview path (default: beside the EXR)")
     r.add_argument("--exposure", type=positive_float, default=1.0, help="exposure multiplier for the PNG preview")
     r.add_argument("--tonemap", default="aces", help="tone-mapping operator for the PNG preview")
@@ -169,7 +171,8 @@ def cmd_render(args: argparse.Namespace) -> int:
     given, changed = renderer.prepare(scene)
     for note in changed:
         print(f"{renderer.name}: {note}", file=sys.stderr)
-    with RenderContext(settings, cache_dir=False if args.no_cache else None, progress=True) as context:
+    with RenderContext(settings, cache_dir=False if args.no_cache else None, progress=True,
+                       timeout=args.timeout) as context:
         rendering = check_rendering(renderer, renderer.render(given, steps=steps, checkpoints=[steps], seed=args.seed,
                                                               context=context), scene=scene, checkpoints=[steps])
     last = rendering.checkpoints[-1]

@@ -89,6 +89,10 @@ def add_run_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--seeds", type=positive_int, default=1,
                    help="independent runs of every renderer (different seeds); 2 or more split each checkpoint's "
                         "error into squared bias and variance (compare/metrics/bias.py), at that many times the cost")
+    p.add_argument("--timeout", type=positive_float, default=None, metavar="SECONDS",
+                   help="stop a render that takes longer, with one message (its browser tab or process group "
+                        "ended); default: each renderer's own limit (an external command's timeout, 1800 s for "
+                        "the web engines)")
     p.add_argument("--keep-going", action=argparse.BooleanOptionalAction, default=None,
                    help="a unit that fails is recorded with its message in results.json and the report, and the "
                         "run goes on without it, exiting 1 at the end (default: so for a run of more than one "
@@ -134,7 +138,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     out = args.output or Path("reports") / scenes[0].stem
     try:
         res = run(scenes, out, settings, progress=not args.quiet, fresh=args.fresh, report=not args.no_report,
-                  executor=args.executor, update=args.update, keep_going=args.keep_going)
+                  executor=args.executor, update=args.update, keep_going=args.keep_going, timeout=args.timeout)
     except ValueError as e:
         if isinstance(e, CompareError):
             raise

@@ -80,6 +80,10 @@ class Rendering:
     variance: tuple[np.ndarray, int] | None = None
 
 
+#: Seconds a renderer without a limit of its own may take for one render (set-up and every checkpoint).
+DEFAULT_TIMEOUT_S = 1800.0
+
+
 class RenderContext:
     """What the units rendered in one process share: the run's settings and lazily made resources.
 
@@ -91,14 +95,20 @@ class RenderContext:
         The reference cache (None: the default; False: none).
     progress : bool
         Whether renderers may show progress bars.
+    timeout : float or None
+        Seconds a render may take before it is stopped with one error (``--timeout``); None: each
+        renderer's own limit (an external command's ``timeout``, a web page's :data:`DEFAULT_TIMEOUT_S`).
 
     A renderer's own settings are not here: they are the options of its spec.
     """
 
-    def __init__(self, settings, *, cache_dir=None, progress: bool = False):
+    def __init__(self, settings, *, cache_dir=None, progress: bool = False, timeout: float | None = None):
         self.settings = settings
         self.cache_dir = cache_dir
         self.progress = progress
+        if timeout is not None and not (math.isfinite(timeout) and timeout > 0):
+            raise ValueError(f"timeout: expected a positive number of seconds, got {timeout!r}")
+        self.timeout = timeout
         self._resources: dict[str, tuple[Any, Callable[[Any], None] | None]] = {}
 
     def resource(self, name: str, make: Callable[[], Any], release: Callable[[Any], None] | None = None) -> Any:

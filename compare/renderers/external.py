@@ -120,11 +120,13 @@ class ExternalRenderer(Renderer):
                 except OSError as exc:
                     raise RendererError(f"{who}: cannot start {argv[0]!r}: {exc.strerror or exc}") from None
                 t0 = time.perf_counter()
+                limit, said = ((context.timeout, "--timeout") if context.timeout is not None
+                               and context.timeout < self.timeout else (self.timeout, f"timeout in {self.source}"))
                 try:
-                    code = proc.wait(timeout=self.timeout)
+                    code = proc.wait(timeout=limit)
                 except subprocess.TimeoutExpired:
                     _kill(proc)
-                    raise RendererError(f"{who} did not finish within {self.timeout:g} s (timeout in {self.source})"
+                    raise RendererError(f"{who} did not finish within {limit:g} s ({said})"
                                         " and was stopped; the last lines of its stderr:\n"
                                         + log_tail(stderr_path, TAIL_LINES)) from None
                 except BaseException:

@@ -129,7 +129,7 @@ def _check_settings(settings: RunSettings, registry: Registry) -> None:
 def run(scene_paths: Iterable[str | os.PathLike], out: str | os.PathLike, settings: RunSettings | None = None, *,
         progress: bool = True, cache_dir: str | os.PathLike | None | bool = None, fresh: bool = False,
         report: bool = True, gl_ctx=None, executor: str | object = "serial", renderers: Iterable = (),
-        update: bool = False, keep_going: bool | None = None) -> Results:
+        update: bool = False, keep_going: bool | None = None, timeout: float | None = None) -> Results:
     """Render, measure and report every scene at every size with every renderer.
 
     Parameters
@@ -165,6 +165,9 @@ def run(scene_paths: Iterable[str | os.PathLike], out: str | os.PathLike, settin
         A unit that fails (a renderer's error, a time-out, NaN pixels) is recorded in ``results.failures``
         with its message and the run goes on without it (a scene whose ground truth fails is left out);
         default: so for a run of more than one unit. False: the first failure ends the run.
+    timeout : float, optional
+        Seconds one render may take before it is stopped with one error (its browser tab or process group
+        ended); default: each renderer's own limit.
     renderers : iterable of Renderer, optional
         Renderer objects of this process (:mod:`compare.renderers.base`), found by
         their names in ``settings.renderers`` and ``settings.ground_truth``; a run
@@ -206,7 +209,7 @@ def run(scene_paths: Iterable[str | os.PathLike], out: str | os.PathLike, settin
         if keep_going is None:
             keep_going = len(jobs) * (1 + len(settings.renderers)) > 1
         return _run_held(jobs, out, settings, registry, progress=progress, cache_dir=cache_dir, fresh=fresh,
-                         report=report, gl_ctx=gl_ctx, executor=executor, keep_going=keep_going)
+                         report=report, gl_ctx=gl_ctx, executor=executor, keep_going=keep_going, timeout=timeout)
 
 
 def _settings_changes(old: Results, settings: RunSettings, ids: list[str]) -> list[str]:
@@ -251,14 +254,15 @@ def _prepare_folder(out: Path, settings: RunSettings, jobs: dict, *, fresh: bool
 
 
 def _run_held(jobs: dict, out: Path, settings: RunSettings, registry: Registry, *, progress: bool, cache_dir,
-              fresh: bool, report: bool, gl_ctx, executor, keep_going: bool = False) -> Results:
+              fresh: bool, report: bool, gl_ctx, executor, keep_going: bool = False,
+              timeout: float | None = None) -> Results:
     if isinstance(executor, str):
         from compare.run.executor import parse_executor
 
         kind, detail = parse_executor(executor)
         if kind == "serial" or (kind == "local" and (detail == 1 or len(jobs) == 1)) or not registry.portable:
             executor = "serial"  # one worker, or renderers only this process has: render here
-    context = RenderContext(settings, cache_dir=cache_dir, progress=progress)
+    context = RenderContext(settings, cache_dir=cache_dir, progress=progress, timeout=timeout)
     if gl_ctx is not None:
         context.provide("gl", gl_ctx)
     facts: dict[str, str] = {}

@@ -34,7 +34,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from compare.renderers.base import Checkpoint, RenderContext, Renderer, RendererError, Rendering
+from compare.renderers.base import DEFAULT_TIMEOUT_S, Checkpoint, RenderContext, Renderer, RendererError, Rendering
 from compare.renderers.options import parse_spec
 from compare.util.files import sha256_bytes
 
@@ -59,6 +59,10 @@ def web_root() -> Path:
 def chromium_path() -> str | None:
     """Chromium's executable: ``$COMPARE_CHROMIUM``, else ``chromium`` on PATH."""
     return os.environ.get("COMPARE_CHROMIUM") or shutil.which("chromium") or shutil.which("chromium-browser")
+
+
+class _Timeout(Exception):
+    """The page gave no answer before the render's deadline (what it was doing is the message)."""
 
 
 class _Handler(http.server.SimpleHTTPRequestHandler):
@@ -164,6 +168,7 @@ class WebRenderer(Renderer):
         ok, why = self.available()
         if not ok:
             raise RendererError(f"{who}: {why}")
+        from playwright.sync_api import TimeoutError as PlaywrightTimeout
         try:
             browser = context.resource("chromium", _Browser, lambda b: b.close())
         except Exception as exc:  # noqa: BLE001 - Playwright's launch errors, whatever their type
@@ -184,7 +189,30 @@ class WebRenderer(Renderer):
             threading.Thread(target=server.serve_forever, daemon=True).start()
             origin = f"http://127.0.0.1:{server.server_address[1]}"
             page = browser.new_page()
-            page.set_default_timeout(600_000)
+            limit = context.timeout if context.timeout is not None else DEFAULT_TIMEOUT_S
+            deadline = t0 + limit
+
+            def call(name: str, arg, what: str):
+                """``await window[name](arg)`` in the page, bounded by the render's deadline (Playwright's
+                evaluate waits for a promise forever: a page that waits on an image would never return)."""
+                left = deadline - time.perf_counter()
+                if left <= 0:
+                    raise _Timeout(what)
+                page.evaluate("([name, arg]) => { window.__compareDone = undefined; window.__compareError = undefined;"
+                              " Promise.resolve().then(() => window[name](arg)).then("
+                              "r => { window.__compareDone = {r: r}; },"
+                              " e => { window.__compareError = String((e && e.stack) || e); }); }", [name, arg])
+                try:
+                    page.wait_for_function("window.__compareDone !== undefined || window.__compareError !== undefined",
+                                           timeout=left * 1000.0, polling=20)
+                except PlaywrightTimeout:
+                    raise _Timeout(what) from None
+                error = page.evaluate("() => window.__compareError || null")
+                if error:
+                    raise RendererError(f"{who}: the page failed {what}: {error.splitlines()[0]}")
+                return page.evaluate("() => window.__compareDone.r")
+
+            page.set_default_timeout(max(limit, 1.0) * 1000.0)
             page.on("console", lambda m: console.append(f"{m.type}: {m.text}") if m.type in ("error", "warning")
                     else None)
             page.on("pageerror", lambda e: console.append(f"page error: {e}"))
@@ -196,13 +224,13 @@ class WebRenderer(Renderer):
             failed = page.evaluate("() => window.compareFailed || null")
             if failed:
                 raise RendererError(f"{who}: the page did not load: {failed}")
-            info = page.evaluate("async (a) => await window.compareSetup(a)",
-                                 {"job": f"{origin}/job/job.json", "engine": self.engine, "options": self.options})
+            info = call("compareSetup", {"job": f"{origin}/job/job.json", "engine": self.engine,
+                                         "options": self.options}, "setting up the scene")
             setup = time.perf_counter() - t0
             w, h = scene.camera.resolution
             out = []
             for step in checkpoints:
-                r = page.evaluate("async (n) => await window.compareStep(n)", int(step))
+                r = call("compareStep", int(step), f"rendering step {step}")
                 raw = base64.b64decode(page.evaluate("() => window.compareImage()"))
                 rgba = np.frombuffer(raw, dtype=np.float32).reshape(h, w, 4)
                 out.append(Checkpoint(int(step), float(r["ms"]) / 1000.0, np.ascontiguousarray(rgba[::-1, :, :3])))
@@ -212,6 +240,11 @@ class WebRenderer(Renderer):
             if console:
                 meta["console"] = " | ".join(console[-5:])
             return Rendering(out, setup, meta)
+        except _Timeout as exc:
+            said = "--timeout" if context.timeout is not None else "the web engines' limit, --timeout to change it"
+            tail = ("; the page's console: " + " | ".join(console[-5:])) if console else ""
+            raise RendererError(f"{who}: no answer from the page within {limit:g} s ({said}) while {exc}; its tab "
+                                f"was closed{tail}") from None
         except RendererError:
             raise
         except Exception as exc:  # noqa: BLE001 - a failure in the page comes as Playwright's Error
