@@ -96,3 +96,34 @@ def test_setup_items_measure_every_renderer_on_the_car_and_the_scaled_scenes(tmp
     rss = [f for f in figures if f.name == "setup-rss"]
     assert all(50 < f.a_median < 4000 for f in rss)  # MiB of a process that imported Mitsuba
     assert "growth (linear: 16)" in figures[-1].note
+
+
+def test_a_failing_item_is_recorded_and_every_figure_is_written_as_it_is_measured(tmp_path, monkeypatch):
+    """A bench item that fails (a renderer's error, a page that never answers) no longer loses the whole
+    bench: it is in ``failed`` with its message, the figures measured before and after it stand, and the
+    command line's file holds each figure as soon as it is measured."""
+    from compare.bench import progressive
+    from compare.cli.main import main
+    from compare.renderers import RendererError
+    from compare.util.figures import Figure
+
+    def broken(scene, **_):
+        raise RendererError("renderer 'babylon': no answer from the page within 600 s")
+
+    seen = []
+
+    def fine(scene, **_):
+        if (tmp_path / "bench.json").is_file():
+            seen.append(json.loads((tmp_path / "bench.json").read_text()))
+        return [Figure("depth-floor", "a", "b", 2.0, 1.0, "s", 1)]
+
+    monkeypatch.setitem(progressive.ITEMS, "first-frame", broken)
+    monkeypatch.setitem(progressive.ITEMS, "depth-floor", fine)
+    rc = main(["bench", "--scene", str(Path(__file__).resolve().parent.parent / "scenes" / "cornell.toml"),
+               "--size", "16x12", "--frames", "2", "--spp", "4", "--repeats", "1",
+               "--only", "first-frame,depth-floor", "-o", str(tmp_path / "bench.json")])
+    assert rc == 1
+    result = json.loads((tmp_path / "bench.json").read_text())
+    assert result["failed"] == {"first-frame": "renderer 'babylon': no answer from the page within 600 s"}
+    assert [f["name"] for f in result["figures"]] == ["depth-floor"]
+    assert seen and seen[0]["failed"] == result["failed"] and seen[0]["figures"] == []  # written after item 1

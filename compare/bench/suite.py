@@ -73,6 +73,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+from compare.util.errors import CompareError, MissingComponentError
 from compare.util.figures import Figure, median as _median, time_to_error
 
 #: The items this module measures itself; those about an engine's internals are in compare.bench.progressive
@@ -312,11 +313,14 @@ def all_items() -> tuple[str, ...]:
 
 def run_bench(scene_path: str | Path, *, size: tuple[int, int], frames: int, spp: int, repeats: int,
               items: tuple[str, ...] | None = None, progress: bool = True,
-              setup_scene: str | Path = "scenes/car.toml") -> dict:
-    """Run the chosen benchmark items; returns a JSON-ready dict (figures, skipped items, machine).
+              setup_scene: str | Path = "scenes/car.toml", on_item=None) -> dict:
+    """Run the chosen benchmark items; returns a JSON-ready dict (figures, skipped and failed items, machine).
 
     Every renderer is reached through the registry: the items that compare renderers render through
-    the protocol; the items about one renderer's internals are the ones that renderer declares.
+    the protocol; the items about one renderer's internals are the ones that renderer declares. An item
+    that fails (a renderer's error, a time-out) is recorded in ``failed`` with its message and the others
+    stand; ``on_item(result)``, if given, receives the result so far after every item (the command line
+    writes it, so a bench stopped half-way keeps what it measured).
     """
     from tqdm.auto import tqdm
 
@@ -334,6 +338,14 @@ def run_bench(scene_path: str | Path, *, size: tuple[int, int], frames: int, spp
     figures: list[Figure] = []
     setup_figures: list[Figure] | None = None
     skipped: dict[str, str] = {}
+    failed: dict[str, str] = {}
+    info = {"schema": 1, "scene": str(scene_path), "size": list(size), "frames": frames, "spp": spp,
+            "repeats": repeats}
+
+    def so_far(machine=None) -> dict:
+        return {**info, "figures": [f.to_json() for f in figures], "skipped": dict(skipped), "failed": dict(failed),
+                **({"machine": machine} if machine is not None else {})}
+
     with RenderContext(RunSettings(frames=frames, spp=spp), progress=False) as context:
         for item in tqdm(items, desc="bench", disable=not progress):
             try:
@@ -355,13 +367,18 @@ def run_bench(scene_path: str | Path, *, size: tuple[int, int], frames: int, spp
                     figures += [f for f in setup_figures if f.name == item]
                 else:
                     raise ValueError(f"unknown benchmark item {item!r} (known: {', '.join(all_items())})")
-            except RuntimeError as exc:
+            except MissingComponentError as exc:  # what this machine lacks: the item does not apply here
                 skipped[item] = str(exc)
+            except CompareError as exc:  # a renderer's error, a time-out, a bad scene: this item failed
+                failed[item] = str(exc)
+            except RuntimeError as exc:  # a library's own "not here" (no GL context, no browser)
+                skipped[item] = str(exc)
+            if on_item is not None:
+                on_item(so_far())
         from compare.progressive.renderer import gl_context  # the context the items used
 
         env = machine_info(gl_context(context))
-    return {"schema": 1, "scene": str(scene_path), "size": list(size), "frames": frames, "spp": spp,
-            "repeats": repeats, "figures": [f.to_json() for f in figures], "skipped": skipped, "machine": env}
+    return so_far(env)
 
 
 def format_table(result: dict) -> str:

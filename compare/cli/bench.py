@@ -42,9 +42,14 @@ def _cmd_bench(args) -> int:
     from compare.util.files import check_outputs
 
     check_outputs({"-o": args.output}, inputs=(args.scene,), suffixes={"-o": ".json"})
+    def keep(so_far: dict) -> None:  # every figure on disk as soon as it is measured
+        write_text_atomic(args.output, json.dumps(so_far, indent=2))
+
     result = run_bench(args.scene, size=args.size, frames=args.frames, spp=args.spp, repeats=args.repeats,
-                       items=items, setup_scene=args.setup_scene)
-    write_text_atomic(args.output, json.dumps(result, indent=2))
+                       items=items, setup_scene=args.setup_scene, on_item=keep)
+    keep(result)
     print(format_table(result))
+    for item, why in result.get("failed", {}).items():
+        print(f"compare: bench item {item} failed: {why}", file=sys.stderr)
     print(f"written {args.output}")
-    return 0
+    return 1 if result.get("failed") else 0
