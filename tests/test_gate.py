@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import math
 import re
+import os
 import shutil
 import sys
 import textwrap
@@ -448,3 +449,46 @@ def test_a_gate_that_judged_nothing_has_not_passed():
     assert nothing.to_json()["verdict"] == "inconclusive"
     assert report("pass", "inconclusive").verdict == "passed"
     assert report("regression", "inconclusive").verdict == "failed"
+
+
+def test_baselines_keep_what_is_not_theirs_and_sweep_what_a_kill_left(runs, baseline, tmp_path, capsys):
+    """update keeps a README and a .git the user keeps in the baseline folder; the parts a killed save or
+    update left beside it are swept by the next baseline command, and a baseline moved aside just before the
+    kill is put back; links out of the baseline or the run's folder are refused, never copied or published."""
+    folder = tmp_path / "bl"
+    shutil.copytree(baseline, folder)
+    (folder / "README.md").write_text("our baseline, see the wiki\n")
+    (folder / ".git").mkdir()
+    (folder / ".git" / "HEAD").write_text("ref: refs/heads/main\n")
+    assert main(["baseline", "update", str(folder), "--results", str(runs["darker"])]) == 0
+    assert (folder / "README.md").read_text() == "our baseline, see the wiki\n"
+    assert (folder / ".git" / "HEAD").is_file() and (folder / "baseline.json").is_file()
+    # a SIGKILL mid-save: a half-written part; mid-update, between its renames: the old baseline aside
+    (tmp_path / ".bl.part-abc").mkdir()
+    (tmp_path / ".bl.part-abc" / "baseline.json").write_text("{")
+    aside = tmp_path / ".bl.old.part-def"
+    aside.mkdir()
+    os.replace(folder, aside / "x")
+    capsys.readouterr()
+    assert main(["check", str(runs["darker"]), "--baseline", str(folder)]) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bl"] and (folder / "README.md").is_file()
+    # a link inside the baseline to a file elsewhere: refused by name, not published by the gate page
+    secret = tmp_path / "secret.png"
+    secret.write_bytes(b"not yours")
+    index = json.loads((folder / "baseline.json").read_text())
+    preview = folder / index["runs"][0]["preview"]
+    preview.unlink()
+    preview.symlink_to(secret)
+    capsys.readouterr()
+    assert main(["check", str(runs["darker"]), "--baseline", str(folder)]) == 2
+    assert "outside the baseline folder" in capsys.readouterr().err
+    # results.json naming an image outside its run's folder: save refuses to copy it
+    hostile = tmp_path / "run" / "results.json"
+    hostile.parent.mkdir()
+    d = json.loads(runs["same"].read_text())
+    d["scenes"][0]["runs"][0]["image"] = str(secret)
+    for s in d["scenes"][0]["runs"][0].get("seed_runs", []):
+        s["image"] = "../secret.png"
+    hostile.write_text(json.dumps(d))
+    assert main(["baseline", "save", str(tmp_path / "stolen"), "--results", str(hostile)]) == 2
+    assert not (tmp_path / "stolen").exists()

@@ -28,6 +28,7 @@ change; both write a temporary folder beside ``DIR`` and rename it into place.
 from __future__ import annotations
 
 import copy
+import shutil
 import datetime
 import json
 import os
@@ -39,7 +40,8 @@ from typing import Any
 import numpy as np
 
 from compare.util.errors import CompareError
-from compare.util.files import atomic_folder, write_text_atomic
+from compare.util.errors import OutputError
+from compare.util.files import atomic_folder, sibling_lock, sweep_folder_parts, write_text_atomic
 from compare.report.results import Machine, Results, ResultsError
 
 __all__ = ["BASELINE_SCHEMA", "Baseline", "BaselineError", "BaselineRun", "save_baseline"]
@@ -47,6 +49,8 @@ __all__ = ["BASELINE_SCHEMA", "Baseline", "BaselineError", "BaselineRun", "save_
 #: The version of ``baseline.json``.
 BASELINE_SCHEMA = 1
 INDEX = "baseline.json"
+#: What a baseline folder holds of its own; ``baseline update`` replaces these and keeps everything else.
+OWNED = (INDEX, "results.json", "images")
 KIND = "compare-baseline"
 
 
@@ -120,6 +124,11 @@ class Baseline:
         """
         root = Path(folder)
         path = root / INDEX
+        try:  # what a killed save or update left beside it (every baseline command sweeps it)
+            with sibling_lock(root, "reading it"):
+                sweep_folder_parts(root)
+        except OutputError:
+            pass  # being written now: its parts are the writer's
         if not root.is_dir():
             raise BaselineError(f"{root}: no such baseline folder (make one with `compare baseline save`)")
         try:
@@ -155,10 +164,21 @@ class Baseline:
                                     f"got {len(run.images)}")
             for key, p in [("mean", run.mean), ("variance", run.variance), ("preview", run.preview),
                            *((f"images[{k}]", p) for k, p in enumerate(run.images))]:
-                if p is not None and not (root / _safe(p, f"{w}.{key}")).is_file():
-                    raise BaselineError(f"{w}.{key}: {root / p} is missing")
+                if p is not None:
+                    _contained(root, _safe(p, f"{w}.{key}"), f"{w}.{key}")
             runs.append(run)
         return cls(root, index, results, runs)
+
+
+def _contained(root: Path, rel: Path, where: str) -> Path:
+    """``root / rel``, a file inside ``root`` once links are resolved: a link in a baseline (a restored CI
+    cache, say) must not make the gate page publish, or a check read, a file of somewhere else."""
+    path = root / rel
+    if not path.is_file():
+        raise BaselineError(f"{where}: {path} is missing")
+    if not path.resolve().is_relative_to(root.resolve()):
+        raise BaselineError(f"{where}: {path} links to {path.resolve()}, outside the baseline folder {root}")
+    return path
 
 
 def _safe(rel: str, where: str) -> Path:
@@ -229,7 +249,12 @@ def save_baseline(results_path: str | os.PathLike, folder: str | os.PathLike, *,
             images = []
             for s in seeds:
                 try:
-                    images.append(read_exr(src / s.image)[0])
+                    # only the run's own images: no absolute or ../ path, no link out of its folder
+                    image = src / _safe(s.image, f"{where}: image {s.image!r}")
+                    if not image.resolve().is_relative_to(src.resolve()):
+                        raise BaselineError(f"{where}: {image} links to {image.resolve()}, outside the run's "
+                                            f"folder {src}")
+                    images.append(read_exr(image)[0])
                 except CompareError as e:
                     raise BaselineError(f"{where}: {e}") from e
             stack = np.stack(images).astype(np.float64)
@@ -260,4 +285,11 @@ def save_baseline(results_path: str | os.PathLike, folder: str | os.PathLike, *,
                  "compare_version": __version__, "results": "results.json",
                  "machine": Machine.to_json(res.machine), "runs": entries}
         write_text_atomic(tmp / INDEX, json.dumps(index, indent=1, allow_nan=False, ensure_ascii=False) + "\n")
+        if replace:  # what the user keeps there (a README, a .git) is theirs: copied into the new folder
+            for extra in sorted(set(os.listdir(folder)) - set(OWNED)):
+                old = folder / extra
+                if old.is_dir() and not old.is_symlink():
+                    shutil.copytree(old, tmp / extra, symlinks=True)
+                else:
+                    shutil.copy2(old, tmp / extra, follow_symlinks=False)
     return Baseline.load(folder)

@@ -217,6 +217,52 @@ def log_tail(path: str | os.PathLike, lines: int = 12, *, drop: str | None = Non
     return out
 
 
+def sweep_folder_parts(path: str | os.PathLike) -> list[Path]:
+    """What a killed :func:`atomic_folder` of ``path`` left beside it: its half-written ``.<name>.part-*``
+    folders are removed; a ``.<name>.old.part-*`` folder holds the previous ``path`` (moved aside just
+    before the new one was to take its place), which is put back where ``path`` is missing, else removed.
+    Call it holding :func:`sibling_lock` of ``path``. Returns what was removed or restored."""
+    import shutil
+
+    path = Path(path)
+    done: list[Path] = []
+    if not path.parent.is_dir():
+        return done
+    for p in sorted(path.parent.glob(f".{path.name}.old{PART_MARK}*")):
+        if (p / "x").is_dir() and not path.exists():
+            os.replace(p / "x", path)  # the swap was cut between its two renames: the old folder comes back
+        shutil.rmtree(p, ignore_errors=True)
+        done.append(p)
+    for p in sorted(path.parent.glob(f".{path.name}{PART_MARK}*")):
+        if p.is_dir() and not p.is_symlink():
+            shutil.rmtree(p, ignore_errors=True)
+            done.append(p)
+    return done
+
+
+@contextlib.contextmanager
+def sibling_lock(path: str | os.PathLike, what: str) -> Iterator[None]:
+    """Hold the folder ``path`` (which may not exist yet) for this process: an advisory ``flock`` on its
+    parent folder itself (no lock file is left anywhere), so that two commands never write or sweep folders
+    there at once (one error instead). The lock ends with the process, however it ends."""
+    import fcntl
+
+    from compare.util.errors import OutputError
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd = os.open(path.parent, os.O_RDONLY)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise OutputError(f"{path}: another compare command is writing a folder in {path.parent}; wait for it "
+                              f"to finish ({what})") from None
+        yield
+    finally:
+        os.close(fd)  # closing releases the lock
+
+
 @contextlib.contextmanager
 def atomic_folder(path: str | os.PathLike, *, replace: bool = False) -> Iterator[Path]:
     """Yield a temporary folder beside ``path``; on success it becomes ``path``.
@@ -224,8 +270,15 @@ def atomic_folder(path: str | os.PathLike, *, replace: bool = False) -> Iterator
     With ``replace`` an existing ``path`` is swapped out (renamed aside, then removed once the new folder
     is in place); without, an existing ``path`` is an :class:`~compare.util.errors.OutputError`. On any
     exception the temporary folder is removed and ``path`` is left as it was: a reader never sees a
-    half-written folder.
+    half-written folder. The parts a killed swap left are swept first (:func:`sweep_folder_parts`), under
+    :func:`sibling_lock`.
     """
+    with sibling_lock(path, "writing it"):
+        sweep_folder_parts(path)
+        yield from _atomic_folder(path, replace=replace)
+
+
+def _atomic_folder(path, *, replace: bool) -> Iterator[Path]:
     import shutil
 
     from compare.util.errors import OutputError
