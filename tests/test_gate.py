@@ -170,19 +170,21 @@ def test_the_gate_passes_the_same_code_and_fails_a_darker_and_a_slower_renderer(
     passes; 5 % darker fails on error (and its image changed); 30 % slower fails on time; timings whose
     spread is too large are inconclusive, which is reported and does not fail."""
     status, rerun = check(runs["rerun"], baseline, capsys=capsys)
-    assert status == 0 and {(g["kind"], g["p"]) for g in rerun["gates"] if g["kind"] != "time"} == {
-        ("error", 1.0), ("image", 1.0)}  # the same seeds: exactly the same images
+    assert status == 0 and {(g["kind"], g["p"]) for g in rerun["gates"] if g["kind"] in ("error", "image", "bias")} == {
+        ("error", 1.0), ("image", 1.0), ("bias", 1.0)}  # the same seeds: exactly the same images
+    assert {g["status"] for g in rerun["gates"] if g["kind"] == "seed"} == {"pass"}
 
     status, same = check(runs["same"], baseline, capsys=capsys)
     kinds = by_kind(same)
     assert status == 0 and not same["failed"]
     assert len(kinds["error"]) == 4 and len(kinds["time"]) == 4 and kinds["image"] == ["pass"]
     assert set(kinds["error"]) == {"pass"} and "slower" not in kinds["time"]
+    assert set(kinds["seed"]) == {"pass"} and kinds["bias"] == ["pass"]
 
     status, darker = check(runs["darker"], baseline, capsys=capsys)
     kinds = by_kind(darker)
     assert status == 1 and darker["failed"]
-    assert kinds["error"] == ["regression"] * 4 and kinds["image"] == ["changed"]
+    assert kinds["error"] == ["regression"] * 4 and kinds["image"] == ["changed"] and kinds["bias"] == ["regression"]
     assert "slower" not in kinds["time"]
     final = next(g for g in darker["gates"] if g["kind"] == "error" and g["step"] == 8)
     assert final["candidate"] > final["baseline"] and final["low"] > 0 and final["p_holm"] <= 0.01
@@ -235,8 +237,10 @@ def test_outputs_for_ci_systems(runs, baseline, tmp_path, capsys):
     cases = root.findall("./testsuite/testcase")
     assert len(cases) == len(report["gates"]) == int(root.get("tests"))
     failures = [c for c in cases if c.find("failure") is not None]
-    assert len(failures) == 4 == int(root.get("failures"))
-    assert all("error relmse" in c.get("name") for c in failures)
+    failing = [g for g in report["gates"] if g["status"] in ("regression", "slower", "missing")]
+    assert {g["kind"] for g in failing} == {"error", "seed", "bias"}  # darker: the errors, its seeds, its mean
+    assert len(failures) == len(failing) == int(root.get("failures"))
+    assert all(any(k in c.get("name") for k in ("error relmse", "seed relmse", "bias mean")) for c in failures)
     text = summary.read_text()
     assert text.startswith("# earlier step\n\n## ") and "## ❌ Regression gate" in text and "| REGRESSION |" in text
     html = (page / "index.html").read_text()
@@ -492,3 +496,22 @@ def test_baselines_keep_what_is_not_theirs_and_sweep_what_a_kill_left(runs, base
     hostile.write_text(json.dumps(d))
     assert main(["baseline", "save", str(tmp_path / "stolen"), "--results", str(hostile)]) == 2
     assert not (tmp_path / "stolen").exists()
+
+
+@pytest.mark.parametrize("broken", [(0, 1), (0, 1, 2, 3)])
+def test_a_candidate_with_broken_seeds_fails(runs, baseline, tmp_path, capsys, broken):
+    """Seeds 0 and 7919 of 5 at 125x the baseline's relMSE (or 4 of 5): the paired test's spread grows with
+    the change and missed it; the per-seed test sees each broken seed far outside the baseline's spread."""
+    folder = tmp_path / "cand"
+    shutil.copytree(runs["same"].parent, folder, symlinks=True)
+    d = json.loads((folder / "results.json").read_text())
+    run = next(r for r in d["scenes"][0]["runs"] if r["renderer"] == "mine")
+    for k in broken:
+        for p in run["seed_runs"][k]["points"]:
+            p["metrics"]["relmse"] *= 125.0
+    (folder / "results.json").write_text(json.dumps(d))
+    status, report = check(folder / "results.json", baseline, capsys=capsys)
+    assert status == 1
+    seed = [g for g in report["gates"] if g["kind"] == "seed" and g["step"] == 8]
+    assert seed and seed[0]["status"] == "regression" and seed[0]["p_holm"] <= 0.01
+    assert "prediction-interval units above" in seed[0]["note"]

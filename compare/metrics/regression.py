@@ -34,7 +34,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["ImageTest", "Welch", "coefficient_of_variation", "holm", "image_test", "paired", "welch"]
+__all__ = ["ImageTest", "SeedOutlier", "Welch", "coefficient_of_variation", "holm", "image_test", "paired",
+           "seed_outlier", "welch"]
 
 
 @dataclass(frozen=True)
@@ -97,6 +98,41 @@ def welch(baseline, candidate, *, level: float = 0.95) -> Welch:
     p = float(student_t.sf(diff / se, dof))
     q = float(student_t.ppf(0.5 + level / 2.0, dof))
     return Welch(ma, mb, diff, diff - q * se, diff + q * se, p, float(dof), a.size, b.size)
+
+
+@dataclass(frozen=True)
+class SeedOutlier:
+    """The candidate seed farthest above the baseline's seeds (:func:`seed_outlier`)."""
+
+    p: float
+    """Šidák-corrected one-sided p-value of the worst candidate seed against the baseline's distribution."""
+    worst: int
+    """Index (among the candidate's seeds) of that seed."""
+    t: float
+    """Its distance above the baseline's mean in prediction-interval units (s·sqrt(1 + 1/n))."""
+
+
+def seed_outlier(baseline, candidate) -> SeedOutlier:
+    """Whether any one candidate seed lies far above the baseline's spread (one-sided).
+
+    A paired or Welch test of the means misses a candidate whose broken seeds widen its own spread as
+    much as they move its mean (two seeds of 5 at 125x the error). Here each candidate seed is a new
+    observation against the baseline's seeds: t_i = (x_i - mean) / (s sqrt(1 + 1/n)) has Student's t
+    distribution with n - 1 degrees of freedom when it comes from the baseline's (normal) distribution;
+    the smallest of the m one-sided p-values, Šidák-corrected, is the test's p. Where the baseline's seeds
+    agree exactly, a larger candidate seed is a certain change (p 0) and none is p 1.
+    """
+    from scipy.stats import t as student_t
+
+    a, b = _sample(baseline, "baseline"), _sample(candidate, "candidate")
+    mean, sd, n = float(a.mean()), float(a.std(ddof=1)), a.size
+    if sd == 0:
+        worst = int(np.argmax(b))
+        return SeedOutlier(0.0 if b[worst] > mean else 1.0, worst, math.inf if b[worst] > mean else 0.0)
+    t = (b - mean) / (sd * math.sqrt(1.0 + 1.0 / n))
+    worst = int(np.argmax(t))
+    p_one = float(student_t.sf(t[worst], n - 1))
+    return SeedOutlier(float(-math.expm1(b.size * math.log1p(-min(p_one, 1.0 - 1e-16)))), worst, float(t[worst]))
 
 
 def paired(baseline, candidate, *, level: float = 0.95) -> Welch:

@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from compare.util.errors import CompareError
-from compare.metrics.regression import coefficient_of_variation, holm, image_test, paired, welch
+from compare.metrics.regression import coefficient_of_variation, holm, image_test, paired, seed_outlier, welch
 from compare.report.baseline import Baseline
 from compare.report.results import Machine, RendererRun, Results, SceneResult
 
@@ -254,6 +254,28 @@ class GateReport:
                 "gates": [g.to_json() for g in self.gates]}
 
 
+def _bias_gate(g: Gate, a: np.ndarray, b: np.ndarray, same_seeds: bool, settings: GateSettings) -> Gate:
+    """The final images' mean brightness per channel, seed by seed, baseline ``a`` against candidate ``b``
+    (seeds, H, W, 3): a renderer made a few % darker or tinted moves every seed's mean by far more than its
+    noise, where its error metrics (dominated by the noise) may not reach significance. Two-sided (paired
+    by seed where both ran the same seeds), Šidák over the three channels."""
+    ma, mb = a.mean(axis=(1, 2)), b.mean(axis=(1, 2))  # (seeds, 3)
+    test = paired if same_seeds else welch
+    ps, changes = [], []
+    for c in range(3):
+        up = test(ma[:, c], mb[:, c], level=1.0 - settings.alpha).p  # brighter
+        down = test(mb[:, c], ma[:, c], level=1.0 - settings.alpha).p  # darker
+        ps.append(min(1.0, 2.0 * min(up, down)))
+        base = float(ma[:, c].mean())
+        changes.append(float(mb[:, c].mean()) / base - 1.0 if base > 0 else math.inf)
+    worst = int(np.argmin(ps))
+    g.p = float(-math.expm1(3 * math.log1p(-min(ps[worst], 1.0 - 1e-16))))
+    g.baseline, g.candidate = float(ma[:, worst].mean()), float(mb[:, worst].mean())
+    g.note = ("mean brightness " + ", ".join(f"{'RGB'[c]} {100 * changes[c]:+.2f} %" for c in range(3))
+              + f" ({'paired by seed' if same_seeds else 'Welch'})")
+    return g
+
+
 def _fmt(v: float | None) -> str:
     return "" if v is None else f"{v:.4g}"
 
@@ -334,6 +356,7 @@ def _compare_runs(scene: SceneResult, base: RendererRun, cand: RendererRun, base
                 g.note = (f"{image.values} values{f' ({settings.block}x{settings.block} tiles)' if settings.block > 1 else ''}"
                           f", largest |z| {image.max_abs_z:.3g} at {tile} ({x}, {y}) {'RGB'[c]}"
                           f"{', paired by seed' if same_seeds else ''}")
+                gates.append(_bias_gate(gate(final, "bias", "mean per channel"), a, b, same_seeds, settings))
         gates.append(g)
     for step in steps:
         for metric in settings.metrics:
@@ -359,6 +382,15 @@ def _compare_runs(scene: SceneResult, base: RendererRun, cand: RendererRun, base
                 how = f"paired by {len(vb)} seeds" if same_seeds else f"Welch, seeds {len(vb)} vs {len(vc)}"
                 g.note = (f"difference {w.diff:+.3g}, {100 * (1 - settings.alpha):g} % interval "
                           f"[{w.low:+.3g}, {w.high:+.3g}] ({how})")
+                # beside the means: one seed far above the baseline's spread (broken seeds widen the
+                # candidate's own spread as much as they move its mean, which hides them from the t-tests)
+                o = seed_outlier(vb, vc)
+                s_gate = gate(step, "seed", metric, p=o.p, baseline=float(np.max(vb)), candidate=float(vc[o.worst]))
+                s_gate.note = (f"worst seed {cs[o.worst].seed}: {o.t:.3g} prediction-interval units above the "
+                               f"baseline's {len(vb)} seeds")
+                gates.append(g)
+                gates.append(s_gate)
+                continue
             gates.append(g)
         g = gate(step, "time", "seconds")
         tb, tc = _values(bs, step, "seconds"), _values(cs, step, "seconds")
@@ -438,7 +470,7 @@ def run_gate(candidate: str | os.PathLike, baseline: str | os.PathLike | Baselin
     for g, adj in zip(tested, holm([g.p for g in tested])):
         g.p_holm = adj
         significant = adj <= settings.alpha
-        if g.kind == "error":
+        if g.kind in ("error", "seed", "bias"):
             g.status = "regression" if significant else "pass"
         elif g.kind == "image":
             g.status = "changed" if significant else "pass"
