@@ -155,6 +155,12 @@ def test_a_corrupt_draco_stream_and_a_corrupt_ktx2_map_are_one_error_each(tmp_pa
     v = doc["bufferViews"][doc["images"][0]["bufferView"]]
     binary[v.get("byteOffset", 0) + 12: v.get("byteOffset", 0) + 80] = b"\xee" * 68
     (tmp_path / "ktx2.glb").write_bytes(pack_glb(doc, binary))
+    # its header now claims 0xeeeeeeee² texels: refused on the header, before the transcoder allocates them
+    with pytest.raises(GltfError, match=r"ktx2.glb: images\[0\]: its header declares 4008636142 × 4008636142 "
+                                        r"texels, more than"):
+        load_gltf(tmp_path / "ktx2.glb")
+    binary[v.get("byteOffset", 0) + 20: v.get("byteOffset", 0) + 28] = bytes(8)  # 0 × 0: past the header check
+    (tmp_path / "ktx2.glb").write_bytes(pack_glb(doc, binary))
     with pytest.raises(GltfError, match=r"ktx2.glb: images\[0\]: not a valid KTX 2 file with a Basis Universal payload"):
         load_gltf(tmp_path / "ktx2.glb")
 
@@ -255,3 +261,33 @@ def test_a_ktx2_header_claiming_a_huge_map_is_one_error(tmp_path):
     (tmp_path / "huge.glb").write_bytes(pack_glb(doc, binary))
     with pytest.raises(GltfError, match=r"huge.glb: images\[0\]: "):
         load_gltf(tmp_path / "huge.glb")
+
+
+def _ktx2_header(width: int, height: int, *, levels: int = 1, scheme: int = 2, uncompressed=None) -> bytes:
+    import struct
+
+    from compare.scene.gltf_decode import KTX2_IDENTIFIER
+
+    head = KTX2_IDENTIFIER + struct.pack("<9I", 0, 1, width, height, 0, 0, 1, levels, scheme)
+    head += struct.pack("<4I2Q", 0, 0, 0, 0, 0, 0)  # DFD, key/value data, supercompression data
+    for level in range(levels):
+        w, h = max(width >> level, 1), max(height >> level, 1)
+        need = ((w + 3) // 4) * ((h + 3) // 4) * 16
+        head += struct.pack("<3Q", 0, 100, need if uncompressed is None else uncompressed)
+    return head
+
+
+def test_a_ktx2_header_that_declares_too_much_is_refused_before_transcoding():
+    """A 35 KB KTX 2 whose Zstd level claims 1 GiB, or a tiny file of 32768² texels: refused on the header,
+    with the numbers; a plausible header passes; the limit is the one every image reader applies."""
+    from compare.image.pillow import MAX_TEXELS, Image
+    from compare.scene.gltf_decode import ktx2_header_problem
+
+    assert ktx2_header_problem(_ktx2_header(64, 64)) is None
+    assert ktx2_header_problem(_ktx2_header(64, 64, levels=7)) is None
+    assert ktx2_header_problem(_ktx2_header(64, 64, scheme=1, uncompressed=0)) is None  # BasisLZ
+    assert "declares 1,073,741,824 bytes uncompressed" in ktx2_header_problem(
+        _ktx2_header(64, 64, uncompressed=1 << 30))
+    assert "more than the 268,435,456 (16384²)" in ktx2_header_problem(_ktx2_header(32768, 32768))
+    assert ktx2_header_problem(b"\x89PNG\r\n\x1a\n" + bytes(100)) == "not a KTX 2 file (no KTX 2 identifier)"
+    assert Image.MAX_IMAGE_PIXELS == MAX_TEXELS == 16384 * 16384

@@ -27,6 +27,8 @@ from typing import Callable
 
 import numpy as np
 
+from compare.image.pillow import MAX_TEXELS  # one limit for the decoders and every image reader
+
 __all__ = ["DECODED_EXTENSIONS", "DecodeError", "decoded_glb", "decoder_note"]
 
 #: Extension → what becomes of it (``compare inspect`` prints it).
@@ -44,8 +46,6 @@ _DISTRIBUTIONS = {"EXT_meshopt_compression": ("meshopt", "meshopt"),
 _COMPONENT = {np.dtype(np.int8): 5120, np.dtype(np.uint8): 5121, np.dtype(np.int16): 5122,
               np.dtype(np.uint16): 5123, np.dtype(np.uint32): 5125, np.dtype(np.float32): 5126}
 _TYPES = {1: "SCALAR", 2: "VEC2", 3: "VEC3", 4: "VEC4"}
-#: The most texels a transcoded map may have: the largest texture of common GPUs.
-MAX_TEXELS = 16384 * 16384
 
 
 class DecodeError(ValueError):
@@ -111,6 +111,35 @@ def decoded_glb(doc: dict, buffer: Callable[[int], bytes], image_bytes: Callable
     write_bytes_atomic(path, glb)
     write_bytes_atomic(digest, sha256_bytes(glb).encode("ascii"))
     return path
+
+
+#: KTX 2's file identifier («KTX 20»\r\n\x1a\n).
+KTX2_IDENTIFIER = b"\xabKTX 20\xbb\r\n\x1a\n"
+
+
+def ktx2_header_problem(head: bytes) -> str | None:
+    """Why the KTX 2 file whose first bytes are ``head`` must not be transcoded (None if it may): more texels
+    than a map may have (:data:`MAX_TEXELS`), or a level whose declared uncompressed size is more than its
+    texels need (a Zstd payload of a few KB may claim a GiB; UASTC holds 16 bytes per 4×4 block)."""
+    import struct
+
+    if len(head) < 80 or head[:12] != KTX2_IDENTIFIER:
+        return "not a KTX 2 file (no KTX 2 identifier)"
+    width, height = struct.unpack_from("<II", head, 20)
+    levels, scheme = struct.unpack_from("<II", head, 40)
+    if width * max(height, 1) > MAX_TEXELS:
+        return f"its header declares {width} × {height} texels, more than the {MAX_TEXELS:,} (16384²) a map may have"
+    for level in range(min(max(levels, 1), 16)):
+        at = 80 + 24 * level
+        if len(head) < at + 24:
+            break
+        _, _, uncompressed = struct.unpack_from("<QQQ", head, at)
+        w, h = max(width >> level, 1), max(height >> level, 1)
+        need = ((w + 3) // 4) * ((h + 3) // 4) * 16
+        if scheme == 2 and uncompressed > need:  # Zstd (BasisLZ's scheme 1 declares 0 here)
+            return (f"level {level} declares {uncompressed:,} bytes uncompressed, where its {w} × {h} texels "
+                    f"need {need:,}")
+    return None
 
 
 class _Decoder:
@@ -275,7 +304,7 @@ class _Decoder:
 
     @staticmethod
     def _png(pixels: np.ndarray) -> bytes:
-        from PIL import Image
+        from compare.image.pillow import Image
 
         buf = io.BytesIO()
         Image.fromarray(pixels).save(buf, format="PNG", compress_level=1)  # a cache file: speed over size
@@ -283,7 +312,7 @@ class _Decoder:
 
     def _webp(self, data: bytes, where: str) -> bytes:
         _module("EXT_texture_webp")
-        from PIL import Image
+        from compare.image.pillow import Image
 
         try:
             with Image.open(io.BytesIO(data)) as im:
@@ -300,6 +329,9 @@ class _Decoder:
 
     def _basisu(self, data: bytes, where: str) -> bytes:
         basisu = _module("KHR_texture_basisu")
+        problem = ktx2_header_problem(bytes(data[:80 + 24 * 16]))
+        if problem:  # before the transcoder allocates what the header declares
+            raise DecodeError(where, problem)
         try:
             tex = basisu.open(bytes(data))
             if tex.faces != 1 or tex.layers != 1:

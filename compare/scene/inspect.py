@@ -34,7 +34,7 @@ def _image_size(path: Path | None) -> str:
 
         h, w = read_exr(path)[0].shape[:2]
         return f"{w}×{h} float"
-    from PIL import Image
+    from compare.image.pillow import Image
 
     with Image.open(path) as im:  # the header only
         return f"{im.width}×{im.height} {im.mode}"

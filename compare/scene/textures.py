@@ -42,7 +42,7 @@ def texture_problem(path: Path) -> str | None:
         return None
     import warnings
 
-    from PIL import Image, UnidentifiedImageError
+    from compare.image.pillow import Image, UnidentifiedImageError
 
     try:
         with warnings.catch_warnings():
@@ -82,7 +82,7 @@ def load_texture(path: Path, *, srgb: bool) -> np.ndarray:
         from compare.image.exr import read_exr
 
         return np.ascontiguousarray(read_exr(path)[0], dtype=np.float32)
-    from PIL import Image
+    from compare.image.pillow import Image
 
     with Image.open(path) as im:
         if im.mode in SIXTEEN_BIT_MODES:  # 16-bit grey: the full range, as Mitsuba's bitmap reads it
@@ -101,7 +101,7 @@ def load_texels8(path: Path, *, alpha: bool) -> np.ndarray | None:
     path = Path(path)
     if path.suffix.lower() == ".exr":
         return None
-    from PIL import Image
+    from compare.image.pillow import Image
 
     with Image.open(path) as im:
         if im.mode not in EIGHT_BIT_MODES:
@@ -125,7 +125,7 @@ def load_alpha(path: Path) -> np.ndarray:
             if "A" in channels:
                 return np.clip(np.asarray(channels["A"].pixels, dtype=np.float32).reshape(shape), 0.0, 1.0)
         return np.ones(shape, dtype=np.float32)
-    from PIL import Image
+    from compare.image.pillow import Image
 
     with Image.open(path) as im:
         if "A" not in im.getbands() and "transparency" not in im.info:
