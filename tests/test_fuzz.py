@@ -441,3 +441,88 @@ def test_fuzz_renderer_names(tmp_path_factory, name):
         return
     assert NAME.fullmatch(name) and name not in {"reference", "all", "web"}
     assert name in registry.names()
+
+
+_number = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.integers(-2**70, 2**70),
+                    st.sampled_from([0.0, -0.0, 1e-320, 1e308, -1e308]))
+
+
+@given(kind=st.sampled_from(["point", "spot", "directional"]),
+       field=st.sampled_from(["translation", "rotation", "scale", "matrix"]),
+       values=st.lists(_number, min_size=0, max_size=17))
+def test_fuzz_light_node_transforms(template, case_dir, kind, field, values):
+    """Any node transform of a punctual light: a scene whose lights are finite (a position in range, a unit
+    direction) or one error naming the file; never NaN into a renderer, never a traceback."""
+    from compare.scene.gltf_write import GltfWriter
+    from compare.scene.loader import load_scene
+
+    w = GltfWriter()
+    light = w.light("lamp", kind, 10.0)
+    node = w.node("lamp", light=light)
+    w.doc["nodes"][node][field] = values
+    doc = w.document(embed_buffer=True)
+    (case_dir / "m.gltf").write_text(json.dumps(doc, allow_nan=True))
+    scene_path = case_dir / "scene.toml"
+    scene_path.write_text('include = "m.gltf"\n[camera]\nposition = [0, 0, 3]\ntarget = [0, 0, 0]\n'
+                          "[environment]\nconstant = [0.1, 0.1, 0.1]\n")
+    try:
+        scene = load_scene(scene_path)
+    except CompareError as exc:
+        assert "m.gltf" in str(exc) or "scene.toml" in str(exc), exc
+        return
+    for lamp in scene.punctual:
+        assert all(math.isfinite(x) for x in (*lamp.position, *lamp.direction))
+        assert abs(math.hypot(*lamp.direction) - 1.0) < 1e-6
+
+
+@given(width=st.integers(0, 2**32 - 1), height=st.integers(0, 2**32 - 1), levels=st.integers(0, 40),
+       scheme=st.integers(0, 4), declared=st.integers(0, 2**64 - 1), cut=st.integers(0, 400))
+def test_fuzz_ktx2_headers(width, height, levels, scheme, declared, cut):
+    """Any KTX 2 header: either refused with a reason, or one whose texels are within the map limit and
+    whose Zstd levels declare no more than their texels need (what the transcoder may then allocate)."""
+    import struct
+
+    from compare.image.pillow import MAX_TEXELS
+    from compare.scene.gltf_decode import KTX2_IDENTIFIER, ktx2_header_problem
+
+    head = KTX2_IDENTIFIER + struct.pack("<9I", 0, 1, width, height, 0, 0, 1, levels, scheme)
+    head += bytes(32) + struct.pack("<3Q", 0, 0, declared) * max(levels, 1)
+    head = head[:cut] if cut < len(head) else head
+    problem = ktx2_header_problem(head)
+    if problem is None:
+        assert len(head) >= 80 and width * max(height, 1) <= MAX_TEXELS
+        if scheme == 2 and len(head) >= 104:
+            assert declared <= ((max(width, 1) + 3) // 4) * ((max(height, 1) + 3) // 4) * 16
+    else:
+        assert isinstance(problem, str) and problem
+
+
+@given(where=st.sampled_from([("seconds",), ("first_frame_seconds",), ("setup_seconds",),
+                              ("points", 0, "seconds"), ("seed_runs", 0, "setup_seconds"),
+                              ("seed_runs", 0, "points", 0, "seconds")]),
+       value=_number)
+def test_fuzz_results_timings(tmp_path, where, value):
+    """Any timing in a results.json: a finite number of seconds >= 0 is read as it is; anything else is one
+    error naming the file and the field (a negative time used to let the gate pass)."""
+    from compare.report.results import Results
+
+    data = _results_template()
+    node = data["scenes"][0]["runs"][0]
+    if where[0] == "seed_runs" and not node.get("seed_runs"):
+        node["seed_runs"] = [{"seed": 0, "setup_seconds": 0.0, "image": None,
+                              "points": [{"step": p["step"], "seconds": p["seconds"], "metrics": p["metrics"]}
+                                         for p in node["points"]]}]
+    target = node
+    for k in where[:-1]:
+        target = target[k]
+    target[where[-1]] = value
+    path = tmp_path / "results.json"
+    path.write_text(json.dumps(data, allow_nan=True))
+    ok = isinstance(value, (int, float)) and math.isfinite(value) and value >= 0
+    try:
+        Results.load(path)
+    except CompareError as exc:
+        assert not ok or "seed" in str(exc), exc
+        assert str(path) in str(exc)
+        return
+    assert ok, f"{where} = {value!r} was accepted"
