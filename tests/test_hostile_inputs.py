@@ -68,7 +68,7 @@ def test_a_point_light_under_zero_scale_keeps_its_place(tmp_path, make_scene):
 
 def test_vertices_beyond_the_float32_range_are_refused_at_load(tmp_path, make_scene):
     _model(tmp_path, positions=[[-1e16, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]])
-    with pytest.raises(CompareError, match=r"model.gltf: card: its vertices reach 1e\+16"):
+    with pytest.raises(CompareError, match=r"model.gltf: nodes\[0\] \(mesh 0, primitive 0\): its vertices reach 1e\+16"):
         load_scene(make_scene(LIT))
 
 
@@ -280,3 +280,12 @@ def test_inspect_prints_a_glTFs_escape_sequences_inert(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "EXT_evil" in out and "\\x1b" in out
     assert "\x1b" not in out and "\x07" not in out
+
+
+def test_inspect_refuses_vertices_beyond_the_float32_range(tmp_path, capsys):
+    from compare.cli.main import main
+
+    path = _model(tmp_path, positions=[[-1e16, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]])
+    assert main(["inspect", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "model.gltf: nodes[0] (mesh 0, primitive 0): its vertices reach 1e+16" in err and "Traceback" not in err

@@ -670,6 +670,17 @@ def _cache_image(data: bytes, suffix: str) -> Path:
     return path
 
 
+def _check_reach(r, where: str, world: np.ndarray, tri: TriangleMesh) -> None:
+    """One error at load (for ``inspect`` too) where a part's world coordinates leave float32's safe range."""
+    lo, hi = tri.positions.min(0).astype(np.float64), tri.positions.max(0).astype(np.float64)
+    corners = np.array([[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    with np.errstate(over="ignore", invalid="ignore"):
+        reach = float(np.max(np.abs(corners @ world.T)[:, :3]))
+    problem = geometry.world_range_problem(reach) if math.isfinite(reach) else "infinity (not finite)"
+    if problem:
+        raise r.err(where, f"its vertices reach {problem}")
+
+
 def _numbers(node: dict, key: str, count: int, default, where: str, err) -> list[float]:
     """``node[key]``: ``count`` finite numbers, or one error naming the node's field."""
     v = node.get(key, default)
@@ -773,6 +784,7 @@ def _read_document(path: Path, r: "_Reader") -> GltfDocument:
             prims = mesh_cache[mi]
             for k, tri, mat in prims:
                 if tri is not None:
+                    _check_reach(r, f"nodes[{index}] (mesh {mi}, primitive {k})", world, tri)
                     primitives.append(GltfPrimitive(name if len(prims) == 1 else f"{name}.{k}", tri, world, mat))
         if "camera" in node:
             cam = r.item("cameras", node["camera"], f"nodes[{index}].camera")
