@@ -228,7 +228,7 @@ def test_bad_external_renderer_is_one_clear_error(tmp_path, mode, message):
     out = tmp_path / "out"
     settings = _settings(["mine"], renderer_config=str(config), ground_truth="grey")
     with pytest.raises(RendererError, match=message):
-        run_mod.run([CORNELL], out, settings, progress=False, renderers=[GreyRenderer()])
+        run_mod.run([CORNELL], out, settings, progress=False, renderers=[GreyRenderer()], keep_going=False)
     assert not (out / "results.json").exists()
     assert not list(out.rglob("runs/*/mine/*"))  # nothing half-written kept as a result
     assert not list(Path(tempfile_dir()).glob("compare-job-mine-*"))

@@ -78,7 +78,8 @@ def measure(folder: str | Path, scene_path: str | Path, out: str | Path, *, name
     settings = settings or RunSettings()
     settings.renderers = [name]
     settings.sizes = [list(images.size())]
-    return run([scene_path], out, settings, progress=progress, fresh=fresh, report=report, renderers=[images])
+    return run([scene_path], out, settings, progress=progress, fresh=fresh, report=report, renderers=[images],
+               keep_going=False)  # the user's images are the one unit measured: a failure is the error
 
 
 

@@ -209,7 +209,7 @@ class WebRenderer(Renderer):
                     raise _Timeout(what) from None
                 error = page.evaluate("() => window.__compareError || null")
                 if error:
-                    raise RendererError(f"{who}: the page failed {what}: {error.splitlines()[0]}")
+                    raise RendererError(f"{who}: the page failed: {error.splitlines()[0]}")
                 return page.evaluate("() => window.__compareDone.r")
 
             page.set_default_timeout(max(limit, 1.0) * 1000.0)
@@ -219,8 +219,11 @@ class WebRenderer(Renderer):
             # nothing leaves this machine: only the local server answers
             page.route("**/*", lambda route: route.continue_() if route.request.url.startswith(origin)
                        else route.abort())
-            page.goto(f"{origin}/web/index.html?script={self.SCRIPT}")
-            page.wait_for_function("window.compareReady === true || window.compareFailed !== undefined")
+            try:
+                page.goto(f"{origin}/web/index.html?script={self.SCRIPT}")
+                page.wait_for_function("window.compareReady === true || window.compareFailed !== undefined")
+            except PlaywrightTimeout:
+                raise _Timeout("loading the page") from None
             failed = page.evaluate("() => window.compareFailed || null")
             if failed:
                 raise RendererError(f"{who}: the page did not load: {failed}")
