@@ -115,6 +115,11 @@ class MitsubaRenderer(Renderer):
         _, layers, _ = self._reference(scene, context).render_layers(steps, seed)
         return layers
 
+    def material_coverage(self, scene) -> dict[str, float]:
+        from compare.mitsuba.coverage import material_coverage
+
+        return material_coverage(scene)  # Mitsuba's own ray tracer on the reference's scene
+
     def facts(self, metadata: dict) -> dict[str, str]:
         v = metadata.get("variant")
         return {"mitsuba_variant": v} if isinstance(v, str) else {}

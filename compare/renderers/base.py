@@ -255,6 +255,12 @@ class Renderer(abc.ABC):
         :meth:`render` gives none); default: none."""
         return {}
 
+    def material_coverage(self, scene) -> dict[str, float] | None:
+        """Each material's share of ``scene``'s pixels (material name → fraction of the pixel centres whose
+        camera ray first hits it), which a ground truth may offer so that a run can say how much of the image
+        a renderer's left-out features cover; default: None (unknown)."""
+        return None
+
     def facts(self, metadata: dict) -> dict[str, str]:
         """Facts about the machine this renderer's metadata reveals (e.g. ``gl_renderer``), for the report's
         machine table."""

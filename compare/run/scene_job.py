@@ -281,14 +281,10 @@ class SceneJob:
         if not scene.material_features():
             return None
         cache = self.__dict__.setdefault("_coverages", {})
-        if scene.hash not in cache:
-            from compare.util.errors import CompareError
-
+        if scene.hash not in cache:  # offered by the ground truth through the protocol (None: it cannot say)
             try:
-                from compare.mitsuba.coverage import material_coverage
-
-                cache[scene.hash] = material_coverage(scene)
-            except (ImportError, RuntimeError, CompareError):  # no Mitsuba here: the note goes without pixels
+                cache[scene.hash] = self.registry.get(self.settings.ground_truth).material_coverage(scene)
+            except (ImportError, RuntimeError, CompareError):  # its engine is not here: notes without pixels
                 cache[scene.hash] = None
         return cache[scene.hash]
 
