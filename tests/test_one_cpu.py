@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from test_blender import needs_bpy
 from test_web import needs_web
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -82,6 +83,12 @@ def _render_on_one_cpu(tmp_path: Path, renderer: str, *budget: str) -> subproces
 @pytest.mark.parametrize("renderer, budget", [("mitsuba", ("--spp", "2")), ("progressive", ("--frames", "2"))])
 def test_a_textured_environment_lit_scene_renders_on_one_cpu(tmp_path, renderer, budget):
     _render_on_one_cpu(tmp_path, renderer, *budget)
+
+
+@one_cpu
+@needs_bpy
+def test_cycles_renders_on_one_cpu(tmp_path):
+    _render_on_one_cpu(tmp_path, "cycles", "--spp", "2")
 
 
 @one_cpu
