@@ -114,3 +114,39 @@ def test_the_job_writer_refuses_a_folder_where_it_would_replace_a_map(tmp_path, 
         export_gltf(scene, model / "texture-0.png")
     assert {p.name: _digest(p) for p in model.iterdir()} == before
 
+
+
+def test_a_factor_baked_into_a_map_reaches_the_job_as_an_8_bit_png(tmp_path, make_scene):
+    """glTF multiplies a map by its factor; the scene model bakes the product into a float EXR, which glTF
+    readers cannot load (PlayCanvas: "the source image could not be decoded"). The job's glTF names PNG
+    only, sRGB-encoded for a colour, equal to the baked linear values within 8-bit steps."""
+    from compare.image.tonemap import srgb_decode
+    from compare.renderers.job import export_gltf
+    from compare.scene import geometry
+    from compare.scene.gltf_write import GltfWriter
+    from compare.scene.textures import load_texture
+
+    texels = np.zeros((4, 8, 3), dtype=np.uint8)
+    texels[:, :4] = [200, 120, 40]
+    texels[:, 4:] = [255, 255, 255]
+    w = GltfWriter()
+    mat = w.material("tinted", (0.5, 0.25, 1.0), 0.0, 0.5)
+    w.doc["materials"][mat]["pbrMetallicRoughness"]["baseColorTexture"] = w.texture(_png(texels))
+    w.node("card", mesh=w.mesh("card", [(geometry.quad((2.0, 2.0)), mat)], uvs=True))
+    (tmp_path / "model").mkdir()
+    w.write(tmp_path / "model" / "card.gltf")
+    scene = load_scene(make_scene(SCENE))
+    (m,) = scene.materials.values()
+    assert m.base_color_texture.suffix == ".exr"  # the factor is baked in
+    (tmp_path / "job").mkdir()
+    doc = json.loads(export_gltf(scene, tmp_path / "job" / "scene.gltf").read_text())
+    uris = [im["uri"] for im in doc["images"]]
+    assert uris and all(u.endswith(".png") for u in uris)
+    from PIL import Image
+
+    with Image.open(tmp_path / "job" / uris[0]) as im:
+        assert im.mode == "RGB" and im.size == (8, 4)
+        written = srgb_decode(np.asarray(im, dtype=np.float64) / 255.0)
+    baked = load_texture(m.base_color_texture, srgb=False)
+    np.testing.assert_allclose(written, baked, atol=0.01)
+    assert doc["materials"][0]["pbrMetallicRoughness"]["baseColorFactor"][:3] == [1.0, 1.0, 1.0]

@@ -384,6 +384,7 @@ def test_a_page_that_does_not_answer_in_time_is_stopped_with_one_message(make_sc
     page is bounded by the render's deadline; past it the tab is closed and the error says where it was."""
     from test_sides import _scene
 
+    _close_shared()  # one Playwright driver per thread: this test's own context starts its own
     scene = _scene(make_scene, make_scene("").parent, double_sided=True, from_behind=False)
     with RenderContext(RunSettings(frames=2), timeout=0.05) as context:
         with pytest.raises(RendererError, match=r"no answer from the page within 0.05 s \(--timeout\) while"):

@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from compare.util.files import write_text_atomic
+from compare.util.files import write_bytes_atomic, write_text_atomic
 from compare.renderers.base import Checkpoint, RendererError, Rendering
 
 __all__ = ["JOB_SCHEMA", "JOB_SCHEMAS", "export_gltf", "read_checkpoints", "step_files", "write_job"]
@@ -68,28 +68,36 @@ def export_gltf(scene, out: Path) -> Path:
     index: dict[str, int] = {}
     textures: dict[Path, int] = {}
 
-    def texture(src: Path) -> int:
-        """The image index of ``src``, copied beside the glTF once."""
-        if src not in textures:
-            name = f"texture-{len(textures)}{src.suffix.lower()}"
+    def texture(src: Path, srgb: bool) -> int:
+        """The image index of ``src``, copied beside the glTF once; a float map (the scene model's EXR of a
+        factor baked into a map) as the 8-bit PNG glTF readers take, sRGB-encoded where the map is a
+        colour."""
+        png = src.suffix.lower() in (".png", ".jpg", ".jpeg")
+        key = src if png else (src, srgb)  # a file glTF readers take is copied once, whatever it is used as
+        if key not in textures:
+            name = f"texture-{len(textures)}{src.suffix.lower() if png else '.png'}"
             dest = out.parent / name
             if dest.resolve() in sources:  # a job folder inside the model's own: never over its maps
                 raise RendererError(f"the job's copy {dest} would replace a map of the scene; give the job "
                                     "its own folder")
-            shutil.copyfile(src, dest)
-            textures[src] = w._add("images", {"uri": name})  # noqa: SLF001 - the writer's own list
-        return textures[src]
+            if png:
+                shutil.copyfile(src, dest)
+            else:
+                write_bytes_atomic(dest, _png8(src, srgb=srgb))
+            textures[key] = w._add("images", {"uri": name})  # noqa: SLF001 - the writer's own list
+        return textures[key]
 
     samplers: dict[tuple[str, str], int] = {}
 
-    def info(m, src) -> dict:
-        """A texture info of map ``src`` with material ``m``'s sampler and texture transform."""
+    def info(m, src, srgb: bool = False) -> dict:
+        """A texture info of map ``src`` (a colour map if ``srgb``) with material ``m``'s sampler and texture
+        transform."""
         key = (m.texture_wrap, m.texture_filter)
         if key not in samplers:
             wrap = {"repeat": 10497, "clamp": 33071, "mirror": 33648}[m.texture_wrap]
             filt = 9728 if m.texture_filter == "nearest" else 9729
             samplers[key] = w._add("samplers", {"wrapS": wrap, "wrapT": wrap, "magFilter": filt})  # noqa: SLF001
-        tex = w._add("textures", {"source": texture(Path(src)), "sampler": samplers[key]})  # noqa: SLF001
+        tex = w._add("textures", {"source": texture(Path(src), srgb), "sampler": samplers[key]})  # noqa: SLF001
         out = {"index": tex}
         if m.has_uv_transform:
             out["extensions"] = {"KHR_texture_transform": {"offset": list(m.texture_offset),
@@ -104,13 +112,13 @@ def export_gltf(scene, out: Path) -> Path:
         pbr = w.doc["materials"][index[name]]["pbrMetallicRoughness"]
         # a map replaces its factor in the scene model; glTF multiplies them: the factor it replaces is 1
         if m.base_color_texture is not None:
-            pbr["baseColorTexture"] = info(m, m.base_color_texture)
+            pbr["baseColorTexture"] = info(m, m.base_color_texture, srgb=True)
             pbr["baseColorFactor"][:3] = [1.0, 1.0, 1.0]
         if m.metallic_roughness_texture is not None:
             pbr["metallicRoughnessTexture"] = info(m, m.metallic_roughness_texture)
             pbr["metallicFactor"] = pbr["roughnessFactor"] = 1.0
         if m.emissive_texture is not None:
-            w.doc["materials"][index[name]]["emissiveTexture"] = info(m, m.emissive_texture)
+            w.doc["materials"][index[name]]["emissiveTexture"] = info(m, m.emissive_texture, srgb=True)
         if m.normal_texture is not None:
             w.doc["materials"][index[name]]["normalTexture"] = {**info(m, m.normal_texture), "scale": m.normal_scale}
         if m.is_masked:
@@ -126,11 +134,11 @@ def export_gltf(scene, out: Path) -> Path:
                 exts.setdefault(layer.extension, {})[layer.key] = (
                     [float(c) for c in value] if layer.color else float(value))
                 w._use(layer.extension)  # noqa: SLF001
-        for fld, _, src in m.layer_maps:  # and the maps that multiply them
+        for fld, channel, src in m.layer_maps:  # and the maps that multiply them
             key = next(k for k, (f, _) in LAYER_MAPS.items() if f == fld)
             ext = next(layer.extension for layer in LAYERS if layer.field == fld)
             table = w.doc["materials"][index[name]].setdefault("extensions", {}).setdefault(ext, {})
-            table[key] = info(m, src)
+            table[key] = info(m, src, srgb=channel == "rgb")
             w._use(ext)  # noqa: SLF001
         if m.clearcoat_normal_texture is not None and m.clearcoat > 0.0:
             table = w.doc["materials"][index[name]].setdefault("extensions", {}).setdefault(
@@ -159,6 +167,25 @@ def export_gltf(scene, out: Path) -> Path:
     m = np.linalg.inv(cam.view_matrix())  # camera → world: glTF cameras look down their −Z, +Y up
     w.node("camera", camera=w.camera("camera", cam.fov, aspect=cam.aspect), matrix=m)
     return w.write(out)
+
+
+def _png8(src: Path, *, srgb: bool) -> bytes:
+    """The map ``src`` (linear floats) as 8-bit PNG bytes, RGBA where it has an alpha below 1."""
+    import io
+
+    from compare.image.pillow import Image
+    from compare.image.tonemap import srgb_encode
+    from compare.scene.textures import load_alpha, load_texture
+
+    rgb = np.clip(load_texture(src, srgb=False).astype(np.float64), 0.0, 1.0)
+    if srgb:
+        rgb = srgb_encode(rgb)
+    alpha = load_alpha(src).astype(np.float64)
+    channels = [rgb] if np.all(alpha >= 1.0) else [rgb, alpha[..., None]]
+    codes = np.clip(np.rint(np.concatenate(channels, axis=2) * 255.0), 0, 255).astype(np.uint8)
+    buf = io.BytesIO()
+    Image.fromarray(codes, "RGB" if codes.shape[2] == 3 else "RGBA").save(buf, format="PNG")
+    return buf.getvalue()
 
 
 def _scene_files(scene) -> list[Path]:
