@@ -177,6 +177,22 @@ class MeshFileError(ValueError):
 WORLD_LIMIT = 1e15
 
 
+def world_bounds(matrix: np.ndarray, tri: TriangleMesh) -> tuple[np.ndarray, np.ndarray]:
+    """World-space bounds of ``tri`` under ``matrix``: the transformed corners of its local bounds."""
+    lo, hi = tri.positions.min(0).astype(np.float64), tri.positions.max(0).astype(np.float64)
+    corners = np.array([[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is the answer: infinite bounds
+        world = corners @ np.asarray(matrix, dtype=np.float64).T
+    return world[:, :3].min(0), world[:, :3].max(0)
+
+
+def reach_problem(matrix: np.ndarray, tri: TriangleMesh) -> str | None:
+    """:func:`world_range_problem` of ``tri``'s world coordinates under ``matrix`` (also when not finite)."""
+    lo, hi = world_bounds(matrix, tri)
+    reach = float(max(np.max(np.abs(lo)), np.max(np.abs(hi))))
+    return world_range_problem(reach) if math.isfinite(reach) else "infinity (not finite)"
+
+
 def world_range_problem(reach: float) -> str | None:
     """Why a coordinate of magnitude ``reach`` is out of :data:`WORLD_LIMIT` (None if it is not, NaN is)."""
     if reach <= WORLD_LIMIT:

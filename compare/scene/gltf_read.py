@@ -670,17 +670,6 @@ def _cache_image(data: bytes, suffix: str) -> Path:
     return path
 
 
-def _check_reach(r, where: str, world: np.ndarray, tri: TriangleMesh) -> None:
-    """One error at load (for ``inspect`` too) where a part's world coordinates leave float32's safe range."""
-    lo, hi = tri.positions.min(0).astype(np.float64), tri.positions.max(0).astype(np.float64)
-    corners = np.array([[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-    with np.errstate(over="ignore", invalid="ignore"):
-        reach = float(np.max(np.abs(corners @ world.T)[:, :3]))
-    problem = geometry.world_range_problem(reach) if math.isfinite(reach) else "infinity (not finite)"
-    if problem:
-        raise r.err(where, f"its vertices reach {problem}")
-
-
 def _numbers(node: dict, key: str, count: int, default, where: str, err) -> list[float]:
     """``node[key]``: ``count`` finite numbers, or one error naming the node's field."""
     v = node.get(key, default)
@@ -690,9 +679,9 @@ def _numbers(node: dict, key: str, count: int, default, where: str, err) -> list
     return [float(x) for x in v]
 
 
-def _node_matrix(node: dict, where: str = "node", err=None) -> np.ndarray:
-    """The node's local matrix (``matrix``, or translation · rotation · scale), every value checked."""
-    err = err or (lambda field, msg: GltfError(f"{field}: {msg}"))
+def _node_matrix(node: dict, where: str, err) -> np.ndarray:
+    """The node's local matrix (``matrix``, or translation · rotation · scale), every value checked;
+    ``err(field, message)`` makes the error naming the file."""
     if "matrix" in node:
         return np.asarray(_numbers(node, "matrix", 16, None, where, err), dtype=np.float64).reshape(4, 4).T
     m = np.eye(4)
@@ -784,7 +773,9 @@ def _read_document(path: Path, r: "_Reader") -> GltfDocument:
             prims = mesh_cache[mi]
             for k, tri, mat in prims:
                 if tri is not None:
-                    _check_reach(r, f"nodes[{index}] (mesh {mi}, primitive {k})", world, tri)
+                    problem = geometry.reach_problem(world, tri)  # at load: for inspect too
+                    if problem:
+                        raise r.err(f"nodes[{index}] (mesh {mi}, primitive {k})", f"its vertices reach {problem}")
                     primitives.append(GltfPrimitive(name if len(prims) == 1 else f"{name}.{k}", tri, world, mat))
         if "camera" in node:
             cam = r.item("cameras", node["camera"], f"nodes[{index}].camera")

@@ -180,9 +180,7 @@ def _objects(st: _Settings, doc, materials: _Materials, notes: list[str]) -> tup
         base = f"{st.prefix}{prim.name}"
         used[base] = used.get(base, 0) + 1
         name = base if used[base] == 1 else f"{base}#{used[base]}"
-        lo, hi = _world_bounds(matrix, prim.mesh)
-        reach = float(max(np.max(np.abs(lo)), np.max(np.abs(hi))))
-        problem = geometry.world_range_problem(reach) if math.isfinite(reach) else "infinity (not finite)"
+        problem = geometry.reach_problem(matrix, prim.mesh)  # after the include's own transform (its units)
         if problem:  # at load, not in a renderer: one error naming the file and the part
             raise GltfError(f"{st.path}: {prim.name}: its vertices reach {problem}")
         mesh = sm.Mesh(name=name, shape="gltf", material=mat, params={"triangles": prim.mesh}, transform=matrix,
@@ -200,7 +198,7 @@ def _objects(st: _Settings, doc, materials: _Materials, notes: list[str]) -> tup
             if note:
                 notes.append(note)
     if st.units is None and doc.primitives:
-        boxes = np.array([_world_bounds(st.xf @ p.matrix, p.mesh) for p in doc.primitives])  # (n, lo/hi, 3)
+        boxes = np.array([geometry.world_bounds(st.xf @ p.matrix, p.mesh) for p in doc.primitives])  # (n, lo/hi, 3)
         lo, hi = boxes[:, 0].min(0), boxes[:, 1].max(0)
         note = units_note(float(np.max(hi - lo)))
         if note:
@@ -226,14 +224,6 @@ def units_note(size: float) -> str | None:
     return (f"the model is {size:.4g} m across when read as metres (glTF's unit); if it was authored in other "
             f"units, set units = \"cm\", \"mm\" or \"in\" in its [[include]] (it would be {size * UNITS['cm']:.3g} m, "
             f"{size * UNITS['mm']:.3g} m or {size * UNITS['in']:.3g} m across)")
-
-
-def _world_bounds(matrix: np.ndarray, tri: TriangleMesh) -> tuple[np.ndarray, np.ndarray]:
-    """World-space bounds of ``tri`` under ``matrix``: the transformed corners of its local bounds."""
-    lo, hi = tri.positions.min(0), tri.positions.max(0)
-    corners = np.array([[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-    world = corners @ matrix.T
-    return world[:, :3].min(0), world[:, :3].max(0)
 
 
 def _camera(ctx, where: str, st: _Settings, doc) -> dict | None:
