@@ -217,3 +217,48 @@ def test_folders_that_cannot_be_written_are_one_error_before_any_work(tmp_path, 
     assert capsys.readouterr().err.startswith("compare: error: $COMPARE_CACHE (the reference cache; set it to a "
                                               "writable folder) /proc/compare-cache: cannot write in /proc (")
     assert not (tmp_path / "x.exr").exists()
+
+
+def _parsed_defaults(command: str, *required: str) -> dict:
+    from compare.cli.main import _build_parser
+
+    return vars(_build_parser().parse_args([command, *required]))
+
+
+def test_option_defaults_are_the_settings_defaults():
+    """Each option a settings dataclass declares takes its default from there: a changed default moves the CLI."""
+    import dataclasses
+
+    from compare.report.gate_settings import GateSettings
+    from compare.report.results import RunSettings
+
+    run = _parsed_defaults("run")
+    run_fields = {f.name: f for f in dataclasses.fields(RunSettings)}
+    for name in ("frames", "spp", "seed", "exposure", "materials", "likeness", "seeds", "ground_truth",
+                 "baseline", "renderer_config"):
+        assert run[name] == getattr(RunSettings(), name), name
+        assert run_fields[name].metadata["help"], name
+    assert RunSettings.__doc__.count(" : ") == len(run_fields)  # every field documented once
+    check = _parsed_defaults("check", "results.json")
+    for f in dataclasses.fields(GateSettings):
+        assert check[f.name] == getattr(GateSettings(), f.name), f.name
+    render = _parsed_defaults("render", "--scene", "s.toml", "-o", "x.exr")
+    measure = _parsed_defaults("measure", "images", "--scene", "s.toml", "-o", "out")
+    for name in ("spp", "frames"):
+        assert render[name] == getattr(RunSettings(), name)
+    assert measure["spp"] == RunSettings().spp and measure["ground_truth"] == RunSettings().ground_truth
+
+
+def test_material_modes_and_layer_titles_have_one_table():
+    """The help texts and the report read the tables; every layer has a title."""
+    from compare.brdf import MATERIAL_MODES
+    from compare.cli.main import _build_parser
+    from compare.image.layers import LAYER_TITLES, LAYERS
+
+    assert set(LAYER_TITLES) == set(LAYERS)
+    text = _build_parser()._subparsers._group_actions[0].choices["run"].format_help()
+    def flat(t: str) -> str:  # argparse wraps at spaces and hyphens, by the terminal's width
+        return "".join(t.split()).replace("-", "")
+
+    for mode in ("shared", "cycles", "cycles-ggx"):
+        assert flat(MATERIAL_MODES[mode]) in flat(text), mode

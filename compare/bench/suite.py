@@ -311,6 +311,10 @@ def all_items() -> tuple[str, ...]:
     return tuple(_engine_items()) + SUITE_ITEMS
 
 
+#: The equal-error item's reference ladder tops out at this many samples per pixel unless told.
+LADDER_SPP = 256
+
+
 def run_bench(scene_path: str | Path, *, size: tuple[int, int], frames: int, spp: int, repeats: int,
               items: tuple[str, ...] | None = None, progress: bool = True,
               setup_scene: str | Path = "scenes/car.toml", on_item=None) -> dict:

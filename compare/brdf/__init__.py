@@ -112,10 +112,11 @@ __all__ = [
 #: The material models a renderer may be asked to render a scene's glTF materials with (``--materials``
 #: of ``compare run`` and ``compare render``): name → what it is. Each renderer takes the ones it has.
 MATERIAL_MODES = {
-    "shared": "this module's glTF metallic-roughness BRDF, shared by every renderer of the suite",
+    "shared": "the glTF metallic-roughness BRDF every renderer of the suite shares (GGX single scattering, "
+              "Schlick Fresnel)",
     "cycles": "Blender's Principled BSDF v2, with each material's distribution (Blender's default Multiscatter GGX)",
     "cycles-ggx": "Blender's Principled BSDF v2 with GGX single scattering in every material",
-    "diffuse": "Lambert only, for closed-form checks",
+    "diffuse": "Lambert only (closed-form checks)",
 }
 #: Modes for closed-form checks only, not offered to a run.
 CLOSED_FORM_MODES = ("diffuse",)

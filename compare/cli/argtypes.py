@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 
-__all__ = ["parse_size", "parse_sizes", "positive_float", "positive_int"]
+__all__ = ["choices_help", "parse_size", "parse_sizes", "positive_float", "positive_int", "setting"]
 
 
 def parse_size(text: str) -> tuple[int, int]:
@@ -43,3 +44,16 @@ def positive_int(text: str) -> int:
     if v < 1:
         raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
     return v
+
+
+def choices_help(lead: str, table: dict[str, str], names=None) -> str:
+    """A help text that lists each choice of ``table`` (name → what it is), from the table itself."""
+    return f"{lead}: " + "; ".join(f"{name}: {table[name]}" for name in (names or table))
+
+
+def setting(cls, name: str) -> dict:
+    """``default`` and ``help`` of an option read from field ``name`` of settings dataclass ``cls`` (its
+    default and its ``metadata["help"]``), so that a default is written once, where the library reads it."""
+    f = next(f for f in dataclasses.fields(cls) if f.name == name)
+    default = f.default if f.default is not dataclasses.MISSING else f.default_factory()
+    return {"default": default, "help": f.metadata.get("help", name.replace("_", " "))}

@@ -8,22 +8,23 @@ from pathlib import Path
 
 import json
 
-from compare.bench.suite import all_items, format_table, run_bench
+from compare.bench.suite import LADDER_SPP, all_items, format_table, run_bench
+from compare.util.settings import DEFAULT_FRAMES
 from compare.util.files import write_text_atomic
 
 
 def add_bench_parser(subparsers) -> None:
     """Register ``compare bench``."""
 
-    from compare.cli.argtypes import parse_size
+    from compare.cli.argtypes import parse_size, positive_int
 
     p = subparsers.add_parser("bench", help="speed and memory ratios measured side by side (medians)",
                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--scene", type=Path, default=Path("scenes/cornell.toml"), help="scene file")
     p.add_argument("--size", type=parse_size, default=(320, 240), help="WIDTHxHEIGHT")
-    p.add_argument("--frames", type=int, default=128, help="progressive frames")
-    p.add_argument("--spp", type=int, default=256, help="reference samples per pixel (equal-error ladder)")
-    p.add_argument("--repeats", type=int, default=5, help="repeated runs per side (medians)")
+    p.add_argument("--frames", type=positive_int, default=DEFAULT_FRAMES, help="progressive frames")
+    p.add_argument("--spp", type=positive_int, default=LADDER_SPP, help="reference samples per pixel (equal-error ladder)")
+    p.add_argument("--repeats", type=positive_int, default=5, help="repeated runs per side (medians)")
     p.add_argument("--setup-scene", type=Path, default=Path("scenes/car.toml"),
                    help="the scene of the setup-seconds and setup-rss items beside the generated ones")
     p.add_argument("--only", default="", help="comma-separated items (default: all; the renderers declare "

@@ -4,11 +4,14 @@ thresholds, :mod:`compare.report.gate` for a baseline)."""
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import functools
 import json
 import sys
 from pathlib import Path
 
-from compare.cli.argtypes import positive_float, positive_int
+from compare.cli.argtypes import positive_float, positive_int, setting
+from compare.report.gate_settings import ERROR_TESTS, GateSettings
 from compare.report.check import check, load_thresholds
 from compare.util.errors import CompareError
 from compare.util.text import terminal_text
@@ -61,22 +64,15 @@ def add_check_parser(subparsers) -> argparse.ArgumentParser:
     g = p.add_argument_group("regression gate (--baseline)")
     g.add_argument("--baseline", type=Path, default=None, metavar="DIR",
                    help="a baseline folder (`compare baseline save`) to test the run against")
-    g.add_argument("--alpha", type=_alpha, default=0.01,
-                   help="family-wise significance level of the whole gate (Holm over every test)")
-    g.add_argument("--metric", type=_metrics, default=("relmse",), metavar="NAMES",
-                   help="error metric(s) tested at every checkpoint, comma-separated")
-    g.add_argument("--block", type=positive_int, default=1,
-                   help="the image z-test on the means of BLOCK x BLOCK tiles (their variance from the seeds)")
-    g.add_argument("--error-test", choices=["seeds", "ztest"], default="seeds",
-                   help="how the final checkpoint's error is judged: Welch's t-test of the seeds' errors, or the "
-                        "z-test of the final images (they differ and the error grew)")
-    g.add_argument("--time-ratio", type=_ratio, default=1.15,
-                   help="a slowdown fails only when the mean time grew by at least this ratio (and significantly)")
-    g.add_argument("--max-cv", type=positive_float, default=0.15,
-                   help="timings with a larger coefficient of variation (either side) are inconclusive")
-    g.add_argument("--min-seconds", type=float, default=0.01,
-                   help="checkpoints faster than this on both sides (mean seconds) are not timed")
-    g.add_argument("--fail-on-change", action="store_true", help="a changed final image fails the gate too")
+    knob = functools.partial(setting, GateSettings)
+    g.add_argument("--alpha", type=_alpha, **knob("alpha"))
+    g.add_argument("--metric", type=_metrics, dest="metrics", metavar="NAMES", **knob("metrics"))
+    g.add_argument("--block", type=positive_int, **knob("block"))
+    g.add_argument("--error-test", choices=ERROR_TESTS, **knob("error_test"))
+    g.add_argument("--time-ratio", type=_ratio, **knob("time_ratio"))
+    g.add_argument("--max-cv", type=positive_float, **knob("max_cv"))
+    g.add_argument("--min-seconds", type=float, **knob("min_seconds"))
+    g.add_argument("--fail-on-change", action="store_true", help=knob("fail_on_change")["help"])
     g.add_argument("--junit", type=Path, default=None, metavar="FILE", help="write JUnit XML, one test case per test")
     g.add_argument("--summary", type=Path, default=None, metavar="FILE",
                    help="append Markdown to FILE (e.g. $GITHUB_STEP_SUMMARY)")
@@ -101,14 +97,12 @@ def _thresholds(args: argparse.Namespace, path: Path) -> int:
 
 
 def _gate(args: argparse.Namespace) -> int:
-    from compare.report.gate import GateSettings, run_gate
+    from compare.report.gate import run_gate
     from compare.util.files import check_outputs, write_text_atomic
 
     outputs = {k: v for k, v in (("--junit", args.junit), ("--summary", args.summary)) if v is not None}
     check_outputs(outputs, inputs=(args.results,))
-    settings = GateSettings(alpha=args.alpha, metrics=tuple(args.metric), block=args.block,
-                            time_ratio=args.time_ratio, max_cv=args.max_cv, error_test=args.error_test,
-                            fail_on_change=args.fail_on_change, min_seconds=args.min_seconds)
+    settings = GateSettings(**{f.name: getattr(args, f.name) for f in dataclasses.fields(GateSettings)})
     report = run_gate(args.results, args.baseline, settings, progress=sys.stderr.isatty())
     if args.junit:
         from compare.report.junit import write_junit

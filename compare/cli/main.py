@@ -10,12 +10,13 @@ half-written left behind.
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import sys
 from pathlib import Path
 
 from compare.brdf import CLOSED_FORM_MODES, MATERIAL_MODES
-from compare.cli.argtypes import parse_size, positive_float, positive_int
+from compare.cli.argtypes import choices_help, parse_size, positive_float, positive_int, setting
 from compare.util.errors import CompareError
 
 __all__ = ["main", "parse_size", "positive_float", "positive_int"]
@@ -41,6 +42,7 @@ class UsageError(CompareError, ValueError):
 
 def _build_parser() -> argparse.ArgumentParser:
     from compare.renderers.registry import Registry
+    from compare.report.results import RunSettings
 
     p = argparse.ArgumentParser(prog="compare", description=__doc__.splitlines()[0],
                                 formatter_class=argparse.ArgumentDefaultsHelpFormatter)
@@ -56,15 +58,15 @@ def _build_parser() -> argparse.ArgumentParser:
                    help="a renderer file with [renderer.<name>] tables (docs/renderers.md)")
     r.add_argument("--steps", type=positive_int, default=None,
                    help="the budget in the renderer's unit; default: --spp, --frames or --samples by its kind")
-    r.add_argument("--spp", type=positive_int, default=256, help="samples per pixel (the reference, and renderers whose own budget it sets)")
-    r.add_argument("--frames", type=positive_int, default=128, help="frames to accumulate (progressive)")
+    opt = functools.partial(setting, RunSettings)
+    r.add_argument("--spp", type=positive_int, **opt("spp"))
+    r.add_argument("--frames", type=positive_int, **opt("frames"))
     r.add_argument("--samples", type=positive_int, default=64, help="samples of a renderer whose own budget it sets (`compare renderers`)")
     r.add_argument("--size", type=parse_size, default=None, help="WIDTHxHEIGHT; default: the scene's resolution")
     r.add_argument("--seed", type=int, default=0, help="random seed")
-    r.add_argument("--materials", choices=[m for m in MATERIAL_MODES if m not in CLOSED_FORM_MODES], default="shared",
-                   help="reference material mode: the shared BRDF plugin, its Blender Principled v2 flavour "
-                        "(Cycles-like; each material's distribution, Blender's default Multiscatter GGX) or that "
-                        "flavour with GGX single scattering")
+    modes = [m for m in MATERIAL_MODES if m not in CLOSED_FORM_MODES]
+    r.add_argument("--materials", choices=modes, default=opt("materials")["default"],
+                   help=choices_help(opt("materials")["help"], MATERIAL_MODES, modes))
     r.add_argument("--max-depth", type=int, default=None, help="path depth override (2 = direct light only)")
     r.add_argument("--variant", default=None,
                    help="Mitsuba variant (default: best available); the same as --renderer mitsuba:VARIANT")
@@ -134,6 +136,7 @@ def cmd_render(args: argparse.Namespace) -> int:
     from compare.image.exr import write_exr
     from compare.util.files import check_outputs
     from compare.renderers import RenderContext, check_rendering
+    from compare.renderers.base import UNIT_PLURALS
     from compare.renderers.registry import Registry
     from compare.report.results import RunSettings
     from compare.scene.loader import load_scene
@@ -176,7 +179,7 @@ def cmd_render(args: argparse.Namespace) -> int:
         rendering = check_rendering(renderer, renderer.render(given, steps=steps, checkpoints=[steps], seed=args.seed,
                                                               context=context), scene=scene, checkpoints=[steps])
     last = rendering.checkpoints[-1]
-    unit = {"frame": "frames", "spp": "spp", "sample": "samples"}.get(renderer.unit, renderer.unit)
+    unit = UNIT_PLURALS[renderer.unit]
     from compare.run.scene_job import exr_metadata
 
     meta = {**rendering.metadata, "renderer": renderer.name, unit: last.step, "seed": args.seed,

@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import functools
 import sys
 from pathlib import Path
 
-from compare.cli.argtypes import positive_float, positive_int
+from compare.cli.argtypes import positive_float, positive_int, setting
+from compare.report.results import RunSettings
 from compare.run.measure import UNITS, measure
 
 
@@ -19,10 +21,11 @@ def add_measure_parser(subparsers) -> None:
     p.add_argument("--name", default=None, help="the renderer's name in results.json (default: the folder's name)")
     p.add_argument("--label", default=None, help="the renderer's label in the report")
     p.add_argument("--unit", choices=sorted(UNITS), default="frames", help="what a step counts")
-    p.add_argument("--spp", type=positive_int, default=1024, help="ground-truth samples per pixel")
-    p.add_argument("--seed", type=int, default=0, help="ground-truth seed")
-    p.add_argument("--ground-truth", default="mitsuba", metavar="RENDERER", help="the ground-truth renderer")
-    p.add_argument("--exposure", type=positive_float, default=1.0, help="exposure before tone mapping")
+    opt = functools.partial(setting, RunSettings)
+    p.add_argument("--spp", type=positive_int, **opt("spp"))
+    p.add_argument("--seed", type=int, **opt("seed"))
+    p.add_argument("--ground-truth", metavar="RENDERER", **opt("ground_truth"))
+    p.add_argument("--exposure", type=positive_float, **opt("exposure"))
     p.add_argument("--fresh", action="store_true", help="redo finished units")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.add_argument("-o", "--output", type=Path, required=True, help="output folder (results.json and the report)")
@@ -30,8 +33,6 @@ def add_measure_parser(subparsers) -> None:
 
 
 def _cmd_measure(args) -> int:
-    from compare.report.results import RunSettings
-
     settings = RunSettings(spp=args.spp, seed=args.seed, exposure=args.exposure, ground_truth=args.ground_truth)
     res = measure(args.images, args.scene, args.output, name=args.name, label=args.label, unit=UNITS[args.unit],
                   settings=settings, progress=not args.quiet, fresh=args.fresh)

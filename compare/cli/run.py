@@ -3,14 +3,16 @@
 from __future__ import annotations
 
 import argparse
+import functools
 import sys
 from pathlib import Path
 
 from compare.brdf import CLOSED_FORM_MODES, MATERIAL_MODES
-from compare.cli.argtypes import parse_sizes, positive_float, positive_int
+from compare.cli.argtypes import choices_help, parse_sizes, positive_float, positive_int, setting
 from compare.renderers.registry import Registry
 from compare.report.results import RunSettings
 from compare.run.runner import run
+from compare.util.settings import DEFAULT_SPP
 from compare.util.errors import CompareError
 
 
@@ -28,10 +30,6 @@ def _renderer_list(text: str) -> list[str]:
     if not items:
         raise argparse.ArgumentTypeError("expected at least one renderer, e.g. mitsuba,progressive")
     return items
-
-
-#: The ground truth's samples per pixel when neither --spp nor the scene says.
-DEFAULT_SPP = 1024
 
 
 def _spp_arg(text: str):
@@ -53,42 +51,32 @@ def add_run_parser(subparsers) -> argparse.ArgumentParser:
                    help="scene files (TOML), or glTF files (.gltf, .glb) by themselves")
     p.add_argument("--size", type=_sizes_arg, default=None, metavar="WxH[,WxH...]",
                    help="resolutions, comma-separated; default: each scene's own")
-    p.add_argument("--frames", type=positive_int, default=128, help="progressive frames (checkpoints at 1, 2, 4, ...)")
-    p.add_argument("--spp", type=_spp_arg, default=1024,
-                   help="reference samples per pixel (ground truth), or auto: each scene's [render] reference_spp "
-                        "(what its ground truth needs to judge the built-in renderers), else 1024")
+    opt = functools.partial(setting, RunSettings)
+    p.add_argument("--frames", type=positive_int, **opt("frames"))
+    p.add_argument("--spp", type=_spp_arg, default=DEFAULT_SPP,
+                   help=opt("spp")["help"] + ", or auto: each scene's [render] reference_spp (what its ground truth "
+                        f"needs to judge the built-in renderers), else {DEFAULT_SPP}")
     registry = Registry()
     p.add_argument("--renderers", type=_renderer_list, default="mitsuba,progressive",
                    metavar="LIST", help="comma-separated renderer specs, NAME[:OPTION[+OPTION]]: "
                                         + registry.describe() + "; renderers of --renderer-config too; "
                                         "`compare renderers` lists them")
-    p.add_argument("--renderer-config", type=Path, default=None, metavar="TOML",
-                   help="a renderer file: [renderer.<name>] tables of external commands (docs/renderers.md)")
-    p.add_argument("--ground-truth", default="mitsuba", metavar="RENDERER",
-                   help="the renderer every run is measured against (at its full budget, seed --seed); its own "
-                        "run, if listed, uses seed+1 and gives the noise floor")
-    p.add_argument("--baseline", default="progressive", metavar="RENDERER",
-                   help="the run the report's ablation table compares the variants of its family with")
+    p.add_argument("--renderer-config", type=Path, metavar="TOML", **opt("renderer_config"))
+    p.add_argument("--ground-truth", metavar="RENDERER", **opt("ground_truth"))
+    p.add_argument("--baseline", metavar="RENDERER", **opt("baseline"))
     for name in registry.builtins():  # each renderer's own budget flag, as it declares it
         cls = type(registry.get(name))
         if cls.budget_flag:
             p.add_argument(cls.budget_flag, type=positive_int, default=cls.default_budget, dest=f"budget_{name}", metavar="N",
                            help=f"{name}'s budget in {cls.unit} ({cls.__doc__.splitlines()[0].rstrip('.')})")
-    p.add_argument("--seed", type=int, default=0, help="seed of the ground truth (its convergence ladder uses seed+1)")
-    p.add_argument("--exposure", type=positive_float, default=1.0,
-                   help="linear exposure before ACES tone mapping (LDR metrics and previews)")
-    p.add_argument("--materials", choices=[m for m in MATERIAL_MODES if m not in CLOSED_FORM_MODES], default="shared",
-                   help="reference material mode: shared (the rasterizer's BRDF), cycles (Blender's Principled "
-                        "BSDF v2 with each material's distribution, Blender's default Multiscatter GGX; for "
-                        "comparisons with cycles and eevee) or cycles-ggx (the same with GGX single scattering; "
-                        "compare with cycles:ggx and eevee:ggx)")
+    p.add_argument("--seed", type=int, **opt("seed"))
+    p.add_argument("--exposure", type=positive_float, **opt("exposure"))
+    modes = [m for m in MATERIAL_MODES if m not in CLOSED_FORM_MODES]
+    p.add_argument("--materials", choices=modes, default=opt("materials")["default"],
+                   help=choices_help(opt("materials")["help"], MATERIAL_MODES, modes))
     p.add_argument("--no-likeness", dest="likeness", action="store_false",
-                   help="with --materials cycles (cycles-ggx), skip the Cycles-likeness measurement (it renders Cycles once more "
-                        "and Mitsuba twice with as many samples as give it Cycles' noise: about three times the "
-                        "Cycles unit's cost)")
-    p.add_argument("--seeds", type=positive_int, default=1,
-                   help="independent runs of every renderer (different seeds); 2 or more split each checkpoint's "
-                        "error into squared bias and variance (compare/metrics/bias.py), at that many times the cost")
+                   help="skip this measurement: " + opt("likeness")["help"])
+    p.add_argument("--seeds", type=positive_int, **opt("seeds"))
     p.add_argument("--timeout", type=positive_float, default=None, metavar="SECONDS",
                    help="stop a render that takes longer, with one message (its browser tab or process group "
                         "ended); default: each renderer's own limit (an external command's timeout, 1800 s for "

@@ -45,11 +45,23 @@ import numpy as np
 
 from compare.util.errors import CompareError
 
-__all__ = ["UNITS", "Checkpoint", "RenderContext", "Renderer", "RendererError", "Rendering", "check_layers",
+__all__ = ["UNITS", "UNIT_PLURALS", "unit_word", "Checkpoint", "RenderContext", "Renderer", "RendererError", "Rendering", "check_layers",
            "check_renderer", "check_rendering", "doubling_steps"]
 
 #: What a step may count.
-UNITS = ("spp", "frame", "sample")
+#: What a renderer's step counts (:attr:`Renderer.unit`) → its plural, the word of a budget flag and of
+#: metadata (``--frames``, ``"samples": 64``).
+UNIT_PLURALS = {"spp": "spp", "frame": "frames", "sample": "samples"}
+UNITS = tuple(UNIT_PLURALS)
+
+
+def unit_word(text: str) -> str | None:
+    """The unit a word names, singular or plural (``"frames"`` → ``"frame"``); None for another word."""
+    if not isinstance(text, str):
+        return None
+    if text in UNIT_PLURALS:
+        return text
+    return next((unit for unit, plural in UNIT_PLURALS.items() if plural == text), None)
 
 
 class RendererError(CompareError, RuntimeError):

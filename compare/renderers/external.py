@@ -30,14 +30,13 @@ import time
 from pathlib import Path
 
 from compare.util.files import sha256_bytes
-from compare.renderers.base import RenderContext, Renderer, RendererError, Rendering, UNITS
+from compare.renderers.base import RenderContext, Renderer, RendererError, Rendering, UNIT_PLURALS, UNITS, unit_word
 from compare.renderers.job import JOB_SCHEMAS, read_checkpoints, write_job
 from compare.util.files import log_tail
 from compare.scene.model import FEATURE_NAMES
 
 __all__ = ["ExternalRenderer", "external_from_table"]
 
-_UNIT_WORDS = {"frames": "frame", "frame": "frame", "spp": "spp", "samples": "sample", "sample": "sample"}
 _KEYS = {"command", "label", "unit", "steps", "timeout", "checkpoints", "env", "job_schema", "renders"}
 TAIL_LINES = 12
 
@@ -185,9 +184,9 @@ def external_from_table(name: str, table, *, source: Path) -> ExternalRenderer:
                           '["python3", "tools/my_renderer.py", "{job}"], got ' + repr(command))
     if not any("{job}" in c for c in command):
         raise ConfigError(f"{where}.command: no argument holds {{job}} (the path of the job file)")
-    unit = _UNIT_WORDS.get(table.get("unit", "frames"))
+    unit = unit_word(table.get("unit", "frames"))
     if unit not in UNITS:
-        raise ConfigError(f"{where}.unit: expected frames, spp or samples, got {table.get('unit')!r}")
+        raise ConfigError(f"{where}.unit: expected one of {', '.join(UNIT_PLURALS.values())}, got {table.get('unit')!r}")
     steps = table.get("steps", 64)
     if not (isinstance(steps, int) and not isinstance(steps, bool) and steps >= 1):
         raise ConfigError(f"{where}.steps: expected a positive integer, got {steps!r}")

@@ -44,56 +44,13 @@ import numpy as np
 from compare.util.errors import CompareError
 from compare.metrics.regression import coefficient_of_variation, holm, image_test, paired, seed_outlier, welch
 from compare.report.baseline import Baseline
+from compare.report.gate_settings import GateError, GateSettings
 from compare.report.results import Machine, RendererRun, Results, SceneResult
 
 __all__ = ["Gate", "GateError", "GateReport", "GateSettings", "machine_difference", "run_gate"]
 
 #: Outcomes that fail the gate (exit status 1).
 FAILING = ("regression", "slower", "missing")
-
-
-class GateError(CompareError, ValueError):
-    """The gate cannot run (e.g. a candidate image named in results.json is missing)."""
-
-
-@dataclass(frozen=True)
-class GateSettings:
-    """The gate's knobs (``compare check --baseline`` options of the same names).
-
-    alpha : family-wise significance level of the whole gate (every test of the run, Holm-corrected).
-    metrics : error metrics tested per checkpoint (names of results.json's metrics).
-    block : the image z-test on the means of block × block tiles (1: per pixel).
-    time_ratio : a slowdown fails only when the candidate's mean time is at least this times the baseline's.
-    max_cv : above this coefficient of variation of either side's timings the time test is inconclusive.
-    error_test : "seeds" (Welch on the seeds' errors) or "ztest" (the final images' z-test, final checkpoint).
-    fail_on_change : a changed image fails the gate too.
-    min_seconds : checkpoints whose mean times (both sides) are shorter are not timed.
-    """
-
-    alpha: float = 0.01
-    metrics: tuple[str, ...] = ("relmse",)
-    block: int = 1
-    time_ratio: float = 1.15
-    max_cv: float = 0.15
-    error_test: str = "seeds"
-    fail_on_change: bool = False
-    min_seconds: float = 0.01
-
-    def __post_init__(self):
-        if not 0 < self.alpha < 1:
-            raise GateError(f"alpha: expected a level in (0, 1), got {self.alpha!r}")
-        if not self.time_ratio >= 1:
-            raise GateError(f"time ratio: expected a number >= 1, got {self.time_ratio!r}")
-        if not self.min_seconds >= 0:
-            raise GateError(f"min seconds: expected a number >= 0, got {self.min_seconds!r}")
-        if not self.max_cv > 0:
-            raise GateError(f"max cv: expected a number > 0, got {self.max_cv!r}")
-        if self.error_test not in ("seeds", "ztest"):
-            raise GateError(f"error test: expected 'seeds' or 'ztest', got {self.error_test!r}")
-        if isinstance(self.block, bool) or not isinstance(self.block, int) or self.block < 1:
-            raise GateError(f"block: expected a positive integer, got {self.block!r}")
-        if not self.metrics:
-            raise GateError("metrics: name at least one error metric")
 
 
 @dataclass

@@ -58,6 +58,8 @@ import numpy as np
 
 from compare.util.errors import CompareError
 from compare.util.files import write_text_atomic
+from compare.brdf import MATERIAL_MODES
+from compare.image.layers import LAYER_TITLES
 from compare.metrics.table import METRICS
 from compare.report.results import Results, SceneResult, metric_value
 
@@ -240,19 +242,8 @@ def _scene_view(scene: SceneResult, plots: dict[str, Path], out: Path, exposure:
 
 
 #: What the reference's material mode models, in words (compare.mitsuba.scene_dict).
-MATERIALS_NOTES = {
-    "shared": "the glTF BRDF the rasterizer evaluates (GGX single scattering, Schlick Fresnel)",
-    "cycles": "Blender's Principled BSDF v2 with each material's distribution, by default Blender's Multiscatter GGX",
-    "cycles-ggx": "Blender's Principled BSDF v2 with GGX (single scattering) everywhere",
-    "diffuse": "Lambert only",
-}
 
 
-#: Layer headings of the per-effect table (compare.mitsuba.layers).
-LAYER_TITLES = {"emission": "emission", "direct_area": "direct, area lights", "direct_env": "direct, environment",
-                "direct_punctual": "direct, point, spot and directional lights",
-                "indirect_diffuse": "indirect diffuse", "indirect_specular": "indirect specular",
-                "direct_area_unshadowed": "direct, area lights, unshadowed"}
 
 
 def _left_out(scene: SceneResult) -> list[dict]:
@@ -560,7 +551,7 @@ def build_report(results: Results, out_dir: str | os.PathLike, *, source_dir: st
         settings=results.settings,
         machine=results.machine,
         table1=_table1(results),
-        materials_note=MATERIALS_NOTES.get(results.settings.materials, results.settings.materials),
+        materials_note=MATERIAL_MODES.get(results.settings.materials, results.settings.materials),
         scenes=[_scene_view(s, plots[s.id], out, results.settings.exposure, results.settings.baseline)
                 for s in results.scenes],
         metric_headings=[h for _, h, _ in TABLE_METRICS],

@@ -123,6 +123,7 @@ from typing import Any
 
 from compare.util.errors import CompareError
 from compare.util.files import write_text_atomic
+from compare.util.settings import DEFAULT_FRAMES, DEFAULT_SPP, documented, option
 
 __all__ = [
     "SCHEMA",
@@ -216,70 +217,38 @@ def metric_value(metrics: dict[str, float | None], name: str) -> float | None:
 # --------------------------------------------------------------------------- dataclasses
 
 
+@documented
 @dataclass
 class RunSettings:
-    """What ``compare run`` was asked to do (everything but the output folder).
+    """What ``compare run`` was asked to do (everything but the output folder). The command line's options
+    take their defaults and help texts from these fields."""
 
-    Attributes
-    ----------
-    frames : int
-        Frames the progressive renderer accumulates; checkpoints at 1, 2, 4, …, frames.
-    spp : int
-        Samples per pixel of the reference (ground truth and its convergence ladder).
-    seed : int
-        Seed of the ground truth; the reference's convergence ladder uses ``seed + 1``.
-    renderers : list of str
-        Renderer specs: ``"mitsuba"`` (reference convergence and noise floor),
-        ``"progressive"`` or ``"progressive:<option>"`` (:mod:`compare.progressive.options`),
-        ``"cycles"``, ``"eevee"`` (Blender, the ``blender`` extra; ``:ggx`` sets GGX single scattering).
-    sizes : list of [int, int]
-        Resolutions; empty means each scene's own.
-    exposure : float
-        Linear exposure before tone mapping for LDR metrics and previews.
-    tonemap : str
-        Tone-mapping operator for LDR metrics and previews (the report's
-        interactive view implements ``"aces"`` only).
-    materials : str
-        Reference material mode (``"shared"`` BRDF plugin, ``"cycles"`` or ``"cycles-ggx"``;
-        :mod:`compare.mitsuba.scene_dict`).
-    budgets : dict of str to int
-        Budgets (steps) of single renderers, by spec or name (e.g. ``{"cycles": 1024, "eevee": 64}``);
-        a renderer not named takes its own default (:meth:`budget`).
-    likeness : bool
-        With ``materials="cycles"`` (``"cycles-ggx"``), measure whether the ground truth is
-        Cycles-like against the ``cycles`` (``cycles:ggx``) run
-        (one more Cycles render and two Mitsuba passes at Cycles' budget, so it roughly
-        triples the Cycles unit's cost; turn it off for large Table 1 runs).
-    scene_spp : bool
-        ``--spp auto``: each scene's ``[render] reference_spp`` where it sets one, else ``spp``.
-    seeds : int
-        Independent runs of every renderer (seeds differ); with 2 or more each checkpoint also
-        gets the split of its error into squared bias and variance (:mod:`compare.metrics.bias`:
-        ``mse_mean``, ``variance``, ``bias2``, ``bias2_ci`` among its metrics).
-    ground_truth : str
-        The renderer whose full-budget render (seed ``seed``) every run is measured
-        against; its own run, if listed, uses seed ``seed + 1`` and gives the noise floor.
-    baseline : str
-        The run the report's ablation table compares the variants of its family with.
-    renderer_config : str or None
-        A renderer TOML file (``--renderer-config``) that names more renderers.
-    """
-
-    frames: int = 128
-    spp: int = 1024
-    seed: int = 0
-    renderers: list[str] = field(default_factory=lambda: ["mitsuba", "progressive"])
-    sizes: list[list[int]] = field(default_factory=list)
-    exposure: float = 1.0
-    tonemap: str = "aces"
-    materials: str = "shared"
-    budgets: dict[str, int] = field(default_factory=dict)
-    likeness: bool = True
-    seeds: int = 1
-    scene_spp: bool = False
-    ground_truth: str = "mitsuba"
-    baseline: str = "progressive"
-    renderer_config: str | None = None
+    frames: int = option(DEFAULT_FRAMES, "frames the progressive renderer accumulates (checkpoints at 1, 2, 4, ...)")
+    spp: int = option(DEFAULT_SPP, "reference samples per pixel (ground truth and its convergence ladder)")
+    seed: int = option(0, "seed of the ground truth (its convergence ladder uses seed+1)")
+    renderers: list[str] = option(help="renderer specs, NAME[:OPTION[+OPTION]]", factory=lambda: ["mitsuba", "progressive"])
+    sizes: list[list[int]] = option(help="resolutions; empty: each scene's own", factory=list)
+    exposure: float = option(1.0, "linear exposure before ACES tone mapping (LDR metrics and previews)")
+    tonemap: str = option("aces", "tone-mapping operator of the LDR metrics and previews (the report's "
+                                  "interactive view implements aces only)")
+    materials: str = option("shared", "reference material mode")
+    budgets: dict[str, int] = option(help="budgets (steps) of single renderers by spec or name, e.g. "
+                                          "{'cycles': 1024}; a renderer not named takes its own default",
+                                     factory=dict)
+    likeness: bool = option(True, "with --materials cycles (cycles-ggx), measure whether the ground truth is "
+                                  "Cycles-like against the cycles (cycles:ggx) run; it renders Cycles once more and "
+                                  "Mitsuba twice with as many samples as give it Cycles' noise, about three times "
+                                  "the Cycles unit's cost")
+    seeds: int = option(1, "independent runs of every renderer (different seeds); 2 or more split each "
+                           "checkpoint's error into squared bias and variance (compare/metrics/bias.py), at that "
+                           "many times the cost")
+    scene_spp: bool = option(False, "--spp auto: each scene's [render] reference_spp where it sets one, else spp")
+    ground_truth: str = option("mitsuba", "the renderer every run is measured against (at its full budget, seed "
+                                          "--seed); its own run, if listed, uses seed+1 and gives the noise floor")
+    baseline: str = option("progressive", "the run the report's ablation table compares the variants of its "
+                                          "family with")
+    renderer_config: str | None = option(None, "a renderer file: [renderer.<name>] tables of external commands "
+                                               "(docs/renderers.md)")
 
     def to_json(self) -> dict:
         """JSON-ready dict."""

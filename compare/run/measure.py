@@ -16,11 +16,13 @@ from pathlib import Path
 from compare.util.errors import CompareError
 from compare.util.files import sha256_bytes
 from compare.renderers import RenderContext, Renderer, RendererError, Rendering
+from compare.renderers.base import UNIT_PLURALS
 from compare.renderers.job import read_checkpoints, step_files
 
 __all__ = ["ImageFolder", "measure"]
 
-UNITS = {"frames": "frame", "spp": "spp", "samples": "sample"}
+#: ``--unit`` words (plural) → the unit a step counts.
+UNITS = {plural: unit for unit, plural in UNIT_PLURALS.items()}
 
 
 class ImageFolder(Renderer):

@@ -65,11 +65,10 @@ from typing import Iterator, Sequence
 import numpy as np
 
 from compare.progressive.schedule.sampling import env_sample_points, light_sample_points, pixel_jitter
+from compare.util.settings import DEFAULT_FRAMES
 
 #: Paper default: direct-light samples start at 30 % of the frames.
 DEFAULT_DIRECT_FRACTION = 0.3
-#: Paper default number of frames.
-DEFAULT_FRAMES = 128
 
 
 def round_half_up(x: float) -> int:
