@@ -18,7 +18,7 @@ import pytest
 
 from compare.metrics.closed_form import polygon_irradiance
 from compare.blender import export
-from compare.blender.likeness import region_masks, region_stats
+from compare.run.likeness import region_masks, region_stats
 from compare.blender.render import BlenderError, blender_available, blender_python, render_blender
 from compare.scene.equirect import equirect_directions, world_to_env
 from compare.util.errors import MissingComponentError
@@ -374,7 +374,7 @@ def test_worker_failure_is_a_blender_error(tmp_path):
 @needs_bpy
 def test_cornell_geometry_and_lights_match_mitsuba_with_lambert():
     """Lambert on both sides isolates camera, geometry, lights and bounces from the BSDF models."""
-    from compare.blender.likeness import cycles_likeness
+    from compare.run.likeness import cycles_likeness
 
     scene = load_scene(CORNELL).with_resolution(64, 48)
     result = cycles_likeness(scene, spp=64, materials="diffuse", cache_dir=False)
@@ -400,7 +400,7 @@ def test_cornell_reference_is_cycles_like(materials, distribution, cornell_cycle
 
     Measured (96x72, 256 spp): FLIP 0.97-1.00, relMSE 0.98-1.02.
     """
-    from compare.blender.likeness import cycles_likeness
+    from compare.run.likeness import cycles_likeness
 
     scene, pairs = cornell_cycles_pairs
     pair = pairs[distribution]
@@ -417,7 +417,7 @@ def test_cornell_reference_is_cycles_like(materials, distribution, cornell_cycle
 def test_likeness_tells_the_distributions_apart(cornell_cycles_pairs):
     """The test above could fail: the Multiscatter model against GGX renders is far from Cycles-like
     (measured 4.1 at 96x72, 512 spp), and a mode and renders of different distributions are refused."""
-    from compare.blender.likeness import cycles_likeness
+    from compare.run.likeness import cycles_likeness
 
     scene, pairs = cornell_cycles_pairs
     wrong = cycles_likeness(scene, spp=256, materials="cycles", cache_dir=False, cycles=pairs["ggx"],

@@ -143,10 +143,9 @@ def test_the_command_line_imports_no_renderer_or_decoder_until_a_command_needs_i
 NOT_RENDERING = ("metrics/", "report/", "cli/", "run/", "bench/", "renderers/registry.py", "renderers/external.py")
 
 
-# (Not yet compare.blender.renderer: a Cycles render's record carries the likeness measurement, FLIP of
-# Cycles against Mitsuba, so its key holds compare.metrics.images until that moves to the measure stage.)
 @pytest.mark.parametrize("module", ["compare.mitsuba.reference", "compare.mitsuba.renderer",
-                                    "compare.progressive.renderer", "compare.web.renderer"])
+                                    "compare.progressive.renderer", "compare.web.renderer",
+                                    "compare.blender.renderer"])
 def test_no_engine_key_holds_code_that_renders_nothing(module):
     """An engine's render key (and the reference's pass-cache key) is the import closure of its code: a
     FLIP parameter, the registry or the external adapter changing must not throw away its renders."""

@@ -354,9 +354,10 @@ def test_blender_distribution_options_are_variants_with_their_own_key():
     scene = load_scene(CORNELL)
     default = RunSettings(materials="cycles")
     assert plain.key(scene, default) != ggx.key(scene, default)
-    assert plain._likeness(default) and not ggx._likeness(default)
-    assert ggx._likeness(RunSettings(materials="cycles-ggx")) and not plain._likeness(RunSettings(materials="cycles-ggx"))
-    assert not plain._likeness(RunSettings(materials="shared"))
+    assert plain.models("cycles") and not ggx.models("cycles")
+    assert ggx.models("cycles-ggx") and not plain.models("cycles-ggx")
+    assert not plain.models("shared") and not reg.get("eevee").models("cycles")
+    assert plain.key(scene, default) == plain.key(scene, RunSettings(materials="cycles", likeness=False))
     assert reg.get("eevee:ggx").variant_of == "eevee"
     for bad in ("cycles:nope", "eevee:ggx+msaa", "cycles:GGX"):
         with pytest.raises(ValueError, match=r"expected one of ggx|one distribution at a time"):

@@ -6,7 +6,7 @@
 * :mod:`compare.blender.export` holds every convention of the mapping (camera,
   area-light radiometry, Principled BSDF, environment orientation, pixel
   filter, path depth) and is usable without bpy.
-* :mod:`compare.blender.likeness` measures how "Cycles-like" the Mitsuba
+* :mod:`compare.run.likeness` measures how "Cycles-like" the Mitsuba
   reference in ``cycles`` material mode is.
 
 Importing this package never imports bpy; :func:`blender_available` says

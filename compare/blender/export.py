@@ -76,7 +76,7 @@ direction, in place of glTF's per-direction ``1 − F(v·h)``. The reference's
 plugin's ``cycles`` flavour): with ``shared`` glossy materials differ from
 Cycles, with ``cycles`` they agree, and with Lambert on both sides the regions
 agree within noise, so the rest of the mapping is not the cause
-(:mod:`compare.blender.likeness`; the numbers are in ``docs/performance-notes.md``).
+(:mod:`compare.run.likeness`; the numbers are in ``docs/performance-notes.md``).
 Emission = ``Emission Color`` with strength 1, made one-sided (as Mitsuba's
 ``area`` emitter on a mesh) by zeroing it on back faces. A
 ``metallic_roughness_texture`` drives Roughness (its G channel) and Metallic (B)
@@ -170,7 +170,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from compare.brdf.multiscatter import DISTRIBUTIONS
-from compare.mitsuba.layers import MAX_HOLES
+from compare.scene.model import MAX_HOLES
 from compare.scene.loader import AreaLight, Camera, Scene
 
 #: Version of the job format shared by this module and the worker.

@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 
 from compare.blender.export import CYCLES_PAPER_SAMPLES, EEVEE_PAPER_SAMPLES
+from compare.brdf import PRINCIPLED_MODES
 from compare.renderers.base import Checkpoint, RenderContext, Renderer, Rendering
 from compare.renderers.options import parse_spec
 from compare.scene.model import MATERIAL_FEATURE_NAMES
@@ -43,27 +44,6 @@ def _blender_checkpoints(scene, *, engine: str, samples: int, seed: int, ladder:
     return cps, float(result.startup_seconds), dict(result.metadata), result
 
 
-def _cycles_likeness(scene, *, samples: int, seed: int, first, cache_dir, materials: str = "cycles",
-                     distribution: str | None = None) -> dict:
-    """Is the Mitsuba reference in material mode ``materials`` Cycles-like (compare.blender.likeness)?
-    The run's Cycles render (with ``distribution``) is seed A; one more Cycles render (seed B)
-    and two independent Mitsuba passes, with as many samples as give them Cycles' noise, are made here."""
-    from compare.blender import render_blender
-    from compare.blender.likeness import cycles_likeness
-
-    second = render_blender(scene, engine="cycles", samples=samples, seed=seed + 1, distribution=distribution)
-    res = cycles_likeness(scene, spp=samples, materials=materials, seeds=(seed, seed + 1), cache_dir=cache_dir,
-                          cycles=(first, second), match_noise=True)
-    agree = sum(1 for r in res.regions if r.agrees)
-    return {"likeness_flip_cross": res.flip_cross, "likeness_flip_seed": res.flip_seed,
-            "likeness_flip_mitsuba_seed": res.flip_mitsuba_seed, "likeness_ratio": res.ratio,
-            "likeness_ratio_noise_matched": res.ratio_noise_matched,
-            "likeness_relmse_ratio": res.relmse_ratio,
-            "likeness_relmse_ratio_noise_matched": res.relmse_ratio_noise_matched,
-            "likeness_spp": samples, "likeness_mitsuba_spp": res.mitsuba_spp, "likeness_materials": materials,
-            "likeness_regions": f"{agree}/{len(res.regions)}"}
-
-
 class BlenderRenderer(Renderer):
     """Cycles (CPU) or EEVEE through ``bpy`` in a separate process.
 
@@ -72,9 +52,8 @@ class BlenderRenderer(Renderer):
     says otherwise); ``cycles:ggx`` / ``eevee:ggx`` set GGX (single scattering)
     everywhere, ``:multi_ggx`` Multiscatter GGX everywhere. With
     ``--materials cycles`` (for ``cycles``) or ``--materials cycles-ggx`` (for
-    ``cycles:ggx``) and the likeness measurement on (the default), a Cycles
-    run also says how Cycles-like the Mitsuba reference is (metadata
-    ``likeness_*``, shown in the report).
+    ``cycles:ggx``) the reference models the same materials (:meth:`models`), and
+    the measure stage says how Cycles-like it is (:mod:`compare.run.likeness`).
     """
 
     unit = "spp"
@@ -108,34 +87,17 @@ class BlenderRenderer(Renderer):
     def checkpoints(self, steps: int) -> list[int]:
         return blender_ladder(steps)
 
-    def _models_reference(self, settings) -> bool:
-        """Whether the reference's material mode models this renderer's Principled BSDFs."""
-        from compare.mitsuba.scene_dict import PRINCIPLED_MODES
-
-        return (self.engine == "cycles" and settings.materials in PRINCIPLED_MODES
-                and PRINCIPLED_MODES[settings.materials] == self.distribution)
-
-    def _likeness(self, settings) -> bool:
-        return self._models_reference(settings) and settings.likeness
+    def models(self, materials: str) -> bool:
+        # Cycles renders the Principled BSDFs that the reference's Principled modes model (with their distribution).
+        return self.engine == "cycles" and materials in PRINCIPLED_MODES and PRINCIPLED_MODES[materials] == self.distribution
 
     def key(self, scene, settings) -> list:
-        # The likeness is metadata, not pixels, but a run that asks for it must not reuse one without.
-        return ["blender", self.name, "distribution", self.distribution or "per-material",
-                *(["likeness", settings.materials] if self._likeness(settings) else [])]
-
-    def reusable_keys(self, scene, settings) -> list:
-        # A finished Cycles render with the likeness has all that a run without it asks for.
-        if self._models_reference(settings) and not settings.likeness:
-            return [[*self.key(scene, settings), "likeness", settings.materials]]
-        return []
+        return ["blender", self.name, "distribution", self.distribution or "per-material"]
 
     def render(self, scene, *, steps: int, checkpoints: list[int], seed: int, context: RenderContext) -> Rendering:
-        cps, startup, meta, result = _blender_checkpoints(scene, engine=self.engine, samples=steps, seed=seed,
+        cps, startup, meta, _ = _blender_checkpoints(scene, engine=self.engine, samples=steps, seed=seed,
                                                           ladder=[c for c in checkpoints if c < steps],
                                                           distribution=self.distribution)
-        if self._likeness(context.settings):
-            meta.update(_cycles_likeness(scene, samples=steps, seed=seed, first=result, cache_dir=context.cache_dir,
-                                         materials=context.settings.materials, distribution=self.distribution))
         return Rendering([Checkpoint(s, t, img) for s, t, img in cps], startup, meta)
 
 

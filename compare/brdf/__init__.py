@@ -118,6 +118,8 @@ MATERIAL_MODES = {
     "cycles-ggx": "Blender's Principled BSDF v2 with GGX single scattering in every material",
     "diffuse": "Lambert only (closed-form checks)",
 }
+#: Modes that model Blender's Principled BSDF, with the distribution they force (None: each material's).
+PRINCIPLED_MODES = {"cycles": None, "cycles-ggx": "ggx"}
 #: Modes for closed-form checks only, not offered to a run.
 CLOSED_FORM_MODES = ("diffuse",)
 #: Smallest GGX alpha (= 0.045**2, Filament's desktop MIN_ROUGHNESS) of the renderers that need a floor

@@ -44,11 +44,10 @@ from __future__ import annotations
 import numpy as np
 
 from compare.image.layers import LAYERS
+from compare.scene.model import MAX_HOLES
 
 __all__ = ["INTEGRATOR_NAME", "register", "split_layers"]
 
-#: Holes of alpha masks one path may cross (Cycles' transparent bounces; the Blender export sets the same).
-MAX_HOLES = 64
 
 #: Name under which :class:`LayersIntegrator` is registered.
 INTEGRATOR_NAME = "compare_layers"

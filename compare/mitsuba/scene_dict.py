@@ -54,7 +54,7 @@ reference's), the float32 guards of V, Cycles' bending of shading normals for
 specular reflection on smooth-shaded meshes (``ensure_valid_specular_reflection``),
 Monte Carlo noise in the two tabulations of ``E_s`` (~3e-4), and sampling
 (lobe choice, light sampling, Sobol versus Mitsuba's samplers), which changes
-noise, not the expectation. Measured with :func:`compare.blender.likeness.cycles_likeness`
+noise, not the expectation. Measured with :func:`compare.run.likeness.cycles_likeness`
 against Cycles with the same distribution: see ``docs/cycles-likeness.md``.
 (The single-scattering model alone, against Blender renders that set GGX:
 Cornell box 64x48 at 64 spp 1.06, kitchen and car at 96x72 1.11 and 1.39; at
@@ -74,7 +74,7 @@ import math
 
 import numpy as np
 
-from compare.brdf import MATERIAL_MODES
+from compare.brdf import MATERIAL_MODES, PRINCIPLED_MODES
 from compare.mitsuba.principled import NEUTRAL_LEVEL
 from compare.scene.loader import AreaLight, Material, Scene
 
@@ -83,8 +83,6 @@ SHARED_BSDF = "gltf_pbr"
 #: Model identifiers of modes whose model changed (part of the reference's cache key).
 MATERIAL_MODELS = {"cycles": "gltf_pbr:cycles:per-material-distribution:principled-layers",
                    "cycles-ggx": "gltf_pbr:cycles:principled-layers"}
-#: Modes that model Blender's Principled BSDF, with the distribution they force (None: each material's).
-PRINCIPLED_MODES = {"cycles": None, "cycles-ggx": "ggx"}
 
 
 #: Scenes whose extent (the diagonal of everything the camera, lights and meshes span) is below

@@ -95,6 +95,12 @@ class ProgressiveRenderer(Renderer):
             cps = [c for c in cps if c[0] in checkpoints and c[0] < done] + [cps[-1]]
         return Rendering([Checkpoint(s, t, img) for s, t, img in cps], setup, meta, layers)
 
+    def notes(self, metadata: dict) -> dict[str, str]:
+        scale = metadata.get("first_frame_scale")  # frame 0 is a reduced preview outside the running means
+        if isinstance(scale, (int, float)) and 0 < scale < 1:
+            return {"first_image": f"drawn at {float(scale):g}× size"}
+        return {}
+
     def facts(self, metadata: dict) -> dict[str, str]:
         g, e = metadata.get("gl_renderer"), metadata.get("gl_srgb_decode_error")
         return {**({"gl_renderer": g} if isinstance(g, str) else {}),

@@ -45,7 +45,7 @@ import numpy as np
 
 from compare.util.errors import CompareError
 
-__all__ = ["UNITS", "UNIT_PLURALS", "unit_word", "Checkpoint", "RenderContext", "Renderer", "RendererError", "Rendering", "check_layers",
+__all__ = ["NOTE_KINDS", "UNITS", "UNIT_PLURALS", "unit_word", "Checkpoint", "RenderContext", "Renderer", "RendererError", "Rendering", "check_layers",
            "check_renderer", "check_rendering", "doubling_steps"]
 
 #: What a step may count.
@@ -53,6 +53,10 @@ __all__ = ["UNITS", "UNIT_PLURALS", "unit_word", "Checkpoint", "RenderContext", 
 #: metadata (``--frames``, ``"samples": 64``).
 UNIT_PLURALS = {"spp": "spp", "frame": "frames", "sample": "samples"}
 UNITS = tuple(UNIT_PLURALS)
+
+
+#: The kinds of :meth:`Renderer.notes` a report shows, and where.
+NOTE_KINDS = {"first_image": "how the first checkpoint was made (the report's first-frame table)"}
 
 
 def unit_word(text: str) -> str | None:
@@ -254,10 +258,6 @@ class Renderer(abc.ABC):
         """Refuse, before any work of a run, a scene this renderer cannot render here (e.g. a size
         beyond its memory), with an error naming the limit; default: nothing to check."""
 
-    def reusable_keys(self, scene, settings) -> list[Any]:
-        """Keys of other finished renders that serve a run with ``settings`` as well (default: none)."""
-        return []
-
     @abc.abstractmethod
     def render(self, scene, *, steps: int, checkpoints: list[int], seed: int, context: RenderContext) -> Rendering:
         """Render ``scene`` with ``seed``; a checkpoint at every step of ``checkpoints`` (the last is ``steps``)."""
@@ -272,6 +272,17 @@ class Renderer(abc.ABC):
         camera ray first hits it), which a ground truth may offer so that a run can say how much of the image
         a renderer's left-out features cover; default: None (unknown)."""
         return None
+
+    def notes(self, metadata: dict) -> dict[str, str]:
+        """What the report should say about a run of this renderer, by kind of :data:`NOTE_KINDS` (e.g.
+        ``{"first_image": "drawn at 0.5× size"}``), from the run's metadata; default: nothing."""
+        return {}
+
+    def models(self, materials: str) -> bool:
+        """Whether this renderer draws the scene's materials as the ground truth's material mode ``materials``
+        models them (a run's measure stage then compares the two for likeness, :mod:`compare.run.likeness`);
+        default: False."""
+        return False
 
     def facts(self, metadata: dict) -> dict[str, str]:
         """Facts about the machine this renderer's metadata reveals (e.g. ``gl_renderer``), for the report's

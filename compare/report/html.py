@@ -241,11 +241,6 @@ def _scene_view(scene: SceneResult, plots: dict[str, Path], out: Path, exposure:
     }
 
 
-#: What the reference's material mode models, in words (compare.mitsuba.scene_dict).
-
-
-
-
 def _left_out(scene: SceneResult) -> list[dict]:
     """What each renderer (the ground truth first) changed or left out of the scene, as it declared
     (:meth:`compare.renderers.base.Renderer.prepare`): the run's ``scene_changed`` phrases."""
@@ -342,18 +337,16 @@ def _bias(scene: SceneResult) -> list[dict]:
 
 
 def _likeness(scene: SceneResult) -> dict | None:
-    """The Cycles-likeness a run measured (``cycles`` with ``--materials cycles``), formatted, or None."""
-    run = next((r for r in scene.runs if "likeness_ratio" in r.metadata), None)
-    if run is None:
+    """The likeness the measure stage found (``cycles`` with ``--materials cycles``), formatted, or None."""
+    m = scene.likeness
+    if m is None:
         return None
-    m = run.metadata
-    return {"spp": m.get("likeness_spp"), "cross": fmt_num(m.get("likeness_flip_cross"), 4),
-            "seed": fmt_num(m.get("likeness_flip_seed"), 4), "ratio": fmt_num(m.get("likeness_ratio"), 3),
-            "matched": fmt_num(m.get("likeness_ratio_noise_matched"), 3),
-            "mitsuba": fmt_num(m.get("likeness_flip_mitsuba_seed"), 4), "regions": m.get("likeness_regions"),
-            "mitsuba_spp": m.get("likeness_mitsuba_spp"), "relmse_ratio": fmt_num(m.get("likeness_relmse_ratio"), 3),
-            "relmse_matched": fmt_num(m.get("likeness_relmse_ratio_noise_matched"), 3),
-            "distribution": m.get("distribution"), "materials": m.get("likeness_materials")}
+    return {"spp": m.get("spp"), "cross": fmt_num(m.get("flip_cross"), 4), "seed": fmt_num(m.get("flip_seed"), 4),
+            "ratio": fmt_num(m.get("ratio"), 3), "matched": fmt_num(m.get("ratio_noise_matched"), 3),
+            "mitsuba": fmt_num(m.get("flip_mitsuba_seed"), 4), "regions": m.get("regions"),
+            "mitsuba_spp": m.get("mitsuba_spp"), "relmse_ratio": fmt_num(m.get("relmse_ratio"), 3),
+            "relmse_matched": fmt_num(m.get("relmse_ratio_noise_matched"), 3),
+            "distribution": m.get("distribution"), "materials": m.get("materials")}
 
 
 def _ablations(scene: SceneResult, baseline: str = "progressive") -> list[dict]:
@@ -433,11 +426,9 @@ def _table1(results: Results) -> dict:
             cells.append({"seconds": fmt_seconds(r.seconds),
                           "detail": f"{r.steps} {r.unit}{'s' if r.unit == 'frame' else ''}",
                           "flip": fmt_num(m.get("flip"), 3), "ssim": fmt_num(m.get("ssim"), 4)})
-            scale = r.metadata.get("first_frame_scale")
             firsts.append({"first": fmt_seconds(r.first_frame_seconds), "setup": fmt_seconds(r.setup_seconds),
                            "flip": fmt_num(r.points[0].metrics.get("flip"), 3),
-                           "scale": (f"drawn at {float(scale):g}× size" if isinstance(scale, (int, float))
-                                     and 0 < scale < 1 else "")})
+                           "scale": r.notes.get("first_image", "")})
         rows.append({"label": label, "cells": cells})
         first_rows.append({"label": label, "cells": firsts})
     return {"cols": cols, "rows": rows, "first_rows": first_rows}

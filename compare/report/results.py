@@ -463,6 +463,8 @@ class RendererRun:
     variant_note: str = ""
     layers: dict[str, dict[str, Any]] = field(default_factory=dict)
     seed_runs: list[SeedRun] = field(default_factory=list)
+    #: What the renderer says about this run for the report, by kind (compare.renderers.base.NOTE_KINDS).
+    notes: dict[str, str] = field(default_factory=dict)
 
     @property
     def family(self) -> str:
@@ -590,6 +592,7 @@ class RendererRun:
             layers={str(k): dict(v) for k, v in (d.get("layers") or {}).items()},
             seed_runs=[SeedRun.from_json(r, f"{where}.seed_runs[{i}]")
                        for i, r in enumerate(d.get("seed_runs") or [])],
+            notes={str(k): str(v) for k, v in (d.get("notes") or {}).items()},
         )
 
 
@@ -709,6 +712,8 @@ class SceneResult:
     reference: Reference
     noise_floor: NoiseFloor | None = None
     runs: list[RendererRun] = field(default_factory=list)
+    #: How like the ground truth is to the run of a renderer it models (compare.run.likeness), or None.
+    likeness: dict[str, Any] | None = None
 
     @property
     def size(self) -> str:
@@ -728,6 +733,7 @@ class SceneResult:
             "reference": self.reference.to_json(),
             "noise_floor": None if self.noise_floor is None else self.noise_floor.to_json(),
             "runs": [r.to_json() for r in self.runs],
+            **({"likeness": dict(self.likeness)} if self.likeness is not None else {}),
         }
 
     @classmethod
@@ -747,6 +753,7 @@ class SceneResult:
             noise_floor=None if nf is None else NoiseFloor.from_json(nf, f"{where}.noise_floor"),
             runs=[RendererRun.from_json(r, f"{where}.runs[{i}]")
                   for i, r in enumerate(_require(d, "runs", where, list))],
+            likeness=None if d.get("likeness") is None else dict(d["likeness"]),
         )
 
 

@@ -42,10 +42,12 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from compare import __version__
+from compare.brdf import PRINCIPLED_MODES
 from compare.util.errors import CompareError, ImageError
 from compare.image.exr import read_exr, write_exr
 from compare.util.files import sha256_bytes, write_text_atomic
-from compare.renderers import RenderContext, Renderer, check_layers, check_rendering
+from compare.renderers import RenderContext, Renderer, RendererError, check_layers, check_rendering
+from compare.renderers.base import NOTE_KINDS
 from compare.renderers.registry import Registry
 from compare.renderers.registry import TRUTH_FOLDER
 from compare.report.results import (NoiseFloor, Point, Reference, RendererRun, RunSettings, SceneResult, SeedRun,
@@ -117,6 +119,15 @@ REPLICA_SEED_STRIDE = 7919
 
 def _key(*parts: Any) -> str:
     return sha256_bytes(json.dumps(parts, sort_keys=True, default=str))
+
+
+def notes(r: Renderer, meta: dict) -> dict[str, str]:
+    """The renderer's notes on a run (:meth:`Renderer.notes`), checked against the kinds a report shows."""
+    out = r.notes(meta)
+    bad = [k for k in out if k not in NOTE_KINDS or not isinstance(out[k], str)]
+    if bad:
+        raise RendererError(f"{r.name}: notes {bad} are not text of a kind of {', '.join(NOTE_KINDS)}")
+    return dict(out)
 
 
 def flat_metadata(meta: dict) -> dict:
@@ -210,6 +221,13 @@ class _Unit:
     def save_result(self, key: str, result: dict) -> None:
         self._save("partial.json", key, "result", result)
 
+    def likeness(self, key: str) -> dict | None:
+        """The likeness measured with this key (``likeness.json``)."""
+        return self._load("likeness.json", key, "likeness")
+
+    def save_likeness(self, key: str, value: dict) -> None:
+        self._save("likeness.json", key, "likeness", value)
+
 
 class SceneJob:
     """The units of one scene at one size in one output folder.
@@ -271,7 +289,7 @@ class SceneJob:
     def _replicas(self, spec: str) -> int:
         """Further independent runs of ``spec`` the settings ask for (none for an open-ended renderer,
         whose runs would not share their checkpoints)."""
-        if self.settings.seeds < 2 or getattr(self.registry.get(spec), "open_ended", False):
+        if self.settings.seeds < 2 or self.registry.get(spec).open_ended:
             return 0
         return int(self.settings.seeds) - 1
 
@@ -288,11 +306,9 @@ class SceneJob:
                 cache[scene.hash] = None
         return cache[scene.hash]
 
-    def _render_key(self, scene: Scene, r: Renderer, steps: int, checkpoints: list[int], seed: int,
-                    key: Any = None) -> str:
+    def _render_key(self, scene: Scene, r: Renderer, steps: int, checkpoints: list[int], seed: int) -> str:
         s = self.settings
-        key = r.key(scene, s) if key is None else key
-        return _key("render", r.name, key, r.code_key(), scene.hash, steps, checkpoints, seed, s.exposure,
+        return _key("render", r.name, r.key(scene, s), r.code_key(), scene.hash, steps, checkpoints, seed, s.exposure,
                     s.tonemap, self.machine, __version__)
 
     # -- stage 1: render ------------------------------------------------------------------------
@@ -312,12 +328,6 @@ class SceneJob:
         key = self._render_key(scene, r, steps, cps, seed)
         if not self.fresh:
             stored = unit.rendered(key)
-            for other in ([] if stored is not None or truth else r.reusable_keys(scene, self.settings)):
-                alt = self._render_key(scene, r, steps, cps, seed, key=other)
-                stored = unit.rendered(alt)
-                if stored is not None:
-                    key = alt
-                    break
             if stored is not None:
                 self._note_facts(r, stored.get("metadata") or {})
                 if truth and "layers" not in stored:  # a ground truth from before per-effect layers
@@ -346,7 +356,7 @@ class SceneJob:
             layers = self._truth_layers(r, scene, steps, seed)
         record = {"renderer": r.name, "label": r.label, "unit": r.unit, "steps": int(points[-1]["step"]),
                   "seed": seed, "setup_seconds": rendering.setup_seconds, "metadata": meta,
-                  "variant_of": r.variant_of, "variant_note": r.variant_note, "points": points,
+                  "variant_of": r.variant_of, "variant_note": r.variant_note, "notes": notes(r, meta), "points": points,
                   "layers": self._save_layers(unit, r.name, layers)}
         if truth and rendering.variance is not None:  # the ground truth's own noise, pixel by pixel
             var, dof = rendering.variance
@@ -359,10 +369,7 @@ class SceneJob:
 
     def _truth_layers(self, r: Renderer, scene: Scene, steps: int, seed: int) -> dict[str, np.ndarray]:
         """The ground truth's per-effect layers, when its renderer makes them (``render_layers``)."""
-        make = getattr(r, "render_layers", None)  # duck-typed renderers need not have it
-        if not callable(make):
-            return {}
-        return check_layers(r.name, make(scene, steps=steps, seed=seed, context=self.context), scene)
+        return check_layers(r.name, r.render_layers(scene, steps=steps, seed=seed, context=self.context), scene)
 
     def _save_layers(self, unit: _Unit, name: str, layers: dict[str, np.ndarray]) -> dict[str, str]:
         """Write a unit's layers (``layer-<name>.exr``); returns name → relative path."""
@@ -484,9 +491,38 @@ class SceneJob:
                             p.metrics["rel_bias2"] -= rel_floor / 2.0
         w, h = scene.camera.resolution
         feats = scene.features()
+        likeness: list = []  # a measurement of its own: with --keep-going its failure is recorded, not fatal
+        self._attempt(sid, "likeness", lambda: likeness.append(self._likeness(scene, sid, runs, bar)))
         return SceneResult(id=sid, name=scene.name, path=_display_path(scene.path), hash=scene.hash, width=w,
                            height=h, features=feats.names(), omitted=feats.omitted(), reference=ref,
-                           noise_floor=noise_floor, runs=runs)
+                           noise_floor=noise_floor, runs=runs, likeness=likeness[0] if likeness else None)
+
+    def _likeness(self, scene: Scene, sid: str, runs: list[RendererRun], bar) -> dict | None:
+        """The reference's likeness to the first run whose renderer draws the materials as the reference's
+        Principled mode models them (:mod:`compare.run.likeness`), measured once and kept in its unit."""
+        s = self.settings_for(scene)
+        if not s.likeness or s.materials not in PRINCIPLED_MODES:
+            return None
+        for run in runs:
+            r = self.registry.get(run.renderer)
+            if not r.models(s.materials):
+                continue
+            from compare.run.likeness import LIKENESS_VERSION, measure_likeness
+
+            render_key, record = self._render_unit(scene, sid, run.renderer, truth=False)
+            unit = self._unit(sid, run.renderer)
+            key = _key("likeness", render_key, self.registry.get(s.ground_truth).code_key(), s.materials,
+                       s.exposure, s.tonemap, __version__, LIKENESS_VERSION)
+            stored = None if self.fresh else unit.likeness(key)
+            if stored is None:
+                if bar is not None:
+                    bar.set_postfix_str(f"{scene.name[:30]} likeness of the ground truth to {run.renderer}")
+                first = read_exr(self.out / record["points"][-1]["image"])[0]
+                stored = {"renderer": run.renderer, **measure_likeness(scene, r, record, first, materials=s.materials,
+                                                                      context=self.context)}
+                unit.save_likeness(key, stored)
+            return stored
+        return None
 
     def _measure_unit(self, scene: Scene, sid: str, spec: str, render_key: str, record: dict, gt_key: str,
                       truth, bar, hdr_range, truth_layers) -> RendererRun:
@@ -536,6 +572,7 @@ class SceneJob:
             image=points[-1].image, preview=points[-1].preview,
             maps=_maps(unit, gt, image, s), points=points,
             variant_of=record.get("variant_of"), variant_note=record.get("variant_note") or "",
+            notes=dict(record.get("notes") or {}),
             layers=_layers(unit, truth_layers(), record, self.out, s, f"{scene.name}: {spec}"))
         if replicas:
             recs = [record] + [rec for _, rec in replicas]

@@ -23,6 +23,9 @@ MESH_SHAPES = ("quad", "box", "sphere", "cylinder", "file")
 MESH_FILE_SUFFIXES = (".ply", ".obj")
 TEXTURE_SUFFIXES = (".png", ".jpg", ".jpeg", ".exr")
 ENV_FILE_SUFFIXES = (".exr", ".hdr")
+#: Holes of alpha masks one path may cross without counting a bounce (Cycles' transparent bounces): every
+#: path tracer of the suite stops there.
+MAX_HOLES = 64
 #: A material counts as glossy (needs specular lighting work) below this roughness, or when metallic.
 GLOSSY_ROUGHNESS = 0.6
 #: Indirect diffuse light in the rasterizer: none (the paper's technique) or an irradiance volume.

@@ -1,5 +1,9 @@
 """Is the Mitsuba reference "Cycles-like"? FLIP against Cycles' own seed-to-seed FLIP, and region means.
 
+A step of a run's measure stage (:func:`measure_likeness`): with ``--materials cycles`` (``cycles-ggx``), the
+run of a renderer that draws the materials as that mode models them (:meth:`Renderer.models`, Cycles) is
+compared with the reference. It orchestrates two engines, so it lives above both.
+
 Two Cycles renders with different seeds (A, B) and two independent Mitsuba
 renders (M1, M2), all of N samples per pixel, at the scene's resolution:
 
@@ -52,6 +56,8 @@ import numpy as np
 from compare.scene.geometry import ray_cast
 from compare.scene.loader import Scene
 
+#: Version of the measurement (part of its key in a run's folder): bump it when the numbers it gives change.
+LIKENESS_VERSION = 1
 #: Standard errors within which two region means count as agreeing (3: p ≈ 0.003 per test).
 Z_SCORE = 3.0
 #: Relative difference within which two region means count as agreeing regardless of noise.
@@ -412,3 +418,39 @@ def cycles_likeness(scene: Scene, *, spp: int, materials: str = "cycles", seeds:
         images={"cycles_a": ra.image, "cycles_b": rb.image, "mitsuba_1": m1, "mitsuba_2": m2},
         seconds={"cycles_each": 0.5 * (ra.seconds + rb.seconds), "mitsuba_both": t_ref},
     )
+
+
+@dataclass
+class FinishedRender:
+    """One finished Cycles render as :func:`cycles_likeness` reads it (a BlenderResult has the same fields)."""
+
+    image: np.ndarray
+    samples: int
+    metadata: dict
+    seconds: float
+
+
+def summary(res: Likeness) -> dict[str, Any]:
+    """What a run records of a likeness (results.json's ``likeness`` of a scene)."""
+    agree = sum(1 for r in res.regions if r.agrees)
+    return {"flip_cross": res.flip_cross, "flip_seed": res.flip_seed, "flip_mitsuba_seed": res.flip_mitsuba_seed,
+            "ratio": res.ratio, "ratio_noise_matched": res.ratio_noise_matched, "relmse_ratio": res.relmse_ratio,
+            "relmse_ratio_noise_matched": res.relmse_ratio_noise_matched, "spp": res.spp,
+            "mitsuba_spp": res.mitsuba_spp, "materials": res.materials, "distribution": res.distribution,
+            "regions": f"{agree}/{len(res.regions)}"}
+
+
+def measure_likeness(scene: Scene, renderer, record: dict, first: np.ndarray, *, materials: str, context) -> dict:
+    """The likeness of the reference in mode ``materials`` to ``renderer``'s finished run (``record``, its final
+    image ``first``, seed A): one more render of it through the renderer protocol (seed A + 1) and two
+    independent reference passes with as many samples as give them its noise (:func:`cycles_likeness`)."""
+    steps, seed = int(record["steps"]), int(record["seed"])
+    given, _ = renderer.prepare(scene)
+    again = renderer.render(given, steps=steps, checkpoints=[steps], seed=seed + 1, context=context)
+    a = FinishedRender(first, steps, dict(record["metadata"]), float(record["points"][-1]["seconds"]))
+    last = again.checkpoints[-1]
+    b = FinishedRender(np.asarray(last.image, dtype=np.float32), steps, dict(again.metadata), float(last.seconds))
+    res = cycles_likeness(scene, spp=steps, materials=materials, seeds=(seed, seed + 1), cache_dir=context.cache_dir,
+                          cycles=(a, b), match_noise=True, exposure=context.settings.exposure,
+                          operator=context.settings.tonemap)
+    return summary(res)
