@@ -120,6 +120,12 @@ class MitsubaRenderer(Renderer):
 
         return material_coverage(scene)  # Mitsuba's own ray tracer on the reference's scene
 
+    def limit_threads(self, threads: int) -> None:
+        from compare.mitsuba.backend import configure_llvm, set_thread_count
+
+        configure_llvm()  # before Dr.Jit's first import
+        set_thread_count(threads)
+
     def facts(self, metadata: dict) -> dict[str, str]:
         v = metadata.get("variant")
         return {"mitsuba_variant": v} if isinstance(v, str) else {}

@@ -273,6 +273,10 @@ class Renderer(abc.ABC):
         a renderer's left-out features cover; default: None (unknown)."""
         return None
 
+    def limit_threads(self, threads: int) -> None:
+        """Render with about ``threads`` CPU threads in this process (a worker of a pool that shares the
+        machine with others); called before the first render; default: nothing to do."""
+
     def notes(self, metadata: dict) -> dict[str, str]:
         """What the report should say about a run of this renderer, by kind of :data:`NOTE_KINDS` (e.g.
         ``{"first_image": "drawn at 0.5× size"}``), from the run's metadata; default: nothing."""

@@ -105,11 +105,11 @@ def run_job(job: Job) -> JobResult:
     from compare.scene.loader import load_scene
     from compare.run.scene_job import SceneJob
 
-    if job.threads:
-        from compare.mitsuba.backend import configure_llvm, set_thread_count
-
-        configure_llvm()  # before Dr.Jit's first import
-        set_thread_count(job.threads)
+    settings = RunSettings.from_json(job.settings)
+    registry = Registry(settings.renderer_config)
+    if job.threads:  # each renderer of the job keeps to this worker's share of the machine
+        for spec in dict.fromkeys([settings.ground_truth, *settings.renderers]):
+            registry.get(spec).limit_threads(job.threads)
     scene = load_scene(job.scene_path).with_resolution(*job.size)
     if scene.hash != job.scene_hash:
         raise CompareError(f"{job.scene_path}: the scene on worker {platform.node()} differs from the client's "
@@ -122,10 +122,8 @@ def run_job(job: Job) -> JobResult:
         for rel, data in job.files.items():
             write_bytes_atomic(out / rel, data)
     try:
-        settings = RunSettings.from_json(job.settings)
         with RenderContext(settings, cache_dir=job.cache_dir) as context:
-            scene_job = SceneJob(settings, out, registry=Registry(settings.renderer_config), context=context,
-                                 fresh=job.fresh)
+            scene_job = SceneJob(settings, out, registry=registry, context=context, fresh=job.fresh)
             scene_job.render(scene)
         files: dict[str, bytes] = {}
         if staging is not None:
