@@ -22,6 +22,7 @@ import pytest
 
 from compare.cli import run as cli_run
 from compare.cli.argtypes import parse_sizes
+from compare.renderers import doubling_steps
 from compare.renderers.registry import Registry
 from compare.run import runner as run_mod
 from compare.run import scene_job
@@ -88,7 +89,7 @@ class FakeReference:
                 yield Checkpoint(total, 0.01 * total, (acc / total).clip(0).astype(np.float32))
 
     def iter_ladder(self, spp, seed=0):
-        yield from self.iter_checkpoints(run_mod.checkpoint_steps(spp), seed)
+        yield from self.iter_checkpoints(doubling_steps(spp), seed)
 
     def render_layers(self, spp, seed=0):
         """Per-effect layers of the truth: the patch is emission, the rest 60 % direct, 40 % indirect."""
@@ -189,22 +190,22 @@ def synthetic_report(out: Path, scenes: list[Path], *, size=(48, 36), frames=8, 
 # --------------------------------------------------------------------------- helpers
 
 
-def test_checkpoint_steps():
-    assert run_mod.checkpoint_steps(1) == [1]
-    assert run_mod.checkpoint_steps(8) == [1, 2, 4, 8]
-    assert run_mod.checkpoint_steps(100) == [1, 2, 4, 8, 16, 32, 64, 100]
+def test_doubling_steps():
+    assert doubling_steps(1) == [1]
+    assert doubling_steps(8) == [1, 2, 4, 8]
+    assert doubling_steps(100) == [1, 2, 4, 8, 16, 32, 64, 100]
     with pytest.raises(ValueError):
-        run_mod.checkpoint_steps(0)
+        doubling_steps(0)
 
 
 def test_parse_sizes_and_renderers():
     assert parse_sizes("320x240, 1280x720") == [(320, 240), (1280, 720)]
     with pytest.raises(argparse.ArgumentTypeError):
         parse_sizes("320by240")
-    assert run_mod.parse_renderers("mitsuba,progressive:paper") == ["mitsuba", "progressive:paper"]
+    assert Registry().parse("mitsuba,progressive:paper") == ["mitsuba", "progressive:paper"]
     for bad in ("cyclesx", "mitsuba:x", "eevee:fast", "progressive:", "", "progressive,progressive"):
         with pytest.raises(ValueError):
-            run_mod.parse_renderers(bad)
+            Registry().parse(bad)
 
 
 def test_scene_id_is_file_name_safe(tmp_path):
@@ -538,10 +539,10 @@ def test_real_renderers_tiny_cornell(tmp_path, gl_ctx):
 def test_all_renderers_give_the_papers_table_1(tmp_path):
     """``--renderers all``: Mitsuba, the three area models, Cycles and EEVEE, each a Table 1 row with its error."""
     out = tmp_path / "out"
-    assert run_mod.parse_renderers("all") == Registry.groups()["all"]
-    assert run_mod.parse_renderers("all,progressive:probes")[-1] == "progressive:probes"
+    assert Registry().parse("all") == Registry.groups()["all"]
+    assert Registry().parse("all,progressive:probes")[-1] == "progressive:probes"
     with pytest.raises(ValueError, match="unknown renderer|unknown option"):
-        run_mod.parse_renderers("cycles:fast")
+        Registry().parse("cycles:fast")
     res = synthetic_report(out, [CORNELL], renderers=("all",), budgets={"cycles": 64, "eevee": 16}, materials="cycles")
     (scene,) = res.scenes
     assert [r.renderer for r in scene.runs] == Registry.groups()["all"]

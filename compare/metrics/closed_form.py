@@ -37,10 +37,3 @@ def polygon_irradiance(points: np.ndarray, normals: np.ndarray, polygon: np.ndar
     rad = np.asarray(radiance, dtype=np.float64)
     return e * rad if rad.ndim == 0 else e[..., None] * rad
 
-
-def rectangle_light_polygon(center, tangent, bitangent, size) -> np.ndarray:
-    """Corners (4, 3) of a rectangle light."""
-    c = np.asarray(center, dtype=np.float64)
-    du = np.asarray(tangent, dtype=np.float64) * size[0] / 2
-    dv = np.asarray(bitangent, dtype=np.float64) * size[1] / 2
-    return np.array([c - du - dv, c + du - dv, c + du + dv, c - du + dv])

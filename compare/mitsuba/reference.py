@@ -16,7 +16,6 @@ times stay meaningful when some chunks come from the cache.
 from __future__ import annotations
 
 import json
-import os
 import time
 import warnings
 from dataclasses import dataclass, field
@@ -33,16 +32,12 @@ from compare.renderers.base import Checkpoint
 from compare.util.code import code_fingerprint
 from compare.util.errors import ImageError
 from compare.util.files import sha256_bytes
+from compare.util.cache import default_cache_dir
 from compare.mitsuba.scene_dict import MATERIAL_MODELS, MATERIAL_MODES, PRINCIPLED_MODES, scene_dict, world_scale
 from compare.scene.loader import Scene
 
 #: Largest number of samples per pixel rendered in one Mitsuba call.
 MAX_PASS_SPP = 64
-
-
-def default_cache_dir() -> Path:
-    """``$COMPARE_CACHE``, else ``~/.cache/compare``."""
-    return Path(os.environ.get("COMPARE_CACHE") or Path.home() / ".cache" / "compare")
 
 
 def derive_seed(*parts: object) -> int:
@@ -96,7 +91,7 @@ class ReferenceRenderer:
     max_depth
         Path depth override (2 = direct light only); None uses the scene's.
     cache_dir
-        Where passes are cached; None uses :func:`default_cache_dir`; False disables caching.
+        Where passes are cached; None uses :func:`compare.util.cache.default_cache_dir`; False disables caching.
     progress
         Show a progress bar on renders.
     """

@@ -43,32 +43,18 @@ from tqdm.auto import tqdm
 from compare import __version__
 from compare.util.errors import CompareError, MissingComponentError
 from compare.util.files import check_output_folder, folder_lock, remove_stale_parts
-from compare.renderers import RenderContext, doubling_steps
+from compare.renderers import RenderContext
 from compare.renderers.registry import Registry
 from compare.report.results import Machine, Results, RunSettings, SceneResult
 from compare.scene.loader import Scene, load_scene
 from compare.run.scene_job import SceneJob, cpu_model, scene_id
 
-__all__ = [
-    "checkpoint_steps",
-    "collect_machine",
-    "parse_renderers",
-    "registry_for",
-    "run",
-    "scene_id",
-]
-
-checkpoint_steps = doubling_steps
+__all__ = ["collect_machine", "registry_for", "run", "scene_id"]
 
 
 def registry_for(settings: RunSettings, renderers: Iterable = ()) -> Registry:
     """The registry of a run: built-ins, plug-ins, the run's renderer TOML file and ``renderers``."""
     return Registry(settings.renderer_config, renderers)
-
-
-def parse_renderers(text: str | Iterable[str], registry: Registry | None = None) -> list[str]:
-    """Validate a comma-separated renderer list against ``registry`` (default: built-ins and plug-ins)."""
-    return (registry or Registry()).parse(text)
 
 
 def _version(dist: str) -> str | None:
@@ -344,20 +330,4 @@ def _save_with_report(res: Results, out: Path, report: bool) -> None:
     if report:
         os.replace(staged[out / "index.html"], out / "index.html")
     os.replace(staged[out / "results.json"], out / "results.json")
-
-
-# --------------------------------------------------------------------------- CLI
-
-
-
-
-
-
-
-
-
-
-
-
-
 

@@ -207,7 +207,7 @@ def environment_path(env, cache_dir: str | Path | None = None) -> Path | None:
 
     A procedural map is generated on first use and written atomically to
     ``<cache>/environments/<kind>-<key>.exr`` (cache: ``cache_dir`` or
-    :func:`compare.mitsuba.reference.default_cache_dir`).
+    :func:`compare.util.cache.default_cache_dir`).
     """
     if env is None or getattr(env, "constant", None) is not None:
         return None

@@ -79,7 +79,7 @@ import numpy as np
 from compare.scene import geometry
 from compare.scene.model import LAYER_MAPS, LAYERS
 from compare.scene.gltf_decode import DECODED_EXTENSIONS, DecodeError, decoded_glb, used
-from compare.scene.glb import CHUNK_BIN, CHUNK_JSON, GLB_MAGIC, GlbError, parse_glb  # noqa: F401 (re-exported)
+from compare.scene.glb import GlbError, parse_glb
 from compare.util.files import sha256_bytes, write_bytes_atomic
 from compare.scene.geometry import MeshFileError, TriangleMesh
 
