@@ -16,15 +16,16 @@
 
 from __future__ import annotations
 
-import json
 import os
 import shutil
 import tempfile
 import textwrap
+import tomllib
 import weakref
 from pathlib import Path
 
 import pytest
+import tomli_w
 from hypothesis import HealthCheck, is_hypothesis_test, settings
 
 # ----------------------------------------------------------------------------- the cache folder
@@ -314,31 +315,23 @@ def gl_ctx(gl_session_ctx, request):
 # ----------------------------------------------------------------------------- scene files
 
 
-def _toml_value(v) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, (int, float)):
-        return repr(v)
-    if isinstance(v, str):
-        return json.dumps(v)
-    if isinstance(v, (list, tuple)):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    if isinstance(v, dict):
-        return "{" + ", ".join(f"{json.dumps(k)} = {_toml_value(x)}" for k, x in v.items()) + "}"
-    raise TypeError(f"no TOML value for {type(v).__name__}")
+def _with_tables(text: str, tables: dict) -> str:
+    """``text`` (TOML) with ``tables`` added: a dict, a dict of dicts or a list of dicts each.
 
-
-def _toml_table(name: str, value) -> str:
-    """``value`` under ``name``: a dict of dicts as ``[name.key]`` tables, a dict as ``[name]``, a list
-    of dicts as ``[[name]]`` tables."""
-    if isinstance(value, dict) and value and all(isinstance(v, dict) for v in value.values()):
-        return "".join(_toml_table(f"{name}.{key}", v) for key, v in value.items())
-    if isinstance(value, dict):
-        return f"\n[{name}]\n" + "".join(f"{k} = {_toml_value(v)}\n" for k, v in value.items())
-    if isinstance(value, (list, tuple)) and all(isinstance(v, dict) for v in value):
-        return "".join(f"\n[[{name}]]\n" + "".join(f"{k} = {_toml_value(x)}\n" for k, x in v.items())
-                       for v in value)
-    raise TypeError(f"{name}: a table is a dict, a dict of dicts or a list of dicts")
+    Without tables the text is written as given (some tests give malformed TOML on purpose). With them
+    the text is parsed and the whole file written by tomli-w: TOML has no way back to the top level
+    after the text's ``[table]`` headers, and tomli-w writes a short list of dicts as a key (an inline
+    array), which appended there would land in the text's last table."""
+    if not tables:
+        return text
+    for name, value in tables.items():
+        if not isinstance(value, dict) and not (isinstance(value, (list, tuple))
+                                                and all(isinstance(v, dict) for v in value)):
+            raise TypeError(f"{name}: a table is a dict, a dict of dicts or a list of dicts")
+    doc = tomllib.loads(text)
+    if doc.keys() & tables.keys():
+        raise TypeError(f"{', '.join(sorted(doc.keys() & tables.keys()))}: given as text and as a table")
+    return tomli_w.dumps({**doc, **tables})
 
 
 @pytest.fixture
@@ -352,8 +345,7 @@ def make_scene(tmp_path):
 
     def make(*texts: str, name: str = "scene.toml", folder: Path | None = None, **tables) -> Path:
         path = Path(folder or tmp_path) / name
-        path.write_text("".join(textwrap.dedent(t) for t in texts)
-                        + "".join(_toml_table(k, v) for k, v in tables.items()))
+        path.write_text(_with_tables("".join(textwrap.dedent(t) for t in texts), tables))
         return path
 
     return make

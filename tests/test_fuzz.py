@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import tomli_w
 from hypothesis import given, strategies as st
 
 from compare.util.errors import CompareError
@@ -79,25 +80,10 @@ SCENE = {
 }
 
 
-def _toml_value(v) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, int):
-        return str(v)
-    if isinstance(v, float):
-        return "nan" if math.isnan(v) else ("inf" if v > 0 else "-inf") if math.isinf(v) else repr(v)
-    if isinstance(v, str):
-        return json.dumps(v)
-    if isinstance(v, list):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    if isinstance(v, dict):
-        return "{" + ", ".join(f"{json.dumps(k)} = {_toml_value(x)}" for k, x in v.items()) + "}"
-    raise TypeError(type(v))
-
-
 def to_toml(d: dict) -> str:
-    """TOML text of ``d`` (inline tables for nested values: enough for mutated scenes)."""
-    return "\n".join(f"{json.dumps(k)} = {_toml_value(v)}" for k, v in d.items()) + "\n"
+    """TOML text of ``d`` (tomli-w; NaN and infinities as TOML's nan and inf). Raises TypeError for what
+    TOML cannot hold (None, a non-string key)."""
+    return tomli_w.dumps(d)
 
 
 @pytest.fixture(scope="module")

@@ -47,6 +47,8 @@ def test_welch_matches_scipy_and_its_interval_covers():
     assert 0.92 <= covered / 400 <= 0.98
     # without spread the difference is known exactly
     assert welch([1, 1], [1, 1]).p == 1.0 and welch([1, 1], [2, 2]).p == 0.0 and welch([2, 2], [1, 1]).p == 1.0
+    # equal values are without spread though their float variance is not 0 (1e-34 for three 0.1s)
+    assert welch([0.1] * 3, [0.1] * 3).p == 1.0 and paired([0.1] * 3, [0.2] * 3).p == 0.0
     with pytest.raises(ValueError, match="at least 2"):
         welch([1.0], [1.0, 2.0])
 
@@ -299,7 +301,7 @@ def test_bad_input_is_one_error_naming_the_file_and_field(runs, baseline, tmp_pa
     shutil.copytree(baseline, broken)
     index = json.loads((broken / "baseline.json").read_text())
     (broken / "baseline.json").write_text(json.dumps({**index, "schema": 7}))
-    assert "baseline.json.schema: 7 is not supported" in error("check", str(runs["same"]), "--baseline", str(broken))
+    assert "baseline.json: schema: 7 is not supported" in error("check", str(runs["same"]), "--baseline", str(broken))
     (broken / "baseline.json").write_text(json.dumps({k: v for k, v in index.items() if k != "runs"}))
     assert "missing field 'runs'" in error("check", str(runs["same"]), "--baseline", str(broken))
     (broken / "baseline.json").write_text(json.dumps(index))

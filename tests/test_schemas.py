@@ -124,3 +124,98 @@ def test_measured_results_conform(tmp_path):
 @pytest.mark.parametrize("name", NAMES)
 def test_each_schema_is_named_in_the_docs(name):
     assert f"compare/schemas/{name}.schema.json" in (ROOT / "docs" / "ci.md").read_text(encoding="utf-8")
+
+
+# --------------------------------------------------------------------------- validated when read (or written)
+
+
+GOLDEN = ROOT / "tests" / "data" / "cornell-48x36-golden.json"
+
+
+def _one_line(exc: BaseException, *parts: str) -> str:
+    message = str(exc)
+    assert "\n" not in message and all(p in message for p in parts), message
+    return message
+
+
+@pytest.mark.parametrize("edit, field, problem", [
+    (lambda d: d["scenes"][0]["runs"][0]["points"][1]["metrics"].update(flip="x"),
+     "scenes[0].runs[0].points[1].metrics.flip", 'expected number or null, got "x"'),
+    (lambda d: d["scenes"][0]["runs"][0].update(steps=0), "scenes[0].runs[0].steps", "expected an integer >= 1, got 0"),
+    (lambda d: d["scenes"][0]["reference"].pop("variant"), "scenes[0].reference", "missing field 'variant'"),
+    (lambda d: d["machine"].update(cores=True), "machine.cores", "expected an integer >= 1, got true"),
+    (lambda d: d["scenes"][0].update(noise_floor={"method": "independent-full"}), "scenes[0].noise_floor",
+     "missing field 'spp'"),
+])
+def test_a_bad_field_of_results_json_is_one_error_naming_file_and_field(tmp_path, capsys, edit, field, problem):
+    from compare.report.results import Results, ResultsError
+
+    data = json.loads(GOLDEN.read_text(encoding="utf-8"))
+    edit(data)
+    path = tmp_path / "results.json"
+    path.write_text(json.dumps(data))
+    with pytest.raises(ResultsError) as exc:
+        Results.load(path)
+    assert _one_line(exc.value, str(path), field, problem) == f"{path}: {field}: {problem}"
+    # and the command line says just that
+    assert main(["check", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err == f"compare: error: {path}: {field}: {problem}\n"
+
+
+def _baseline_folder(tmp_path: Path, **run) -> Path:
+    """A baseline folder whose index has one run (with ``run``'s fields); no images: the index is read first."""
+    results = json.loads(GOLDEN.read_text(encoding="utf-8"))
+    scene = results["scenes"][0]
+    folder = tmp_path / "baseline"
+    folder.mkdir(parents=True)
+    (folder / "results.json").write_text(json.dumps(results))
+    index = {"schema": 1, "kind": "compare-baseline", "created": "2026-01-31T12:00:00Z", "compare_version": "0",
+             "results": "results.json", "machine": results["machine"],
+             "runs": [{"scene": scene["name"], "size": f"{scene['width']}x{scene['height']}", "scene_id": scene["id"],
+                       "renderer": "progressive", "step": 4, "seeds": [0], "images": ["images/seed-0.exr"],
+                       "mean": "images/final.exr", "variance": None, "dof": None, "preview": None, **run}]}
+    (folder / "baseline.json").write_text(json.dumps(index))
+    return folder
+
+
+@pytest.mark.parametrize("run, field, problem", [
+    ({"step": "4"}, "runs[0].step", 'expected an integer >= 1, got "4"'),
+    ({"images": ["../../elsewhere.exr"]}, "runs[0].images[0]",
+     'expected a path relative to the baseline folder, never leaving it, got "../../elsewhere.exr"'),
+    ({"dof": 0}, "runs[0].dof", "expected an integer >= 1 or null, got 0"),
+    ({"seeds": []}, "runs[0].seeds", "expected at least 1 item(s), got 0"),
+])
+def test_a_bad_field_of_baseline_json_is_one_error_naming_file_and_field(tmp_path, run, field, problem):
+    from compare.report.baseline import Baseline, BaselineError
+
+    folder = _baseline_folder(tmp_path, **run)
+    with pytest.raises(BaselineError) as exc:
+        Baseline.load(folder)
+    assert _one_line(exc.value) == f"{folder / 'baseline.json'}: {field}: {problem}"
+
+
+def test_what_the_baseline_schema_cannot_say_is_still_checked(tmp_path):
+    """One image per seed (two lengths) and files that are there: checked after the schema."""
+    from compare.report.baseline import Baseline, BaselineError
+
+    folder = _baseline_folder(tmp_path, seeds=[0, 1])
+    with pytest.raises(BaselineError, match=r"runs\[0\]\.images: expected one image per seed \(2\), got 1"):
+        Baseline.load(folder)
+    folder = _baseline_folder(tmp_path / "b")
+    with pytest.raises(BaselineError, match=r"baseline\.json: runs\[0\]\.mean: .*final\.exr is missing"):
+        Baseline.load(folder)
+
+
+def test_a_bad_field_of_a_job_is_one_error_naming_file_and_field(tmp_path):
+    """The suite writes job files, never reads them: validated before the renderer gets one."""
+    from compare.renderers.base import RendererError
+    from compare.renderers.job import write_job
+    from compare.scene.loader import load_scene
+
+    scene = load_scene(ROOT / "scenes" / "cornell.toml").with_resolution(16, 12)
+    with pytest.raises(RendererError) as exc:
+        write_job(scene, tmp_path / "job", renderer="mine", unit="frame", checkpoints=[1, 0], seed=3,
+                  output_dir=tmp_path / "out", cache_dir=tmp_path / "cache")
+    _one_line(exc.value, f"{tmp_path / 'job' / 'job.json'}: checkpoints[1]: ", "job.schema.json")
+    assert not (tmp_path / "job" / "job.json").exists()

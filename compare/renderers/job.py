@@ -15,10 +15,12 @@ The protocol (documented for renderer authors in ``docs/renderers.md``):
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import math
 import re
 import shutil
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -64,6 +66,7 @@ def export_gltf(scene, out: Path) -> Path:
     sources = {Path(p).resolve() for p in _scene_files(scene)}
     if out.resolve() in sources:
         raise RendererError(f"the job's glTF {out} would replace a file of the scene; give the job its own folder")
+    out.parent.mkdir(parents=True, exist_ok=True)
     w = GltfWriter(generator="compare job")
     index: dict[str, int] = {}
     textures: dict[Path, int] = {}
@@ -254,8 +257,28 @@ def write_job(scene, folder: Path, *, renderer: str, unit: str, checkpoints: lis
         "output_dir": str(Path(output_dir).resolve()),
     }
     path = folder / "job.json"
+    _check_job(job, path)
     write_text_atomic(path, json.dumps(job, indent=1))
     return path
+
+
+@functools.cache
+def _job_validator():
+    import jsonschema
+
+    schema = (resources.files("compare") / "schemas" / "job.schema.json").read_text(encoding="utf-8")
+    return jsonschema.Draft202012Validator(json.loads(schema))
+
+
+def _check_job(job: dict, path: Path) -> None:
+    """Refuse a job that breaks compare/schemas/job.schema.json (what a renderer author is promised) with one
+    error naming the file and the field, before a renderer reads it."""
+    from jsonschema.exceptions import best_match
+
+    error = best_match(_job_validator().iter_errors(job))
+    if error is not None:
+        where = "".join(f"[{k}]" if isinstance(k, int) else f".{k}" for k in error.absolute_path).lstrip(".")
+        raise RendererError(f"{path}: {where or 'the job'}: {error.message} (compare/schemas/job.schema.json)")
 
 
 def _number(v: Any) -> bool:

@@ -11,15 +11,10 @@ of intermediate steps)::
     DIR/images/<scene id>/<n>-<renderer>/final-variance.exr   per-pixel variance of the mean (K >= 2)
     DIR/images/<scene id>/<n>-<renderer>/final.png        the mean, tone-mapped, for the gate's page
 
-Every path is relative to ``DIR``, in POSIX form. ``baseline.json``, schema 1::
-
-    {"schema": 1, "kind": "compare-baseline", "created": "2026-01-31T12:00:00Z", "compare_version": "0.1.0",
-     "results": "results.json",
-     "machine": {...},                  # results.json's machine: timings are compared only on the same one
-     "runs": [{"scene": "Cornell box", "size": "64x48", "scene_id": "...", "renderer": "progressive",
-               "step": 32, "seeds": [0, 7919], "images": ["images/.../seed-0.exr", ...],
-               "mean": "images/.../final.exr", "variance": "images/.../final-variance.exr" | null,
-               "dof": 1 | null, "preview": "images/.../final.png"}]}
+Every path is relative to ``DIR``, in POSIX form. ``baseline.json`` (schema 1) is defined by
+``compare/schemas/baseline.schema.json``, which :meth:`Baseline.load` validates it against: the
+run's results file, its machine (timings are compared only on the same one) and, per scene, size
+and renderer, the step, the seeds and the images above.
 
 ``compare baseline update DIR --results ...`` replaces a baseline after an accepted
 change; both write a temporary folder beside ``DIR`` and rename it into place.
@@ -35,14 +30,13 @@ import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from compare.util.errors import CompareError
 from compare.util.errors import OutputError
 from compare.util.files import atomic_folder, sibling_lock, sweep_folder_parts, write_text_atomic
-from compare.report.results import Machine, Results, ResultsError
+from compare.report.results import Machine, Results, ResultsError, schema_problem
 
 __all__ = ["BASELINE_SCHEMA", "Baseline", "BaselineError", "BaselineRun", "save_baseline"]
 
@@ -77,17 +71,6 @@ class BaselineRun:
     def to_json(self) -> dict:
         """JSON-ready dict."""
         return dict(self.__dict__)
-
-
-def _field(d: Any, key: str, where: str, types) -> Any:
-    if not isinstance(d, dict):
-        raise BaselineError(f"{where}: expected an object, got {type(d).__name__}")
-    if key not in d:
-        raise BaselineError(f"{where}: missing field {key!r}")
-    v = d[key]
-    if not isinstance(v, types) or (isinstance(v, bool) and types is int):
-        raise BaselineError(f"{where}.{key}: expected {getattr(types, '__name__', types)}, got {v!r}")
-    return v
 
 
 class Baseline:
@@ -138,34 +121,30 @@ class Baseline:
                                 "(make one with `compare baseline save`)") from None
         except (OSError, ValueError) as e:
             raise BaselineError(f"{path}: cannot read: {e}") from e
-        where = str(path)
-        if _field(index, "kind", where, str) != KIND:
-            raise BaselineError(f"{where}.kind: expected {KIND!r}, got {index['kind']!r}")
-        schema = _field(index, "schema", where, int)
-        if schema != BASELINE_SCHEMA:
-            raise BaselineError(f"{where}.schema: {schema} is not supported (this code reads {BASELINE_SCHEMA}); "
-                                "save the baseline again with this version")
-        rel = _field(index, "results", where, str)
+        if isinstance(index, dict) and "schema" in index and index["schema"] != BASELINE_SCHEMA:
+            # before the schema's `const`: the version says what to do about it
+            raise BaselineError(f"{path}: schema: {index['schema']!r} is not supported (this code reads "
+                                f"{BASELINE_SCHEMA}); save the baseline again with this version")
+        problem = schema_problem(index, "baseline")
+        if problem is not None:
+            raise BaselineError(f"{path}: {problem}")
         try:
-            results = Results.load(root / _safe(rel, f"{where}.results"))
+            results = Results.load(root / index["results"])
         except ResultsError as e:
-            raise BaselineError(f"{where}.results: {e}") from e
+            raise BaselineError(f"{path}: results: {e}") from e
         runs = []
-        for i, r in enumerate(_field(index, "runs", where, list)):
-            w = f"{where}.runs[{i}]"
-            run = BaselineRun(
-                scene=_field(r, "scene", w, str), size=_field(r, "size", w, str),
-                scene_id=_field(r, "scene_id", w, str), renderer=_field(r, "renderer", w, str),
-                step=_field(r, "step", w, int), seeds=[int(s) for s in _field(r, "seeds", w, list)],
-                images=[str(p) for p in _field(r, "images", w, list)], mean=_field(r, "mean", w, str),
-                variance=r.get("variance"), dof=r.get("dof"), preview=r.get("preview"))
-            if not run.images or len(run.images) != len(run.seeds):
+        for i, r in enumerate(index["runs"]):
+            w = f"{path}: runs[{i}]"
+            run = BaselineRun(scene=r["scene"], size=r["size"], scene_id=r["scene_id"], renderer=r["renderer"],
+                              step=int(r["step"]), seeds=[int(s) for s in r["seeds"]], images=list(r["images"]),
+                              mean=r["mean"], variance=r["variance"], dof=r["dof"], preview=r["preview"])
+            if len(run.images) != len(run.seeds):  # a schema cannot compare two lengths
                 raise BaselineError(f"{w}.images: expected one image per seed ({len(run.seeds)}), "
                                     f"got {len(run.images)}")
             for key, p in [("mean", run.mean), ("variance", run.variance), ("preview", run.preview),
                            *((f"images[{k}]", p) for k, p in enumerate(run.images))]:
-                if p is not None:
-                    _contained(root, _safe(p, f"{w}.{key}"), f"{w}.{key}")
+                if p is not None:  # the schema kept the text inside the folder; where a link leads, only the disk says
+                    _contained(root, Path(p), f"{w}.{key}")
             runs.append(run)
         return cls(root, index, results, runs)
 

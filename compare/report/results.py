@@ -8,92 +8,11 @@ that holds the file, in POSIX form, so the folder can be moved or zipped.
 
 Schema 1
 --------
-Published as a JSON Schema with the package (``compare/schemas/results.schema.json``)::
-
-    {
-      "schema": 1,
-      "created": "2025-01-31T12:00:00Z",          # UTC, when the run finished
-      "compare_version": "0.1.0",
-      "settings": {                                 # RunSettings: what was asked for
-        "frames": 128, "spp": 1024, "seed": 0,
-        "renderers": ["mitsuba", "progressive"],
-        "sizes": [[320, 240]],                      # [] = each scene's own resolution
-        "exposure": 1.0, "tonemap": "aces", "materials": "shared",
-        "budgets": {"cycles": 1024, "eevee": 64}, "likeness": true, "seeds": 1, "scene_spp": false,
-        "ground_truth": "mitsuba",                  # the renderer every run is measured against
-        "baseline": "progressive",                  # the ablation table's baseline
-        "renderer_config": null                     # a renderer TOML file, or null
-      },
-      "machine": {                                  # where it ran (see Machine)
-        "cpu": "AMD EPYC 7B13", "cores": 2, "platform": "Linux-6.1-x86_64",
-        "gl_renderer": "llvmpipe (LLVM 15.0.6, 256 bits)" | null,
-        "mitsuba_variant": "llvm_ad_rgb" | null,
-        "versions": {"python": "3.11.2", "mitsuba": "3.9.1", "drjit": "1.5.0",
-                     "moderngl": "5.13.0", "numpy": "2.4.6", "compare": "0.1.0"}
-      },
-      "scenes": [                                   # one entry per scene *and* size
-        {
-          "id": "cornell-box-1a2b3c4d-320x240",     # file-name-safe, unique
-          "name": "Cornell box",                    # as written in the scene file
-          "path": "scenes/cornell.toml", "hash": "<sha256>",
-          "width": 320, "height": 240,
-          "features": ["area_lights"],
-          "omitted": {"<work left out>": "<why>"},  # Features.omitted()
-          "reference": {                            # the ground truth
-            "renderer": "mitsuba", "label": "Mitsuba path tracer (llvm_ad_rgb)",
-            "unit": "spp", "spp": 1024, "seed": 0,   # spp: its budget, in its unit
-            "seconds": 41.2, "load_seconds": 0.01, "variant": "llvm_ad_rgb",
-            "image": "runs/<id>/reference/final.exr",
-            "preview": "runs/<id>/reference/final.png",
-            "flip_hdr_exposure": [-2.1, 4.3] | null, # HDR-FLIP's exposure range, fixed per ground truth
-            "variance": "runs/<id>/reference/final-variance.exr" | null,  # per-pixel, from its passes
-            "variance_dof": 21 | null
-          },
-          "noise_floor": {                          # or null (the ground-truth renderer not in the run)
-            "method": "independent-full", "spp": 1024, "seeds": [0, 1],
-            "metrics": {"flip": 0.02, "ssim": 0.99, ...},
-            "mse_reference_estimate": 1.2e-05
-          },
-          "runs": [                                 # one per renderer (RendererRun)
-            {
-              "renderer": "progressive",            # the --renderers spec
-              "label": "Progressive (radiometric)",
-              "unit": "frame",                      # or "spp"
-              "steps": 128,                         # frames or spp asked for
-              "key": "<sha256 of every setting>",   # resume key
-              "seconds": 3.1,                       # cumulative, last checkpoint
-              "first_frame_seconds": 0.05,          # first checkpoint (1 frame / 1 spp)
-              "setup_seconds": 0.4,                 # scene load / GPU upload, not in "seconds"
-              "metadata": {"gl_renderer": "...", ...},   # str/int/float/bool/null only
-              "image": "runs/<id>/progressive/final.exr",
-              "preview": "runs/<id>/progressive/final.png",
-              "maps": {"flip": "runs/<id>/progressive/maps/flip.png", ...},
-              "layers": {"indirect_diffuse": {"flip": ..., "relmse": ..., "mean_ratio": ... | null,
-                                              "share": ..., "rendered": false, "map": "runs/..png"}, ...},
-                                                    # error per kind of light (compare/metrics/layers.py); {} if none
-              "points": [                           # every checkpoint, ascending
-                {"step": 1, "seconds": 0.05,
-                 "metrics": {"mse": ..., "relmse": ..., "psnr": ... | null,
-                             "ssim": ..., "flip": ...,
-                             "flip_median": ..., "flip_p95": ...,  # FLIP's weighted median, 95th percentile
-                             "flip_hdr": ... | null,   # last checkpoint only (cost); the reference's range
-                             "mse_mean": ..., "variance": ..., "bias2": ..., "bias2_ci": ...,
-                             "truth_variance": ..., "seeds": K,     # with settings.seeds >= 2 (compare/metrics/bias.py)
-                             "relmse_mean": ..., "rel_variance": ..., "rel_bias2": ..., "rel_bias2_ci": ...,
-                             "rel_truth_variance": ...},            # the same in relMSE units
-                 "image": "runs/<id>/progressive/step-0001.exr",
-                 "preview": "runs/<id>/progressive/step-0001.png"}
-              ],
-              "seed_runs": [                        # with settings.seeds >= 2: each independent run (SeedRun),
-                {"seed": 0, "setup_seconds": 0.4,   # the first one's points repeated; [] otherwise
-                 "image": "runs/<id>/progressive/step-0128.exr",     # its final image
-                 "points": [{"step": 1, "seconds": 0.05, "metrics": {"relmse": ..., "flip": ..., ...}}]}
-              ]
-            }
-          ]
-        }
-      ]
-    }
+The one definition is the JSON Schema published with the package,
+``compare/schemas/results.schema.json``: :meth:`Results.from_json` (and so
+:meth:`Results.load`) validates against it and refuses a file that does not conform
+with one error naming the field (:func:`schema_problem`). The dataclasses below
+mirror it, one per object.
 
 Numbers are finite: :meth:`Results.to_json` raises :class:`ValueError` naming
 the field if a NaN or infinity reaches it, because a report or a CI gate that
@@ -114,10 +33,12 @@ measured range they return ``None``.
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import os
 from dataclasses import asdict, dataclass, field, fields
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -139,6 +60,7 @@ __all__ = [
     "ResultsError",
     "check_json_finite",
     "metric_value",
+    "schema_problem",
 ]
 
 #: The schema version written into ``results.json``. Bump it when a field
@@ -172,32 +94,98 @@ def check_json_finite(value: Any, where: str = "results") -> None:
                              "(fix the renderer or metric that produced it)")
     elif isinstance(value, dict):
         for k, v in value.items():
-            check_json_finite(v, f"{where}.{k}")
+            check_json_finite(v, f"{where}.{k}" if where else str(k))
     elif isinstance(value, (list, tuple)):
         for i, v in enumerate(value):
             check_json_finite(v, f"{where}[{i}]")
 
 
-def _require(d: Any, key: str, where: str, types: type | tuple[type, ...] | None = None) -> Any:
-    if not isinstance(d, dict):
-        raise ResultsError(f"{where}: expected an object, got {type(d).__name__}")
-    if key not in d:
-        raise ResultsError(f"{where}: missing field {key!r}")
-    v = d[key]
-    if types is not None and not isinstance(v, types):
-        raise ResultsError(f"{where}.{key}: expected {types}, got {type(v).__name__} {v!r}")
-    return v
+#: The published JSON Schemas (package data in compare/schemas/): results.json, an external renderer's job.json
+#: and a baseline's baseline.json. They refer to one another (baseline.json holds results.json's machine).
+SCHEMAS = ("results", "job", "baseline")
 
 
-def _seconds(d: Any, key: str, where: str, default: float | None = None) -> float:
-    """A time of ``d``: a finite number of seconds >= 0 (a negative or infinite time would let an equal-time
-    comparison or the gate's timing tests pass on nothing)."""
-    if default is not None and isinstance(d, dict) and key not in d:
-        return default
-    v = _require(d, key, where)
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
-        raise ResultsError(f"{where}.{key}: expected a finite number of seconds >= 0, got {v!r}")
-    return float(v)
+@functools.cache
+def _validator(name: str):
+    # imported here: reading the schemas is the loaders' business, not that of every `import compare`
+    import jsonschema
+    from referencing import Registry, Resource
+
+    folder = resources.files("compare") / "schemas"
+    found = {n: json.loads((folder / f"{n}.schema.json").read_text(encoding="utf-8")) for n in SCHEMAS}
+    registry = Registry().with_resources((s["$id"], Resource.from_contents(s)) for s in found.values())
+    return jsonschema.Draft202012Validator(found[name], registry=registry)
+
+
+def schema_problem(data: Any, name: str) -> str | None:
+    """What is most wrong with ``data`` against ``compare/schemas/<name>.schema.json``, or None if it conforms.
+
+    Parameters
+    ----------
+    data
+        Parsed JSON.
+    name
+        One of :data:`SCHEMAS`.
+
+    Returns
+    -------
+    str or None
+        One problem (jsonschema's ``best_match`` of all of them): ``"<field>: <what is wrong>"``, e.g.
+        ``"scenes[0].runs[1].points[3].metrics.flip: expected number or null, got \"x\""`` or
+        ``"scenes[0]: missing field 'runs'"``; no field for the top level.
+    """
+    from jsonschema.exceptions import best_match
+
+    error = best_match(_validator(name).iter_errors(data))
+    if error is None:
+        return None
+    where = "".join(_step(k) for k in error.absolute_path).lstrip(".")
+    problem = _problem(error)
+    return f"{where}: {problem}" if where else problem
+
+
+def _step(key: int | str) -> str:
+    """One step of a field's path: ``[3]``, ``.flip``, or ``["a key"]`` for a key that is not a plain name."""
+    if isinstance(key, int):
+        return f"[{key}]"
+    return f".{key}" if key and all(c.isascii() and (c.isalnum() or c in "_-") for c in key) else f"[{_show(key)}]"
+
+
+_JSON_TYPES = {"object", "array", "string", "number", "integer", "boolean", "null"}
+_BOUNDS = {"minimum": ">=", "exclusiveMinimum": ">", "maximum": "<=", "exclusiveMaximum": "<"}
+
+
+def _problem(error) -> str:
+    """One schema error in words; a subschema's ``title`` names what is expected where it has one."""
+    kind, rule, value = error.validator, error.validator_value, error.instance
+    title = error.schema.get("title") if isinstance(error.schema, dict) else None
+    got = _show(value)
+    if kind == "required":
+        return f"missing field {next(k for k in rule if k not in value)!r}"
+    if title and kind in ("type", "pattern", *_BOUNDS):
+        return f"expected {title}, got {got}"
+    if kind == "type":
+        types = [rule] if isinstance(rule, str) else list(rule)
+        return f"expected {' or '.join(t for t in types if t in _JSON_TYPES)}, got {got}"
+    if kind in _BOUNDS:
+        return f"expected a number {_BOUNDS[kind]} {rule}, got {got}"
+    if kind == "const":
+        return f"expected {_show(rule)}, got {got}"
+    if kind == "enum":
+        return f"expected one of {', '.join(_show(v) for v in rule)}, got {got}"
+    if kind == "minItems":
+        return f"expected at least {rule} item(s), got {len(value)}"
+    if kind == "maxItems":
+        return f"expected at most {rule} item(s), got {len(value)}"
+    if kind == "pattern":
+        return f"expected a string matching {rule!r}, got {got}"
+    return error.message
+
+
+def _show(value: Any, limit: int = 60) -> str:
+    """``value`` as JSON text, cut to ``limit`` characters (a message is one line)."""
+    text = json.dumps(value, ensure_ascii=False, allow_nan=True, default=str)
+    return text if len(text) <= limit else text[: limit - 1] + "…"
 
 
 def metric_value(metrics: dict[str, float | None], name: str) -> float | None:
@@ -301,8 +289,8 @@ class Machine:
         facts = {k: str(d[k]) for k in ("gl_renderer", "mitsuba_variant", "webgl_renderer") if d.get(k)}
         facts.update({str(k): str(v) for k, v in dict(d.get("facts") or {}).items()})
         return cls(
-            cpu=str(_require(d, "cpu", "machine")),
-            cores=int(_require(d, "cores", "machine")),
+            cpu=str(d["cpu"]),
+            cores=int(d["cores"]),
             platform=str(d.get("platform", "")),
             versions=dict(d.get("versions") or {}),
             facts=facts,
@@ -336,12 +324,12 @@ class Point:
         return asdict(self)
 
     @classmethod
-    def from_json(cls, d: dict, where: str = "point") -> "Point":
+    def from_json(cls, d: dict) -> "Point":
         """Inverse of :meth:`to_json`."""
         return cls(
-            step=int(_require(d, "step", where, int)),
-            seconds=_seconds(d, "seconds", where),
-            metrics=dict(_require(d, "metrics", where, dict)),
+            step=int(d["step"]),
+            seconds=float(d["seconds"]),
+            metrics=dict(d["metrics"]),
             image=d.get("image"),
             preview=d.get("preview"),
         )
@@ -380,17 +368,12 @@ class SeedRun:
         return next((p for p in self.points if p["step"] == step), None)
 
     @classmethod
-    def from_json(cls, d: dict, where: str = "seed_run") -> "SeedRun":
+    def from_json(cls, d: dict) -> "SeedRun":
         """Inverse of :meth:`to_json`."""
-        points = []
-        for i, p in enumerate(_require(d, "points", where, list)):
-            w = f"{where}.points[{i}]"
-            points.append({"step": int(_require(p, "step", w, int)),
-                           "seconds": _seconds(p, "seconds", w),
-                           "metrics": dict(_require(p, "metrics", w, dict))})
-        return cls(seed=int(_require(d, "seed", where, int)),
-                   setup_seconds=_seconds(d, "setup_seconds", where),
-                   image=d.get("image"), points=points)
+        points = [{"step": int(p["step"]), "seconds": float(p["seconds"]), "metrics": dict(p["metrics"])}
+                  for p in d["points"]]
+        return cls(seed=int(d["seed"]), setup_seconds=float(d["setup_seconds"]), image=d.get("image"),
+                   points=points)
 
 
 def _log(x: float) -> float:
@@ -570,28 +553,26 @@ class RendererRun:
         return d
 
     @classmethod
-    def from_json(cls, d: dict, where: str = "run") -> "RendererRun":
+    def from_json(cls, d: dict) -> "RendererRun":
         """Inverse of :meth:`to_json`."""
-        points = _require(d, "points", where, list)
         return cls(
-            renderer=str(_require(d, "renderer", where, str)),
+            renderer=d["renderer"],
             label=str(d.get("label") or d["renderer"]),
-            unit=str(_require(d, "unit", where, str)),
-            steps=int(_require(d, "steps", where, int)),
+            unit=d["unit"],
+            steps=int(d["steps"]),
             key=str(d.get("key", "")),
-            seconds=_seconds(d, "seconds", where),
-            first_frame_seconds=_seconds(d, "first_frame_seconds", where),
-            setup_seconds=_seconds(d, "setup_seconds", where, 0.0),
+            seconds=float(d["seconds"]),
+            first_frame_seconds=float(d["first_frame_seconds"]),
+            setup_seconds=float(d.get("setup_seconds", 0.0)),
             metadata=dict(d.get("metadata") or {}),
             image=d.get("image"),
             preview=d.get("preview"),
             maps=dict(d.get("maps") or {}),
-            points=[Point.from_json(p, f"{where}.points[{i}]") for i, p in enumerate(points)],
+            points=[Point.from_json(p) for p in d["points"]],
             variant_of=d.get("variant_of"),
             variant_note=str(d.get("variant_note") or ""),
             layers={str(k): dict(v) for k, v in (d.get("layers") or {}).items()},
-            seed_runs=[SeedRun.from_json(r, f"{where}.seed_runs[{i}]")
-                       for i, r in enumerate(d.get("seed_runs") or [])],
+            seed_runs=[SeedRun.from_json(r) for r in d.get("seed_runs") or []],
             notes={str(k): str(v) for k, v in (d.get("notes") or {}).items()},
         )
 
@@ -628,14 +609,14 @@ class Reference:
         return asdict(self)
 
     @classmethod
-    def from_json(cls, d: dict, where: str = "reference") -> "Reference":
+    def from_json(cls, d: dict) -> "Reference":
         """Inverse of :meth:`to_json`."""
         return cls(
-            spp=int(_require(d, "spp", where, int)),
-            seed=int(_require(d, "seed", where, int)),
-            seconds=_seconds(d, "seconds", where),
-            variant=str(_require(d, "variant", where, str)),
-            load_seconds=_seconds(d, "load_seconds", where, 0.0),
+            spp=int(d["spp"]),
+            seed=int(d["seed"]),
+            seconds=float(d["seconds"]),
+            variant=d["variant"],
+            load_seconds=float(d.get("load_seconds", 0.0)),
             renderer=str(d.get("renderer", "mitsuba")),
             key=str(d.get("key", "")),
             image=d.get("image"),
@@ -686,15 +667,10 @@ class NoiseFloor:
         return asdict(self)
 
     @classmethod
-    def from_json(cls, d: dict, where: str = "noise_floor") -> "NoiseFloor":
+    def from_json(cls, d: dict) -> "NoiseFloor":
         """Inverse of :meth:`to_json`."""
-        return cls(
-            method=str(_require(d, "method", where, str)),
-            spp=int(_require(d, "spp", where, int)),
-            seeds=[int(s) for s in _require(d, "seeds", where, list)],
-            metrics=dict(_require(d, "metrics", where, dict)),
-            mse_reference_estimate=float(_require(d, "mse_reference_estimate", where, (int, float))),
-        )
+        return cls(method=d["method"], spp=int(d["spp"]), seeds=[int(s) for s in d["seeds"]],
+                   metrics=dict(d["metrics"]), mse_reference_estimate=float(d["mse_reference_estimate"]))
 
 
 @dataclass
@@ -737,22 +713,21 @@ class SceneResult:
         }
 
     @classmethod
-    def from_json(cls, d: dict, where: str = "scene") -> "SceneResult":
+    def from_json(cls, d: dict) -> "SceneResult":
         """Inverse of :meth:`to_json`."""
         nf = d.get("noise_floor")
         return cls(
-            id=str(_require(d, "id", where, str)),
-            name=str(_require(d, "name", where, str)),
+            id=d["id"],
+            name=d["name"],
             path=str(d.get("path", "")),
             hash=str(d.get("hash", "")),
-            width=int(_require(d, "width", where, int)),
-            height=int(_require(d, "height", where, int)),
-            features=[str(f) for f in d.get("features") or []],
-            omitted={str(k): str(v) for k, v in (d.get("omitted") or {}).items()},
-            reference=Reference.from_json(_require(d, "reference", where, dict), f"{where}.reference"),
-            noise_floor=None if nf is None else NoiseFloor.from_json(nf, f"{where}.noise_floor"),
-            runs=[RendererRun.from_json(r, f"{where}.runs[{i}]")
-                  for i, r in enumerate(_require(d, "runs", where, list))],
+            width=int(d["width"]),
+            height=int(d["height"]),
+            features=list(d.get("features") or []),
+            omitted=dict(d.get("omitted") or {}),
+            reference=Reference.from_json(d["reference"]),
+            noise_floor=None if nf is None else NoiseFloor.from_json(nf),
+            runs=[RendererRun.from_json(r) for r in d["runs"]],
             likeness=None if d.get("likeness") is None else dict(d["likeness"]),
         )
 
@@ -803,28 +778,35 @@ class Results:
 
     @classmethod
     def from_json(cls, d: dict) -> "Results":
-        """Inverse of :meth:`to_json`.
+        """Inverse of :meth:`to_json`, validated against ``compare/schemas/results.schema.json``.
 
         Raises
         ------
         ResultsError
-            For another schema version or a malformed file (naming the field).
+            For another schema version, a field the schema refuses, or a NaN or infinity (each naming the
+            field, e.g. ``scenes[0].runs[1].seconds: expected a finite number of seconds >= 0, got -1``).
         """
-        schema = _require(d, "schema", "results")
-        if schema != SCHEMA:
-            raise ResultsError(f"results: schema {schema!r} is not supported (this code reads schema {SCHEMA}); "
+        if isinstance(d, dict) and "schema" in d and d["schema"] != SCHEMA:
+            # before the schema's `const`: the version says what to do about it
+            raise ResultsError(f"schema {d['schema']!r} is not supported (this code reads schema {SCHEMA}); "
                                "rerun `compare run` with this version")
-        check_json_finite(d)
+        if isinstance(d, dict) and "machine" not in d and "environment" in d:
+            d = {**d, "machine": d["environment"]}  # its name in files written before the schema was published
+        problem = schema_problem(d, "results")
+        if problem is not None:
+            raise ResultsError(problem)
+        try:
+            check_json_finite(d, "")  # 1e999 parses as infinity; the schema cannot tell
+        except ValueError as e:
+            raise ResultsError(str(e)) from None
         return cls(
-            settings=RunSettings.from_json(_require(d, "settings", "results", dict)),
-            machine=Machine.from_json(_require(d, "machine" if "machine" in d else "environment", "results", dict)),
-            scenes=[SceneResult.from_json(s, f"results.scenes[{i}]")
-                    for i, s in enumerate(_require(d, "scenes", "results", list))],
-            created=str(d.get("created", "")),
-            compare_version=str(d.get("compare_version", "")),
+            settings=RunSettings.from_json(d["settings"]),
+            machine=Machine.from_json(d["machine"]),
+            scenes=[SceneResult.from_json(s) for s in d["scenes"]],
+            created=d["created"],
+            compare_version=d["compare_version"],
             schema=SCHEMA,
-            failures=[{k: str(_require(f, k, f"results.failures[{i}]", str)) for k in ("scene", "renderer", "message")}
-                      for i, f in enumerate(_require(d, "failures", "results", list) if "failures" in d else [])],
+            failures=[{k: f[k] for k in ("scene", "renderer", "message")} for f in d.get("failures", [])],
         )
 
     @classmethod
@@ -834,8 +816,9 @@ class Results:
         Raises
         ------
         ResultsError
-            If the file is missing, not JSON (NaN tokens count as not JSON),
-            or not schema 1.
+            If the file is missing, not JSON (NaN tokens count as not JSON), or
+            does not conform to schema 1 (:meth:`from_json`): one line naming the file and the field,
+            e.g. ``runs/results.json: scenes[0].runs[1].steps: expected an integer >= 1, got "x"``.
         """
         path = Path(path)
         try:
@@ -855,7 +838,7 @@ class Results:
         except ValueError as e:
             raise ResultsError(f"{path}: {e}") from e
         except (TypeError, AttributeError, KeyError, IndexError, OverflowError) as e:
-            # a field of the wrong JSON type below the checked ones (e.g. a list for a number)
+            # the schema validated the file: this is a reader that expects more than the schema says
             raise ResultsError(f"{path}: malformed results ({type(e).__name__}: {e}); rerun `compare run`") from e
 
 
