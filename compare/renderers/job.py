@@ -153,7 +153,7 @@ def export_gltf(scene, out: Path) -> Path:
             w.doc["materials"][index[name]]["occlusionTexture"] = {**info(m, m.occlusion_texture),
                                                                    "strength": m.occlusion_strength}
     for mesh in scene.meshes:
-        tri = mesh.triangles()
+        tri = mesh.triangles(tangents=scene.materials[mesh.material].normal_mapped)
         uvs = tri.uvs is not None and len(tri.uvs) == len(tri.positions)
         w.node(mesh.name, mesh=w.mesh(mesh.name, [(tri, index[mesh.material])], uvs=uvs))
     for light in scene.punctual:  # glTF's units (cd, lux) at 683 lm/W; the node's −Z along the light

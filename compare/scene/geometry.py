@@ -19,13 +19,16 @@ import numpy as np
 @dataclass(frozen=True)
 class TriangleMesh:
     """World-space triangles: positions (N,3), normals (N,3), uvs (N,2) float32; indices (M,3) uint32;
-    colors (N,4) float32 or None: glTF's COLOR_0, linear RGBA multiplying the base colour and alpha."""
+    colors (N,4) float32 or None: glTF's COLOR_0, linear RGBA multiplying the base colour and alpha;
+    tangents (N,4) float32 or None: glTF's TANGENT (xyz along +u, w = ±1 the bitangent's sign), the file's
+    or MikkTSpace's (:func:`compare.scene.tangents.with_tangents`)."""
 
     positions: np.ndarray
     normals: np.ndarray
     uvs: np.ndarray
     indices: np.ndarray
     colors: np.ndarray | None = None
+    tangents: np.ndarray | None = None
 
     @property
     def triangle_count(self) -> int:
@@ -43,9 +46,16 @@ class TriangleMesh:
         n = self.normals.astype(np.float64) @ nm.T
         n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
         indices = self.indices
-        if np.linalg.det(m[:3, :3]) < 0:  # mirroring flips winding; keep faces front-facing
+        mirrored = np.linalg.det(m[:3, :3]) < 0
+        if mirrored:  # mirroring flips winding; keep faces front-facing
             indices = indices[:, ::-1].copy()
-        return TriangleMesh(p.astype(np.float32), n.astype(np.float32), self.uvs, indices, self.colors)
+        tangents = None
+        if self.tangents is not None:  # glTF: xyz by the node's linear part; a mirror flips the handedness
+            t = self.tangents[:, :3].astype(np.float64) @ m[:3, :3].T
+            t /= np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-30)
+            w = self.tangents[:, 3:4] * (-1.0 if mirrored else 1.0)
+            tangents = np.concatenate([t, w], axis=1).astype(np.float32)
+        return TriangleMesh(p.astype(np.float32), n.astype(np.float32), self.uvs, indices, self.colors, tangents)
 
     def surface_area(self) -> float:
         p = self.positions.astype(np.float64)
@@ -53,13 +63,14 @@ class TriangleMesh:
         return float(0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1).sum())
 
 
-def _mesh(p, n, uv, idx, colors=None) -> TriangleMesh:
+def _mesh(p, n, uv, idx, colors=None, tangents=None) -> TriangleMesh:
     return TriangleMesh(
         np.ascontiguousarray(p, dtype=np.float32),
         np.ascontiguousarray(n, dtype=np.float32),
         np.ascontiguousarray(uv, dtype=np.float32),
         np.ascontiguousarray(idx, dtype=np.uint32).reshape(-1, 3),
         None if colors is None else np.ascontiguousarray(colors, dtype=np.float32),
+        None if tangents is None else np.ascontiguousarray(tangents, dtype=np.float32),
     )
 
 

@@ -450,7 +450,7 @@ class _Reader:
                 n[bad] = geometry.vertex_normals(p, tri)[bad]
                 length = np.linalg.norm(n, axis=1)
             n = n / length[:, None]
-            return geometry._mesh(p, n, uv, tri, colors)
+            return geometry._mesh(p, n, uv, tri, colors, self._tangents(attrs, w, nv))
         # glTF: without normals, flat shading. Unweld so every triangle has its own face normal.
         pa, pb, pc = p[tri[:, 0]], p[tri[:, 1]], p[tri[:, 2]]
         fn = np.cross(pb - pa, pc - pa)
@@ -459,6 +459,24 @@ class _Reader:
         flat = tri.ravel()
         return geometry._mesh(p[flat], np.repeat(fn, 3, axis=0), uv[flat], np.arange(len(flat)).reshape(-1, 3),
                               None if colors is None else colors[flat])
+
+    def _tangents(self, attrs: dict, w: str, nv: int) -> np.ndarray | None:
+        """The file's TANGENT (nv, 4): xyz unit length, w = ±1 (glTF's rules; a file breaking them is named).
+        None without it: renderers then take MikkTSpace's (compare.scene.tangents), as glTF prescribes."""
+        if "TANGENT" not in attrs:
+            return None
+        where = f"{w}.attributes.TANGENT"
+        t = self.accessor(attrs["TANGENT"], where)
+        if t.shape[1] != 4:
+            raise self.err(where, f"expected VEC4 tangents (xyz and the bitangent's sign w), got {t.shape[1]} components")
+        if not np.isfinite(t).all():
+            raise self.err(where, "NaN or infinite tangents")
+        length = np.linalg.norm(t[:, :3], axis=1)
+        if (length < 1e-12).any():
+            raise self.err(where, f"{int((length < 1e-12).sum())} zero-length tangents")
+        if not np.isin(t[:, 3], (-1.0, 1.0)).all():
+            raise self.err(where, "w must be 1 or -1 (the bitangent's sign)")
+        return np.concatenate([t[:, :3] / length[:, None], t[:, 3:]], axis=1)
 
     def _colors(self, attrs: dict, w: str, nv: int) -> np.ndarray | None:
         """COLOR_0 as linear RGBA (nv, 4), alpha 1 for VEC3; None without it (or where it is all white)."""

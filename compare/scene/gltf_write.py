@@ -113,6 +113,8 @@ class GltfWriter:
                 attrs["TEXCOORD_0"] = self.accessor(tri.uvs)
             if tri.colors is not None:  # glTF's COLOR_0: linear RGBA, multiplying base colour and alpha
                 attrs["COLOR_0"] = self.accessor(tri.colors)
+            if tri.tangents is not None and normals:  # the frame of its normal maps: no reader guesses its own
+                attrs["TANGENT"] = self.accessor(tri.tangents)
             prim: dict[str, Any] = {"attributes": attrs, "indices": self.accessor(tri.indices, indices=True)}
             if material is not None:
                 prim["material"] = material

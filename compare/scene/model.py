@@ -262,6 +262,12 @@ class Material:
         return t @ r @ np.diag([self.texture_scale[0], self.texture_scale[1], 1.0])
 
     @property
+    def normal_mapped(self) -> bool:
+        """Whether a map of this material is in tangent space (normalTexture, clearcoatNormalTexture): its
+        meshes need their tangent frame (:meth:`Mesh.triangles` with ``tangents``)."""
+        return self.normal_texture is not None or self.clearcoat_normal_texture is not None
+
+    @property
     def has_uv_transform(self) -> bool:
         return (self.texture_offset, self.texture_rotation, self.texture_scale) != ((0.0, 0.0), 0.0, (1.0, 1.0))
     #: The Principled BSDF's microfacet distribution in Blender (``multi_ggx``, Blender's default, or
@@ -306,8 +312,18 @@ class Mesh:
         tri = self.params.get("triangles") if self.shape == "gltf" else None
         return tri is not None and tri.colors is not None
 
-    def triangles(self) -> geometry.TriangleMesh:
-        """World-space triangles of this mesh."""
+    def triangles(self, *, tangents: bool = False) -> geometry.TriangleMesh:
+        """World-space triangles of this mesh; with ``tangents``, with the tangent frame of its normal maps: the
+        file's ``TANGENT``, else MikkTSpace's of the mesh in its own frame (what a baker and glTF assume)."""
+        local = self._local()
+        if tangents and local.tangents is None:
+            from compare.scene.tangents import with_tangents
+            from compare.util.cache import default_cache_dir
+
+            local = with_tangents(local, cache_dir=default_cache_dir())
+        return local.transformed(self.transform)
+
+    def _local(self) -> geometry.TriangleMesh:
         p = self.params
         if self.shape == "quad":
             local = geometry.quad_from_corners(p["corners"]) if "corners" in p else geometry.quad(p["size"])
@@ -322,7 +338,7 @@ class Mesh:
         else:
             assert self.file is not None
             local = geometry.load_ply(self.file) if self.file.suffix.lower() == ".ply" else geometry.load_obj(self.file)
-        return local.transformed(self.transform)
+        return local
 
 
 def mesh_bounds(meshes) -> tuple[np.ndarray, np.ndarray]:
