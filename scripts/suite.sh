@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # One entry point for a fresh machine: set everything up, then run a job.
 #
-#   scripts/suite.sh main    set up, then evaluate the Cornell box (results.json + HTML report)
+#   scripts/suite.sh main    set up what it runs, then evaluate the Cornell box (results.json + HTML report)
 #   scripts/suite.sh test    set up, then run the default test suite
 #   scripts/suite.sh slow    set up, then run the slow tests only
 #   scripts/suite.sh setup   set up only
@@ -164,7 +164,9 @@ shift || true
 case "$job" in
     setup) setup ;;
     main)
-        setup
+        # only what the main job runs: the web engines' Chromium and npm packages come with `setup`/`test`
+        # (a web renderer that is asked for without them says so, with that command)
+        setup_system; setup_python
         out="reports/cornell"
         "$VENV/bin/compare" run --scenes scenes/cornell.toml --size 320x240 --frames 128 --spp 1024 \
             --renderer-config examples/renderers.toml \
