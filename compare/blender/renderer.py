@@ -75,8 +75,7 @@ class BlenderRenderer(Renderer):
         self.label = "Blender Cycles (CPU)" if engine == "cycles" else "Blender EEVEE"
         if option:
             self.variant_of = engine
-            self.variant_note = ("GGX (single scattering) in every Principled BSDF" if option == "ggx" else
-                                 "Multiscatter GGX in every Principled BSDF")
+            self.variant_note = self.OPTIONS[option]
             self.label += " GGX" if option == "ggx" else " Multiscatter GGX"
 
     def available(self) -> tuple[bool, str]:

@@ -28,8 +28,7 @@ class BabylonRenderer(WebRenderer):
     # EXR reader's inflate, which Babylon loads from unpkg
     PACKAGES = ("@babylonjs/core", "@babylonjs/loaders", "fflate", "three")
     VERSION_KEY = "babylon"
-    OPTIONS = {"shadows": "shadow-mapped spot lights of the area lights' L·A instead of RectAreaLight "
-                          "(which casts no shadow)"}
+    OPTIONS = {"shadows": WebRenderer.SPOT_SHADOWS}
     VARIANTS = ("babylon:shadows",)
     renders = frozenset(MATERIAL_FEATURE_NAMES) | {"punctual_lights", "vertex_colors", "single_sided"}
 

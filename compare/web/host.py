@@ -133,8 +133,11 @@ class WebRenderer(Renderer):
         self.engine = family
         self.options = {o: True for o in opts}
         self.variant_of = family if opts else None
-        self.variant_note = ", ".join(opts)
+        self.variant_note = "; ".join(self.OPTIONS[o] for o in opts)
         self.label = self.describe(opts)
+
+    #: The text of the ``shadows`` option that three.js and Babylon.js share (their area lights alike).
+    SPOT_SHADOWS = "shadow-mapped spot lights of the area lights' L·A instead of RectAreaLight (which casts no shadow)"
 
     def describe(self, opts: list[str]) -> str:
         """The label of this engine with ``opts``."""

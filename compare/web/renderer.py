@@ -24,7 +24,7 @@ __all__ = ["THREEJS_OPTIONS", "ThreeJsPathTracer", "ThreeJsRenderer"]
 
 #: Options of ``threejs:<option>[+<option>]`` and what they change.
 THREEJS_OPTIONS = {
-    "shadows": "shadow-mapped spot lights of the area lights' L·A instead of RectAreaLight (which casts no shadow)",
+    "shadows": WebRenderer.SPOT_SHADOWS,
     "msaa": "4x MSAA in each frame's float target",
 }
 
