@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from compare.run.runner import parse_renderers
+from compare.renderers.registry import Registry
 from compare.progressive.options import describe, renderer_options
 
 
@@ -34,9 +34,9 @@ def test_bad_options_are_named(spec, match):
     with pytest.raises(ValueError, match=match):
         renderer_options(spec)
     with pytest.raises(ValueError):
-        parse_renderers(f"mitsuba,{spec}")
+        Registry().parse(f"mitsuba,{spec}")
 
 
-def test_variants_pass_through_parse_renderers():
+def test_variants_pass_through_the_registry_parser():
     specs = "mitsuba,progressive,progressive:probes,progressive:vsm,progressive:budget16"
-    assert parse_renderers(specs) == specs.split(",")
+    assert Registry().parse(specs) == specs.split(",")

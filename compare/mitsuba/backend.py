@@ -158,21 +158,6 @@ def load_active_mitsuba(variant: str | None = None):
     return load_mitsuba(variant)
 
 
-def register_bsdf_plugin(name: str, make_class, classes: dict, variant: str | None = None, *, kind: str = "bsdf"):
-    """Register the Python plugin ``name`` (a BSDF, or ``kind="texture"``) with the active (or given)
-    variant, once per variant: ``make_class(variant_module, mitsuba)`` builds its class, kept in ``classes``
-    by variant. Returns the ``mitsuba`` module with that variant active."""
-    mi = load_active_mitsuba(variant)
-    active = mi.variant()
-    if active not in classes:
-        import mitsuba  # noqa: PLC0415 - already imported by load_mitsuba
-
-        cls = make_class(getattr(mitsuba, active), mitsuba)
-        getattr(mi, f"register_{kind}")(name, lambda props, _cls=cls: _cls(props))
-        classes[active] = cls
-    return mi
-
-
 def _has_cuda() -> bool:
     """True when an NVIDIA driver library is present (cheap check before trying CUDA)."""
     return bool(glob.glob("/usr/lib/x86_64-linux-gnu/libcuda.so*") or glob.glob("/usr/lib64/libcuda.so*"))

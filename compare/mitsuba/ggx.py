@@ -1,15 +1,17 @@
-"""GGX in Dr.Jit, once for every Mitsuba plugin of the suite (the base, the coat): the half vector, the
-distribution D, the height-correlated Smith visibility V, the pdf of a reflection sampled from the visible
-normals, and that sampling itself. They are the Dr.Jit form of :mod:`compare.brdf`'s NumPy definitions
-(one BRDF, checked against each other by the tests). Plain functions of Dr.Jit arrays: a plugin class built
-for any variant calls them.
+"""GGX in Dr.Jit, once for every Mitsuba plugin of the suite (the base, the coat, the rough glass): the half
+vector, the distribution D, the height-correlated Smith visibility V, Smith's Lambda and the ratio of the
+height-correlated to the separable masking, the pdf of a reflection sampled from the visible normals, and that
+sampling itself. They are the Dr.Jit form of :mod:`compare.brdf`'s NumPy definitions (one BRDF, checked
+against each other by the tests). Plain functions of Dr.Jit arrays, ``dr`` passed in: the plugin classes of
+every variant (:mod:`compare.mitsuba.plugins`) call them.
 """
 
 from __future__ import annotations
 
 from compare.brdf import COS_MIN, DENOM_MIN, H_LEN2_MIN
 
-__all__ = ["ggx_d", "half_vector", "sample_visible_reflection", "smith_vis", "vndf_pdf"]
+__all__ = ["ggx_d", "half_vector", "masking_ratio", "sample_visible_reflection", "smith_lambda", "smith_vis",
+           "vndf_pdf"]
 
 
 def half_vector(dr, wi, wo):
@@ -34,6 +36,20 @@ def smith_vis(dr, cos_i, cos_o, alpha):
     nv = dr.maximum(cos_i, COS_MIN)
     nl = dr.maximum(cos_o, COS_MIN)
     return 0.5 / (nl * dr.sqrt(nv * nv * (1.0 - a2) + a2) + nv * dr.sqrt(nl * nl * (1.0 - a2) + a2))
+
+
+def smith_lambda(dr, cos_theta, alpha):
+    """Smith's Lambda of GGX for a direction of cosine ``cos_theta`` (either side: only its square counts)."""
+    a2 = alpha * alpha
+    c2 = dr.maximum(cos_theta * cos_theta, 1e-12)
+    return 0.5 * (dr.sqrt(1.0 + a2 * dr.maximum(1.0 / c2 - 1.0, 0.0)) - 1.0)
+
+
+def masking_ratio(dr, cos_i, cos_o, alpha):
+    """``(1 + Λi)(1 + Λo) / (1 + Λi + Λo)``: the height-correlated masking over the separable one,
+    ``G2 / (G1(wi) G1(wo))`` (the NumPy form: :func:`compare.mitsuba.glass.masking_ratio`)."""
+    li, lo = smith_lambda(dr, cos_i, alpha), smith_lambda(dr, cos_o, alpha)
+    return (1.0 + li) * (1.0 + lo) / (1.0 + li + lo)
 
 
 def vndf_pdf(dr, d, cos_i, alpha):

@@ -98,6 +98,7 @@ from compare.brdf.multiscatter import (DEFAULT_DISTRIBUTION, DISTRIBUTIONS, fres
                                        lobe_scale, lookup_2d, lookup_3d)
 
 __all__ = [
+    "CYCLES_INPUTS",
     "FLAVOURS",
     "FSS_DIELECTRIC",
     "IOR",
@@ -133,6 +134,8 @@ IOR = 1.5
 #: Values of the reference plugins' ``flavour`` property (``gltf_pbr``, ``gltf_coat``, ``gltf_sheen``,
 #: ``rough_glass`` by ``compensate``): glTF's model, and this module's model of Blender's Principled BSDF v2.
 FLAVOURS = ("gltf", "cycles")
+#: Properties of ``gltf_pbr``'s flavour ``cycles`` only: Blender's Principled BSDF v2 inputs of the same names.
+CYCLES_INPUTS = ("ior", "specular_ior_level", "specular_tint")
 #: Coat IOR of the Blender export (glTF's coat has a fixed IOR of 1.5).
 COAT_IOR = 1.5
 #: Specular IOR Level that leaves the IOR as it is (Blender's neutral value).

@@ -6,7 +6,8 @@
 * ``compare_front_side``: 1 where a ray meets the surface from the side its geometric normal faces, 0 behind
   it: the opacity of glTF's back-face culling (``doubleSided: false``) under Mitsuba's ``mask``.
 
-Mitsuba has neither (a product of two textures, a texture of the side a ray comes from).
+Mitsuba has neither (a product of two textures, a texture of the side a ray comes from). The classes are
+``Product`` and ``FrontSide`` of :mod:`compare.mitsuba.plugins.textures`.
 """
 
 from __future__ import annotations
@@ -18,16 +19,16 @@ PRODUCT, FRONT_SIDE = "compare_product", "compare_front_side"
 #: The mesh attributes the reference's meshes carry for COLOR_0 (Mitsuba's names start with "vertex_").
 ATTRIBUTE_RGB, ATTRIBUTE_ALPHA = "vertex_color", "vertex_alpha"
 
-_PRODUCTS: dict[str, type] = {}
-_FRONTS: dict[str, type] = {}
-
 
 def register(variant: str | None = None):
     """Register both textures with the active (or given) variant; returns the ``mitsuba`` module."""
-    from compare.mitsuba.backend import register_bsdf_plugin  # noqa: PLC0415 - Mitsuba is loaded lazily
+    from compare.mitsuba.backend import load_active_mitsuba  # noqa: PLC0415 - Mitsuba is loaded lazily
 
-    register_bsdf_plugin(PRODUCT, _make_product, _PRODUCTS, variant, kind="texture")
-    return register_bsdf_plugin(FRONT_SIDE, _make_front_side, _FRONTS, variant, kind="texture")
+    load_active_mitsuba(variant)  # first: the classes subclass the classes of the variant set
+    from compare.mitsuba.plugins import register_plugin, textures as classes  # noqa: PLC0415
+
+    register_plugin(PRODUCT, classes, "Product", kind="texture")
+    return register_plugin(FRONT_SIDE, classes, "FrontSide", kind="texture")
 
 
 def _texture(value: dict | float) -> dict:
@@ -49,74 +50,3 @@ def front_side() -> dict:
     """The texture that is 1 on a surface's front side and 0 behind it."""
     register()
     return {"type": FRONT_SIDE}
-
-
-def _make_product(mv, mitsuba):
-    class Product(mv.Texture):
-        """``a`` × ``b`` at every surface point."""
-
-        def __init__(self, props):
-            mv.Texture.__init__(self, props)
-            self.a = props.get_texture("a")
-            self.b = props.get_texture("b")
-
-        def eval(self, si, active=True):
-            return self.a.eval(si, active) * self.b.eval(si, active)
-
-        def eval_1(self, si, active=True):
-            return self.a.eval_1(si, active) * self.b.eval_1(si, active)
-
-        def eval_3(self, si, active=True):
-            return self.a.eval_3(si, active) * self.b.eval_3(si, active)
-
-        def mean(self):
-            return self.a.mean() * self.b.mean()  # exact for a constant factor, else an estimate
-
-        def max(self):
-            return self.a.max() * self.b.max()
-
-        def is_spatially_varying(self):
-            return True
-
-        def traverse(self, callback):
-            flags = mitsuba.ParamFlags.NonDifferentiable
-            callback.put("a", self.a, flags)
-            callback.put("b", self.b, flags)
-
-        def to_string(self):
-            return f"{PRODUCT}[{self.a} × {self.b}]"
-
-    return Product
-
-
-def _make_front_side(mv, mitsuba):
-    import drjit as dr  # noqa: PLC0415
-
-    class FrontSide(mv.Texture):
-        """1 where the ray comes from the side of the geometric normal, else 0."""
-
-        def _front(self, si):
-            return dr.select(dr.dot(si.n, si.to_world(si.wi)) > 0.0, 1.0, 0.0)
-
-        def eval(self, si, active=True):
-            return mv.Color3f(self._front(si))
-
-        def eval_1(self, si, active=True):
-            return mv.Float(self._front(si))
-
-        def eval_3(self, si, active=True):
-            return mv.Color3f(self._front(si))
-
-        def mean(self):
-            return 0.5
-
-        def max(self):
-            return 1.0
-
-        def is_spatially_varying(self):
-            return True
-
-        def to_string(self):
-            return FRONT_SIDE
-
-    return FrontSide

@@ -26,15 +26,16 @@ from __future__ import annotations
 import numpy as np
 
 from compare.progressive.frame.accumulate import PingPong
-from compare.progressive.first_frame import bind_tables, first_frame_defines, set_light_uniforms
+from compare.progressive.first_frame import bind_gbuffer_position, bind_tables, first_frame_defines, set_light_uniforms
 from compare.progressive.frame.gpu_scene import mat_bytes
+from compare.progressive.gl.passes import RenderPass
 from compare.progressive.gl.shaders import load_program, set_uniform
+from compare.progressive.gl.units import bind, units_of
 
-#: Texture unit of the G-buffer's positions in the blend pass (after the environment's units).
-POSITION_UNIT = 9
+_FOLD = units_of("blend_fold.glsl")
 
 
-class BlendPass:
+class BlendPass(RenderPass):
     """The forward pass of the blended meshes and the running mean of what it composites."""
 
     def __init__(self, ctx, gpu_scene, size, lights, *, environment=None, punctual=None, area_model="radiometric",
@@ -74,8 +75,7 @@ class BlendPass:
         ctx.blend_func = ctx.ONE, ctx.ONE_MINUS_SRC_ALPHA, ctx.ZERO, ctx.ONE_MINUS_SRC_ALPHA
         bind_tables(p, self.scene, lut_texture=self.lut_texture, ltc_table=self.ltc_table,
                     environment=self.environment)
-        gbuffer["position"].use(location=POSITION_UNIT)
-        set_uniform(p, "u_gbuffer_position", POSITION_UNIT)
+        bind_gbuffer_position(p, gbuffer)
         set_uniform(p, "u_view_proj", mat_bytes(view_proj))
         cam = np.asarray(camera_position, dtype=np.float64)
         set_uniform(p, "u_camera_position", tuple(float(x) for x in cam))
@@ -86,10 +86,8 @@ class BlendPass:
             self.scene.draw_mesh(p, k)
         self.acc.target.use()
         ctx.enable_only(ctx.NOTHING)
-        self.acc.current.use(location=0)
-        self.frame.use(location=1)
-        set_uniform(self.fold, "u_previous", 0)
-        set_uniform(self.fold, "u_frame", 1)
+        bind(self.fold, "u_previous", self.acc.current, _FOLD["previous"])
+        bind(self.fold, "u_frame", self.frame, _FOLD["frame"])
         set_uniform(self.fold, "u_count", float(self.acc.count + 1))
         self.fold_vao.render(vertices=3)
         self.acc.swap()
@@ -100,6 +98,7 @@ class BlendPass:
         return self.acc.current
 
     def reset(self) -> None:
+        """Start the mean again."""
         self.acc.reset()
 
     def release(self) -> None:

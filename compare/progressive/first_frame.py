@@ -35,8 +35,10 @@ import numpy as np
 
 from compare.progressive.frame.accumulate import PingPong
 from compare.progressive.frame.gpu_scene import mat_bytes
-from compare.progressive.lights.ltc import LTC_UNIT
+from compare.progressive.gl.passes import RenderPass
 from compare.progressive.gl.shaders import load_program, set_uniform
+from compare.progressive.gl.units import bind, units_of
+from compare.progressive.lights.direct import area_model_defines
 
 #: How frame 0 is drawn (Rasterizer's ``first_frame``).
 FIRST_FRAME_MODES = ("forward", "gbuffer")
@@ -63,17 +65,14 @@ def check_scale(scale) -> float:
     return float(scale)
 
 
-#: Texture unit of the split-sum table; the environment's textures follow from ENV_UNIT on.
-LUT_UNIT = 0
-ENV_UNIT = 1
+_UNITS = units_of("first_frame.glsl")
 
 
 def first_frame_defines(gpu_scene, lights, punctual, environment, area_model: str, materials: str, *,
                         blend: bool) -> dict:
     """The defines of ``first_frame.glsl``: frame 0's forward pass, or (``blend``) the blend pass."""
     defines = {"LIGHTS": len(lights), "ENVIRONMENT": int(environment is not None), "BLEND": int(blend),
-               "PUNCTUAL": len(punctual.lights) if punctual is not None else 0,
-               "AREA_MODEL_PAPER": int(area_model == "paper"), "AREA_MODEL_LTC": int(area_model == "ltc"),
+               "PUNCTUAL": len(punctual.lights) if punctual is not None else 0, **area_model_defines(area_model),
                "MATERIALS_DIFFUSE": int(materials == "diffuse"), **gpu_scene.defines(),
                **gpu_scene.layer_defines(materials)}
     if environment is not None:
@@ -85,14 +84,18 @@ def bind_tables(program, gpu_scene, *, lut_texture=None, ltc_table=None, environ
     """Bind what ``first_frame.glsl`` samples besides the meshes' maps (frame 0 and the blend pass): the
     split-sum table, the LTC table, the material layers' table and the environment."""
     if lut_texture is not None:
-        lut_texture.use(location=LUT_UNIT)
-        set_uniform(program, "u_spec_lut", LUT_UNIT)
+        bind(program, "u_spec_lut", lut_texture, _UNITS["spec_lut"])
     if ltc_table is not None:
-        ltc_table.use(location=LTC_UNIT)
-        set_uniform(program, "u_ltc", LTC_UNIT)
+        bind(program, "u_ltc", ltc_table, _UNITS["ltc"])
     gpu_scene.bind_layers(program)
     if environment is not None:
-        environment.bind(program, first_unit=ENV_UNIT)
+        environment.bind(program, _UNITS["environment"])
+
+
+def bind_gbuffer_position(program, gbuffer) -> None:
+    """Bind the G-buffer's positions to the blend pass's ``first_frame.glsl`` (``u_gbuffer_position``): its
+    meshes are hidden where the opaque surface is nearer."""
+    bind(program, "u_gbuffer_position", gbuffer["position"], _UNITS["gbuffer"], gbuffer.NAMES.index("position"))
 
 
 def set_light_uniforms(program, lights, punctual=None) -> None:
@@ -116,7 +119,7 @@ def set_light_uniforms(program, lights, punctual=None) -> None:
     set_uniform(program, "u_lights_area", arr([lt.area for lt in lights]))
 
 
-class FirstFramePass:
+class FirstFramePass(RenderPass):
     """Program and targets of the forward-shaded frame 0.
 
     ``lut_texture`` is the direct pass's split-sum table (None with Lambert-only
@@ -231,6 +234,10 @@ class FirstFramePass:
         (self.targets if self.reduced else self.base).swap()
         if self.punctual is not None and not self.reduced:
             self.punctual.acc.swap()
+
+    def describe(self) -> dict:
+        """That frame 0 is forward-shaded, and at which fraction of each axis."""
+        return {"first_frame": "forward", "first_frame_scale": self.scale}
 
     def release(self) -> None:
         for program in [getattr(self, "program", None), *getattr(self, "depth_programs", {}).values()]:

@@ -62,6 +62,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import textwrap
 import time
 import warnings
 from dataclasses import dataclass, field
@@ -74,6 +75,7 @@ from compare.renderers.base import Checkpoint
 from compare.progressive.frame.accumulate import AccumulatePass, ComposePass, PingPong, Target
 from compare.progressive.config import DEFAULT_D_OCC_FRACTION, RasterizerOptions
 from compare.progressive.gl.context import check_image_size, create_context, gl_renderer_name
+from compare.progressive.gl.passes import RenderPass
 from compare.progressive.gl.srgb_probe import srgb_decode_error
 from compare.progressive.lights.direct import DirectPass
 from compare.progressive.environment.environment import (MAX_SAMPLES_PER_FRAME, EnvironmentLighting, EnvOcclusionPass,
@@ -83,7 +85,7 @@ from compare.progressive.schedule.distributor import DEFAULT_DIRECT_FRACTION, DE
 from compare.progressive.first_frame import FirstFramePass, auto_scale
 from compare.progressive.frame.gbuffer import GBuffer
 from compare.progressive.indirect.indirect import IndirectPass
-from compare.progressive.lights.ltc import LTC_DIRECT_FRACTION, LtcLights, ltc_texture
+from compare.progressive.lights.ltc import LTC_DIRECT_FRACTION, LtcLights
 from compare.progressive.frame.gpu_scene import CameraSetup, GpuScene, mat_bytes
 from compare.progressive.indirect.probes import ProbeVolume, indirect_options
 from compare.progressive.gl.readback import read_rgb
@@ -180,7 +182,8 @@ class Rasterizer:
         ctx = self.ctx
         size = (scene.camera.width, scene.camera.height)
         self.size = size
-        self._objects: list = []
+        self.passes: list[RenderPass] = []
+        """Every pass, target and table of the render, in the order made (:class:`RenderPass`)."""
         try:
             self._build_passes(has_env)
         except BaseException:
@@ -215,113 +218,123 @@ class Rasterizer:
 
 
     def _build_passes(self, has_env: bool) -> None:
-        """Make every pass and target the scene needs, and no other (the pass graph)."""
+        """Make every pass and target the scene needs, and no other (the pass graph), in :attr:`passes`."""
         o, scene, ctx, size = self.options, self.scene, self.ctx, self.size
-        materials, area_model, shadow_filter, seed = o.materials, o.area_model, o.shadow_filter, o.seed
-        env_format, env_diffuse, cache_dir = o.env_format, o.env_diffuse, o.cache_dir
-        ibl_size, ibl_levels, ibl_samples = o.ibl_size, o.ibl_levels, o.ibl_samples
-        shadow_size, first_frame, first_frame_scale = o.shadow_size, o.first_frame, o.first_frame_scale
         check_image_size(ctx, size, str(scene.path))
         self.camera = CameraSetup(scene)
         self.gpu_scene = self._keep(GpuScene(ctx, scene))
         self.gbuffer = self._keep(GBuffer(ctx, self.gpu_scene, size))
-        # Leave out what the scene does not need: no environment work without an environment.
-        self.environment = self.env_occlusion = self.env_acc = self.env_shadows = None
-        if has_env:
-            self.environment = self._keep(EnvironmentLighting(
-                ctx, scene, env_format=env_format, env_diffuse=env_diffuse, ibl_size=ibl_size,
-                ibl_levels=ibl_levels, ibl_samples=ibl_samples, cache_dir=cache_dir))
-            if self.plan.env_frames > 0 and o.env_occlusion == "shadows":
-                self.env_shadows = self._keep(EnvShadows(
-                    ctx, self.gpu_scene, scene, self.camera, size, self.environment,
-                    [s for fp in self.plan for s in fp.env_samples], shadow_size=o.shadow_size, materials=materials,
-                    seed=seed))
-            elif self.plan.env_frames > 0:
-                self.env_occlusion = self._keep(EnvOcclusionPass(ctx, self.environment, materials,
-                                                                 occlusion=self.gpu_scene.occluded,
-                                                                 layers=self.gpu_scene.layers_for(materials)))
-                self.env_acc = self._keep(EnvOcclusionTargets(ctx, size))
+        self._build_environment(has_env)
         # No probe work unless indirect = "probes"; the bake is part of setup (timed on its own too).
         self.probes = None
         if self.indirect == "probes":
             self.probes = self._keep(ProbeVolume(
                 ctx, scene, self.gpu_scene, grid=self.probe_grid, bounces=self.probe_bounces,
-                shadow_bias=self.shadow_bias, environment=self.environment, materials=materials, seed=seed,
-                cache_dir=cache_dir))
-        self.accumulate = self._keep(AccumulatePass(ctx, self.environment, materials,
+                shadow_bias=self.shadow_bias, environment=self.environment, materials=o.materials, seed=o.seed,
+                cache_dir=o.cache_dir))
+        self.accumulate = self._keep(AccumulatePass(ctx, self.environment, o.materials,
                                                     occlusion=self.gpu_scene.occluded,
-                                                    layers=self.gpu_scene.layers_for(materials)))
+                                                    layers=self.gpu_scene.layers_for(o.materials)))
         self.indirect_pass = None
         if self.probes is not None:
-            self.indirect_pass = self._keep(IndirectPass(ctx, self.probes, size, materials,
+            self.indirect_pass = self._keep(IndirectPass(ctx, self.probes, size, o.materials,
                                                          occlusion=self.gpu_scene.occluded))
         self.base = self._keep(PingPong(ctx, size, attachments=self.accumulate.attachments))
         self.compose = self._keep(ComposePass(ctx, size))
-        has_lights = bool(scene.lights)
         # Frame 0 is forward-shaded when it carries no samples (first_frame.py).
         fp0 = self.plan[0]
-        forward_first = (first_frame == "forward" and not fp0.light_samples and not fp0.env_samples
+        forward_first = (o.first_frame == "forward" and not fp0.light_samples and not fp0.env_samples
                          and not fp0.punctual)
         # Point, spot and directional lights: exact light every frame, one kept shadow map each (punctual.py).
         self.punctual = None
         if scene.punctual:
             self.punctual = self._keep(PunctualLights(ctx, self.gpu_scene, scene, self.camera, size,
-                                                      shadow_size=shadow_size, materials=materials))
+                                                      shadow_size=o.shadow_size, materials=o.materials))
             self.notes += self.punctual.notes
+        self._build_area_lights(forward_first)
+        self._build_first_frame(forward_first)
+        # Blended meshes: a sorted forward pass after the deferred frame (blend.py).
+        self.blend = None
+        if self.gpu_scene.blended:
+            self.blend = self._keep(BlendPass(
+                ctx, self.gpu_scene, size, scene.lights, environment=self.environment, punctual=self.punctual,
+                area_model=o.area_model, materials=o.materials,
+                lut_texture=self.direct.lut_texture if self.direct is not None else None, ltc_table=self.ltc_table))
+        self.query = ctx.query(time=True)  # moderngl queries have no release(); freed with the context
+
+    def _build_environment(self, has_env: bool) -> None:
+        """The environment's textures and its occlusion: screen-space samples or shadow maps."""
+        o, ctx, size = self.options, self.ctx, self.size
+        # Leave out what the scene does not need: no environment work without an environment.
+        self.environment = self.env_occlusion = self.env_acc = self.env_shadows = None
+        if not has_env:
+            return
+        self.environment = self._keep(EnvironmentLighting(
+            ctx, self.scene, env_format=o.env_format, env_diffuse=o.env_diffuse, ibl_size=o.ibl_size,
+            ibl_levels=o.ibl_levels, ibl_samples=o.ibl_samples, cache_dir=o.cache_dir))
+        if self.plan.env_frames > 0 and o.env_occlusion == "shadows":
+            self.env_shadows = self._keep(EnvShadows(
+                ctx, self.gpu_scene, self.scene, self.camera, size, self.environment,
+                [s for fp in self.plan for s in fp.env_samples], shadow_size=o.shadow_size, materials=o.materials,
+                seed=o.seed))
+        elif self.plan.env_frames > 0:
+            self.env_occlusion = self._keep(EnvOcclusionPass(ctx, self.environment, o.materials,
+                                                             occlusion=self.gpu_scene.occluded,
+                                                             layers=self.gpu_scene.layers_for(o.materials)))
+            self.env_acc = self._keep(EnvOcclusionTargets(ctx, size))
+
+    def _build_area_lights(self, forward_first: bool) -> None:
+        """The area lights' shadow atlas and direct-light pass, and their running mean or (``ltc``) sums."""
+        o, scene, ctx, size = self.options, self.scene, self.ctx, self.size
         # Leave out what the scene does not need: no shadow or direct-light work without area lights.
-        self.shadow = self.direct = self.direct_acc = self.partial = self.preview = None
+        self.shadow = self.direct = self.direct_acc = self.partial = None
         self.ltc = self.ltc_table = None
-        if has_lights:
-            lo, hi = scene.extent()
-            self.shadow = self._keep(ShadowAtlas(ctx, self.gpu_scene, size=shadow_size,
-                                                 extent=float(np.linalg.norm(hi - lo)), filter=shadow_filter,
-                                                 lights=scene.lights,
-                                                 samples_per_light=self.plan.samples_per_light))
-            self.direct = self._keep(DirectPass(ctx, area_model=area_model, materials=materials,
-                                                shadows=self.plan.light_frames > 0,
-                                                shadow_filter=shadow_filter, cache_dir=cache_dir,
-                                                layers=self.gpu_scene.layers_for(materials)))
-            if area_model == "ltc":
-                # Per-light sums instead of one running mean (ltc.py); no partial sums.
-                self.ltc_table = self._keep(ltc_texture(ctx))
-                self.direct.ltc_table = self.ltc_table
-                gbuffer_frames = len(self.plan) - int(forward_first)
-                self.ltc = self._keep(LtcLights(ctx, size, scene.lights, materials=materials,
-                                                lut_texture=self.direct.lut_texture, table=self.ltc_table,
-                                                gbuffer_frames=max(gbuffer_frames, 1),
-                                                layers=self.gpu_scene.layers_for(materials)))
-            else:
-                self.direct_acc = self._keep(PingPong(ctx, size))
-                if self.scheduler is not None or any(len(fp.light_samples) > 1 for fp in self.plan):
-                    self.partial = self._keep(Target(ctx, size))
-        self.first = None
+        if not scene.lights:
+            return
+        lo, hi = scene.extent()
+        self.shadow = self._keep(ShadowAtlas(ctx, self.gpu_scene, size=o.shadow_size,
+                                             extent=float(np.linalg.norm(hi - lo)), filter=o.shadow_filter,
+                                             lights=scene.lights, samples_per_light=self.plan.samples_per_light))
+        self.direct = self._keep(DirectPass(ctx, area_model=o.area_model, materials=o.materials,
+                                            shadows=self.plan.light_frames > 0, shadow_filter=o.shadow_filter,
+                                            cache_dir=o.cache_dir, layers=self.gpu_scene.layers_for(o.materials)))
+        if o.area_model == "ltc":
+            # Per-light sums instead of one running mean (ltc.py); no partial sums.
+            gbuffer_frames = len(self.plan) - int(forward_first)
+            self.ltc = self._keep(LtcLights(ctx, size, scene.lights, materials=o.materials,
+                                            lut_texture=self.direct.lut_texture,
+                                            gbuffer_frames=max(gbuffer_frames, 1),
+                                            layers=self.gpu_scene.layers_for(o.materials)))
+            self.ltc_table = self.direct.ltc_table = self.ltc.table
+        else:
+            self.direct_acc = self._keep(PingPong(ctx, size))
+            if self.scheduler is not None or any(len(fp.light_samples) > 1 for fp in self.plan):
+                self.partial = self._keep(Target(ctx, size))
+
+    def _build_first_frame(self, forward_first: bool) -> None:
+        """The forward-shaded frame 0, and the target of the G-buffer frames' unshadowed preview."""
+        o, scene, ctx, size = self.options, self.scene, self.ctx, self.size
+        self.first = self.preview = None
         if forward_first:
-            scale = first_frame_scale
+            scale = o.first_frame_scale
             if scale is None:
                 # A reduced frame 0 is only a preview: without a later frame it would be the result.
                 later = (len(self.plan) > 1 if self.scheduler is None
                          else bool(self.scheduler.lights or self.scheduler.envs or self.scheduler.punctual))
                 scale = auto_scale(size) if later else 1.0
             self.first = self._keep(FirstFramePass(
-                ctx, self.gpu_scene, self.base, scene.lights, environment=self.environment, area_model=area_model,
-                materials=materials, lut_texture=self.direct.lut_texture if self.direct is not None else None,
+                ctx, self.gpu_scene, self.base, scene.lights, environment=self.environment,
+                area_model=o.area_model, materials=o.materials,
+                lut_texture=self.direct.lut_texture if self.direct is not None else None,
                 ltc_table=self.ltc_table, scale=float(scale), punctual=self.punctual))
         # A reduced frame 0 is a preview only: frame 1 draws the full-size one from its G-buffer
         # (with ltc every G-buffer frame has the closed-form unshadowed light: no preview).
-        if (has_lights and self.ltc is None and (self.first is None or self._reduced_first)
+        if (scene.lights and self.ltc is None and (self.first is None or self._reduced_first)
                 and any(fp.preview for fp in self.plan)):
             self.preview = self._keep(Target(ctx, size))
-        # Blended meshes: a sorted forward pass after the deferred frame (blend.py).
-        self.blend = None
-        if self.gpu_scene.blended:
-            self.blend = self._keep(BlendPass(
-                ctx, self.gpu_scene, size, scene.lights, environment=self.environment, punctual=self.punctual,
-                area_model=area_model, materials=materials,
-                lut_texture=self.direct.lut_texture if self.direct is not None else None, ltc_table=self.ltc_table))
-        self.query = ctx.query(time=True)  # moderngl queries have no release(); freed with the context
 
-    def _keep(self, obj):
-        self._objects.append(obj)
+    def _keep(self, obj: RenderPass):
+        self.passes.append(obj)
         return obj
 
     @property
@@ -595,21 +608,8 @@ class Rasterizer:
 
     def reset(self) -> None:
         """Start the plan again (same seed, same image)."""
-        self.base.reset()
-        if self.indirect_pass is not None:
-            self.indirect_pass.reset()
-        if self.direct_acc is not None:
-            self.direct_acc.reset()
-        if self.ltc is not None:
-            self.ltc.reset()
-        if self.env_acc is not None:
-            self.env_acc.reset()
-        if self.env_shadows is not None:
-            self.env_shadows.reset()
-        if self.blend is not None:
-            self.blend.reset()
-        if self.punctual is not None:
-            self.punctual.reset()
+        for obj in self.passes:
+            obj.reset()
         self._preview_valid = False
         self._lights_sampled: set[int] = set()
         self.frame = 0
@@ -635,8 +635,8 @@ class Rasterizer:
             "area_model": self.area_model,
             "materials": self.materials,
             "jitter": "R2",
-            "first_frame": "forward" if self.first is not None else "gbuffer",
-            "first_frame_scale": self.first.scale if self.first is not None else 1.0,
+            "first_frame": "gbuffer",  # the passes' own entries below replace these defaults
+            "first_frame_scale": 1.0,
             "distributor": "fixed plan" if self.scheduler is None else "frame budget",
             "direct_fraction": p.direct_fraction,
             "direct_start_frame": p.direct_start,
@@ -645,27 +645,15 @@ class Rasterizer:
             "environment": "none",
         }
         if self.environment is not None:
-            meta.update(self.environment.describe())
             meta.update({"d_occ": self.d_occ, "occlusion_bias": self.occlusion_bias,
                          "env_samples": int(sum(p.env_counts)), "env_samples_diffuse": int(p.env_counts[0]),
                          "env_samples_specular": int(p.env_counts[1]), "env_frames": int(p.env_frames),
-                         "occlusion": ("off" if not p.env_frames else "environment shadow maps"
-                                       if self.env_shadows is not None else "screen-space, progressive")})
-            if self.env_shadows is not None:
-                meta.update(self.env_shadows.describe())
-        if self.shadow is not None:
-            meta.update({"shadow_projection": "half-cube (5 faces)", "shadow_size": int(self.shadow.size),
-                         "shadow_bias": ",".join(f"{b:g}" for b in self.shadow_bias),
-                         "shadow_filter": self.shadow_filter})
-        if self.punctual is not None:
-            meta.update(self.punctual.describe())
-            meta.setdefault("shadow_bias", ",".join(f"{b:g}" for b in self.shadow_bias))
-        if self.ltc is not None:
-            meta.update({"ltc_table": f"{self.ltc_table.size[0]}x{self.ltc_table.size[1]} (compare/brdf/ltc_table.npz)",
-                         "ltc_stride": int(self.ltc.stride), "shadow_ratio": "per light, diffuse and specular"})
+                         "occlusion": "off"})  # the occlusion's pass, if any, says which
+        if self.shadow is not None or self.punctual is not None:
+            meta["shadow_bias"] = ",".join(f"{b:g}" for b in self.shadow_bias)
         meta["indirect"] = self.indirect
-        if self.probes is not None:
-            meta.update(self.probes.describe())
+        for obj in self.passes:
+            meta.update(obj.describe())
         if self.scheduler is not None:
             c = self.scheduler.costs
             meta.update({"frame_budget_ms": self.scheduler.budget * 1e3, "cost_base_ms": c.base * 1e3,
@@ -676,9 +664,9 @@ class Rasterizer:
 
     def release(self) -> None:
         """Free every GL object (and the context when this renderer created it)."""
-        for obj in reversed(self._objects):
+        for obj in reversed(self.passes):
             obj.release()
-        self._objects = []
+        self.passes = []
         if self._own_ctx and self.ctx is not None:
             self.ctx.release()
             self.ctx = None
@@ -706,10 +694,8 @@ def render_progressive(scene, *, frames: int = DEFAULT_FRAMES, seed: int = 0, ar
         before ``frames`` (or after: each frame then evaluates at least one
         sample); counts it does not reach are not taken.
     **options
-        Further :class:`Rasterizer` options (materials, direct_fraction,
-        samples_per_light, shadow_size, shadow_bias, shadow_filter, d_occ, env_samples,
-        occlusion_bias, env_format, env_diffuse, ibl_size, ibl_levels,
-        ibl_samples, cache_dir).
+        The other fields of :class:`~compare.progressive.config.RasterizerOptions`, by name:
+{options}.
 
     Returns
     -------
@@ -741,3 +727,15 @@ def render_progressive(scene, *, frames: int = DEFAULT_FRAMES, seed: int = 0, ar
             plan=r.plan,
             layers=r.layers(),
         )
+
+
+def _options_text(doc: str | None) -> str | None:
+    """``doc`` with ``{options}`` replaced by RasterizerOptions' fields that are not parameters of their own."""
+    if doc is None:  # python -OO
+        return None
+    own = {"frames", "seed", "area_model"}
+    names = ", ".join(f.name for f in dataclasses.fields(RasterizerOptions) if f.name not in own)
+    return doc.replace("{options}", textwrap.fill(names, width=96, initial_indent=" " * 8, subsequent_indent=" " * 8))
+
+
+render_progressive.__doc__ = _options_text(render_progressive.__doc__)

@@ -33,15 +33,12 @@
 #include "ibl.glsl"
 #include "layers.glsl"
 #include "gbuffer_layers.glsl"
+#include "gbuffer_inputs.glsl"
 
-#define MAX_ENV_SAMPLES 16
-
-uniform sampler2D u_position;  // G-buffer: world position, w = kind
-uniform sampler2D u_normal;    // G-buffer: shading normal, w = roughness
-uniform sampler2D u_material;  // G-buffer: base colour, a = metallic
-#if OCCLUSION
-uniform sampler2D u_emission;  // G-buffer: a = the occlusion map's factor
+#ifndef MAX_ENV_SAMPLES
+#error MAX_ENV_SAMPLES comes from environment.py (MAX_SAMPLES_PER_FRAME) as a define
 #endif
+
 uniform sampler2D u_prev_diffuse;   // running means before this frame
 uniform sampler2D u_prev_specular;
 

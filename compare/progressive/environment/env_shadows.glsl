@@ -27,10 +27,8 @@
 #include "gbuffer_layers.glsl"
 #define BATCH 1
 #include "punctual_shadow.glsl"
+#include "gbuffer_inputs.glsl"
 
-uniform sampler2D u_position;  // G-buffer: world position, w = kind
-uniform sampler2D u_normal;    // G-buffer: shading normal, w = roughness
-uniform sampler2D u_material;  // G-buffer: base colour, a = metallic
 uniform sampler2D u_pshadow_map;
 uniform vec3 u_camera_position;
 uniform vec3 u_direction;      // towards the environment (unit)

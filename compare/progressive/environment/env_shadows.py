@@ -39,17 +39,21 @@ from __future__ import annotations
 
 import numpy as np
 
+from compare.progressive.frame.accumulate import ENV_SPECULAR_SAMPLES
 from compare.progressive.frame.gpu_scene import mat_bytes
+from compare.progressive.gl.passes import RenderPass
+from compare.progressive.gl.shaders import load_program, set_uniform
+from compare.progressive.gl.units import bind, units_of
 from compare.progressive.lights.punctual import ShadowMap, set_shadow_maps, visible_points
 from compare.progressive.schedule.sampling import r2, seed_offset
-from compare.progressive.gl.shaders import load_program, set_uniform
 from compare.scene.equirect import rotation_matrix, uv_to_direction
 
-#: Texture unit of the shadow map in env_shadows.glsl (0-2 hold the G-buffer).
-SHADOW_UNIT = 3
 #: Effective samples (Kish: (Σ g)² / Σ g²) from which the specular ratio is taken alone; below, it is
-#: blended towards the diffuse ratio in proportion (``ENV_SPECULAR_SAMPLES`` in compose.glsl).
-SPECULAR_SAMPLES = 16.0
+#: blended towards the diffuse ratio in proportion. The display blends (compose.glsl), so the constant is
+#: the compose pass's; :meth:`EnvShadows.ratio` does as the display does.
+SPECULAR_SAMPLES = ENV_SPECULAR_SAMPLES
+
+_UNITS = units_of("env_shadows.glsl")
 
 
 def luminance_sampler(image: np.ndarray):
@@ -84,7 +88,7 @@ def luminance_sampler(image: np.ndarray):
     return sample
 
 
-class EnvShadows:
+class EnvShadows(RenderPass):
     """Shadow maps of the environment samples and the running sums of their shadow ratio."""
 
     def __init__(self, ctx, gpu_scene, scene, camera, size: tuple[int, int], environment, samples, *,
@@ -154,17 +158,14 @@ class EnvShadows:
             ctx.blend_func = ctx.ONE, ctx.ONE
             ctx.blend_equation = ctx.FUNC_ADD
             p = self.program
-            for loc, name in enumerate(("position", "normal", "material")):
-                gbuffer[name].use(location=loc)
-                set_uniform(p, f"u_{name}", loc)
+            gbuffer.bind(p)
             gbuffer.bind_layers(p)
-            self.depth.use(location=SHADOW_UNIT)
-            set_uniform(p, "u_pshadow_map", SHADOW_UNIT)
+            bind(p, "u_pshadow_map", self.depth, _UNITS["shadow"])
             set_uniform(p, "u_camera_position", tuple(float(x) for x in camera_position))
             set_uniform(p, "u_direction", tuple(float(x) for x in self.directions[s.index]))
             set_shadow_maps(p, [m])
             set_uniform(p, "u_bias", tuple(float(b) for b in bias))
-            self.environment.bind(p, first_unit=SHADOW_UNIT + 1)
+            self.environment.bind(p, _UNITS["environment"])
             self.vao.render(vertices=3)
             self.count += 1
 
@@ -187,13 +188,16 @@ class EnvShadows:
                         r_d).astype(np.float32)
 
     def reset(self) -> None:
+        """Clear the ratio's sums."""
         self.sums_fbo.use()
         self.sums_fbo.clear(0.0, 0.0, 0.0, 0.0)
         self.count = 0
 
     def describe(self) -> dict:
+        """How the environment light is shadowed, the maps' size and count."""
         size = self.depth.size[0]
-        return {"env_occlusion": "environment shadow maps (luminance-sampled directions, shadow ratio)",
+        return {"occlusion": "environment shadow maps",
+                "env_occlusion": "environment shadow maps (luminance-sampled directions, shadow ratio)",
                 "env_shadow_size": int(size), "env_shadow_samples": len(self.maps)}
 
     def release(self) -> None:

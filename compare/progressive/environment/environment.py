@@ -30,15 +30,18 @@ from compare.scene.environments import environment_image
 from compare.scene.equirect import rotation_matrix
 from compare.ibl import DEFAULT_LEVELS, DEFAULT_SAMPLES, DEFAULT_SIZE, ENV_FORMATS, build_atlas, preprocess, split_sum
 from compare.ibl.irradiance import SH_BAND_FACTORS
+from compare.progressive.gl.passes import RenderPass
 from compare.progressive.gl.shaders import load_program, set_uniform
+from compare.progressive.gl.units import Units, bind, units_of
 
 #: How the diffuse irradiance is stored.
 ENV_DIFFUSE = ("cube", "sh9")
 #: Largest number of prefiltered levels the GLSL accepts (ENV_MAX_LEVELS).
 MAX_LEVELS = 12
-#: Largest number of environment samples one frame can evaluate (MAX_ENV_SAMPLES).
+#: Largest number of environment samples one frame can evaluate (MAX_ENV_SAMPLES in env_occlusion.glsl).
 MAX_SAMPLES_PER_FRAME = 16
 _KINDS = {"diffuse": 0, "specular": 1}
+_OCCLUSION = units_of("env_occlusion.glsl")
 
 
 def _texture(ctx, data: np.ndarray, *, repeat_x: bool = False):
@@ -54,7 +57,7 @@ def _texture(ctx, data: np.ndarray, *, repeat_x: bool = False):
     return tex
 
 
-class EnvironmentLighting:
+class EnvironmentLighting(RenderPass):
     """The environment's textures and uniforms, for every program that includes ``ibl.glsl``.
 
     Parameters
@@ -125,12 +128,15 @@ class EnvironmentLighting:
         return {"ENV_OCTAHEDRAL": int(self.env_format == "octahedral"), "ENV_RGBM": int(self.env_format == "rgbm"),
                 "ENV_DIFFUSE_SH9": int(self.env_diffuse == "sh9"), "MATERIALS_DIFFUSE": int(materials == "diffuse")}
 
-    def bind(self, program, first_unit: int) -> None:
-        """Bind the four textures from unit ``first_unit`` on and set every ``u_env_*`` uniform."""
-        for k, (tex, name) in enumerate(((self.map, "u_env_map"), (self.atlas, "u_env_atlas"),
-                                         (self.irradiance, "u_env_irradiance"), (self.lut_texture, "u_env_lut"))):
-            tex.use(location=first_unit + k)
-            set_uniform(program, name, first_unit + k)
+    def bind(self, program, units: Units) -> None:
+        """Bind the four textures to ``units`` (the program's ``environment`` row) and set every ``u_env_*``
+        uniform."""
+        textures = ((self.map, "u_env_map"), (self.atlas, "u_env_atlas"), (self.irradiance, "u_env_irradiance"),
+                    (self.lut_texture, "u_env_lut"))
+        if len(units) != len(textures):
+            raise ValueError(f"the environment takes {len(textures)} texture units, got {len(units)}")
+        for k, (tex, name) in enumerate(textures):
+            bind(program, name, tex, units, k)
         set_uniform(program, "u_env_map_size", tuple(float(x) for x in self.map_size))
         set_uniform(program, "u_env_atlas_size", tuple(float(x) for x in self.atlas_size))
         set_uniform(program, "u_env_levels", self._levels_bytes.tobytes())
@@ -164,7 +170,7 @@ class EnvironmentLighting:
         self.textures = []
 
 
-class EnvOcclusionTargets:
+class EnvOcclusionTargets(RenderPass):
     """Running means of the visible diffuse and specular environment light (RGBA32F, ping-pong, MRT).
 
     Both targets are written in every environment frame, so one index serves
@@ -200,6 +206,7 @@ class EnvOcclusionTargets:
         return self.counts[0] + self.counts[1]
 
     def reset(self) -> None:
+        """Start both means again."""
         self.index = 0
         self.counts = [0, 0]
 
@@ -208,7 +215,7 @@ class EnvOcclusionTargets:
             obj.release()
 
 
-class EnvOcclusionPass:
+class EnvOcclusionPass(RenderPass):
     """The environment's screen-space occlusion (``env_occlusion.glsl``), one pass per environment frame."""
 
     def __init__(self, ctx, environment: EnvironmentLighting, materials: str = "shared", occlusion: bool = False,
@@ -220,7 +227,7 @@ class EnvOcclusionPass:
         self.layers = bool(layers)
         self.program = load_program(ctx, "env_occlusion.glsl",
                                     {**environment.defines(materials), "OCCLUSION": int(self.occlusion),
-                                     "LAYERS": int(self.layers)})
+                                     "LAYERS": int(self.layers), "MAX_ENV_SAMPLES": MAX_SAMPLES_PER_FRAME})
         self.vao = ctx.vertex_array(self.program, [])
 
     def run(self, acc: EnvOcclusionTargets, gbuffer, view_proj: bytes, camera_position, camera_forward, samples,
@@ -232,19 +239,14 @@ class EnvOcclusionPass:
         acc.target.use()
         ctx.enable_only(ctx.NOTHING)
         p = self.program
-        for loc, name in enumerate(("position", "normal", "material")):
-            gbuffer[name].use(location=loc)
-            set_uniform(p, f"u_{name}", loc)
-        acc.current(0).use(location=3)
-        acc.current(1).use(location=4)
-        set_uniform(p, "u_prev_diffuse", 3)
-        set_uniform(p, "u_prev_specular", 4)
-        self.environment.bind(p, first_unit=5)
+        gbuffer.bind(p)
+        bind(p, "u_prev_diffuse", acc.current(0), _OCCLUSION["previous"], 0)
+        bind(p, "u_prev_specular", acc.current(1), _OCCLUSION["previous"], 1)
+        self.environment.bind(p, _OCCLUSION["environment"])
         if self.layers:
             gbuffer.bind_layers(p)
-        if self.occlusion:  # the occlusion maps' factors (G-buffer emission.a); 5 … 8 are the environment's
-            gbuffer["emission"].use(location=9)
-            set_uniform(p, "u_emission", 9)
+        if self.occlusion:  # the occlusion maps' factors (G-buffer emission.a)
+            gbuffer.bind(p, ("emission",))
         kinds = np.zeros(MAX_SAMPLES_PER_FRAME, np.int32)
         us = np.zeros((MAX_SAMPLES_PER_FRAME, 3), np.float32)
         for i, s in enumerate(samples):
@@ -263,6 +265,10 @@ class EnvOcclusionPass:
         set_uniform(p, "u_occ_bias", float(bias))
         self.vao.render(vertices=3)
         acc.swap(added)
+
+    def describe(self) -> dict:
+        """How the environment light is occluded."""
+        return {"occlusion": "screen-space, progressive"}
 
     def release(self) -> None:
         self.vao.release()

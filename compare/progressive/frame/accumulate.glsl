@@ -14,6 +14,8 @@
 
 #elif defined FRAGMENT_SHADER
 
+#include "gbuffer_inputs.glsl"
+
 #if ENVIRONMENT
 #include "brdf.glsl"
 #include "mapping.glsl"
@@ -21,8 +23,6 @@
 #include "layers.glsl"
 #include "gbuffer_layers.glsl"
 
-uniform sampler2D u_normal;    // G-buffer: shading normal, w = roughness
-uniform sampler2D u_material;  // G-buffer: base colour, a = metallic
 uniform sampler2D u_previous_env;
 uniform mat4 u_inv_view_proj;  // of this frame's jittered camera
 uniform vec3 u_camera_position;
@@ -32,8 +32,6 @@ layout(location = 1) out vec4 out_env;
 #endif
 
 uniform sampler2D u_previous;
-uniform sampler2D u_position;  // G-buffer: w = kind, 0 where no surface was hit
-uniform sampler2D u_emission;  // G-buffer: emitted radiance towards the camera
 uniform vec3 u_background;     // radiance seen where no surface was hit (without ENVIRONMENT)
 uniform float u_count;
 

@@ -8,10 +8,20 @@ read the texture it writes.
 
 from __future__ import annotations
 
+from compare.progressive.gl.passes import RenderPass
 from compare.progressive.gl.shaders import load_program, set_uniform
+from compare.progressive.gl.units import bind, units_of
+
+#: Effective samples (Kish: (Σ g)² / Σ g²) from which the display takes the environment's specular shadow
+#: ratio alone; below, it is blended towards the diffuse ratio in proportion (``ENV_SPECULAR_SAMPLES`` in
+#: compose.glsl, :mod:`compare.progressive.environment.env_shadows` says why).
+ENV_SPECULAR_SAMPLES = 16.0
+
+_ACCUMULATE = units_of("accumulate.glsl")
+_COMPOSE = units_of("compose.glsl")
 
 
-class PingPong:
+class PingPong(RenderPass):
     """Two sets of RGBA32F targets; :attr:`current` holds the latest running mean.
 
     ``attachments`` > 1 gives every set that many textures, written together by
@@ -54,6 +64,7 @@ class PingPong:
         self.units += units
 
     def reset(self) -> None:
+        """Start the mean again: the next pass's value is its first."""
         self.index = 0
         self.count = 0
         self.units = 0
@@ -63,7 +74,7 @@ class PingPong:
             obj.release()
 
 
-class Target:
+class Target(RenderPass):
     """One RGBA32F render target (a frame's partial sums, the preview, the composite)."""
 
     def __init__(self, ctx, size: tuple[int, int]):
@@ -76,7 +87,7 @@ class Target:
         self.texture.release()
 
 
-class AccumulatePass:
+class AccumulatePass(RenderPass):
     """Running mean of the every-frame terms: emission where a surface was hit, background elsewhere.
 
     With an ``environment`` (:class:`compare.progressive.environment.environment.EnvironmentLighting`)
@@ -108,28 +119,20 @@ class AccumulatePass:
         ctx = self.ctx
         acc.target.use()
         ctx.enable_only(ctx.NOTHING)
-        acc.current.use(location=0)
-        gbuffer["position"].use(location=1)
-        gbuffer["emission"].use(location=2)
         p = self.program
-        set_uniform(p, "u_previous", 0)
-        set_uniform(p, "u_position", 1)
-        set_uniform(p, "u_emission", 2)
+        bind(p, "u_previous", acc.current, _ACCUMULATE["previous"])
+        gbuffer.bind(p, ("position", "emission"))
         set_uniform(p, "u_background", tuple(float(c) for c in background))
         set_uniform(p, "u_count", float(acc.count + 1))
         if self.environment is not None:
-            gbuffer["normal"].use(location=3)
-            gbuffer["material"].use(location=4)
-            acc.current_of(1).use(location=5)
-            set_uniform(p, "u_normal", 3)
-            set_uniform(p, "u_material", 4)
-            set_uniform(p, "u_previous_env", 5)
+            gbuffer.bind(p, ("normal", "material"))
+            bind(p, "u_previous_env", acc.current_of(1), _ACCUMULATE["previous_env"])
             if self.layers:
                 gbuffer.bind_layers(p)
             set_uniform(p, "u_inv_view_proj", inv_view_proj)
             set_uniform(p, "u_camera_position", tuple(float(x) for x in camera_position))
             set_uniform(p, "u_viewport", tuple(float(x) for x in gbuffer.size))
-            self.environment.bind(p, first_unit=6)
+            self.environment.bind(p, _ACCUMULATE["environment"])
         self.vao.render(vertices=3)
         acc.swap()
 
@@ -138,12 +141,16 @@ class AccumulatePass:
         self.program.release()
 
 
-class ComposePass:
+class ComposePass(RenderPass):
     """The displayed image: every-frame mean + (direct-light mean or frame 0's preview) + the environment light."""
+
+    #: The samplers of compose.glsl, at the units of its ``sources`` in this order.
+    SOURCES = ("u_base", "u_direct", "u_env", "u_env_diffuse", "u_env_specular", "u_indirect", "u_punctual",
+               "u_env_ratio", "u_env_weights", "u_blend")
 
     def __init__(self, ctx, size: tuple[int, int]):
         self.ctx = ctx
-        self.program = load_program(ctx, "compose.glsl")
+        self.program = load_program(ctx, "compose.glsl", {"ENV_SPECULAR_SAMPLES": ENV_SPECULAR_SAMPLES})
         self.vao = ctx.vertex_array(self.program, [])
         self.out = Target(ctx, size)
 
@@ -172,20 +179,14 @@ class ComposePass:
         has_env = len(base.textures[0]) > 1
         occluded = env_visible is not None and min(env_visible.counts) > 0
         env_mode = 0 if not has_env else 3 if env_ratio is not None else 2 if occluded else 1
-        base.current.use(location=0)
-        (direct_texture or base.current).use(location=1)
-        (base.current_of(1) if has_env else base.current).use(location=2)
-        (env_visible.current(0) if occluded else base.current).use(location=3)
-        (env_visible.current(1) if occluded else base.current).use(location=4)
-        (indirect_texture or base.current).use(location=5)
-        (punctual_texture or base.current).use(location=6)
         sums, weights = env_ratio if env_ratio is not None else (base.current, base.current)
-        sums.use(location=7)
-        weights.use(location=8)
-        (blend_texture or base.current).use(location=9)
-        for loc, name in enumerate(("u_base", "u_direct", "u_env", "u_env_diffuse", "u_env_specular", "u_indirect",
-                                    "u_punctual", "u_env_ratio", "u_env_weights", "u_blend")):
-            set_uniform(self.program, name, loc)
+        # An absent source reads the every-frame mean, with its scale 0 (or unused by its u_env_mode).
+        sources = (base.current, direct_texture or base.current, base.current_of(1) if has_env else base.current,
+                   env_visible.current(0) if occluded else base.current,
+                   env_visible.current(1) if occluded else base.current, indirect_texture or base.current,
+                   punctual_texture or base.current, sums, weights, blend_texture or base.current)
+        for k, (name, texture) in enumerate(zip(self.SOURCES, sources, strict=True)):
+            bind(self.program, name, texture, _COMPOSE["sources"], k)
         set_uniform(self.program, "u_indirect_scale", 1.0 if indirect_texture is not None else 0.0)
         set_uniform(self.program, "u_punctual_scale", 1.0 if punctual_texture is not None else 0.0)
         set_uniform(self.program, "u_blend_scale", 1.0 if blend_texture is not None else 0.0)

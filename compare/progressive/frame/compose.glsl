@@ -33,7 +33,7 @@ uniform int u_env_mode;        // 0 no environment, 1 unoccluded, 2 occluded (bo
 uniform sampler2D u_env_ratio;    // mode 3: the ratios' sums (sum V g_d, sum g_d, sum V g_s, sum g_s)
 uniform sampler2D u_env_weights;  // mode 3: the lobes' unshadowed luminance, summed alike (E_d, E_s), sum g_s^2
 #ifndef ENV_SPECULAR_SAMPLES
-#define ENV_SPECULAR_SAMPLES 16.0
+#error ENV_SPECULAR_SAMPLES comes from accumulate.py (ENV_SPECULAR_SAMPLES) as a define
 #endif
 uniform vec2 u_upsample;       // (0, 0): sources at the output's size; else 1 / the output's size
 

@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 from compare.progressive.frame.gpu_scene import mat_bytes
+from compare.progressive.gl.passes import RenderPass
 from compare.progressive.gl.shaders import set_uniform
 
 
-class DepthOnlyPass:
+class DepthOnlyPass(RenderPass):
     """Rasterizes every mesh of a :class:`~.gpu_scene.GpuScene` into a depth buffer only."""
 
     def __init__(self, ctx, gpu_scene, size: tuple[int, int]):

@@ -9,12 +9,15 @@ frame however many light samples the frame evaluates.
 from __future__ import annotations
 
 from compare.progressive.frame.gpu_scene import LAYER_TARGETS, mat_bytes
+from compare.progressive.gl.passes import RenderPass
 from compare.progressive.gl.shaders import load_program, set_uniform
+from compare.progressive.gl.units import GBUFFER, bind
 
 
-class GBuffer:
+class GBuffer(RenderPass):
     """The targets and the program of the G-buffer pass."""
 
+    #: The targets, in the order of their texture units (:data:`~compare.progressive.gl.units.GBUFFER`).
     NAMES = ("position", "normal", "material", "emission")
 
     def __init__(self, ctx, gpu_scene, size: tuple[int, int]):
@@ -43,6 +46,11 @@ class GBuffer:
 
     def __getitem__(self, name: str):
         return self.textures[name]
+
+    def bind(self, program, names: tuple[str, ...] = ("position", "normal", "material")) -> None:
+        """Bind the targets ``names`` to a full-screen pass (``gbuffer_inputs.glsl``), each at its unit."""
+        for name in names:
+            bind(program, f"u_{name}", self.textures[name], GBUFFER, self.NAMES.index(name))
 
     def bind_layers(self, program) -> None:
         """Bind the layer targets and the sheen table to a full-screen pass built with LAYERS."""

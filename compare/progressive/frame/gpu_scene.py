@@ -20,16 +20,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from compare.progressive.gl.passes import RenderPass
 from compare.progressive.gl.shaders import set_uniform
+from compare.progressive.gl.units import LAYERS, MAPS, bind
 
 
 #: OpenGL internal formats of 8-bit maps: colour (sRGB-encoded) and factors (linear).
 GL_SRGB8, GL_SRGB8_ALPHA8, GL_RGB8, GL_RGBA8 = 0x8C41, 0x8C43, 0x8051, 0x8058
-#: First texture unit of the material maps (above every unit a pass binds for its own textures;
-#: the five maps take 11 … 15, the last of the 16 a fragment shader is guaranteed).
-MAP_UNIT = 11
-#: Texture unit of the sheen albedo table; the G-buffer's layer targets follow it (clear of MAP_UNIT's maps).
-LAYER_UNIT = 20
 #: The G-buffer's layer targets (gbuffer.glsl, gbuffer_layers.glsl) with LAYERS.
 LAYER_TARGETS = ("layer_f0", "layer_coat", "layer_sheen")
 #: The material features the rasterizer renders as layers.glsl's lobes.
@@ -144,7 +141,7 @@ class GpuMesh:
     roughness, sheen colour, sheen roughness); empty without LAYERS."""
 
 
-class GpuScene:
+class GpuScene(RenderPass):
     """All geometry of a scene on the GPU, uploaded once."""
 
     def __init__(self, ctx, scene):
@@ -235,12 +232,10 @@ class GpuScene:
         built with :meth:`layer_defines`); nothing without LAYERS."""
         if not self.layered:
             return
-        self.sheen_table.use(location=LAYER_UNIT)
-        set_uniform(program, "u_sheen_albedo", LAYER_UNIT)
+        bind(program, "u_sheen_albedo", self.sheen_table, LAYERS, 0)
         if gbuffer is not None:
-            for unit, name in enumerate(LAYER_TARGETS, start=LAYER_UNIT + 1):
-                gbuffer[name].use(location=unit)
-                set_uniform(program, f"u_{name}", unit)
+            for k, name in enumerate(LAYER_TARGETS, start=1):
+                bind(program, f"u_{name}", gbuffer[name], LAYERS, k)
 
     def map_set(self, mesh: GpuMesh) -> tuple[bool, ...]:
         """Which maps ``mesh`` has (base colour, metallic-roughness, emission, occlusion, normal) and
@@ -422,11 +417,10 @@ class GpuScene:
         set_uniform(program, "u_alpha_cutoff", mesh.alpha_cutoff)
         maps = (("base_color", mesh.base_color_map), ("metallic_roughness", mesh.metallic_roughness_map),
                 ("emission", mesh.emission_map), ("occlusion", mesh.occlusion_map), ("normal", mesh.normal_map))
-        for unit, (name, tex) in enumerate(maps if all_maps else maps[:1], start=MAP_UNIT):
+        for k, (name, tex) in enumerate(maps if all_maps else maps[:1]):
             set_uniform(program, f"u_has_{name}_map", 0.0 if tex is None else 1.0)
             if tex is not None:
-                tex.use(location=unit)
-                set_uniform(program, f"u_{name}_map", unit)
+                bind(program, f"u_{name}_map", tex, MAPS, k)
 
     def draw_occluders(self, programs: dict, skip_light: int | None = None, *, casters: bool = True) -> None:
         """Draw depth only: every mesh and every light quad except ``skip_light``'s (shadow pass), each with
@@ -458,6 +452,7 @@ class GpuScene:
             self._vaos.pop(key)[0].release()
 
     def release(self) -> None:
+        """Free the scene's buffers, maps, tables and vertex arrays."""
         if self.sheen_table is not None:
             self.sheen_table.release()
             self.sheen_table = None

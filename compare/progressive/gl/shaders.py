@@ -3,7 +3,9 @@
 Each program lives in one file beside the pass that uses it (in its wing of ``compare/progressive/``),
 with its stages behind ``#if defined VERTEX_SHADER`` / ``#elif defined FRAGMENT_SHADER``. The loader
 prepends ``#version 330 core``, the stage define and the pass's defines (values from Python, as
-moderngl-window's ``ShaderSource`` injects them), and resolves ``#include "name.glsl"`` recursively along
+moderngl-window's ``ShaderSource`` injects them: a constant that Python and GLSL share, an array's
+length or a threshold, is a Python constant passed as a define, never written a second time in the
+``.glsl``, which stops with ``#error`` without it), and resolves ``#include "name.glsl"`` recursively along
 :data:`SEARCH_PATH`: the including file's folder, then every wing of the rasterizer, then the shared GLSL
 of ``compare/ibl/`` and ``compare/brdf/``. ``brdf.glsl`` is the shared BRDF as
 :func:`compare.brdf.glsl.glsl_source` assembles it, so the BRDF has one definition. A file is included
@@ -14,9 +16,12 @@ of the search path both hold is refused: the path must not decide silently which
 from __future__ import annotations
 
 import functools
+import math
 import re
 from pathlib import Path
 from typing import Mapping
+
+import numpy as np
 
 __all__ = ["SEARCH_PATH", "load_program", "set_uniform", "shader_source"]
 
@@ -70,21 +75,33 @@ def shader_source(name: str, stage: str, defines: Mapping[str, object] | None = 
     text = _expand(path.read_text(encoding="utf-8"), path.parent, {name}, (name,))
     head = ["#version 330 core", f"#define {stage}"]
     for key, value in (defines or {}).items():
-        head.append(f"#define {key}" if value is None or value is True else f"#define {key} {value}")
+        head.append(f"#define {key}" if value is None or value is True else f"#define {key} {_literal(key, value)}")
     # '#line 1' keeps compiler messages pointing at the file's own lines (before any include).
     return "\n".join(head) + "\n#line 1\n" + text
 
 
+def _literal(key: str, value) -> str:
+    """``value`` as GLSL writes it: a float keeps its point (``16.0``, not ``16``, which GLSL reads as an int)."""
+    if isinstance(value, (float, np.floating)):
+        if not math.isfinite(value):
+            raise ValueError(f"#define {key}: {value!r} has no GLSL literal")
+        return repr(float(value))
+    return str(int(value)) if isinstance(value, (bool, np.integer)) else str(value)
+
+
 def load_program(ctx, name: str, defines: Mapping[str, object] | None = None):
-    """Compile and link program ``name`` (a ``.glsl`` file of the search path) into a moderngl program."""
+    """Compile and link program ``name`` (a ``.glsl`` file of the search path) into a moderngl program; its
+    ``extra`` is ``name``, so that the program says which file (and row of texture units) it is."""
     try:
-        return ctx.program(
+        program = ctx.program(
             vertex_shader=shader_source(name, "VERTEX_SHADER", defines),
             fragment_shader=shader_source(name, "FRAGMENT_SHADER", defines),
         )
     except Exception as exc:
         where = _rel(_find(name)) if name.endswith(".glsl") else name
         raise RuntimeError(f"{where}: {exc}") from exc
+    program.extra = name
+    return program
 
 
 def set_uniform(prog, name: str, value) -> None:

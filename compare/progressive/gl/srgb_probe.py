@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from compare.progressive.gl.shaders import load_program
+from compare.progressive.gl.units import bind, units_of
 
 __all__ = ["srgb_decode_table", "srgb_decode_error"]
 
@@ -43,8 +44,7 @@ def srgb_decode_table(ctx) -> np.ndarray:
         made.append(vao)
         fbo.use()
         ctx.viewport = (0, 0, 256, 1)
-        tex.use(0)
-        prog["u_codes"].value = 0
+        bind(prog, "u_codes", tex, units_of("srgb_probe.glsl")["codes"])
         vao.render()
         table = np.frombuffer(target.read(), dtype=np.float32).reshape(256, 4)[:, 0].astype(np.float64)
     finally:

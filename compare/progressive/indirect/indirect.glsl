@@ -14,13 +14,8 @@
 #include "brdf.glsl"
 #include "mapping.glsl"
 #include "probes.glsl"
+#include "gbuffer_inputs.glsl"
 
-uniform sampler2D u_position;  // G-buffer: world position, w = kind
-uniform sampler2D u_normal;    // G-buffer: shading normal, w = roughness
-uniform sampler2D u_material;  // G-buffer: base colour, a = metallic
-#if OCCLUSION
-uniform sampler2D u_emission;  // G-buffer: a = the occlusion map's factor
-#endif
 uniform sampler2D u_previous;
 uniform vec3 u_camera_position;
 uniform float u_count;

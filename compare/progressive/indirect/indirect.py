@@ -12,13 +12,17 @@ every later image does.
 from __future__ import annotations
 
 from compare.progressive.frame.accumulate import PingPong
+from compare.progressive.gl.passes import RenderPass
 from compare.progressive.gl.shaders import load_program, set_uniform
+from compare.progressive.gl.units import bind, units_of
 
 #: Frames whose jitter anti-aliases the indirect light (then its mean is kept).
 PROBE_FRAMES = 16
 
+_UNITS = units_of("indirect.glsl")
 
-class IndirectPass:
+
+class IndirectPass(RenderPass):
     """Program and running mean of the volume's indirect light."""
 
     def __init__(self, ctx, probes, size: tuple[int, int], materials: str = "shared", frames: int = PROBE_FRAMES,
@@ -46,17 +50,13 @@ class IndirectPass:
         p = self.program
         self.acc.target.use()
         ctx.enable_only(ctx.NOTHING)
-        self.acc.current.use(location=0)
-        set_uniform(p, "u_previous", 0)
-        for loc, name in enumerate(("position", "normal", "material"), start=1):
-            gbuffer[name].use(location=loc)
-            set_uniform(p, f"u_{name}", loc)
+        bind(p, "u_previous", self.acc.current, _UNITS["previous"])
+        gbuffer.bind(p)
         set_uniform(p, "u_camera_position", tuple(float(x) for x in camera_position))
         set_uniform(p, "u_count", float(self.acc.count + 1))
-        self.probes.bind(p, first_unit=4)
-        if self.occlusion:  # the occlusion maps' factors (G-buffer emission.a), above the probes' units
-            gbuffer["emission"].use(location=11)
-            set_uniform(p, "u_emission", 11)
+        self.probes.bind(p, _UNITS["probes"])
+        if self.occlusion:  # the occlusion maps' factors (G-buffer emission.a)
+            gbuffer.bind(p, ("emission",))
         self.vao.render(vertices=3)
         self.acc.swap()
 
@@ -66,6 +66,7 @@ class IndirectPass:
         return self.acc.current if self.acc.count > 0 else None
 
     def reset(self) -> None:
+        """Start the mean again."""
         self.acc.reset()
 
     def release(self) -> None:

@@ -96,7 +96,9 @@ from compare.ibl.irradiance import SH_BAND_FACTORS, sh9_basis
 from compare.image.encodings import octahedral_directions, octahedral_pad
 from compare.scene.loader import DEFAULT_PROBE_BOUNCES, DEFAULT_PROBE_GRID, INDIRECT_MODES, MAX_PROBES_PER_AXIS
 from compare.progressive.schedule.sampling import light_sample_points
+from compare.progressive.gl.passes import RenderPass
 from compare.progressive.gl.shaders import load_program, set_uniform
+from compare.progressive.gl.units import GBUFFER, Units, bind, units_of
 from compare.progressive.lights.shadow import DEFAULT_BIAS, ShadowAtlas
 
 #: Face size S of each probe's cube map in the bake.
@@ -220,7 +222,19 @@ def _face_uniforms(program) -> None:
         set_uniform(program, name, np.ascontiguousarray(FACE_AXES[:, k], dtype=np.float32).tobytes())
 
 
-class ProbeVolume:
+#: The bake's G-buffer targets in the order of the frame G-buffer's units and samplers (gbuffer_inputs.glsl):
+#: the albedo is read as ``u_material``.
+_BAKE_GBUFFER = (("position", "u_position"), ("normal", "u_normal"), ("albedo", "u_material"),
+                 ("emission", "u_emission"))
+
+
+def _bind_bake_gbuffer(program, targets, count: int) -> None:
+    """Bind the first ``count`` of the bake's G-buffer targets to ``program``, each at its unit."""
+    for k, (name, uniform) in enumerate(_BAKE_GBUFFER[:count]):
+        bind(program, uniform, targets[name], GBUFFER, k)
+
+
+class ProbeVolume(RenderPass):
     """A baked irradiance volume: SH9 irradiance and distance moments of a probe grid, on the GPU.
 
     Parameters
@@ -413,8 +427,6 @@ class ProbeVolume:
         ctx = self.ctx
         program = keep(load_program(ctx, "probes_direct.glsl"))
         vao = keep(ctx.vertex_array(program, []))
-        for loc, name in enumerate(("position", "normal", "albedo")):
-            set_uniform(program, f"u_{name}", loc)
         for i, light in enumerate(scene.lights):
             points, _ = light_sample_points(light, self.light_samples, seed, i)
             set_uniform(program, "u_light_center", tuple(float(x) for x in light.center))
@@ -430,9 +442,9 @@ class ProbeVolume:
                 ctx.enable_only(ctx.BLEND)
                 ctx.blend_func = ctx.ONE, ctx.ONE
                 ctx.blend_equation = ctx.FUNC_ADD
-                for loc, name in enumerate(("position", "normal", "albedo")):
-                    targets[name].use(location=loc)
-                shadow.bind(program, 3, shadow_bias)
+                # again for every point: the shadow pass binds its own textures
+                _bind_bake_gbuffer(program, targets, 3)
+                shadow.bind(program, units_of("probes_direct.glsl")["shadow"], shadow_bias)
                 set_uniform(program, "u_sample", tuple(float(x) for x in point))
                 vao.render(vertices=3)
 
@@ -443,23 +455,21 @@ class ProbeVolume:
             defines.update(environment.defines(self.materials))
         program = keep(load_program(ctx, "probes_shade.glsl", defines))
         vao = keep(ctx.vertex_array(program, []))
-        names = ("position", "normal", "albedo", "emission", "direct")
-        for loc, name in enumerate(names):
-            set_uniform(program, f"u_{name}", loc)
+        units = units_of("probes_shade.glsl")
         set_uniform(program, "u_tiles", per_row)
         set_uniform(program, "u_face", float(self.face_size))
         _face_uniforms(program)
         def shade(previous):
             fbo.use()
             ctx.enable_only(ctx.NOTHING)
-            for loc, name in enumerate(names):
-                targets[name].use(location=loc)
+            _bind_bake_gbuffer(program, targets, 4)
+            bind(program, "u_direct", targets["direct"], units["direct"])
             if environment is not None:
-                environment.bind(program, first_unit=len(names) + 3)
+                environment.bind(program, units["environment"])
             set_uniform(program, "u_previous", int(previous is not None))
             if previous is not None:
                 self._write_sh(previous)
-                self.bind(program, first_unit=len(names))
+                self.bind(program, units["probes"])
             vao.render(vertices=3)
 
         # Bounce 0: the environment the probes see (radiance coefficients), zero without one.
@@ -490,14 +500,17 @@ class ProbeVolume:
         """Preprocessor defines for programs that include ``probes.glsl``."""
         return {"PROBES": 1, "PROBE_LEAK_LIMIT": int(self.leak_limit), "MATERIALS_DIFFUSE": int(materials == "diffuse")}
 
-    def bind(self, program, first_unit: int) -> None:
-        """Bind the grid's three textures from unit ``first_unit`` on and set every ``u_probe_*`` uniform."""
+    def bind(self, program, units: Units) -> None:
+        """Bind the grid's three textures to ``units`` (the program's ``probes`` row) and set every
+        ``u_probe_*`` uniform."""
         cols, rows = self.tiles
         d = self.distance_size + 2
-        for k, (tex, name) in enumerate(((self.sh_texture, "u_probe_sh"), (self.distance_texture, "u_probe_distance"),
-                                         (self.lut_texture, "u_probe_lut"))):
-            tex.use(location=first_unit + k)
-            set_uniform(program, name, first_unit + k)
+        textures = ((self.sh_texture, "u_probe_sh"), (self.distance_texture, "u_probe_distance"),
+                    (self.lut_texture, "u_probe_lut"))
+        if len(units) != len(textures):
+            raise ValueError(f"the irradiance volume takes {len(textures)} texture units, got {len(units)}")
+        for k, (tex, name) in enumerate(textures):
+            bind(program, name, tex, units, k)
         set_uniform(program, "u_probe_counts", self.counts)
         set_uniform(program, "u_probe_origin", tuple(float(x) for x in self.origin))
         set_uniform(program, "u_probe_spacing", tuple(float(x) for x in self.spacing))

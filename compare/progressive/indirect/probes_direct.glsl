@@ -14,9 +14,7 @@
 
 #elif defined FRAGMENT_SHADER
 
-uniform sampler2D u_position;  // bake G-buffer: world position, w = distance to the probe
-uniform sampler2D u_normal;    // unit normal, w = kind
-uniform sampler2D u_albedo;    // diffuse albedo, w = side (1 front)
+#include "gbuffer_inputs.glsl"
 
 uniform vec3 u_light_center;
 uniform vec3 u_light_t;
@@ -34,7 +32,7 @@ out vec4 out_irradiance;
 void main() {
     ivec2 p = ivec2(gl_FragCoord.xy);
     vec4 gn = texelFetch(u_normal, p, 0);
-    vec4 ga = texelFetch(u_albedo, p, 0);
+    vec4 ga = texelFetch(u_material, p, 0);
     vec3 e = vec3(0.0);
     if (gn.w > 0.5 && gn.w < 1.5 && ga.w > 0.0) {
         vec3 x = texelFetch(u_position, p, 0).xyz;

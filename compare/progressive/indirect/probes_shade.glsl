@@ -23,10 +23,8 @@
 #endif
 #include "probes.glsl"
 
-uniform sampler2D u_position;  // bake G-buffer: world position, w = distance to the probe
-uniform sampler2D u_normal;    // unit normal, w = kind
-uniform sampler2D u_albedo;    // diffuse albedo, w = side (1 front, -1 back)
-uniform sampler2D u_emission;
+#include "gbuffer_inputs.glsl"
+
 uniform sampler2D u_direct;    // direct irradiance (probes_direct.glsl)
 uniform int u_previous;        // 1: add E_previous from the grid bound as u_probe_*
 uniform int u_tiles;           // probes per atlas row (each 6 faces wide)
@@ -44,7 +42,7 @@ void main() {
     vec3 surface = vec3(0.0);
     vec3 background = vec3(0.0);
     if (gn.w > 0.5) {
-        vec4 ga = texelFetch(u_albedo, p, 0);
+        vec4 ga = texelFetch(u_material, p, 0);
         if (gn.w < 1.5 && ga.w > 0.0) {
             vec3 x = texelFetch(u_position, p, 0).xyz;
             vec3 n = normalize(gn.xyz);

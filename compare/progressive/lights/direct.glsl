@@ -23,7 +23,7 @@
 // With AREA_MODEL_LTC the light itself comes unshadowed and exact from linearly
 // transformed cosines (ltc.glsl, ltc_light.glsl) and this pass only estimates how much
 // of it is shadowed (Heitz, Hill & McGuire 2018): mode 0 adds, per sample y,
-//   (V g_d, g_d, V min(g_s, 1.5 s h_s), h_s),  g = mean(f_lobe) A cos_s cos_l / |y - x|^2
+//   (V g_d, g_d, V min(g_s, LTC_SHAPE_MAX s h_s), h_s),  g = mean(f_lobe) A cos_s cos_l / |y - x|^2
 // (each lobe's point-sample estimate through y, averaged over RGB; h_s the fitted LTC's own
 // density times A cos_l / |y - x|^2, s its scale, see ratio_terms) to the light's ratio
 // target: S/U = sum V g_d / sum g_d is the visibility weighted by the diffuse integrand, and
@@ -39,10 +39,8 @@
 #include "brdf.glsl"
 #include "layers.glsl"
 #include "gbuffer_layers.glsl"
+#include "gbuffer_inputs.glsl"
 
-uniform sampler2D u_position;  // G-buffer: world position, w = kind
-uniform sampler2D u_normal;    // G-buffer: shading normal, w = roughness
-uniform sampler2D u_material;  // G-buffer: base colour, a = metallic
 uniform sampler2D u_partial;   // this frame's sum of its earlier samples
 uniform sampler2D u_previous;  // direct running mean before this frame
 
@@ -77,7 +75,7 @@ out vec4 out_color;
 uniform sampler2D u_ltc_specular;  // the light's unshadowed specular sum; a: sum of its scale s
 uniform float u_ltc_inv_frames;    // 1 / the frames in that sum
 #ifndef LTC_SHAPE_MAX
-#define LTC_SHAPE_MAX 1.5
+#error LTC_SHAPE_MAX comes from direct.py (LTC_SHAPE_MAX) as a define
 #endif
 // The unshadowed integrands of the shadow ratio through y. They carry the material (as
 // Heitz et al.'s estimates do): at a pixel whose jittered frames see two surfaces, each

@@ -54,21 +54,31 @@ from __future__ import annotations
 
 import numpy as np
 
+from compare.brdf.ltc import TABLE_SIZE
 from compare.progressive.frame.accumulate import PingPong, Target
+from compare.progressive.gl.passes import RenderPass
 from compare.progressive.gl.shaders import load_program, set_uniform
+from compare.progressive.gl.units import bind, units_of
 from compare.progressive.lights.shadow import SHADOW_FILTERS
 
 AREA_MODELS = ("radiometric", "paper", "ltc")
 #: The material modes (compare.brdf.SUPPORTED_MATERIALS) the rasterizer has: the shared BRDF, and Lambert only.
 SUPPORTED_MATERIALS = ("shared", "diffuse")
-#: Texture unit of the split-sum table (units 0-5 hold the G-buffer, shadow atlas and running means).
-LUT_UNIT = 7
-#: Texture unit of the LTC table in the passes that evaluate it (units 0-3 hold the G-buffer and
-#: the split-sum table in ltc_light.glsl, the environment 1-4 in first_frame.glsl; here the ratio's
-#: denominator reads it).
-LTC_UNIT = 8
-#: Texture unit of a light's unshadowed specular sum in the ``ltc`` model's sample pass (its scale).
-LTC_SUM_UNIT = 6
+#: The ``ltc`` model's bound on a sample's specular term in the shadow ratio's numerator, in units of the
+#: fitted lobe's own density (:mod:`compare.progressive.lights.ltc`; ``LTC_SHAPE_MAX`` in direct.glsl).
+LTC_SHAPE_MAX = 1.5
+
+_UNITS = units_of("direct.glsl")
+
+
+def area_model_defines(area_model: str) -> dict[str, object]:
+    """The defines of a program that evaluates area lights with ``area_model`` (area_light.glsl, ltc.glsl,
+    direct.glsl): which model, and with ``ltc`` the constants its GLSL shares with Python."""
+    defines: dict[str, object] = {"AREA_MODEL_PAPER": int(area_model == "paper"),
+                                  "AREA_MODEL_LTC": int(area_model == "ltc")}
+    if area_model == "ltc":
+        defines.update({"LTC_SIZE": float(TABLE_SIZE), "LTC_SHAPE_MAX": LTC_SHAPE_MAX})
+    return defines
 
 
 def set_light(program, light) -> None:
@@ -82,7 +92,7 @@ def set_light(program, light) -> None:
     set_uniform(program, "u_light_area", float(light.area))
 
 
-class DirectPass:
+class DirectPass(RenderPass):
     """Programs of the direct-light pass: shadowed (light frames) and unshadowed (preview)."""
 
     def __init__(self, ctx, *, area_model: str = "radiometric", materials: str = "shared", shadows: bool = True,
@@ -107,8 +117,8 @@ class DirectPass:
             self.lut_texture = ctx.texture((lut.shape[1], lut.shape[0]), lut.shape[2], lut.tobytes(), dtype="f4")
             self.lut_texture.filter = (ctx.LINEAR, ctx.LINEAR)
             self.lut_texture.repeat_x = self.lut_texture.repeat_y = False
-        defines = {"AREA_MODEL_PAPER": int(area_model == "paper"), "AREA_MODEL_LTC": int(area_model == "ltc"),
-                   "MATERIALS_DIFFUSE": int(materials == "diffuse"), "LAYERS": int(layers)}
+        defines = {**area_model_defines(area_model), "MATERIALS_DIFFUSE": int(materials == "diffuse"),
+                   "LAYERS": int(layers)}
         self._defines = defines
         # The G-buffer preview is compiled at its first use: with the forward-shaded first
         # frame (first_frame.py) it is never drawn.
@@ -127,17 +137,13 @@ class DirectPass:
         set_uniform(program, "u_weight", float(weight))
 
     def _bind_gbuffer(self, program, gbuffer) -> None:
-        for loc, name in enumerate(("position", "normal", "material")):
-            gbuffer[name].use(location=loc)
-            set_uniform(program, f"u_{name}", loc)
+        gbuffer.bind(program)
         if self._defines["LAYERS"]:
             gbuffer.bind_layers(program)
         if self.lut_texture is not None:
-            self.lut_texture.use(location=LUT_UNIT)
-            set_uniform(program, "u_spec_lut", LUT_UNIT)
+            bind(program, "u_spec_lut", self.lut_texture, _UNITS["spec_lut"])
         if self.ltc_table is not None:
-            self.ltc_table.use(location=LTC_UNIT)
-            set_uniform(program, "u_ltc", LTC_UNIT)
+            bind(program, "u_ltc", self.ltc_table, _UNITS["ltc"])
 
     def preview(self, target: Target, gbuffer, lights, camera_position) -> None:
         """Unshadowed direct light from every light's centre (one sample, full area), summed into ``target``."""
@@ -172,13 +178,12 @@ class DirectPass:
         ctx.blend_equation = ctx.FUNC_ADD
         p = self.program
         self._bind_gbuffer(p, gbuffer)
-        shadow.bind(p, 3, bias)
+        shadow.bind(p, _UNITS["shadow"], bias)
         if self._defines["AREA_MODEL_LTC"]:
             if ltc_specular is None:
                 raise ValueError("the ltc model's sample pass needs the light's unshadowed specular sum (ltc_specular)")
             texture, frames = ltc_specular
-            texture.use(location=LTC_SUM_UNIT)
-            set_uniform(p, "u_ltc_specular", LTC_SUM_UNIT)
+            bind(p, "u_ltc_specular", texture, _UNITS["ltc_specular"])
             set_uniform(p, "u_ltc_inv_frames", 1.0 / max(frames, 1))
         set_uniform(p, "u_mode", 0)
         self._set_light(p, light, point, weight, camera_position)
@@ -197,11 +202,9 @@ class DirectPass:
         ctx.enable_only(ctx.NOTHING)
         p = self.program
         self._bind_gbuffer(p, gbuffer)
-        shadow.bind(p, 3, bias)
-        acc.current.use(location=4)
-        set_uniform(p, "u_previous", 4)
-        (partial.texture if partial is not None else acc.current).use(location=5)
-        set_uniform(p, "u_partial", 5)
+        shadow.bind(p, _UNITS["shadow"], bias)
+        bind(p, "u_previous", acc.current, _UNITS["previous"])
+        bind(p, "u_partial", partial.texture if partial is not None else acc.current, _UNITS["partial"])
         set_uniform(p, "u_use_partial", 1.0 if partial is not None else 0.0)
         set_uniform(p, "u_mode", 1)
         set_uniform(p, "u_count", float(acc.units + units))
@@ -211,6 +214,7 @@ class DirectPass:
         acc.swap(units)
 
     def release(self) -> None:
+        """Free the programs and the split-sum table (the LTC table belongs to its maker)."""
         for obj in (self.vao, self.program, self.preview_vao, self.preview_program, self.lut_texture):
             if obj is not None:
                 obj.release()

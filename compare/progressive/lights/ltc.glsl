@@ -17,9 +17,11 @@
 #define COMPARE_LTC_GLSL
 #if AREA_MODEL_LTC
 
-uniform sampler2D u_ltc;  // 64 x 64 RGBA32F: M^-1 as (a, b, c, d), x = roughness, y = sqrt(1 - n.v)
+uniform sampler2D u_ltc;  // LTC_SIZE^2 RGBA32F: M^-1 as (a, b, c, d), x = roughness, y = sqrt(1 - n.v)
 
-#define LTC_SIZE 64.0
+#ifndef LTC_SIZE
+#error LTC_SIZE comes from direct.py (the LTC table size, compare.brdf.ltc.TABLE_SIZE) as a define
+#endif
 
 // M^-1 of the specular lobe, bilinear in the table (texel centres at the grid points).
 mat3 ltc_minv(float n_dot_v, float roughness) {

@@ -15,9 +15,9 @@ for the diffuse lobe, g_k being its point-sample estimate through sample k (its
 BRDF times A cos cos / d²). For the specular lobe the denominator is the fitted
 lobe's own estimate through the same samples, h_k (the closed form's scale, Fresnel
 × (A + B), times the transformed cosine's density, times A cos / d²), and the
-numerator's BRDF term is bounded by 1.5 h_k:
+numerator's BRDF term is bounded by b h_k (b = :data:`~compare.progressive.lights.direct.LTC_SHAPE_MAX`, 1.5):
 
-    L_s ≈ LTC_s · Σ_k V_k min(g_k, 1.5 h_k) / Σ_k h_k,
+    L_s ≈ LTC_s · Σ_k V_k min(g_k, b h_k) / Σ_k h_k,
 
 which converges to the exact shadowed specular light as samples grow (to within
 the bound), correcting the fitted lobe's shape and its Fresnel where the fit is
@@ -63,17 +63,23 @@ from __future__ import annotations
 import numpy as np
 
 from compare.progressive.frame.accumulate import Target
-from compare.progressive.lights.direct import LTC_UNIT, set_light
+from compare.progressive.gl.passes import RenderPass
 from compare.progressive.gl.shaders import load_program, set_uniform
+from compare.progressive.gl.units import bind, units_of
+from compare.progressive.lights.direct import area_model_defines, set_light
 
 #: f_d of the ``ltc`` model: shadow samples from frame 1 on (see the module notes).
 LTC_DIRECT_FRACTION = 0.0
 #: G-buffer frames in which each light's unshadowed light is evaluated (its jitter average).
 LTC_EVALUATIONS = 32
 
+_LIGHT = units_of("ltc_light.glsl")
+_COMPOSE = units_of("ltc_compose.glsl")
+
 
 def ltc_texture(ctx):
-    """The fitted LTC table (:func:`compare.brdf.ltc.load_table`) as a 64×64 RGBA32F texture, bilinear."""
+    """The fitted LTC table (:func:`compare.brdf.ltc.load_table`, TABLE_SIZE² texels) as an RGBA32F texture,
+    bilinear."""
     from compare.brdf.ltc import load_table
 
     table = np.ascontiguousarray(load_table(), dtype=np.float32)
@@ -83,25 +89,26 @@ def ltc_texture(ctx):
     return tex
 
 
-class LtcLights:
+class LtcLights(RenderPass):
     """Per-light sums of the ``ltc`` model and the pass that composes them (see the module notes).
 
     ``lut_texture`` is the split-sum table (None with Lambert-only materials),
-    ``table`` the LTC texture (:func:`ltc_texture`), ``gbuffer_frames`` the number of
+    ``table`` the LTC texture (:func:`ltc_texture`; None makes one, which :attr:`table` then holds
+    and :meth:`release` frees), ``gbuffer_frames`` the number of
     G-buffer frames the render plans: each light's unshadowed light is evaluated in the
     first of them and then in every ``stride``-th, staggered over the lights, so that it
     averages about :data:`LTC_EVALUATIONS` jitter positions (see :meth:`run`).
     """
 
-    def __init__(self, ctx, size: tuple[int, int], lights, *, materials: str, lut_texture, table,
+    def __init__(self, ctx, size: tuple[int, int], lights, *, materials: str, lut_texture, table=None,
                  gbuffer_frames: int, layers: bool = False):
         self.ctx = ctx
         self.lights = tuple(lights)
         self.lut_texture = lut_texture
-        self.table = table
         self._objects: list = []
         try:
-            defines = {"AREA_MODEL_LTC": 1, "AREA_MODEL_PAPER": 0, "MATERIALS_DIFFUSE": int(materials == "diffuse"),
+            self.table = table if table is not None else self._keep(ltc_texture(ctx))
+            defines = {**area_model_defines("ltc"), "MATERIALS_DIFFUSE": int(materials == "diffuse"),
                        "LAYERS": int(layers)}
             self.layers = bool(defines["LAYERS"])
             self.program = self._keep(load_program(ctx, "ltc_light.glsl", defines))
@@ -162,16 +169,12 @@ class LtcLights:
             return
         ctx = self.ctx
         p = self.program
-        for loc, name in enumerate(("position", "normal", "material")):
-            gbuffer[name].use(location=loc)
-            set_uniform(p, f"u_{name}", loc)
+        gbuffer.bind(p)
         if self.layers:
             gbuffer.bind_layers(p)
         if self.lut_texture is not None:
-            self.lut_texture.use(location=3)
-            set_uniform(p, "u_spec_lut", 3)
-        self.table.use(location=LTC_UNIT)
-        set_uniform(p, "u_ltc", LTC_UNIT)
+            bind(p, "u_spec_lut", self.lut_texture, _LIGHT["spec_lut"])
+        bind(p, "u_ltc", self.table, _LIGHT["ltc"])
         set_uniform(p, "u_camera_position", tuple(float(x) for x in camera_position))
         ctx.enable_only(ctx.BLEND)
         ctx.blend_func = ctx.ONE, ctx.ONE
@@ -200,13 +203,17 @@ class LtcLights:
         ctx.blend_equation = ctx.FUNC_ADD
         for (texs, _), ratio, frames in zip(self.unshadowed, self.ratio, self.frames):
             set_uniform(p, "u_frames", float(frames))
-            texs[0].use(location=0)
-            texs[1].use(location=1)
-            ratio.texture.use(location=2)
-            for loc, name in enumerate(("u_diffuse", "u_specular", "u_ratio")):
-                set_uniform(p, name, loc)
+            bind(p, "u_diffuse", texs[0], _COMPOSE["diffuse"])
+            bind(p, "u_specular", texs[1], _COMPOSE["specular"])
+            bind(p, "u_ratio", ratio.texture, _COMPOSE["ratio"])
             self.compose_vao.render(vertices=3)
         return self.out.texture
+
+    def describe(self) -> dict:
+        """The table's size and file, the evaluations' stride, the shadow ratio's kind."""
+        w, h = self.table.size
+        return {"ltc_table": f"{w}x{h} (compare/brdf/ltc_table.npz)", "ltc_stride": int(self.stride),
+                "shadow_ratio": "per light, diffuse and specular"}
 
     def release(self) -> None:
         for obj in reversed(self._objects):

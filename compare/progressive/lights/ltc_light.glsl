@@ -4,7 +4,8 @@
 // sums the specular lobe's scale (Fresnel x (A + B), averaged over RGB), the factor that the
 // shadow ratio's specular denominator (direct.glsl) leaves out.
 //
-// Defines: MATERIALS_DIFFUSE, AREA_MODEL_LTC (always 1 here), AREA_MODEL_PAPER (always 0).
+// Defines: MATERIALS_DIFFUSE, and direct.py's area_model_defines for ltc: AREA_MODEL_LTC (always 1
+// here), AREA_MODEL_PAPER (always 0), LTC_SIZE and LTC_SHAPE_MAX.
 
 #if defined VERTEX_SHADER
 
@@ -15,10 +16,7 @@
 #include "brdf.glsl"
 #include "layers.glsl"
 #include "gbuffer_layers.glsl"
-
-uniform sampler2D u_position;  // G-buffer: world position, w = kind
-uniform sampler2D u_normal;    // G-buffer: shading normal, w = roughness
-uniform sampler2D u_material;  // G-buffer: base colour, a = metallic
+#include "gbuffer_inputs.glsl"
 
 uniform vec3 u_camera_position;
 uniform vec3 u_light_center;

@@ -19,10 +19,8 @@
 #include "gbuffer_layers.glsl"
 #include "punctual_light.glsl"
 #include "punctual_shadow.glsl"
+#include "gbuffer_inputs.glsl"
 
-uniform sampler2D u_position;  // G-buffer: world position, w = kind
-uniform sampler2D u_normal;    // G-buffer: shading normal, w = roughness
-uniform sampler2D u_material;  // G-buffer: base colour, a = metallic
 uniform sampler2D u_previous;  // the mean before this frame
 uniform sampler2D u_pshadow[BATCH];
 uniform vec3 u_camera_position;

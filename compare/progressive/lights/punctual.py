@@ -45,17 +45,18 @@ import numpy as np
 
 from compare.progressive.frame.accumulate import PingPong
 from compare.progressive.frame.gpu_scene import frustum, look_at, mat_bytes
+from compare.progressive.gl.passes import RenderPass
 from compare.progressive.gl.shaders import load_program, set_uniform
+from compare.progressive.gl.units import bind, bind_array, units_of
 
 #: Widest spot cone (full angle, degrees) drawn through one perspective face; wider ones get a cube.
 MAX_SPOT_FACE_DEGREES = 120.0
 #: The kinds' codes in the shaders.
 KIND_CODES = {"point": 0.0, "spot": 1.0, "directional": 2.0}
-#: Texture unit of the first shadow map in punctual.glsl (0-3 hold the G-buffer and the previous mean).
-SHADOW_UNIT = 4
-#: Most lights one draw of punctual.glsl shades (a shadow map each: 4 + 8 texture units of the 16 that
-#: OpenGL 3.3 guarantees).
-MAX_BATCH = 8
+_UNITS = units_of("punctual.glsl")
+#: Most lights one draw of punctual.glsl shades: a shadow map each, as many as its row of texture units
+#: holds (:mod:`compare.progressive.gl.units` says why that many).
+MAX_BATCH = _UNITS["shadow_maps"].count
 #: Most texels all punctual lights' kept maps may hold together (32-bit depth: 256 MiB); beyond it every
 #: map's S shrinks alike, and the render says so.
 MAX_SHADOW_TEXELS = 1 << 26
@@ -197,7 +198,7 @@ def set_shadow_maps(program, maps) -> None:
     set_uniform(program, "u_pshadow_texel", arr([m.texel for m in maps]))
 
 
-class PunctualLights:
+class PunctualLights(RenderPass):
     """Shadow maps, programs and the running mean of a scene's punctual lights.
 
     ``camera`` is the rasterizer's :class:`~compare.progressive.frame.gpu_scene.CameraSetup` (a
@@ -298,12 +299,9 @@ class PunctualLights:
                 ctx.enable_only(ctx.BLEND)
                 ctx.blend_func = ctx.ONE, ctx.ONE
                 ctx.blend_equation = ctx.FUNC_ADD
-            for loc, name in enumerate(("position", "normal", "material")):
-                gbuffer[name].use(location=loc)
-                set_uniform(program, f"u_{name}", loc)
+            gbuffer.bind(program)
             gbuffer.bind_layers(program)
-            acc.current.use(location=3)
-            set_uniform(program, "u_previous", 3)
+            bind(program, "u_previous", acc.current, _UNITS["previous"])
             set_uniform(program, "u_camera_position", cam)
             set_uniform(program, "u_inv_count", 1.0 / n)
             set_uniform(program, "u_fold", 1.0 if b == 0 else 0.0)
@@ -318,9 +316,7 @@ class PunctualLights:
             return np.ascontiguousarray(values, dtype=dtype).tobytes()
 
         lights = [self.lights[i] for i in batch]
-        for k, i in enumerate(batch):
-            self.textures[i].use(location=SHADOW_UNIT + k)
-        set_uniform(program, "u_pshadow", arr([SHADOW_UNIT + k for k in range(len(batch))], np.int32))
+        bind_array(program, "u_pshadow", [self.textures[i] for i in batch], _UNITS["shadow_maps"])
         set_uniform(program, "u_kind", arr([KIND_CODES[lt.kind] for lt in lights]))
         set_uniform(program, "u_light_position", arr([lt.position for lt in lights]))
         set_uniform(program, "u_light_direction", arr([_unit(lt.direction) for lt in lights]))
@@ -340,6 +336,7 @@ class PunctualLights:
         self.acc.reset()
 
     def describe(self) -> dict:
+        """The lights' count and their shadow maps."""
         return {"punctual_lights": len(self.lights),
                 "punctual_shadow_maps": ", ".join(f"{lt.kind} {m.describe()}" for lt, m in zip(self.lights,
                                                                                               self.maps))}

@@ -133,7 +133,9 @@ from __future__ import annotations
 import numpy as np
 
 from compare.progressive.frame.gpu_scene import frustum, look_at, mat_bytes
+from compare.progressive.gl.passes import RenderPass
 from compare.progressive.gl.shaders import load_program, set_uniform
+from compare.progressive.gl.units import Units, bind, units_of
 
 #: Default bias in texels: (normal offset, constant, slope-scaled).
 DEFAULT_BIAS = (1.0, 1.0, 1.0)
@@ -182,7 +184,7 @@ def chebyshev_visibility(mean, mean_sq, d, *, min_sigma: float = VSM_MIN_SIGMA,
     return np.clip((p_max - bleeding) / (1.0 - bleeding), 0.0, 1.0)
 
 
-class ShadowAtlas:
+class ShadowAtlas(RenderPass):
     """The depth atlas of one light sample, its face matrices and the pass that fills it.
 
     ``filter="vsm"`` stores filtered moments instead (module notes); it needs the
@@ -285,28 +287,32 @@ class ShadowAtlas:
         ctx.enable_only(ctx.NOTHING)
         set_uniform(self.blur, "u_width", float(width))
         set_uniform(self.blur, "u_size", self.size)
-        set_uniform(self.blur, "u_source", 0)
         for source, fbo, axis in ((self.moments, self.scratch_fbo, (1, 0)), (self.scratch, self.fbo, (0, 1))):
             fbo.use()
             ctx.viewport = (0, 0, 3 * self.size, self.size)
-            source.use(location=0)
+            bind(self.blur, "u_source", source, units_of("vsm_blur.glsl")["source"])
             set_uniform(self.blur, "u_axis", axis)
             self.blur_vao.render(vertices=3)
 
-    def bind(self, program, location: int, bias) -> None:
-        """Bind the atlas and set the lookup's uniforms on ``program`` (direct.glsl)."""
+    def bind(self, program, units: Units, bias) -> None:
+        """Bind the atlas to ``units`` (its program's ``shadow`` row) and set the lookup's uniforms on
+        ``program`` (shadow_test.glsl)."""
         if self.filter == "vsm":
-            self.moments.use(location=location)
+            bind(program, "u_shadow", self.moments, units)
             set_uniform(program, "u_vsm", self.vsm_params)
         else:
-            self.depth.use(location=location)
-        set_uniform(program, "u_shadow", location)
+            bind(program, "u_shadow", self.depth, units)
         set_uniform(program, "u_shadow_far", self.far)
         set_uniform(program, "u_face_view_proj",
                     np.ascontiguousarray(self.face_view_proj.transpose(0, 2, 1), dtype=np.float32).tobytes())
         set_uniform(program, "u_face_rect", self.rects.tobytes())
         set_uniform(program, "u_shadow_texel", self.texel)
         set_uniform(program, "u_bias", tuple(float(b) for b in bias))
+
+    def describe(self) -> dict:
+        """The atlas's projection, face size and filter."""
+        return {"shadow_projection": "half-cube (5 faces)", "shadow_size": int(self.size),
+                "shadow_filter": self.filter}
 
     def release(self) -> None:
         if self.filter == "vsm":
