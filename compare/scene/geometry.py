@@ -492,43 +492,6 @@ def transform_matrix(translate=(0.0, 0.0, 0.0), rotate=(0.0, 0.0, 0.0), scale=(1
     return m
 
 
-def vertex_tangents(positions, normals, uvs, indices) -> np.ndarray:
-    """Per-vertex tangents (N, 4) for normal maps, glTF's convention: xyz along increasing u, and w = ±1
-    such that ``cross(normal, xyz) * w`` points up the image (towards decreasing v: glTF's v runs down
-    the image, and its normal maps have +Y up).
-
-    Each triangle's dp/du and dp/dv (from its UVs) are summed at its vertices, area-weighted by the
-    unnormalised derivatives, then made orthogonal to the vertex normal (Gram–Schmidt). For the planar,
-    affinely mapped charts of the built-in meshes this is what MikkTSpace (the tangents glTF assumes when
-    a file has none) gives; on curved charts it can differ from MikkTSpace by its weighting. A vertex
-    without usable UV derivatives gets any tangent orthogonal to its normal.
-    """
-    p = np.asarray(positions, dtype=np.float64)
-    n = np.asarray(normals, dtype=np.float64)
-    uv = np.asarray(uvs, dtype=np.float64)
-    tri = np.asarray(indices, dtype=np.int64).reshape(-1, 3)
-    e1, e2 = p[tri[:, 1]] - p[tri[:, 0]], p[tri[:, 2]] - p[tri[:, 0]]
-    d1, d2 = uv[tri[:, 1]] - uv[tri[:, 0]], uv[tri[:, 2]] - uv[tri[:, 0]]
-    det = d1[:, 0] * d2[:, 1] - d2[:, 0] * d1[:, 1]
-    ok = np.abs(det) > 1e-20
-    r = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)[:, None]
-    dpdu = (e1 * d2[:, 1:2] - e2 * d1[:, 1:2]) * r
-    dpdv = (e2 * d1[:, 0:1] - e1 * d2[:, 0:1]) * r
-    t = np.zeros_like(p)
-    b = np.zeros_like(p)
-    for k in range(3):
-        np.add.at(t, tri[:, k], dpdu)
-        np.add.at(b, tri[:, k], dpdv)
-    t = t - n * np.sum(n * t, axis=1, keepdims=True)
-    length = np.linalg.norm(t, axis=1)
-    # no UV derivatives: any direction orthogonal to the normal
-    fallback = np.cross(n, np.where(np.abs(n[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]]))
-    t = np.where((length > 1e-20)[:, None], t / np.maximum(length, 1e-300)[:, None], fallback)
-    t /= np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-300)
-    w = np.where(np.sum(np.cross(n, t) * -b, axis=1) < 0.0, -1.0, 1.0)
-    return np.concatenate([t, w[:, None]], axis=1).astype(np.float32)
-
-
 def ray_cast(origins: np.ndarray, directions: np.ndarray, tris: np.ndarray, *, chunk: int = 256,
              t_max: np.ndarray | float = np.inf) -> tuple[np.ndarray, np.ndarray]:
     """Closest hit (Möller–Trumbore) of rays (R, 3) against triangles (T, 3, 3).

@@ -166,10 +166,12 @@ class GpuScene(RenderPass):
         self.sheen_table = None
         try:
             for mesh in scene.meshes:
-                tri = mesh.triangles()
                 mat = scene.materials[mesh.material]
+                # normal maps in the file's tangent frame (its TANGENT, else MikkTSpace's), as every renderer
+                tri = mesh.triangles(tangents=self.textured and mat.normal_mapped)
                 gm = self._upload(mesh.name, tri.positions, tri.normals, tri.indices, mat.base_color, mat.metallic,
-                                  mat.roughness, mat.emission, 1.0, uvs=tri.uvs, colors=tri.colors)
+                                  mat.roughness, mat.emission, 1.0, uvs=tri.uvs, colors=tri.colors,
+                                  tangents=tri.tangents)
                 self.meshes.append(gm)  # owned (and released on failure) before its maps are made
                 gm.centre = tuple(float(x) for x in (tri.positions.min(0) + tri.positions.max(0)) / 2)
                 if mat.alpha_mode == "blend":
@@ -340,14 +342,11 @@ class GpuScene(RenderPass):
         return self._maps[key]
 
     def _upload(self, name, positions, normals, indices, base, metallic, roughness, emission, kind, light=None,
-                uvs=None, colors=None):
-        from compare.scene.geometry import vertex_tangents
-
+                uvs=None, colors=None, tangents=None):
         n = len(positions)
         uv = np.zeros((n, 2), dtype=np.float32) if uvs is None else np.asarray(uvs, dtype=np.float32)
-        # Tangents only for normal maps: a scene without maps does no tangent work.
-        tangents = (vertex_tangents(positions, normals, uv, indices) if uvs is not None and self.textured
-                    else np.zeros((n, 4), dtype=np.float32))
+        # Tangents only for normal maps (Mesh.triangles gives them): others do no tangent work.
+        tangents = np.zeros((n, 4), dtype=np.float32) if tangents is None else np.asarray(tangents, np.float32)
         columns = [np.asarray(positions, dtype=np.float32), np.asarray(normals, dtype=np.float32), uv, tangents]
         if self.colored:  # COLOR_0 (white for meshes without it); no column in a scene without any
             columns.append(np.ones((n, 4), dtype=np.float32) if colors is None else np.asarray(colors, np.float32))
