@@ -30,7 +30,7 @@ import argparse
 import json
 import sys
 import tempfile
-import textwrap
+import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -39,128 +39,32 @@ import numpy as np
 
 __all__ = ["FEATURES", "Probe", "measure_features", "feature_table"]
 
-_CAMERA_LOW = """
-[camera]
-position = [0.0, 0.6, 4.0]
-target = [0.0, 0.0, 0.0]
-fov = 30.0
-resolution = [32, 24]
-[materials.floor]
-base_color = [0.8, 0.8, 0.8]
-roughness = 1.0
-[materials.black]
-base_color = [0.0, 0.0, 0.0]
-[[meshes]]
-name = "floor"
-shape = "quad"
-size = [12.0, 12.0]
-material = "floor"
-"""
-# 1.5 m up, 2 m wide: above the camera's view (its top edge is below 1.1 m over the floor's middle); a
-# closed box, as engines draw the back faces of an occluder into their shadow maps
-_OCCLUDER = """
-[[meshes]]
-name = "occluder"
-shape = "box"
-size = [2.0, 0.1, 2.0]
-material = "black"
-translate = [0.0, 1.55, 0.0]
-"""
-_AREA = """
-[[lights]]
-name = "lamp"
-center = [0.0, 3.0, 0.0]
-size = [0.5, 0.5]
-normal = [0.0, -1.0, 0.0]
-radiance = [20.0, 20.0, 20.0]
-"""
-_ENV = """
-[environment]
-constant = [1.0, 1.0, 1.0]
-"""
-_CARD = """
-[camera]
-position = [0.0, 0.0, 3.0]
-target = [0.0, 0.0, 0.0]
-fov = 30.0
-resolution = [32, 24]
-[environment]
-constant = [0.5, 0.5, 0.5]
-[materials.backdrop]
-base_color = [0.1, 0.1, 0.1]
-emission = [0.2, 0.8, 0.2]
-[[meshes]]
-name = "backdrop"
-shape = "quad"
-size = [10.0, 10.0]
-material = "backdrop"
-translate = [0.0, 0.0, -2.0]
-rotate = [90.0, 0.0, 0.0]
-[[meshes]]
-name = "card"
-shape = "quad"
-size = [1.2, 1.2]
-material = "card"
-rotate = [90.0, 0.0, 0.0]
-[[lights]]
-name = "lamp"
-center = [0.0, 1.0, 2.0]
-size = [0.6, 0.6]
-normal = [0.0, -0.447, -0.894]
-radiance = [10.0, 10.0, 10.0]
-[materials.card]
-"""
-_FURNACE = """
-[camera]
-position = [0.0, 0.0, 3.0]
-target = [0.0, 0.0, 0.0]
-fov = 20.0
-resolution = [32, 24]
-[environment]
-constant = [1.0, 1.0, 1.0]
-[materials.metal]
-base_color = [1.0, 1.0, 1.0]
-metallic = 1.0
-roughness = 1.0
-[[meshes]]
-name = "card"
-shape = "quad"
-size = [4.0, 4.0]
-material = "metal"
-rotate = [90.0, 0.0, 0.0]
-"""
-_POINT = """
-[camera]
-position = [0.0, 3.0, 3.0]
-target = [0.0, 0.0, 0.0]
-fov = 40.0
-resolution = [32, 24]
-[materials.floor]
-base_color = [0.8, 0.8, 0.8]
-roughness = 1.0
-[[meshes]]
-name = "floor"
-shape = "quad"
-size = [8.0, 8.0]
-material = "floor"
-[[lights]]
-name = "bulb"
-type = "point"
-position = [0.0, 2.0, 0.0]
-intensity = 10.0
-light_scale = 1.0
-"""
-# a dark base, so that a layer's light is a large part of the card's
-_CARD_MATERIAL = 'base_color = [0.05, 0.05, 0.05]\nroughness = 0.6\n'
+#: The probes' scene files (package data): each probe renders one as it is and one changed by a few fields.
+PROBES = Path(__file__).resolve().parent / "probes"
+
+
+def _probe(name: str) -> dict:
+    with open(PROBES / f"{name}.toml", "rb") as f:
+        return tomllib.load(f)
+
+
+def _without_mesh(data: dict, mesh: str) -> dict:
+    return {**data, "meshes": [m for m in data["meshes"] if m["name"] != mesh]}
+
+
+def _with_material(data: dict, name: str, fields: dict, *, replace: bool = False) -> dict:
+    materials = dict(data["materials"])
+    materials[name] = dict(fields) if replace else {**materials[name], **fields}
+    return {**data, "materials": materials}
 
 
 @dataclass(frozen=True)
 class Probe:
-    """One feature's probe: the two scenes (TOML text; ``None`` for a reference value), the number made
+    """One feature's probe: the two scenes (parsed TOML; ``None`` for a reference value), the number made
     from the two images, and the test that says the feature is drawn."""
 
     title: str
-    scenes: Callable[[Path], tuple[str, str | None]]
+    scenes: Callable[[Path], tuple[dict, dict | str | None]]
     value: Callable[[np.ndarray, np.ndarray], float]
     drawn: Callable[[float], bool]
     unit: str
@@ -179,50 +83,61 @@ def _card_change(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.abs(a[sl] - b[sl]).mean() / max(b[sl].mean(), 1e-12))
 
 
-def _card(extra: str, folder: Path) -> tuple[str, str]:
-    return _CARD + _CARD_MATERIAL + extra, _CARD + _CARD_MATERIAL
+def _shadow(kind: str) -> Callable[[Path], tuple[dict, dict]]:
+    def scenes(folder: Path) -> tuple[dict, dict]:
+        data = _probe(f"shadow_{kind}")
+        return data, _without_mesh(data, "occluder")
+    return scenes
 
 
-def _texture_transform(folder: Path) -> tuple[str, str]:
+def _card(fields: dict) -> Callable[[Path], tuple[dict, dict]]:
+    def scenes(folder: Path) -> tuple[dict, dict]:
+        data = _probe("card")
+        return _with_material(data, "card", fields), data
+    return scenes
+
+
+def _texture_transform(folder: Path) -> tuple[dict, dict]:
     from PIL import Image
 
     px = np.zeros((8, 8, 3), np.uint8)
     px[:4, :4], px[:4, 4:], px[4:, :4], px[4:, 4:] = (255, 0, 0), (0, 255, 0), (0, 0, 255), (255, 255, 0)
     Image.fromarray(px).save(folder / "quadrants.png")
-    base = _CARD + 'base_color = [0.0, 0.0, 0.0]\nemission = [1.0, 1.0, 1.0]\nemissive_texture = "quadrants.png"\n'
-    return base + "texture_rotation = 90.0\n", base
+    emitting = {"base_color": [0.0, 0.0, 0.0], "emission": [1.0, 1.0, 1.0], "emissive_texture": "quadrants.png"}
+    base = _with_material(_probe("card"), "card", emitting, replace=True)
+    return _with_material(base, "card", {"texture_rotation": 90.0}), base
 
 
 #: Feature name → its probe, in the order of the table.
 FEATURES: dict[str, Probe] = {
-    "area_light_shadows": Probe("area-light shadows", lambda f: (_CAMERA_LOW + _AREA + _OCCLUDER, _CAMERA_LOW + _AREA),
-                                _floor_middle, lambda v: v < 0.5, "shadowed / unshadowed"),
-    "environment_shadows": Probe("environment shadows", lambda f: (_CAMERA_LOW + _ENV + _OCCLUDER, _CAMERA_LOW + _ENV),
-                                 _floor_middle, lambda v: v < 0.8, "shadowed / unshadowed"),
-    "multiscatter_energy": Probe("multiscatter energy", lambda f: (_FURNACE, None),
+    "area_light_shadows": Probe("area-light shadows", _shadow("area"), _floor_middle, lambda v: v < 0.5,
+                                "shadowed / unshadowed"),
+    "environment_shadows": Probe("environment shadows", _shadow("env"), _floor_middle, lambda v: v < 0.8,
+                                 "shadowed / unshadowed"),
+    "multiscatter_energy": Probe("multiscatter energy", lambda f: (_probe("furnace"), None),
                                  lambda a, b: float(a[a.shape[0] // 4: -a.shape[0] // 4, a.shape[1] // 4: -a.shape[1] // 4].mean()),
                                  lambda v: v > 0.9, "furnace radiance (1 = all energy)"),
-    "clearcoat": Probe("clearcoat", lambda f: _card("clearcoat = 1.0\nclearcoat_roughness = 0.1\n", f),
+    "clearcoat": Probe("clearcoat", _card({"clearcoat": 1.0, "clearcoat_roughness": 0.1}),
                        _card_change, lambda v: v > 0.03, "relative change"),
-    "sheen": Probe("sheen", lambda f: _card("sheen_color = [1.0, 1.0, 1.0]\nsheen_roughness = 0.5\n", f),
+    "sheen": Probe("sheen", _card({"sheen_color": [1.0, 1.0, 1.0], "sheen_roughness": 0.5}),
                    _card_change, lambda v: v > 0.03, "relative change"),
-    "transmission": Probe("transmission", lambda f: _card("transmission = 1.0\n", f),
-                          _card_change, lambda v: v > 0.03, "relative change"),
-    "alpha_blend": Probe("alpha blend", lambda f: _card('alpha_mode = "blend"\nalpha = 0.4\n', f),
+    "transmission": Probe("transmission", _card({"transmission": 1.0}), _card_change, lambda v: v > 0.03,
+                          "relative change"),
+    "alpha_blend": Probe("alpha blend", _card({"alpha_mode": "blend", "alpha": 0.4}),
                          _card_change, lambda v: v > 0.03, "relative change"),
     "texture_transform": Probe("texture transform", _texture_transform, _card_change, lambda v: v > 0.03,
                                "relative change"),
-    "punctual_lights": Probe("punctual lights", lambda f: (_POINT, "reference"), lambda a, b: float(a.mean() / max(b.mean(), 1e-12)),
-                             lambda v: 0.5 < v < 2.0, "radiance / ground truth"),
+    "punctual_lights": Probe("punctual lights", lambda f: (_probe("point"), "reference"),
+                             lambda a, b: float(a.mean() / max(b.mean(), 1e-12)), lambda v: 0.5 < v < 2.0,
+                             "radiance / ground truth"),
 }
 
 
-def _scene(folder: Path, name: str, text: str):
-    from compare.scene.loader import load_scene
+def _scene(folder: Path, name: str, data: dict):
+    from compare.scene.loader import parse_scene
 
-    path = folder / f"{name}.toml"
-    path.write_text(f'name = "{name}"\n' + textwrap.dedent(text))
-    return load_scene(path)
+    # a path in the probe's folder: its texture files (if any) are written there
+    return parse_scene({**data, "name": name}, folder / f"{name}.toml")
 
 
 def measure_features(specs: list[str], *, frames: int = 8, spp: int = 128, features: list[str] | None = None,
