@@ -11,12 +11,14 @@ def add_inspect_parser(subparsers) -> argparse.ArgumentParser:
     """Add ``compare inspect`` to an argparse subparsers object; returns the new parser."""
     p = subparsers.add_parser(
         "inspect", help="print what a scene or glTF file holds: bounds, triangles, materials, extensions, maps, "
-                        "lights, cameras",
+                        "lights, cameras; or the scenarios of a render-fidelity config.json",
         description="Print what a user needs to place a camera and choose units for a scene (TOML) or a glTF "
                     "file: its bounds in metres, triangle and material counts, the extensions it uses and what "
-                    "becomes of each, its maps with their sizes, its lights and cameras.",
+                    "becomes of each, its maps with their sizes, its lights and cameras. For a render-fidelity "
+                    "config.json (google/model-viewer's format): each scenario's model, lighting, camera, size "
+                    "and excluded renderers.",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    p.add_argument("scene", type=Path, help="scene file (TOML) or glTF file (.gltf, .glb)")
+    p.add_argument("scene", type=Path, help="scene file (TOML), glTF file (.gltf, .glb) or scenario file (.json)")
     p.add_argument("--json", action="store_true", help="print JSON instead of text")
     p.set_defaults(func=cmd_inspect)
     return p

@@ -47,8 +47,12 @@ def add_run_parser(subparsers) -> argparse.ArgumentParser:
                     "Finished work in the output folder is reused when the settings match.",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     # String defaults: argparse converts them with `type`, and --help prints them plainly.
-    p.add_argument("--scenes", nargs="+", type=Path, default="scenes/cornell.toml", metavar="SCENE",
-                   help="scene files (TOML), or glTF files (.gltf, .glb) by themselves")
+    which = p.add_mutually_exclusive_group()
+    which.add_argument("--scenes", nargs="+", type=Path, default="scenes/cornell.toml", metavar="SCENE",
+                       help="scene files (TOML), or glTF files (.gltf, .glb) by themselves")
+    which.add_argument("--scenarios", type=Path, default=None, metavar="CONFIG",
+                       help="a render-fidelity config.json (google/model-viewer's format): every scenario a scene "
+                            "of this run, each skipping the renderers of its 'exclude' (docs/scenarios.md)")
     p.add_argument("--size", type=_sizes_arg, default=None, metavar="WxH[,WxH...]",
                    help="resolutions, comma-separated; default: each scene's own")
     opt = functools.partial(setting, RunSettings)
@@ -122,11 +126,17 @@ def cmd_run(args: argparse.Namespace) -> int:
                            likeness=args.likeness, seeds=args.seeds, ground_truth=args.ground_truth,
                            baseline=args.baseline,
                            renderer_config=config)
-    scenes = args.scenes if isinstance(args.scenes, list) else [args.scenes]  # the default is one Path
-    out = args.output or Path("reports") / scenes[0].stem
+    exclude = None
+    if args.scenarios is not None:
+        scenes, exclude = _scenario_scenes(args.scenarios, config)
+        out = args.output or Path("reports") / args.scenarios.stem
+    else:
+        scenes = args.scenes if isinstance(args.scenes, list) else [args.scenes]  # the default is one Path
+        out = args.output or Path("reports") / scenes[0].stem
     try:
         res = run(scenes, out, settings, progress=not args.quiet, fresh=args.fresh, report=not args.no_report,
-                  executor=args.executor, update=args.update, keep_going=args.keep_going, timeout=args.timeout)
+                  executor=args.executor, update=args.update, keep_going=args.keep_going, timeout=args.timeout,
+                  exclude=exclude)
     except ValueError as e:
         if isinstance(e, CompareError):
             raise
@@ -146,6 +156,17 @@ def cmd_run(args: argparse.Namespace) -> int:
                   file=sys.stderr)
         return 1
     return 0
+
+
+def _scenario_scenes(path: Path, renderer_config: str | None) -> tuple[list, dict[str, tuple[str, ...]]]:
+    """The scenes of a render-fidelity config's scenarios, and scene name → the suite's renderer names each
+    excludes (model-viewer's names mapped; names the suite lacks dropped)."""
+    from compare.scene.scenarios import load_scenarios
+
+    scenarios = load_scenarios(path)
+    known = Registry(renderer_config).names()
+    scenes = [sc.scene() for sc in scenarios]  # every model read before any rendering
+    return scenes, {sc.name: sc.suite_excluded(known) for sc in scenarios if sc.suite_excluded(known)}
 
 
 def _measure_features(res, renderers: list[str], out: Path, *, report: bool, progress: bool) -> None:

@@ -31,12 +31,13 @@ timed regions.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import datetime
 import os
 import platform
 import sys
 from pathlib import Path
-from typing import Iterable
+from typing import Iterable, Mapping
 
 from tqdm.auto import tqdm
 
@@ -44,6 +45,7 @@ from compare import __version__
 from compare.util.errors import CompareError, MissingComponentError
 from compare.util.files import check_output_folder, folder_lock, remove_stale_parts
 from compare.renderers import RenderContext
+from compare.renderers.options import split_spec
 from compare.renderers.registry import Registry
 from compare.report.results import Machine, Results, RunSettings, SceneResult
 from compare.scene.loader import Scene, load_scene
@@ -112,16 +114,19 @@ def _check_settings(settings: RunSettings, registry: Registry) -> None:
 # --------------------------------------------------------------------------- public API
 
 
-def run(scene_paths: Iterable[str | os.PathLike], out: str | os.PathLike, settings: RunSettings | None = None, *,
-        progress: bool = True, cache_dir: str | os.PathLike | None | bool = None, fresh: bool = False,
+def run(scene_paths: Iterable[str | os.PathLike | Scene], out: str | os.PathLike, settings: RunSettings | None = None,
+        *, progress: bool = True, cache_dir: str | os.PathLike | None | bool = None, fresh: bool = False,
         report: bool = True, gl_ctx=None, executor: str | object = "serial", renderers: Iterable = (),
-        update: bool = False, keep_going: bool | None = None, timeout: float | None = None) -> Results:
+        update: bool = False, keep_going: bool | None = None, timeout: float | None = None,
+        exclude: Mapping[str, Iterable[str]] | None = None) -> Results:
     """Render, measure and report every scene at every size with every renderer.
 
     Parameters
     ----------
-    scene_paths : iterable of path
-        Scene files (TOML).
+    scene_paths : iterable of path or Scene
+        Scene files (TOML, or glTF by themselves), or scenes already loaded (e.g. the scenarios of
+        :mod:`compare.scene.scenarios`); a run with loaded scenes renders in this process (a worker
+        loads its scene from a file).
     out : path
         Output folder; receives ``results.json``, ``runs/`` (checkpoints, partial
         results, EXR and PNG images) and the report (``index.html`` and its files).
@@ -154,6 +159,10 @@ def run(scene_paths: Iterable[str | os.PathLike], out: str | os.PathLike, settin
     timeout : float, optional
         Seconds one render may take before it is stopped with one error (its browser tab or process group
         ended); default: each renderer's own limit.
+    exclude : mapping, optional
+        Scene name → renderer names that skip that scene (a scenario's ``exclude``): every spec of
+        those names (``threejs`` also drops ``threejs:shadows``) but the ground truth, which every
+        scene needs.
     renderers : iterable of Renderer, optional
         Renderer objects of this process (:mod:`compare.renderers.base`), found by
         their names in ``settings.renderers`` and ``settings.ground_truth``; a run
@@ -178,10 +187,13 @@ def run(scene_paths: Iterable[str | os.PathLike], out: str | os.PathLike, settin
         from compare.util.cache import check_cache_dir
 
         check_cache_dir(cache_dir)
-    paths = [Path(p) for p in scene_paths]
-    if not paths:
+    given = list(scene_paths)
+    if not given:
         raise ValueError("no scene given")
-    scenes = [load_scene(p) for p in paths]  # fail on a bad scene before rendering anything
+    # fail on a bad scene before rendering anything
+    scenes = [p if isinstance(p, Scene) else load_scene(Path(p)) for p in given]
+    if any(isinstance(p, Scene) for p in given):
+        executor = "serial"  # a worker would load the scene from its path, which holds no such scene
     jobs: dict[str, Scene] = {}  # by id: a scene or size given twice is done once
     for sc in scenes:
         sizes = [tuple(sz) for sz in settings.sizes] or [sc.camera.resolution]
@@ -192,10 +204,26 @@ def run(scene_paths: Iterable[str | os.PathLike], out: str | os.PathLike, settin
     with contextlib.ExitStack() as held:
         held.enter_context(folder_lock(out, "compare run"))
         _prepare_folder(out, settings, jobs, fresh=fresh, update=update, cache_dir=cache_dir)
+        plans = {sid: _renderers_for(settings, sc, exclude) for sid, sc in jobs.items()}
         if keep_going is None:
-            keep_going = len(jobs) * (1 + len(settings.renderers)) > 1
+            keep_going = sum(1 + len(p) for p in plans.values()) > 1
         return _run_held(jobs, out, settings, registry, progress=progress, cache_dir=cache_dir, fresh=fresh,
-                         report=report, gl_ctx=gl_ctx, executor=executor, keep_going=keep_going, timeout=timeout)
+                         report=report, gl_ctx=gl_ctx, executor=executor, keep_going=keep_going, timeout=timeout,
+                         plans=plans)
+
+
+def _renderers_for(settings: RunSettings, scene: Scene, exclude: Mapping[str, Iterable[str]] | None) -> list[str]:
+    """The run's renderer specs for ``scene``, without those ``exclude`` names for it (never the ground truth:
+    every scene is measured against it)."""
+    names = set((exclude or {}).get(scene.name, ()))
+    if not names:
+        return list(settings.renderers)
+    if split_spec(settings.ground_truth)[0] in names:
+        import warnings
+
+        warnings.warn(f"{scene.path}: {scene.name}: excludes {settings.ground_truth}, the ground truth of this run: "
+                      "kept, every scene is measured against it", stacklevel=3)
+    return [s for s in settings.renderers if s == settings.ground_truth or split_spec(s)[0] not in names]
 
 
 def _settings_changes(old: Results, settings: RunSettings, ids: list[str]) -> list[str]:
@@ -241,7 +269,7 @@ def _prepare_folder(out: Path, settings: RunSettings, jobs: dict, *, fresh: bool
 
 def _run_held(jobs: dict, out: Path, settings: RunSettings, registry: Registry, *, progress: bool, cache_dir,
               fresh: bool, report: bool, gl_ctx, executor, keep_going: bool = False,
-              timeout: float | None = None) -> Results:
+              timeout: float | None = None, plans: dict[str, list[str]] | None = None) -> Results:
     if isinstance(executor, str):
         from compare.run.executor import parse_executor
 
@@ -252,22 +280,34 @@ def _run_held(jobs: dict, out: Path, settings: RunSettings, registry: Registry, 
     if gl_ctx is not None:
         context.provide("gl", gl_ctx)
     facts: dict[str, str] = {}
+    plans = plans or {sid: list(settings.renderers) for sid in jobs}
+    # One SceneJob per renderer list: a scene that excludes renderers is rendered and measured with the
+    # run's settings less those renderers.
+    scene_jobs: dict[tuple[str, ...], SceneJob] = {}
+
+    def job_of(sid: str) -> SceneJob:
+        key = tuple(plans[sid])
+        if key not in scene_jobs:
+            s = settings if list(key) == list(settings.renderers) else dataclasses.replace(settings,
+                                                                                          renderers=list(key))
+            scene_jobs[key] = SceneJob(s, out, registry=registry, context=context, fresh=fresh, progress=progress,
+                                       keep_going=keep_going)
+        return scene_jobs[key]
+
     try:
-        for sc in jobs.values():  # a size no renderer can render here is refused before any work
-            for spec in dict.fromkeys([settings.ground_truth, *settings.renderers]):
+        for sid, sc in jobs.items():  # a size no renderer can render here is refused before any work
+            for spec in dict.fromkeys([settings.ground_truth, *plans[sid]]):
                 registry.get(spec).preflight(sc, context)
-        scene_job = SceneJob(settings, out, registry=registry, context=context, fresh=fresh, progress=progress,
-                             keep_going=keep_going)
-        units = len(jobs) * (1 + len(settings.renderers))
+        units = sum(1 + len(plans[sid]) for sid in jobs)
         if executor == "serial":
             with tqdm(total=units, desc="compare run", unit="unit", disable=not progress) as bar:
-                for sc in jobs.values():
-                    scene_job.render(sc, bar)
+                for sid, sc in jobs.items():
+                    job_of(sid).render(sc, bar)
         else:
             from compare.run.executor import Job, execute
 
             job_list = [Job(scene_path=str(sc.path), size=tuple(sc.camera.resolution), scene_hash=sc.hash,
-                            scene_id=sid, settings=settings.to_json(), out=str(out.resolve()),
+                            scene_id=sid, settings=job_of(sid).settings.to_json(), out=str(out.resolve()),
                             cache_dir=str(cache_dir) if isinstance(cache_dir, os.PathLike) else cache_dir,
                             fresh=fresh)
                         for sid, sc in jobs.items()]
@@ -283,15 +323,17 @@ def _run_held(jobs: dict, out: Path, settings: RunSettings, registry: Registry, 
                     # the measure stage renders here what the workers left undone, unit by unit, and records
                     # each unit that fails
                     tqdm.write(f"compare: a worker failed ({exc}); the rest renders here", file=sys.stderr)
-            scene_job.fresh = False  # the workers' fresh renders are this run's
+            for scene_job in scene_jobs.values():
+                scene_job.fresh = False  # the workers' fresh renders are this run's
         results: list[SceneResult] = []
         with tqdm(total=len(jobs), desc="metrics", unit="scene", disable=not progress) as bar:
-            for sc in jobs.values():
-                measured = scene_job.measure(sc, bar)
+            for sid, sc in jobs.items():
+                measured = job_of(sid).measure(sc, bar)
                 if measured is not None:
                     results.append(measured)
                 bar.update(1)
-        facts = {**scene_job.facts, **facts}
+        for scene_job in scene_jobs.values():
+            facts = {**scene_job.facts, **facts}
     finally:
         context.close()
 
@@ -301,7 +343,7 @@ def _run_held(jobs: dict, out: Path, settings: RunSettings, registry: Registry, 
         scenes=results,
         created=datetime.datetime.now(datetime.timezone.utc).replace(microsecond=0).isoformat().replace("+00:00", "Z"),
         compare_version=__version__,
-        failures=list(scene_job.failures),
+        failures=[f for scene_job in scene_jobs.values() for f in scene_job.failures],
     )
     _save_with_report(res, out, report)
     return res

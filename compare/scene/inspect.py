@@ -2,7 +2,7 @@
 
 Bounds, triangle and material counts, the extensions the file uses and what becomes of each,
 its maps with their sizes, its lights and cameras, and a note where the bounds are implausible
-for metres.
+for metres. A render-fidelity ``config.json`` lists its scenarios (:mod:`compare.scene.scenarios`).
 """
 
 from __future__ import annotations
@@ -75,9 +75,34 @@ def _gltf_info(path: Path) -> dict:
     return info
 
 
+def _scenarios_info(path: Path) -> dict:
+    """The scenarios of a render-fidelity ``config.json``: what each renders, without reading its files."""
+    from compare.scene.scenarios import load_scenarios
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scenarios = load_scenarios(path)
+    rows = []
+    for sc in scenarios:
+        cam = sc.camera()
+        theta, phi, radius = sc.orbit
+        rows.append({
+            "name": sc.name, "model": sc.given[0], "model_found": sc.model.is_file(),
+            "lighting": sc.given[1], "lighting_found": sc.lighting.is_file(), "size": [sc.width, sc.height],
+            "target": list(sc.target), "orbit": {"theta": theta, "phi": phi, "radius": radius},
+            "camera": {"position": list(cam.position), "forward": list(cam.forward), "up": list(cam.up),
+                       "fov": cam.fov},
+            "render_skybox": sc.render_skybox, "exclude": list(sc.exclude),
+            "excluded_renderers": list(sc.suite_excluded())})
+    return {"file": str(path), "scenarios": rows, "notes": [str(w.message) for w in caught]}
+
+
 def inspect_path(path: str | Path) -> dict:
-    """What the scene file (TOML) or glTF file ``path`` holds, as a JSON-ready dict."""
+    """What the scene file (TOML), glTF file or render-fidelity scenario file (``.json``) ``path`` holds, as
+    a JSON-ready dict."""
     path = Path(path)
+    if path.suffix.lower() == ".json":
+        return _scenarios_info(path)
     if path.suffix.lower() in (".gltf", ".glb"):
         from compare.scene.geometry import MeshFileError
         from compare.util.errors import SceneError
@@ -106,8 +131,32 @@ def inspect_path(path: str | Path) -> dict:
     return info
 
 
+def _format_scenarios(info: dict) -> str:
+    """The scenario listing of :func:`_scenarios_info` as lines."""
+    # rounding residue of the trigonometry (6e-17, -0) printed as the 0 it stands for
+    fmt = lambda v: "[" + ", ".join(f"{(x if abs(x) > 1e-12 else 0.0) + 0.0:.4g}" for x in v) + "]"  # noqa: E731
+    lines = [f"{info['file']}: {len(info['scenarios'])} scenario(s)"]
+    for row in info["scenarios"]:
+        o, c = row["orbit"], row["camera"]
+        missing = lambda key: "" if row[f"{key}_found"] else "  (not found)"  # noqa: E731
+        excluded = ", ".join(row["exclude"]) or "none"
+        lines += [f"  {row['name']}",
+                  f"    model        {row['model']}{missing('model')}",
+                  f"    lighting     {row['lighting']}{missing('lighting')}"
+                  + ("" if row["render_skybox"] else " (renderSkybox false)"),
+                  f"    size         {row['size'][0]}×{row['size'][1]}",
+                  f"    camera       orbit theta {o['theta']:g}°, phi {o['phi']:g}°, radius {o['radius']:g} m about "
+                  f"{fmt(row['target'])}: at {fmt(c['position'])} looking along {fmt(c['forward'])}, "
+                  f"fov {c['fov']:g}°",
+                  f"    exclude      {excluded} (the suite's: {', '.join(row['excluded_renderers']) or 'none'})"]
+    lines += [f"  note         {note}" for note in info.get("notes", [])]
+    return "\n".join(lines)
+
+
 def format_inspection(info: dict, indent: str = "") -> str:
     """``inspect_path``'s dict as the lines ``compare inspect`` prints."""
+    if "scenarios" in info:
+        return _format_scenarios(info)
     lo, hi = info["bounds"]
     size = np.subtract(hi, lo).tolist()
     fmt = lambda v: "[" + ", ".join(f"{x:.4g}" for x in v) + "]"  # noqa: E731

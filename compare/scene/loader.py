@@ -1,8 +1,9 @@
 """The neutral scene model every renderer reads, loaded from TOML.
 
 A scene file is data: nothing in it is executed, every path in it is resolved
-relative to the file and refused if it leaves the file's folder, and every
-error names the file and the field, e.g.::
+relative to the file (it may lead out of the file's folder; the URIs inside an
+included glTF may not leave the glTF's folder), and every error names the file
+and the field, e.g.::
 
     scenes/x.toml: lights[2].size: expected two positive numbers, got [0.5, -1]
 
