@@ -389,12 +389,38 @@ def test_glsl_vndf_sampler_matches_numpy(gl_ctx):
     assert err < 1e-5  # GLSL sin/cos of 2 pi u: a few float32 ulp of 2 pi
 
 
-def test_glsl_constants_match_python():
-    from compare.brdf.glsl import glsl_source
+def test_glsl_constants_come_from_python(gl_ctx):
+    """brdf.glsl and layers.glsl write none of the constants they share with Python: glsl_source() and
+    layers_source() write them ahead of the files with compare.brdf's values, a compiled shader reads those
+    values (rounded to float32), and either file without them stops, naming each one."""
+    from compare.brdf import coat, sheen
+    from compare.brdf.glsl import (BRDF_DEFINES, GLSL_PATH, LAYERS_DEFINES, LAYERS_GLSL_PATH, _run_pointwise,
+                                   glsl_source, layers_source)
 
-    src = glsl_source()
+    python = {"BRDF_ALPHA_MIN": brdf.ALPHA_MIN, "BRDF_COS_MIN": brdf.COS_MIN, "BRDF_DIELECTRIC_F0": brdf.DIELECTRIC_F0,
+              "BRDF_H_LEN2_MIN": brdf.H_LEN2_MIN, "BRDF_DENOM_MIN": brdf.DENOM_MIN,
+              "LAYERS_SHEEN_ALPHA_MIN": sheen.SHEEN_ALPHA_MIN, "LAYERS_SHEEN_TABLE": sheen.TABLE_SIZE,
+              "LAYERS_COAT_F0": coat.COAT_F0}
+    assert {**BRDF_DEFINES, **LAYERS_DEFINES} == python
+    for path in (GLSL_PATH, LAYERS_GLSL_PATH):
+        text = path.read_text(encoding="utf-8")
+        for name in python:
+            assert not re.search(rf"^\s*#define\s+{name}\b", text, flags=re.M), f"{path.name} writes {name}"
+    src = "#define LAYERS 1\n" + glsl_source() + layers_source()
     assert not re.search(r"^\s*#version", src, flags=re.M)
-    defines = dict(re.findall(r"^#define\s+(BRDF_\w+)\s+(\S+)", src, flags=re.M))
-    for name in ("ALPHA_MIN", "COS_MIN", "DIELECTRIC_F0", "H_LEN2_MIN"):
-        assert float(defines[f"BRDF_{name}"]) == getattr(brdf, name), name
-    assert abs(float(defines["BRDF_PI"]) - np.pi) < 1e-15
+    written = dict(re.findall(r"^#define\s+((?:BRDF|LAYERS)_\w+)\s+(\S+)$", src, flags=re.M))
+    for name, value in python.items():
+        assert float(written[name]) == value, name
+    assert written["LAYERS_SHEEN_TABLE"] == "32.0"  # a float: the texture coordinates divide by it
+    names = [*python, "BRDF_PI"]
+    body = (f"float k[{len(names)}] = float[{len(names)}]({', '.join(f'float({n})' for n in names)}); "
+            "out_value = vec4(k[p.x], 0.0, 0.0, 1.0);")
+    got = _run_pointwise(gl_ctx, body, [np.zeros((len(names), 4))], include=src)[:, 0]
+    np.testing.assert_array_equal(got, np.float32([*python.values(), np.pi]))
+    raw = {GLSL_PATH: "#define LAYERS 1\n" + GLSL_PATH.read_text(encoding="utf-8") + layers_source(),
+           LAYERS_GLSL_PATH: "#define LAYERS 1\n" + glsl_source() + LAYERS_GLSL_PATH.read_text(encoding="utf-8")}
+    for path, include in raw.items():
+        with pytest.raises(Exception) as err:
+            _run_pointwise(gl_ctx, "out_value = vec4(0.0);", [np.zeros((1, 4))], include=include)
+        for name in BRDF_DEFINES if path == GLSL_PATH else LAYERS_DEFINES:
+            assert f"{name} comes from compare/brdf/glsl.py" in str(err.value), (path.name, name)

@@ -176,6 +176,68 @@ def test_the_passes_pass_their_constants(gl_ctx):
         shaders.load_program(gl_ctx, "direct.glsl", defines)
 
 
+
+def _shared_includes() -> dict[str, tuple[str, dict]]:
+    """The shared GLSL of compare/brdf and compare/ibl: each file's include guard, and the constants its
+    package writes ahead of it."""
+    from compare import ibl
+    from compare.brdf.glsl import BRDF_DEFINES, LAYERS_DEFINES
+
+    return {"brdf.glsl": ("COMPARE_BRDF_GLSL", BRDF_DEFINES), "layers.glsl": ("COMPARE_LAYERS_GLSL", LAYERS_DEFINES),
+            "ibl.glsl": ("COMPARE_IBL_GLSL", ibl.GLSL_DEFINES)}
+
+
+def test_shared_includes_take_their_constants_from_python(gl_ctx, monkeypatch):
+    """brdf.glsl, layers.glsl and ibl.glsl write none of the constants they share with Python: every program
+    that includes one gets them ahead of it, with the values of the Python that owns them, a compiled program
+    has them, and without them the files stop, naming each one."""
+    from compare import brdf, ibl
+    from compare.brdf import coat, sheen
+    from compare.brdf.glsl import glsl_define
+    from compare.progressive.environment import environment
+
+    shared = _shared_includes()
+    assert {k: v for _, defines in shared.values() for k, v in defines.items()} == {
+        "BRDF_ALPHA_MIN": brdf.ALPHA_MIN, "BRDF_COS_MIN": brdf.COS_MIN, "BRDF_DIELECTRIC_F0": brdf.DIELECTRIC_F0,
+        "BRDF_H_LEN2_MIN": brdf.H_LEN2_MIN, "BRDF_DENOM_MIN": brdf.DENOM_MIN,
+        "LAYERS_SHEEN_ALPHA_MIN": sheen.SHEEN_ALPHA_MIN, "LAYERS_SHEEN_TABLE": float(sheen.TABLE_SIZE),
+        "LAYERS_COAT_F0": coat.COAT_F0, "ENV_MAX_LEVELS": ibl.MAX_LEVELS}
+    assert environment.MAX_LEVELS is ibl.MAX_LEVELS  # the rasterizer checks ibl_levels against the GLSL's limit
+    files = {**_glsl_files(), **{p.name: p for d in ("brdf", "ibl") for p in (ROOT / "compare" / d).glob("*.glsl")}}
+    for name, p in files.items():
+        text = p.read_text(encoding="utf-8")
+        for _, defines in shared.values():
+            for constant in defines:
+                assert not re.search(rf"^\s*#define\s+{constant}\b", text, flags=re.M), (
+                    f"{name} writes {constant}: it comes from Python as a define")
+    for include, (_, defines) in shared.items():
+        for constant in defines:
+            assert re.search(rf"#ifndef {constant}\n#error {constant} ", files[include].read_text(encoding="utf-8"))
+    # Every program that includes one of them, through the loader: the defines come just ahead of the file.
+    for program in sorted(_programs()):
+        text = shaders.shader_source(program, "FRAGMENT_SHADER", {"BATCH": 1})
+        raw = files[program].read_text(encoding="utf-8")
+        for include, (guard, defines) in shared.items():
+            if f'#include "{include}"' in raw:
+                assert f"#ifndef {guard}\n" in text, f"{program} includes {include}, its text has no {guard}"
+            if f"#ifndef {guard}\n" in text:
+                head = text[:text.index(f"#ifndef {guard}\n")].splitlines()
+                for constant, value in defines.items():
+                    assert glsl_define(constant, value) in head, f"{program}: {include} without {constant}"
+    env = types.SimpleNamespace(defines=lambda materials: {"ENV_OCTAHEDRAL": 0, "ENV_RGBM": 0, "ENV_DIFFUSE_SH9": 0,
+                                                           "MATERIALS_DIFFUSE": 0})
+    occlusion = environment.EnvOcclusionPass(gl_ctx, env, layers=True)
+    try:
+        assert occlusion.program["u_env_levels"].array_length == ibl.MAX_LEVELS
+    finally:
+        occlusion.release()
+    monkeypatch.setattr(shaders, "_generated", lambda name: shaders._find(name).read_text(encoding="utf-8"))
+    with pytest.raises(RuntimeError) as err:
+        environment.EnvOcclusionPass(gl_ctx, env, layers=True)
+    for _, defines in shared.values():
+        for constant in defines:
+            assert f"{constant} comes from compare/" in str(err.value), constant
+
 # -- the G-buffer preamble -------------------------------------------------------------------------
 
 GBUFFER_SAMPLERS = ("u_position", "u_normal", "u_material", "u_emission")

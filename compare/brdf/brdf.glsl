@@ -1,8 +1,8 @@
 // glTF 2.0 metallic-roughness BRDF: the GLSL form of compare/brdf/__init__.py.
 //
-// Included by text substitution (compare.brdf.glsl.glsl_source()); no #version line,
-// functions and #defines only, GLSL 3.30 core. Every formula, clamp and constant
-// mirrors the numpy reference; read its module docstring for the model and the
+// Included by text substitution (compare.brdf.glsl.glsl_source(), which writes the constants
+// ahead of it); no #version line, functions and #defines only, GLSL 3.30 core. Every formula
+// and clamp mirrors the numpy reference; read its module docstring for the model and the
 // references. tests/test_brdf_agreement.py renders this file and compares it.
 //
 //   f = F D V + (1 - m) (1 - F_d) c / pi       (glTF 2.0 appendix B, expanded)
@@ -14,11 +14,22 @@
 #define COMPARE_BRDF_GLSL
 
 #define BRDF_PI 3.14159265358979323846
-#define BRDF_ALPHA_MIN 0.002025
-#define BRDF_COS_MIN 1e-4
-#define BRDF_DIELECTRIC_F0 0.04
-#define BRDF_H_LEN2_MIN 1e-12
-#define BRDF_DENOM_MIN 1e-30
+// compare/brdf/__init__.py's constants, written ahead of this file by glsl_source() (BRDF_DEFINES).
+#ifndef BRDF_ALPHA_MIN
+#error BRDF_ALPHA_MIN comes from compare/brdf/glsl.py (compare.brdf.ALPHA_MIN) as a define
+#endif
+#ifndef BRDF_COS_MIN
+#error BRDF_COS_MIN comes from compare/brdf/glsl.py (compare.brdf.COS_MIN) as a define
+#endif
+#ifndef BRDF_DIELECTRIC_F0
+#error BRDF_DIELECTRIC_F0 comes from compare/brdf/glsl.py (compare.brdf.DIELECTRIC_F0) as a define
+#endif
+#ifndef BRDF_H_LEN2_MIN
+#error BRDF_H_LEN2_MIN comes from compare/brdf/glsl.py (compare.brdf.H_LEN2_MIN) as a define
+#endif
+#ifndef BRDF_DENOM_MIN
+#error BRDF_DENOM_MIN comes from compare/brdf/glsl.py (compare.brdf.DENOM_MIN) as a define
+#endif
 
 // GGX alpha from perceptual roughness: max(clamp(r, 0, 1)^2, BRDF_ALPHA_MIN).
 float brdf_alpha_from_roughness(float roughness) {

@@ -7,19 +7,28 @@
 
 Its public functions: ``brdf_eval``, ``brdf_eval_lobes``, ``brdf_geometry``, ``brdf_ggx_d``,
 ``brdf_smith_v_height_correlated``, ``brdf_fresnel_schlick``,
-``brdf_alpha_from_roughness``, ``brdf_sample_ggx_vndf``; constants
-``BRDF_ALPHA_MIN``, ``BRDF_COS_MIN``, ``BRDF_DIELECTRIC_F0``, ``BRDF_H_LEN2_MIN``
-(the same values as :mod:`compare.brdf`).
+``brdf_alpha_from_roughness``, ``brdf_sample_ggx_vndf``. Its constants are Python's, never written in the
+``.glsl``: :func:`glsl_source` writes :data:`BRDF_DEFINES` (``BRDF_ALPHA_MIN`` … from :mod:`compare.brdf`)
+ahead of the file, :func:`layers_source` :data:`LAYERS_DEFINES` ahead of ``layers.glsl``, and each file
+stops with ``#error`` without them. :func:`glsl_define` writes a define as GLSL reads it, for every
+shader source of the package.
 """
 
 from __future__ import annotations
 
-import numpy as np
-
+import math
 from functools import lru_cache
 from pathlib import Path
+from typing import Mapping
 
-__all__ = ["GLSL_PATH", "LAYERS_GLSL_PATH", "eval_brdf_gl", "eval_layered_gl", "glsl_source", "sample_ggx_vndf_gl"]
+import numpy as np
+
+from compare.brdf import ALPHA_MIN, COS_MIN, DENOM_MIN, DIELECTRIC_F0, H_LEN2_MIN
+from compare.brdf.coat import COAT_F0
+from compare.brdf.sheen import SHEEN_ALPHA_MIN, TABLE_SIZE
+
+__all__ = ["BRDF_DEFINES", "GLSL_PATH", "LAYERS_DEFINES", "LAYERS_GLSL_PATH", "eval_brdf_gl", "eval_layered_gl",
+           "glsl_define", "glsl_source", "layers_source", "sample_ggx_vndf_gl", "with_defines"]
 
 #: The include file.
 GLSL_PATH = Path(__file__).with_name("brdf.glsl")
@@ -27,11 +36,47 @@ GLSL_PATH = Path(__file__).with_name("brdf.glsl")
 LAYERS_GLSL_PATH = Path(__file__).with_name("layers.glsl")
 
 
+#: The constants brdf.glsl takes from :mod:`compare.brdf` (BRDF_PI is pi, not a setting: the file writes it).
+BRDF_DEFINES = {"BRDF_ALPHA_MIN": ALPHA_MIN, "BRDF_COS_MIN": COS_MIN, "BRDF_DIELECTRIC_F0": DIELECTRIC_F0,
+                "BRDF_H_LEN2_MIN": H_LEN2_MIN, "BRDF_DENOM_MIN": DENOM_MIN}
+#: The constants layers.glsl takes from :mod:`compare.brdf.sheen` and :mod:`compare.brdf.coat`; the table's size
+#: as a float, as the texture coordinates use it.
+LAYERS_DEFINES = {"LAYERS_SHEEN_ALPHA_MIN": SHEEN_ALPHA_MIN, "LAYERS_SHEEN_TABLE": float(TABLE_SIZE),
+                  "LAYERS_COAT_F0": COAT_F0}
+
+
+def glsl_define(key: str, value) -> str:
+    """``#define key value`` as GLSL reads it: a float keeps its point (``16.0``, not ``16``, which GLSL reads
+    as an int), False is 0, and None or True define ``key`` without a value."""
+    if value is None or value is True:
+        return f"#define {key}"
+    if isinstance(value, (float, np.floating)):
+        if not math.isfinite(value):
+            raise ValueError(f"#define {key}: {value!r} has no GLSL literal")
+        literal = repr(float(value))
+    else:
+        literal = str(int(value)) if isinstance(value, (bool, np.integer)) else str(value)
+    return f"#define {key} {literal}"
+
+
+def with_defines(path: Path, defines: Mapping[str, object]) -> str:
+    """Text of the include ``path`` with ``defines`` ahead of it, ending in a newline."""
+    text = path.read_text(encoding="utf-8")
+    head = "".join(glsl_define(key, value) + "\n" for key, value in defines.items())
+    return head + (text if text.endswith("\n") else text + "\n")
+
+
 @lru_cache(maxsize=1)
 def glsl_source() -> str:
-    """Text of ``brdf.glsl`` (GLSL 3.30, no ``#version`` line), ending in a newline."""
-    text = GLSL_PATH.read_text(encoding="utf-8")
-    return text if text.endswith("\n") else text + "\n"
+    """Text of ``brdf.glsl`` (GLSL 3.30, no ``#version`` line) with :data:`BRDF_DEFINES` ahead of it, ending
+    in a newline."""
+    return with_defines(GLSL_PATH, BRDF_DEFINES)
+
+
+@lru_cache(maxsize=1)
+def layers_source() -> str:
+    """Text of ``layers.glsl`` with :data:`LAYERS_DEFINES` ahead of it; it goes after :func:`glsl_source`."""
+    return with_defines(LAYERS_GLSL_PATH, LAYERS_DEFINES)
 
 
 # -- evaluating the include on the GPU (tests, debugging) --------------------------------
@@ -198,5 +243,5 @@ def eval_layered_gl(ctx, n, v, l, base_color, metallic, roughness, *, ior=1.5, s
               f"{float(clearcoat_roughness):.9g}, {vec3(sheen_color)}, {float(sheen_roughness):.9g})")
     body = (f"vec3 s; vec3 dd; brdf_eval_layered(a.xyz, b.xyz, c.xyz, d.xyz, a.w, b.w, {layers}, s, dd); "
             "out_value = vec4(s + dd, 1.0);")
-    include = "#define LAYERS 1\n" + glsl_source() + LAYERS_GLSL_PATH.read_text(encoding="utf-8")
+    include = "#define LAYERS 1\n" + glsl_source() + layers_source()
     return _run_pointwise(ctx, body, inputs, include=include, tables={"u_sheen_albedo": sheen_tables()})[:, :3]

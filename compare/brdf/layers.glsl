@@ -28,9 +28,17 @@
 #endif
 
 #if LAYERS
-#define LAYERS_SHEEN_ALPHA_MIN 0.01
-#define LAYERS_SHEEN_TABLE 32.0
-#define LAYERS_COAT_F0 BRDF_DIELECTRIC_F0  // the coat's IOR 1.5 (compare.brdf.coat.COAT_F0)
+// compare/brdf/sheen.py's and coat.py's constants, written ahead of this file by layers_source()
+// (compare.brdf.glsl.LAYERS_DEFINES).
+#ifndef LAYERS_SHEEN_ALPHA_MIN
+#error LAYERS_SHEEN_ALPHA_MIN comes from compare/brdf/glsl.py (compare.brdf.sheen.SHEEN_ALPHA_MIN) as a define
+#endif
+#ifndef LAYERS_SHEEN_TABLE
+#error LAYERS_SHEEN_TABLE comes from compare/brdf/glsl.py (compare.brdf.sheen.TABLE_SIZE) as a define
+#endif
+#ifndef LAYERS_COAT_F0
+#error LAYERS_COAT_F0 comes from compare/brdf/glsl.py (compare.brdf.coat.COAT_F0, the coat's IOR 1.5) as a define
+#endif
 
 struct MaterialLayers {
     vec3 f0;                    // dielectric F0, min(((ior - 1) / (ior + 1))^2 specular_color, 1)
@@ -49,7 +57,8 @@ float layers_max3(vec3 c) {
     return max(c.r, max(c.g, c.b));
 }
 
-// (E, M)(mu, r): bilinear between the table's grid points (mu, r in [0, 1], grid at i / 31).
+// (E, M)(mu, r): bilinear between the table's grid points (mu, r in [0, 1], grid at
+// i / (LAYERS_SHEEN_TABLE - 1)).
 vec2 sheen_tables(float mu, float r) {
     vec2 t = (clamp(vec2(r, mu), 0.0, 1.0) * (LAYERS_SHEEN_TABLE - 1.0) + 0.5) / LAYERS_SHEEN_TABLE;
     return textureLod(u_sheen_albedo, t, 0.0).rg;

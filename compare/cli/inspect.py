@@ -28,7 +28,10 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     """``compare inspect``; returns 0."""
     from compare.scene.inspect import format_inspection, inspect_path
 
-    info = inspect_path(args.scene)
+    from compare.renderers.registry import Registry
+
+    info = inspect_path(args.scene, renderers=tuple(Registry().names()) if args.scene.suffix.lower() == ".json"
+                        else ())
     from compare.util.text import terminal_text
 
     # JSON escapes control characters itself; the text names what the file says, made inert for the terminal

@@ -16,7 +16,8 @@ The GLSL that reads all of it lives here too: ``mapping.glsl`` (the
 equirectangular, cube-face and octahedral mappings, mirroring
 :mod:`compare.scene.environments`, :mod:`compare.ibl.cubemap` and
 :mod:`compare.image.encodings`) and ``ibl.glsl`` (background, prefiltered lookup,
-irradiance, split sum). :mod:`compare.ibl.groundtruth` is the brute-force
+irradiance, split sum; :func:`glsl_source` writes its constants, :data:`GLSL_DEFINES`, ahead of it).
+:mod:`compare.ibl.groundtruth` is the brute-force
 reference of the same integral and :mod:`compare.bench.ibl_accuracy` the benchmark
 (``python -m compare.bench.ibl_accuracy``).
 
@@ -38,6 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
+from compare.brdf.glsl import with_defines
 from compare.util.files import atomic_path, sha256_bytes
 from compare.ibl.atlas import ENV_FORMATS, Atlas, build_atlas
 from compare.ibl.cubemap import padded_directions
@@ -45,8 +47,8 @@ from compare.ibl.irradiance import convolve_irradiance, sh9_project
 from compare.ibl.lut import split_sum_lut
 from compare.ibl.prefilter import level_roughness, level_sizes, prefilter as _prefilter, source_chain
 
-__all__ = ["DEFAULT_LEVELS", "DEFAULT_SAMPLES", "DEFAULT_SIZE", "ENV_FORMATS", "IBL", "IBL_VERSION", "Atlas",
-           "build_atlas", "preprocess", "split_sum"]
+__all__ = ["DEFAULT_LEVELS", "DEFAULT_SAMPLES", "DEFAULT_SIZE", "ENV_FORMATS", "GLSL_DEFINES", "GLSL_PATH", "IBL",
+           "IBL_VERSION", "MAX_LEVELS", "Atlas", "build_atlas", "glsl_source", "preprocess", "split_sum"]
 
 #: Bumped whenever preprocessing changes its output (part of every cache key).
 IBL_VERSION = 1
@@ -54,6 +56,8 @@ IBL_VERSION = 1
 DEFAULT_SIZE = 128
 #: Prefiltered levels (the paper's public code: 9, roughness i/8).
 DEFAULT_LEVELS = 9
+#: Largest number of prefiltered levels ibl.glsl accepts (the length of its u_env_levels).
+MAX_LEVELS = 12
 #: GGX samples per prefiltered texel (the paper's public code: 512).
 DEFAULT_SAMPLES = 512
 #: Face size of the convolved irradiance cube.
@@ -61,6 +65,14 @@ DEFAULT_IRRADIANCE_SIZE = 16
 #: Split-sum LUT resolution and samples per texel.
 DEFAULT_LUT_SIZE = 32
 DEFAULT_LUT_SAMPLES = 1024
+#: The environment lighting's GLSL, and the constants it takes from Python.
+GLSL_PATH = Path(__file__).with_name("ibl.glsl")
+GLSL_DEFINES = {"ENV_MAX_LEVELS": MAX_LEVELS}
+
+
+def glsl_source() -> str:
+    """Text of ``ibl.glsl`` with :data:`GLSL_DEFINES` ahead of it (no ``#version`` line)."""
+    return with_defines(GLSL_PATH, GLSL_DEFINES)
 
 
 @dataclass

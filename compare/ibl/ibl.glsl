@@ -18,7 +18,10 @@
 #ifndef COMPARE_IBL_GLSL
 #define COMPARE_IBL_GLSL
 
-#define ENV_MAX_LEVELS 12
+// compare.ibl.MAX_LEVELS, written ahead of this file by compare.ibl.glsl_source().
+#ifndef ENV_MAX_LEVELS
+#error ENV_MAX_LEVELS comes from compare/ibl/__init__.py (MAX_LEVELS) as a define
+#endif
 
 uniform sampler2D u_env_map;
 uniform vec2 u_env_map_size;

@@ -15,7 +15,18 @@ Geometry
     :class:`~compare.scene.loader.Mesh` with ``shape = "gltf"``, its node's world
     matrix times the include's own transform. Missing normals get flat face
     normals (the glTF rule); zero or non-finite normals are replaced by
-    area-weighted ones. Skins and morph targets are ignored (bind pose).
+    area-weighted ones.
+Morph targets and skins (:mod:`compare.scene.gltf_pose`)
+    The pose the file gives without animation. Morph targets at their default
+    weights (the node's ``weights``, else the mesh's, else 0): POSITION, NORMAL,
+    TANGENT, TEXCOORD_0 and COLOR_0 = base + Σ wᵢ · targetᵢ (a target's count
+    must be the base's, one finite weight per target). A node with a ``skin``:
+    each vertex moved by Σ wⱼ · (joint j's world matrix · its inverse bind
+    matrix) over JOINTS_n / WEIGHTS_n (every set; identity without
+    ``inverseBindMatrices``), normals by the inverse transpose, faces turned
+    where the blend mirrors them; the node's own transform does not apply (glTF),
+    so the part's matrix is the identity. Bad indices, weights or counts are one
+    error naming the field.
 Materials
     ``pbrMetallicRoughness`` factors map one to one (the scene model *is* glTF's
     material model). ``alphaMode`` MASK with ``alphaCutoff`` and the alpha of
@@ -26,8 +37,8 @@ Materials
     magFilter become the material's texture settings (one per material: the base
     colour map's, with a note when its maps differ).
     ``occlusionTexture`` and its strength are the occlusion map, ``normalTexture`` and its scale the
-    normal map; tangents are generated from the UVs (:func:`compare.scene.geometry.vertex_tangents`), a
-    file's ``TANGENT`` attribute is not read. Primitives without a material get glTF's
+    normal map; their tangents are the file's ``TANGENT``, else MikkTSpace's (:mod:`compare.scene.tangents`).
+    Primitives without a material get glTF's
     default material (white, metallic 1, roughness 1). Textures: the base
     colour and metallic-roughness images become the material's texture files
     (external images are checked to stay inside the scene's folder; images
@@ -37,6 +48,12 @@ Materials
     than 1 is baked into its map (:func:`compare.scene.textures.factor_map`, a linear EXR in
     the cache). Names are ``<prefix><material name>``, and a TOML
     ``[materials."<prefix><name>"]`` of the same name replaces the imported one.
+    ``KHR_materials_pbrSpecularGlossiness`` is converted as glTF-Transform's
+    ``metalRough()`` does (:mod:`compare.scene.gltf_specgloss`): diffuse → base
+    colour, metallic 0, roughness 1 − glossiness (a map of it baked from the
+    specular-glossiness map's alpha), specular → ``KHR_materials_specular``'s colour
+    (and its map's RGB) with ior 1000; its fallback ``pbrMetallicRoughness`` is not
+    read, and the notes say the extension was converted.
 Emissive quads
     A primitive that is a planar rectangle (two triangles, four corners, right
     angles) with an emissive material without an emission map becomes a one-sided rectangular
@@ -76,7 +93,7 @@ from typing import Any
 
 import numpy as np
 
-from compare.scene import geometry
+from compare.scene import geometry, gltf_pose, gltf_specgloss
 from compare.scene.model import LAYER_MAPS, LAYERS
 from compare.scene.gltf_decode import DECODED_EXTENSIONS, DecodeError, decoded_glb, used
 from compare.scene.glb import GlbError, parse_glb
@@ -90,6 +107,9 @@ TYPE_SIZES = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9
 #: refused; others it merely uses are ignored with one warning.
 SUPPORTED_EXTENSIONS = ("KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_mesh_quantization",
                         "KHR_texture_transform", *dict.fromkeys(layer.extension for layer in LAYERS))
+#: Extensions converted into the scene model's terms: name → what becomes of it.
+CONVERTED_EXTENSIONS = {gltf_specgloss.EXTENSION: "converted to metallic-roughness with KHR_materials_specular and "
+                                                  "KHR_materials_ior (glTF-Transform's metalRough)"}
 #: Components an accessor without a bufferView (zeros, or sparse) may have: 2^28, a billion bytes as float32.
 MAX_ZERO_ELEMENTS = 1 << 28
 #: Maps of the material extensions read apart from LAYER_MAPS (the coat's own normal map).
@@ -186,7 +206,8 @@ class GltfDocument:
     primitives: list[GltfPrimitive]
     materials: list[GltfMaterial]
     images: list[Path | None]
-    """Per glTF image: a readable file (external, or extracted to the cache), None if unusable."""
+    """Per glTF image: a readable file (external, or extracted to the cache), None if unusable; then the maps
+    the reader derives from them (a spec-gloss material's roughness), which materials name by index too."""
     cameras: list[GltfCamera]
     lights: list[GltfLight]
     files: list[Path] = field(default_factory=list)
@@ -197,8 +218,8 @@ class GltfDocument:
 
     def extension_fates(self) -> dict[str, str]:
         """What becomes of each extension of the file: read, decoded (by what), or ignored."""
-        return {e: ("read" if e in SUPPORTED_EXTENSIONS else
-                    DECODED_EXTENSIONS[e] if e in DECODED_EXTENSIONS else "ignored") for e in self.extensions}
+        return {e: ("read" if e in SUPPORTED_EXTENSIONS else DECODED_EXTENSIONS.get(e) or CONVERTED_EXTENSIONS.get(e)
+                    or "ignored") for e in self.extensions}
 
 
 # ----------------------------------------------------------------------------- reading
@@ -225,13 +246,18 @@ class _Reader:
         if not version.startswith("2."):
             raise self.err("asset.version", f"only glTF 2.x is supported, got {version or 'none'!r}")
         self.extensions = sorted(set(self.doc.get("extensionsUsed", [])) | set(self.doc.get("extensionsRequired", [])))
-        known = set(SUPPORTED_EXTENSIONS) | set(DECODED_EXTENSIONS)
+        known = set(SUPPORTED_EXTENSIONS) | set(DECODED_EXTENSIONS) | set(CONVERTED_EXTENSIONS)
         required = [e for e in self.doc.get("extensionsRequired", []) if e not in known]
         if required:
             raise self.err("extensionsRequired", f"unsupported required extension(s): {', '.join(required)}")
         ignored = sorted(set(self.doc.get("extensionsUsed", [])) - known)
         if ignored:
             self.notes.append(f"ignored extension(s): {', '.join(ignored)}")
+        for e in sorted(set(self.extensions) & set(CONVERTED_EXTENSIONS)):
+            self.notes.append(f"{e}: {CONVERTED_EXTENSIONS[e]}")
+        #: Per glTF image its usable file (None: unusable), then the maps derived from them (materials name both
+        #: by index): filled by _read_document before the materials are read.
+        self.images: list[Path | None] = []
         self._buffers: dict[int, bytes] = {}
         self.decoded: list[str] = used(self.doc)
         if self.decoded:
@@ -299,7 +325,7 @@ class _Reader:
 
         full = (self.path.parent / unquote(uri)).resolve()
         if not full.is_relative_to(self.root):
-            raise self.err(where, f"uri {uri!r} leaves the scene file's folder {self.root}")
+            raise self.err(where, f"uri {uri!r} leaves the glTF file's folder {self.root}")
         if not full.is_file():
             raise self.err(where, f"file {uri!r} not found (looked for {full})")
         if full not in self.files:
@@ -401,7 +427,11 @@ class _Reader:
 
     # -- parts ----------------------------------------------------------------------------
 
-    def primitive(self, mesh_index: int, k: int, prim: dict) -> TriangleMesh | None:
+    def primitive(self, mesh_index: int, k: int, prim: dict, weights: tuple = (),
+                  skin: np.ndarray | None = None) -> TriangleMesh | None:
+        """One primitive's triangles, morphed at ``weights`` (one per target) and, with ``skin`` (its node's
+        joint matrices, :func:`compare.scene.gltf_pose.skin_matrices`), posed in the glTF's world space; None
+        for points and lines."""
         w = f"meshes[{mesh_index}].primitives[{k}]"
         mode = prim.get("mode", 4)
         if mode not in (4, 5, 6):
@@ -416,6 +446,8 @@ class _Reader:
         if not np.all(np.isfinite(p)):
             raise self.err(f"{w}.attributes.POSITION", "non-finite vertex positions")
         nv = len(p)
+        deltas = gltf_pose.morph_deltas(self, prim, w, nv, weights)
+        p = p + deltas.get("POSITION", 0.0)
         if "indices" in prim:
             idx = self.accessor(prim["indices"], f"{w}.indices")[:, 0]
             if len(idx) and (idx.min() < 0 or idx.max() >= nv):
@@ -435,14 +467,31 @@ class _Reader:
         if len(tri) == 0:
             self.notes.append(f"{w}: no triangles")
             return None
-        uv = (self.accessor(attrs["TEXCOORD_0"], f"{w}.attributes.TEXCOORD_0")
+        uv = (self.accessor(attrs["TEXCOORD_0"], f"{w}.attributes.TEXCOORD_0") + deltas.get("TEXCOORD_0", 0.0)
               if "TEXCOORD_0" in attrs else np.zeros((nv, 2)))
         if "TEXCOORD_0" not in attrs and self._has_maps(prim.get("material")):
             self.notes.append(f"{w}: its material has texture maps but the primitive has no TEXCOORD_0: "
                               f"every map is read at texture coordinate (0, 0)")
-        colors = self._colors(attrs, w, nv)
+        colors = self._colors(attrs, w, nv, deltas.get("COLOR_0"))
+        n = tangents = None
         if "NORMAL" in attrs:
-            n = self.accessor(attrs["NORMAL"], f"{w}.attributes.NORMAL")
+            n = self.accessor(attrs["NORMAL"], f"{w}.attributes.NORMAL") + deltas.get("NORMAL", 0.0)
+            tangents = self._tangents(attrs, w, nv)
+            if tangents is not None and "TANGENT" in deltas:
+                tangents[:, :3] += deltas["TANGENT"]
+        if skin is not None:
+            p, n, tangents, mirrored = gltf_pose.skinned(self, attrs, w, nv, skin, p, n, tangents)
+            # a mirroring pose turns the faces it mirrors (glTF's rule for a node transform, per vertex here)
+            tri = np.where((mirrored[tri].sum(axis=1) >= 2)[:, None], tri[:, ::-1], tri)
+            if not np.all(np.isfinite(p)):
+                raise self.err(f"{w}.attributes.POSITION", "non-finite vertex positions after skinning")
+        if tangents is not None and (deltas or skin is not None):
+            length = np.linalg.norm(tangents[:, :3], axis=1)
+            if not (length > 1e-12).all():
+                raise self.err(f"{w}.attributes.TANGENT", f"{int((~(length > 1e-12)).sum())} tangents of zero "
+                                                          "length after its morph targets or skin")
+            tangents[:, :3] /= length[:, None]
+        if n is not None:
             length = np.linalg.norm(n, axis=1)
             bad = ~(np.isfinite(length) & (length > 1e-12))
             if bad.any():
@@ -450,7 +499,7 @@ class _Reader:
                 n[bad] = geometry.vertex_normals(p, tri)[bad]
                 length = np.linalg.norm(n, axis=1)
             n = n / length[:, None]
-            return geometry._mesh(p, n, uv, tri, colors, self._tangents(attrs, w, nv))
+            return geometry._mesh(p, n, uv, tri, colors, tangents)
         # glTF: without normals, flat shading. Unweld so every triangle has its own face normal.
         pa, pb, pc = p[tri[:, 0]], p[tri[:, 1]], p[tri[:, 2]]
         fn = np.cross(pb - pa, pc - pa)
@@ -478,8 +527,9 @@ class _Reader:
             raise self.err(where, "w must be 1 or -1 (the bitangent's sign)")
         return np.concatenate([t[:, :3] / length[:, None], t[:, 3:]], axis=1)
 
-    def _colors(self, attrs: dict, w: str, nv: int) -> np.ndarray | None:
-        """COLOR_0 as linear RGBA (nv, 4), alpha 1 for VEC3; None without it (or where it is all white)."""
+    def _colors(self, attrs: dict, w: str, nv: int, delta: np.ndarray | None = None) -> np.ndarray | None:
+        """COLOR_0 as linear RGBA (nv, 4), alpha 1 for VEC3, plus its morph targets' ``delta`` (clamped to
+        [0, 1], with a note where it leaves that range); None without it (or where it is all white)."""
         if "COLOR_0" not in attrs:
             return None
         where = f"{w}.attributes.COLOR_0"
@@ -492,6 +542,12 @@ class _Reader:
             raise self.err(where, "colours must be finite and in [0, 1] (glTF's COLOR_0 is linear RGB(A))")
         if c.shape[1] == 3:
             c = np.concatenate([c, np.ones((len(c), 1))], axis=1)
+        if delta is not None:
+            c = c + delta
+            outside = ((c < 0.0) | (c > 1.0)).any(axis=1)
+            if outside.any():
+                self.notes.append(f"{where}: morphed colours of {int(outside.sum())} vertices leave [0, 1]; clamped")
+                c = np.clip(c, 0.0, 1.0)
         return None if np.all(c == 1.0) else c.astype(np.float32)
 
     def _has_maps(self, index) -> bool:
@@ -500,15 +556,23 @@ class _Reader:
             return False
         m = self.item("materials", index, "material")
         pbr = m.get("pbrMetallicRoughness", {})
+        sg = m.get("extensions", {}).get(gltf_specgloss.EXTENSION, {})
         return (any(k in pbr for k in ("baseColorTexture", "metallicRoughnessTexture"))
                 or any(k in m for k in ("normalTexture", "occlusionTexture", "emissiveTexture"))
+                or (isinstance(sg, dict) and any(k in sg for k in ("diffuseTexture", "specularGlossinessTexture")))
                 or m.get("alphaMode") == "MASK")
 
     def material(self, index: int) -> GltfMaterial:
         m = self.item("materials", index, "material")
         w = f"materials[{index}]"
-        pbr = m.get("pbrMetallicRoughness", {})
-        base = pbr.get("baseColorFactor", [1.0, 1.0, 1.0, 1.0])
+        exts = m.get("extensions", {}) if isinstance(m.get("extensions", {}), dict) else {}
+        sg = exts.get(gltf_specgloss.EXTENSION)
+        sg_where = f"{w}.extensions.{gltf_specgloss.EXTENSION}"
+        if sg is not None:
+            diffuse, specular, glossiness = gltf_specgloss.factors(sg, sg_where, self.err)
+        # a spec-gloss material's pbrMetallicRoughness is the fallback of readers without the extension
+        pbr = m.get("pbrMetallicRoughness", {}) if sg is None else {}
+        base = pbr.get("baseColorFactor", [1.0, 1.0, 1.0, 1.0]) if sg is None else diffuse
         if not (isinstance(base, list) and len(base) == 4):
             raise self.err(f"{w}.pbrMetallicRoughness.baseColorFactor", f"expected four numbers, got {base!r}")
         mode = m.get("alphaMode", "OPAQUE")
@@ -531,14 +595,15 @@ class _Reader:
 
         sampling: list[tuple[str, tuple]] = []  # (texture key, its transform and sampler) of each map
 
-        def image(key: str, table: dict | None = None) -> int | None:
+        def image(key: str, table: dict | None = None, ext: str | None = None) -> int | None:
             info = (pbr if table is None else table).get(key)
             if info is None:
                 return None
             xf = info.get("extensions", {}).get("KHR_texture_transform", {})
             if info.get("texCoord", 0) != 0 or xf.get("texCoord", 0) != 0:
                 self.notes.append(f"{w}.{key}: only TEXCOORD_0 is supported")
-            where = f"{w}.pbrMetallicRoughness.{key}" if table is None else f"{w}.{key}"
+            where = (f"{w}.pbrMetallicRoughness.{key}" if table is None else
+                     f"{w}.extensions.{ext}.{key}" if ext else f"{w}.{key}")
             tex = self.item("textures", info.get("index", -1), f"{where}.index")
             sampler = self.item("samplers", tex["sampler"], f"{where}: texture sampler") if "sampler" in tex else {}
             wrap_s, wrap_t = sampler.get("wrapS", 10497), sampler.get("wrapT", 10497)
@@ -561,23 +626,29 @@ class _Reader:
             return src
 
         clamp = lambda v: min(max(float(v), 0.0), 1.0)  # noqa: E731
-        images = dict(base_color_image=image("baseColorTexture"),
-                      metallic_roughness_image=image("metallicRoughnessTexture"),
-                      emissive_image=image("emissiveTexture", m),
+        if sg is None:
+            maps = dict(base_color_image=image("baseColorTexture"),
+                        metallic_roughness_image=image("metallicRoughnessTexture"))
+            metallic, roughness = clamp(pbr.get("metallicFactor", 1.0)), clamp(pbr.get("roughnessFactor", 1.0))
+        else:
+            maps, roughness, sg_layers, sg_layer_images = gltf_specgloss.terms(self, sg, sg_where, image, specular,
+                                                                               glossiness)
+            metallic = 0.0
+        images = dict(**maps, emissive_image=image("emissiveTexture", m),
                       occlusion_image=image("occlusionTexture", m),
                       normal_image=image("normalTexture", m))
-        exts = m.get("extensions", {}) if isinstance(m.get("extensions", {}), dict) else {}
         layer_images = []
         for ext in dict.fromkeys(layer.extension for layer in LAYERS):
             table = exts.get(ext)
             for key, (fld, channel) in LAYER_MAPS.items():
                 if isinstance(table, dict) and key in table:
-                    src = image(key, table)
+                    src = image(key, table, ext)
                     if src is not None:
                         layer_images.append((fld, channel, src))
         coat = exts.get("KHR_materials_clearcoat")
         coat_normal = coat.get("clearcoatNormalTexture") if isinstance(coat, dict) else None
-        coat_normal_image = image("clearcoatNormalTexture", coat) if isinstance(coat_normal, dict) else None
+        coat_normal_image = (image("clearcoatNormalTexture", coat, "KHR_materials_clearcoat")
+                             if isinstance(coat_normal, dict) else None)
         coat_normal_scale = coat_normal.get("scale", 1.0) if isinstance(coat_normal, dict) else 1.0
         if isinstance(coat_normal_scale, bool) or not isinstance(coat_normal_scale, (int, float)) \
                 or not math.isfinite(coat_normal_scale):
@@ -589,14 +660,23 @@ class _Reader:
         if any(s != sampling[0][1] for _, s in sampling[1:]):
             self.notes.append(f"{w}: its maps have different texture transforms or samplers; "
                               f"{sampling[0][0]}'s is used for all")
+        layers = self._layers(m, w)
+        if sg is not None:  # the conversion sets KHR_materials_specular and _ior (which must not sit beside it)
+            clash = sorted({f for f in layers if f in gltf_specgloss.SETS}
+                           | {f for f, _, _ in layer_images if f in gltf_specgloss.SETS})
+            if clash:
+                self.notes.append(f"{w}: its own {', '.join(clash)} replaced by the conversion of "
+                                  f"{gltf_specgloss.EXTENSION}")
+            layers.update(sg_layers)
+            layer_images = [e for e in layer_images if e[0] not in gltf_specgloss.SETS] + sg_layer_images
         if mode != "OPAQUE" and max(emission) > 0:
             self.notes.append(f"{w}: alphaMode {mode} of an emissive material is not modelled (rendered opaque)")
             mode = "OPAQUE"
         return GltfMaterial(
             name=str(m.get("name") or f"material{index}"),
             base_color=tuple(clamp(c) for c in base[:3]),  # type: ignore[arg-type]
-            metallic=clamp(pbr.get("metallicFactor", 1.0)),
-            roughness=clamp(pbr.get("roughnessFactor", 1.0)),
+            metallic=metallic,
+            roughness=roughness,
             emission=tuple(float(max(e, 0.0)) for e in emission),  # type: ignore[arg-type]
             texture_settings=({} if not sampling else
                               dict(texture_offset=offset, texture_rotation=rotation, texture_scale=scale,
@@ -608,7 +688,7 @@ class _Reader:
             alpha=clamp(base[3]),
             alpha_cutoff=float(cutoff),
             double_sided=self._double_sided(m, w),
-            layers=self._layers(m, w),
+            layers=layers,
             layer_images=tuple(layer_images),
             clearcoat_normal_image=coat_normal_image,
             clearcoat_normal_scale=float(coat_normal_scale),
@@ -761,10 +841,10 @@ def _read_document(path: Path, r: "_Reader") -> GltfDocument:
                                  "no scenes to say where it starts)")
     light_defs = doc.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", [])
 
-    primitives: list[GltfPrimitive] = []
     cameras: list[GltfCamera] = []
     lights: list[GltfLight] = []
-    mesh_cache: dict[int, list[tuple[int, TriangleMesh | None, int | None]]] = {}
+    worlds: dict[int, np.ndarray] = {}
+    parts: list[tuple[int, str, np.ndarray, int]] = []  # (node, name, world, mesh) of each mesh node, in order
 
     def visit(index: int, parent: np.ndarray, parent_index: int | None, inherited: str | None) -> list:
         """One node's parts; returns its children to visit, as (index, world, its index, inherited name)."""
@@ -772,29 +852,15 @@ def _read_document(path: Path, r: "_Reader") -> GltfDocument:
             raise r.err(f"nodes[{index}]", "the node hierarchy has a cycle")
         node = r.item("nodes", index, f"nodes[{parent_index}].children" if parent_index is not None else "scene.nodes")
         world = parent @ _node_matrix(node, f"nodes[{index}]", r.err)
+        worlds[index] = world
         # A part's name: its node's, else its mesh's, else its nearest named ancestor's (optimisers such as
         # gltfpack put a mesh on an unnamed child node that holds the dequantisation transform).
         own = node.get("name") or None
         if own is None and "mesh" in node:
             own = r.item("meshes", node["mesh"], f"nodes[{index}].mesh").get("name") or None
         name = str(own or inherited or f"node{index}")
-        if "mesh" in node:
-            mi = node["mesh"]
-            if mi not in mesh_cache:
-                mesh = r.item("meshes", mi, f"nodes[{index}].mesh")
-                mesh_cache[mi] = [(k, r.primitive(mi, k, p), p.get("material"))
-                                  for k, p in enumerate(mesh.get("primitives", []))]
-                if mesh.get("weights") or any(p.get("targets") for p in mesh.get("primitives", [])):
-                    r.notes.append(f"meshes[{mi}]: morph targets ignored")
-            if "skin" in node:
-                r.notes.append(f"nodes[{index}]: skin ignored (bind pose)")
-            prims = mesh_cache[mi]
-            for k, tri, mat in prims:
-                if tri is not None:
-                    problem = geometry.reach_problem(world, tri)  # at load: for inspect too
-                    if problem:
-                        raise r.err(f"nodes[{index}] (mesh {mi}, primitive {k})", f"its vertices reach {problem}")
-                    primitives.append(GltfPrimitive(name if len(prims) == 1 else f"{name}.{k}", tri, world, mat))
+        if "mesh" in node:  # made once every node's world is known: a skin's joints may come later
+            parts.append((index, name, world, node["mesh"]))
         if "camera" in node:
             cam = r.item("cameras", node["camera"], f"nodes[{index}].camera")
             if cam.get("type") == "perspective" and "perspective" in cam:
@@ -846,6 +912,11 @@ def _read_document(path: Path, r: "_Reader") -> GltfDocument:
         on_path.add(item[0])
         todo.append(("exit", item[0]))
         todo.extend(("enter", child) for child in reversed(children))
+    primitives = [GltfPrimitive(*part) for part in gltf_pose.posed_parts(r, parts, worlds)]
+    if doc.get("animations"):
+        r.notes.append(f"{len(doc['animations'])} animation(s) not played: nodes, morph weights and skins take the "
+                       "pose the file gives without them")
+    r.images = [r.image(i) for i in range(len(doc.get("images", [])))]
     materials = [r.material(i) for i in range(len(doc.get("materials", [])))]
-    images = [r.image(i) for i in range(len(doc.get("images", [])))]
-    return GltfDocument(path, primitives, materials, images, cameras, lights, r.files, r.notes, r.extensions)
+    return GltfDocument(path, primitives, materials, r.images, cameras, lights, r.files, r.notes, r.extensions)
+

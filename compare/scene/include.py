@@ -74,9 +74,7 @@ def include(ctx, where: str, raw: Any) -> Included:
         # A downloaded file's own URIs stay inside its folder, wherever the scene file put it.
         doc = load_gltf(st.path, root=st.path.parent)
     except GltfError as exc:  # name the file as the scene does, relative to its folder
-        message = str(exc).replace(str(st.path), st.given, 1)
-        raise ctx.err(f"{where}.file", message.replace("leaves the scene file's folder",
-                                                       "leaves the glTF file's folder")) from exc
+        raise ctx.err(f"{where}.file", str(exc).replace(str(st.path), st.given, 1)) from exc
     notes = list(doc.warnings)
     materials = _Materials(ctx, where, st, doc)
     meshes, lights = _objects(st, doc, materials, notes)

@@ -75,7 +75,7 @@ def _gltf_info(path: Path) -> dict:
     return info
 
 
-def _scenarios_info(path: Path) -> dict:
+def _scenarios_info(path: Path, known: tuple[str, ...]) -> dict:
     """The scenarios of a render-fidelity ``config.json``: what each renders, without reading its files."""
     from compare.scene.scenarios import load_scenarios
 
@@ -93,16 +93,16 @@ def _scenarios_info(path: Path) -> dict:
             "camera": {"position": list(cam.position), "forward": list(cam.forward), "up": list(cam.up),
                        "fov": cam.fov},
             "render_skybox": sc.render_skybox, "exclude": list(sc.exclude),
-            "excluded_renderers": list(sc.suite_excluded())})
+            "excluded_renderers": list(sc.suite_excluded(known))})
     return {"file": str(path), "scenarios": rows, "notes": [str(w.message) for w in caught]}
 
 
-def inspect_path(path: str | Path) -> dict:
+def inspect_path(path: str | Path, renderers: tuple[str, ...] = ()) -> dict:
     """What the scene file (TOML), glTF file or render-fidelity scenario file (``.json``) ``path`` holds, as
-    a JSON-ready dict."""
+    a JSON-ready dict; ``renderers``: the names a scenario's ``exclude`` may match (the registry's)."""
     path = Path(path)
     if path.suffix.lower() == ".json":
-        return _scenarios_info(path)
+        return _scenarios_info(path, tuple(renderers))
     if path.suffix.lower() in (".gltf", ".glb"):
         from compare.scene.geometry import MeshFileError
         from compare.util.errors import SceneError

@@ -179,7 +179,7 @@ class Scenario:
             reach = max(reach, float(np.linalg.norm(light.corners() - target, axis=1).max()))
         return self.camera(reach)
 
-    def suite_excluded(self, known: Iterable[str] | None = None) -> tuple[str, ...]:
+    def suite_excluded(self, known: Iterable[str]) -> tuple[str, ...]:
         """The suite's renderer names this scenario excludes (:func:`suite_renderers`)."""
         return suite_renderers(self.exclude, known)
 
@@ -231,13 +231,10 @@ class Scenario:
         return f"{self.where}: {body}"
 
 
-def suite_renderers(names: Iterable[str], known: Iterable[str] | None = None) -> tuple[str, ...]:
+def suite_renderers(names: Iterable[str], known: Iterable[str]) -> tuple[str, ...]:
     """The suite's renderer names of model-viewer's renderer ``names``: :data:`RENDERER_NAMES`, or a name
-    the suite knows itself (``known``; default: the registry's names); other names are dropped."""
-    if known is None:
-        from compare.renderers.registry import Registry
-
-        known = Registry().names()
+    the suite knows itself (``known``: the registry's names, which the scene layer does not see); other
+    names are dropped."""
     known = set(known)
     out: list[str] = []
     for n in names:

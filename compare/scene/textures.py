@@ -11,8 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["coverage_map", "emission_map", "factor_map", "load_alpha", "load_texels8", "load_texture", "normal_map",
-           "opacity_map", "split_metallic_roughness", "texture_problem"]
+__all__ = ["coverage_map", "emission_map", "factor_map", "glossiness_roughness_map", "load_alpha", "load_texels8",
+           "load_texture", "normal_map", "opacity_map", "split_metallic_roughness", "texture_problem"]
 
 #: Pillow's modes of a 16-bit grey PNG (converting them to RGB would clip every value above 255 to white).
 SIXTEEN_BIT_MODES = {"I;16", "I;16B", "I;16L", "I"}
@@ -180,6 +180,19 @@ def factor_map(path: Path, factor, *, srgb: bool) -> Path:
     f = np.asarray(factor, dtype=np.float64).reshape(3)
     return _derived(path, "factor", (f.tolist(), bool(srgb)),
                     lambda: (load_texture(path, srgb=srgb) * f, load_alpha(path)))
+
+
+def glossiness_roughness_map(path: Path, glossiness: float) -> Path:
+    """A ``KHR_materials_pbrSpecularGlossiness`` specularGlossinessTexture as a glTF metallic-roughness map,
+    a linear EXR in the cache: roughness (G) = 1 − ``glossiness`` × the map's alpha (linear; 1 where it has
+    none), metallic (B) 0, R 0 (the conversion of glTF-Transform's ``metalRough()``, in floats)."""
+    def make():
+        a = load_alpha(path).astype(np.float64)
+        out = np.zeros((*a.shape, 3), dtype=np.float32)
+        out[..., 1] = 1.0 - float(glossiness) * a
+        return out
+
+    return _derived(path, "gloss-roughness", (float(glossiness),), make)
 
 
 def split_metallic_roughness(path: Path) -> tuple[Path, Path]:

@@ -28,7 +28,8 @@ import numpy as np
 
 from compare.scene.environments import environment_image
 from compare.scene.equirect import rotation_matrix
-from compare.ibl import DEFAULT_LEVELS, DEFAULT_SAMPLES, DEFAULT_SIZE, ENV_FORMATS, build_atlas, preprocess, split_sum
+from compare.ibl import (DEFAULT_LEVELS, DEFAULT_SAMPLES, DEFAULT_SIZE, ENV_FORMATS, MAX_LEVELS, build_atlas, preprocess,
+                         split_sum)
 from compare.ibl.irradiance import SH_BAND_FACTORS
 from compare.progressive.gl.passes import RenderPass
 from compare.progressive.gl.shaders import load_program, set_uniform
@@ -36,8 +37,6 @@ from compare.progressive.gl.units import Units, bind, units_of
 
 #: How the diffuse irradiance is stored.
 ENV_DIFFUSE = ("cube", "sh9")
-#: Largest number of prefiltered levels the GLSL accepts (ENV_MAX_LEVELS).
-MAX_LEVELS = 12
 #: Largest number of environment samples one frame can evaluate (MAX_ENV_SAMPLES in env_occlusion.glsl).
 MAX_SAMPLES_PER_FRAME = 16
 _KINDS = {"diffuse": 0, "specular": 1}

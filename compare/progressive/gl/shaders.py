@@ -7,8 +7,10 @@ moderngl-window's ``ShaderSource`` injects them: a constant that Python and GLSL
 length or a threshold, is a Python constant passed as a define, never written a second time in the
 ``.glsl``, which stops with ``#error`` without it), and resolves ``#include "name.glsl"`` recursively along
 :data:`SEARCH_PATH`: the including file's folder, then every wing of the rasterizer, then the shared GLSL
-of ``compare/ibl/`` and ``compare/brdf/``. ``brdf.glsl`` is the shared BRDF as
-:func:`compare.brdf.glsl.glsl_source` assembles it, so the BRDF has one definition. A file is included
+of ``compare/ibl/`` and ``compare/brdf/``. ``brdf.glsl``, ``layers.glsl`` and ``ibl.glsl`` are the shared
+GLSL as :func:`compare.brdf.glsl.glsl_source`, :func:`~compare.brdf.glsl.layers_source` and
+:func:`compare.ibl.glsl_source` assemble it, their constants written ahead of them from the Python that owns
+them, so the BRDF and its constants have one definition. A file is included
 once per program however often it is named (an include guard for every file), and a name that two folders
 of the search path both hold is refused: the path must not decide silently which one a program gets.
 """
@@ -16,12 +18,11 @@ of the search path both hold is refused: the path must not decide silently which
 from __future__ import annotations
 
 import functools
-import math
 import re
 from pathlib import Path
 from typing import Mapping
 
-import numpy as np
+from compare.brdf.glsl import glsl_define
 
 __all__ = ["SEARCH_PATH", "load_program", "set_uniform", "shader_source"]
 
@@ -32,8 +33,15 @@ _PACKAGE = _PROGRESSIVE.parent
 #: Where ``#include`` and :func:`load_program` look, after the including file's own folder.
 SEARCH_PATH = (_PROGRESSIVE, *sorted(p for p in _PROGRESSIVE.iterdir() if (p / "__init__.py").is_file()),
                _PACKAGE / "ibl", _PACKAGE / "brdf")
-#: Includes that are generated, not read: the shared BRDF.
-_GENERATED = {"brdf.glsl"}
+#: Includes that are generated, not read: the shared GLSL, with the defines its package writes ahead of it.
+_GENERATED = ("brdf.glsl", "layers.glsl", "ibl.glsl")
+
+
+def _generated(name: str) -> str:
+    from compare.brdf.glsl import glsl_source, layers_source
+    from compare.ibl import glsl_source as ibl_source
+
+    return {"brdf.glsl": glsl_source, "layers.glsl": layers_source, "ibl.glsl": ibl_source}[name]()
 
 
 @functools.lru_cache(maxsize=None)
@@ -59,9 +67,8 @@ def _expand(text: str, folder: Path, seen: set[str], chain: tuple[str, ...]) -> 
             return f"// {name} (included above)"
         seen.add(name)
         if name in _GENERATED:
-            from compare.brdf.glsl import glsl_source
-
-            return _expand(glsl_source(), folder, seen, chain + (name,))
+            path = _find(name)  # still one name, one file
+            return _expand(_generated(name), path.parent, seen, chain + (name,))
         own = folder / name
         path = own if own.is_file() else _find(name)
         return _expand(path.read_text(encoding="utf-8"), path.parent, seen, chain + (name,))
@@ -74,19 +81,9 @@ def shader_source(name: str, stage: str, defines: Mapping[str, object] | None = 
     path = _find(name)
     text = _expand(path.read_text(encoding="utf-8"), path.parent, {name}, (name,))
     head = ["#version 330 core", f"#define {stage}"]
-    for key, value in (defines or {}).items():
-        head.append(f"#define {key}" if value is None or value is True else f"#define {key} {_literal(key, value)}")
+    head += [glsl_define(key, value) for key, value in (defines or {}).items()]
     # '#line 1' keeps compiler messages pointing at the file's own lines (before any include).
     return "\n".join(head) + "\n#line 1\n" + text
-
-
-def _literal(key: str, value) -> str:
-    """``value`` as GLSL writes it: a float keeps its point (``16.0``, not ``16``, which GLSL reads as an int)."""
-    if isinstance(value, (float, np.floating)):
-        if not math.isfinite(value):
-            raise ValueError(f"#define {key}: {value!r} has no GLSL literal")
-        return repr(float(value))
-    return str(int(value)) if isinstance(value, (bool, np.integer)) else str(value)
 
 
 def load_program(ctx, name: str, defines: Mapping[str, object] | None = None):
