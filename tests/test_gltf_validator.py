@@ -8,34 +8,23 @@ job may still carry are named here with why.
 from __future__ import annotations
 
 import json
-import shutil
-import subprocess
-from pathlib import Path
 
 import pytest
 
 from compare.renderers.job import export_gltf
 from compare.scene.loader import load_scene
+from tests.helpers import CORNELL, ROOT, npm_missing, validate_gltf
 
-ROOT = Path(__file__).resolve().parent.parent
-VALIDATOR = ROOT / "web" / "node_modules" / "gltf-validator"
-SCENES = sorted([*ROOT.glob("scenes/*.toml"), *ROOT.glob("scenes/effects/*.toml"), *ROOT.glob("scenes/stress/*.toml")])
+SCENES = sorted([*ROOT.glob("scenes/*.toml"), *ROOT.glob("scenes/effects/*.toml"), *ROOT.glob("scenes/stress/*.toml"),
+                 *ROOT.glob("scenes/khronos/*.toml")])
 
 #: Warnings a job glTF may carry: a material with KHR_materials_volume that is double-sided (the TOML scenes'
 #: default; the volume's thickness is then the file's own statement, kept as written).
 ALLOWED_WARNINGS = {"KHR_MATERIALS_VOLUME_DOUBLE_SIDED"}
 
-needs_validator = pytest.mark.skipif(
-    shutil.which("node") is None or not VALIDATOR.is_dir(),
-    reason="the Khronos glTF-Validator needs Node.js and web/node_modules (scripts/suite.sh setup: npm ci --prefix web)")
-
-
-def validate(files: list[Path]) -> dict[str, dict]:
-    """The validator's report of each file (web/validate_gltf.mjs)."""
-    done = subprocess.run(["node", str(ROOT / "web" / "validate_gltf.mjs"), *map(str, files)], capture_output=True,
-                          text=True, timeout=600, check=False)
-    assert done.returncode == 0, done.stderr[-2000:]
-    return json.loads(done.stdout)
+#: The validator's check as a skipif, and the validator, for modules that import them from here.
+needs_validator = pytest.mark.skipif(bool(npm_missing("gltf-validator")), reason=str(npm_missing("gltf-validator")))
+validate = validate_gltf
 
 
 @pytest.fixture(scope="module")
@@ -43,19 +32,19 @@ def shipped_reports(tmp_path_factory) -> dict[str, set[tuple[str, int]]]:
     """Scene → the validator's (code, severity) pairs for its job glTF, every shipped scene."""
     out = tmp_path_factory.mktemp("jobs")
     files = {p: export_gltf(load_scene(p), out / p.parent.name / p.stem / "scene.gltf") for p in SCENES}
-    reports = validate(list(files.values()))
+    reports = validate_gltf(list(files.values()))
     return {p.stem: {(m["code"], m["severity"]) for m in reports[str(f)]["issues"]["messages"]}
             for p, f in files.items()}
 
 
-@needs_validator
+@pytest.mark.npm("gltf-validator")
 def test_every_shipped_scene_exports_a_gltf_without_errors(shipped_reports):
     assert len(shipped_reports) >= 20
     errors = {scene: sorted(c for c, sev in codes if sev == 0) for scene, codes in shipped_reports.items()}
     assert not {k: v for k, v in errors.items() if v}, errors
 
 
-@needs_validator
+@pytest.mark.npm("gltf-validator")
 def test_every_shipped_scene_exports_a_gltf_without_warnings(shipped_reports):
     """Beyond errors: nothing a reader would have to guess, e.g. tangents (MESH_PRIMITIVE_GENERATED_TANGENT_SPACE
     when a normal-mapped primitive has no TANGENT: each renderer would derive its own frame)."""
@@ -64,12 +53,12 @@ def test_every_shipped_scene_exports_a_gltf_without_warnings(shipped_reports):
     assert not {k: v for k, v in warned.items() if v}, warned
 
 
-@needs_validator
+@pytest.mark.npm("gltf-validator")
 def test_the_validator_sees_a_broken_file(tmp_path):
     """The check can fail: an accessor past its buffer's end is an error the validator reports."""
-    gltf = export_gltf(load_scene(ROOT / "scenes" / "cornell.toml"), tmp_path / "scene.gltf")
+    gltf = export_gltf(load_scene(CORNELL), tmp_path / "scene.gltf")
     doc = json.loads(gltf.read_text(encoding="utf-8"))
     doc["accessors"][0]["count"] *= 1000
     gltf.write_text(json.dumps(doc), encoding="utf-8")
-    (report,) = validate([gltf]).values()
+    (report,) = validate_gltf([gltf]).values()
     assert report["issues"]["numErrors"] >= 1

@@ -109,7 +109,9 @@ SUPPORTED_EXTENSIONS = ("KHR_lights_punctual", "KHR_materials_emissive_strength"
                         "KHR_texture_transform", *dict.fromkeys(layer.extension for layer in LAYERS))
 #: Extensions converted into the scene model's terms: name → what becomes of it.
 CONVERTED_EXTENSIONS = {gltf_specgloss.EXTENSION: "converted to metallic-roughness with KHR_materials_specular and "
-                                                  "KHR_materials_ior (glTF-Transform's metalRough)"}
+                                                  "KHR_materials_ior (glTF-Transform's metalRough)",
+                        "KHR_materials_unlit": "converted: the base colour (map and factor) emitted by a black, "
+                                               "non-specular surface, which no light shades"}
 #: Components an accessor without a bufferView (zeros, or sparse) may have: 2^28, a billion bytes as float32.
 MAX_ZERO_ELEMENTS = 1 << 28
 #: Maps of the material extensions read apart from LAYER_MAPS (the coat's own normal map).
@@ -160,6 +162,9 @@ class GltfMaterial:
     #: KHR_materials_clearcoat's clearcoatNormalTexture: image index and scale.
     clearcoat_normal_image: int | None = None
     clearcoat_normal_scale: float = 1.0
+    #: KHR_materials_unlit (converted: its base colour is the emission; compare.scene.include keeps its
+    #: surfaces meshes, never area lights: what it shows is not a light of the scene's author).
+    unlit: bool = False
     #: The scene model's texture_offset, texture_rotation, texture_scale, texture_wrap and texture_filter
     #: (compare.scene.model.Material), from KHR_texture_transform and the sampler; empty: the defaults.
     texture_settings: dict = field(default_factory=dict)
@@ -669,6 +674,15 @@ class _Reader:
                                   f"{gltf_specgloss.EXTENSION}")
             layers.update(sg_layers)
             layer_images = [e for e in layer_images if e[0] not in gltf_specgloss.SETS] + sg_layer_images
+        if "KHR_materials_unlit" in exts:
+            # The base colour is what is seen, whatever the light: as emission of a surface that reflects
+            # nothing (black, specularFactor 0), every renderer draws it with what it already has.
+            emission = np.asarray(base[:3], dtype=np.float64)
+            images.update(emissive_image=maps.get("base_color_image"), metallic_roughness_image=None,
+                          occlusion_image=None, normal_image=None)
+            base = [0.0, 0.0, 0.0, base[3]]  # the base map keeps only its alpha (a mask's holes)
+            metallic, roughness = 0.0, 1.0
+            layers, layer_images, coat_normal_image = {"specular": 0.0}, [], None
         if mode != "OPAQUE" and max(emission) > 0:
             self.notes.append(f"{w}: alphaMode {mode} of an emissive material is not modelled (rendered opaque)")
             mode = "OPAQUE"
@@ -692,6 +706,7 @@ class _Reader:
             layer_images=tuple(layer_images),
             clearcoat_normal_image=coat_normal_image,
             clearcoat_normal_scale=float(coat_normal_scale),
+            unlit="KHR_materials_unlit" in exts,
         )
 
     def _double_sided(self, m: dict, w: str) -> bool:

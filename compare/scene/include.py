@@ -188,7 +188,8 @@ def _objects(st: _Settings, doc, materials: _Materials, notes: list[str]) -> tup
                        file=st.path)
         # A light has one radiance: a quad whose emission has a map stays a mesh (its map is drawn).
         material = materials.made[mat]
-        light_like = material.is_emissive and material.emissive_texture is None
+        unlit = prim.material is not None and doc.materials[prim.material].unlit
+        light_like = material.is_emissive and material.emissive_texture is None and not unlit
         rect = _emissive_rectangle(mesh.triangles()) if st.quads == "lights" and light_like else None
         if rect is None:
             meshes.append(mesh)
