@@ -3,8 +3,10 @@
 
 Properties: ``base`` (the nested BSDF, the material under the coat), ``clearcoat`` (w) and ``roughness``
 (the coat's perceptual roughness), each a float or a texture (glTF's factor times its map), and optionally
-``normalmap``: glTF's clearcoatNormalTexture in the shading frame's tangent space, encoded (n + 1) / 2 as
-Mitsuba's ``normalmap`` reads one. The coat's lobe (its D, V and cosine) is then evaluated and sampled in
+``normalmap``: glTF's clearcoatNormalTexture, encoded (n + 1) / 2, read in glTF's tangent frame as the
+base's (:mod:`compare.mitsuba.normalmap`), with ``tangent`` and ``tangent_sign`` the names of the mesh
+attributes that hold it (the coat sits outside the base's normal map, so its surface interaction carries
+the unperturbed shading frame). The coat's lobe (its D, V and cosine) is then evaluated and sampled in
 the frame of that normal; its share at the half vector does not depend on the frame; the base keeps the
 surface's frame. Directions must lie above the surface as well as above the coat's normal.
 

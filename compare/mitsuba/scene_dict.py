@@ -20,8 +20,9 @@ Four material modes:
     forms such as the white furnace, where any specular lobe would get in the way.
 
 Maps: base colour (sRGB), metallic-roughness (split into its B and G channels),
-emission (sRGB, times the emission), normal (under Mitsuba's ``normalmap``, its y
-negated: :data:`NORMALMAP_FLIP_Y`), each with the material's texture transform,
+emission (sRGB, times the emission), normal (under :mod:`compare.mitsuba.normalmap`'s ``gltf_normalmap``,
+in glTF's tangent frame: the mesh's TANGENT or MikkTSpace's, carried as mesh attributes; decoded as glTF
+defines it, :data:`NORMALMAP_FLIP_Y`), each with the material's texture transform,
 wrap and filter (:func:`bitmap_dict`). An occlusion map is left out: a path
 tracer computes the occlusion it stands for. An alpha mask puts the BSDF under
 Mitsuba's ``mask`` (a null interaction where the surface is a hole).
@@ -147,19 +148,30 @@ def bitmap_dict(mat: Material, filename, *, raw: bool) -> dict:
     return d
 
 
-#: Mitsuba's normalmap frame: its second axis is n × dp/du, which points down the image (towards
-#: increasing v), where glTF's normal maps have +Y up: their y is negated (tests/test_textures.py
-#: checks a tilted normal map against tilted geometry).
-NORMALMAP_FLIP_Y = True
+#: Whether the maps' y is negated. No: the reference reads them in glTF's own frame, whose bitangent
+#: cross(n, tangent) · w is the map's +Y by definition (:mod:`compare.mitsuba.normalmap`). (Mitsuba's
+#: ``normalmap``, used before, reads them in a frame whose second axis, n × dp/du, points towards
+#: increasing v, down the image: there y was negated.)
+NORMALMAP_FLIP_Y = False
+
+
+def _tangent_frame() -> dict:
+    """The properties that name the mesh attributes of glTF's tangent frame (:func:`mesh_object`)."""
+    from compare.mitsuba.normalmap import ATTRIBUTE_TANGENT, ATTRIBUTE_TANGENT_SIGN
+
+    return {"tangent": ATTRIBUTE_TANGENT, "tangent_sign": ATTRIBUTE_TANGENT_SIGN}
 
 
 def _normal_mapped(mat: Material, bsdf: dict) -> dict:
-    """``bsdf`` under Mitsuba's ``normalmap`` when the material has a normal map."""
+    """``bsdf`` under ``gltf_normalmap`` (:mod:`compare.mitsuba.normalmap`: Mitsuba's ``normalmap`` with
+    the map read in glTF's tangent frame) when the material has a normal map."""
     if mat.normal_texture is None:
         return bsdf
+    from compare.mitsuba.normalmap import PLUGIN_NAME, register
     from compare.scene.textures import normal_map
 
-    return {"type": "normalmap", "bsdf": bsdf,
+    register()
+    return {"type": PLUGIN_NAME, "bsdf": bsdf, **_tangent_frame(),
             "normalmap": bitmap_dict(mat, normal_map(mat.normal_texture, mat.normal_scale, flip_y=NORMALMAP_FLIP_Y),
                                      raw=True)}
 
@@ -258,9 +270,10 @@ def _coated(mat: Material, mode: str, bsdf: dict) -> dict:
     if mat.clearcoat_normal_texture is not None:
         from compare.scene.textures import normal_map
 
-        # the coat's own normal, in the shading frame's tangent space as the base's (_normal_mapped)
+        # the coat's own normal, in glTF's tangent frame as the base's (_normal_mapped)
         coat["normalmap"] = bitmap_dict(mat, normal_map(mat.clearcoat_normal_texture, mat.clearcoat_normal_scale,
                                                         flip_y=NORMALMAP_FLIP_Y), raw=True)
+        coat.update(_tangent_frame())
     return coat
 
 
@@ -529,12 +542,13 @@ def medium_dict(mat: Material, scale: float = 1.0) -> dict:
 
 def mesh_object(name: str, scene: Scene, mesh_index: int, mode: str, scale: float = 1.0):
     """A ``mi.Mesh`` filled from the shared triangle data (positions × ``scale``), with its BSDF
-    (and emitter) attached."""
+    (and emitter) attached; a normal-mapped material's mesh with its tangent frame (glTF's TANGENT or
+    MikkTSpace's) as mesh attributes."""
     import mitsuba as mi
 
     mesh = scene.meshes[mesh_index]
-    tri = mesh.triangles()
     mat = scene.materials[mesh.material]
+    tri = mesh.triangles(tangents=mat.normal_mapped)
     props = mi.Properties()
     props["bsdf"] = mi.load_dict(material_dict(mat, mode, vertex_colors=tri.colors is not None))
     if absorbs(mat) and mode != "diffuse":
@@ -559,6 +573,11 @@ def mesh_object(name: str, scene: Scene, mesh_index: int, mode: str, scale: floa
 
         m.add_attribute(ATTRIBUTE_RGB, 3, tri.colors[:, :3].ravel())
         m.add_attribute(ATTRIBUTE_ALPHA, 1, tri.colors[:, 3].ravel())
+    if mat.normal_mapped:  # read by compare.mitsuba.normalmap's BSDF and the coat's own map
+        from compare.mitsuba.normalmap import tangent_attributes
+
+        for name, (channels, values) in tangent_attributes(tri.tangents).items():
+            m.add_attribute(name, channels, values)
     return m
 
 

@@ -1,7 +1,8 @@
 """The classes of the suite's Mitsuba plugins, one module per plugin module of :mod:`compare.mitsuba`.
 
 ``compare.mitsuba.bsdf``'s ``gltf_pbr`` is :mod:`compare.mitsuba.plugins.bsdf`'s ``GltfPbrBSDF``, and so on for
-``coat``, ``sheen``, ``glass`` and ``textures``; :mod:`compare.mitsuba.plugins.base` holds what they share.
+``coat``, ``sheen``, ``glass``, ``normalmap`` and ``textures``; :mod:`compare.mitsuba.plugins.base` holds what they
+share.
 
 Why the modules are bound to a variant. A Mitsuba plugin class subclasses a class of one variant
 (``mitsuba.llvm_ad_rgb.BSDF`` is not ``mitsuba.scalar_rgb.BSDF``), and ``mi.register_bsdf`` registers with the

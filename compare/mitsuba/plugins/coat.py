@@ -10,13 +10,14 @@ from compare.brdf import H_LEN2_MIN, REFERENCE_ALPHA_MIN
 from compare.brdf.coat import COAT_F0
 from compare.brdf.multiscatter import fresnel_dielectric_fss
 from compare.mitsuba import ggx, principled
-from compare.mitsuba.plugins import base, bound_variant, for_variant
+from compare.mitsuba.plugins import base, bound_variant, for_variant, normalmap
 from compare.mitsuba.principled_tables import tables
 
 __all__ = ["COAT_F0_CYCLES", "FSS_COAT", "GltfCoatBSDF"]
 
 mv = bound_variant(__name__)
 LayeredBSDF = for_variant(base).LayeredBSDF
+_normalmap = for_variant(normalmap)
 Color3f, Vector3f = mv.Color3f, mv.Vector3f
 #: The Cycles coat's F0 and average Fresnel at Coat IOR 1.5 (Cycles' fresnel_dielectric_Fss).
 COAT_F0_CYCLES = float(principled.f0_from_ior(principled.COAT_IOR))
@@ -62,6 +63,12 @@ class GltfCoatBSDF(LayeredBSDF):
         self.weight = props.get_texture("clearcoat", 1.0)
         self.roughness = props.get_texture("roughness", 0.0)
         self.normalmap = props.get_texture("normalmap") if "normalmap" in props else None
+        if self.normalmap is not None:  # read in glTF's tangent frame, as the base's (gltf_normalmap)
+            missing = [k for k in ("tangent", "tangent_sign") if k not in props]
+            if missing:
+                raise ValueError(f"{props.plugin_name()}: a normalmap needs the mesh attributes' names "
+                                 f"{', '.join(missing)}")
+            self.tangent, self.sign = str(props["tangent"]), str(props["tangent_sign"])
         self.flavour = principled.check_flavour(props.plugin_name(), props.get("flavour", "gltf"))
         if self.flavour == "cycles":
             tables(mv)  # built at load time, never while a kernel is traced
@@ -71,9 +78,9 @@ class GltfCoatBSDF(LayeredBSDF):
         w = dr.clip(self.weight.eval_1(si, active), 0.0, 1.0)
         r = dr.clip(self.roughness.eval_1(si, active), 0.0, 1.0)
         frame = None
-        if self.normalmap is not None:  # the coat's own normal map
-            c = self.normalmap.eval(si, active)
-            frame = mv.Frame3f(dr.normalize(Vector3f(2.0 * c.x - 1.0, 2.0 * c.y - 1.0, 2.0 * c.z - 1.0)))
+        if self.normalmap is not None:  # the coat's own normal map, in glTF's tangent frame
+            c = _normalmap.decode(self.normalmap.eval_3(si, active))
+            frame = mv.Frame3f(_normalmap.gltf_normal(si, c, self.tangent, self.sign, active)[0])
         wi = si.wi if frame is None else frame.to_local(si.wi)
         return w, (dr.maximum(r * r, REFERENCE_ALPHA_MIN), r), frame, wi
 
