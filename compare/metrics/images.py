@@ -6,7 +6,9 @@ Two kinds of metric, on two kinds of image:
   HDR-FLIP (:func:`flip` with ``mode="HDR"``).
 * On the **tone-mapped LDR** images (one :func:`compare.image.tonemap.to_ldr` call
   with the same exposure and operator for both images): :func:`psnr`,
-  :func:`ssim` and LDR-FLIP (:func:`flip`, the default mode).
+  :func:`ssim`, LDR-FLIP (:func:`flip`, the default mode) and model-viewer's
+  fidelity number (:func:`mv_rms_db`, on the 8-bit images; see
+  :mod:`compare.metrics.model_viewer`).
 
 Every public function checks its inputs first: both images must be (H, W, 3),
 finite (:func:`check_finite` names the count and first location of any NaN/Inf)
@@ -37,6 +39,7 @@ import numpy as np
 from compare.util.errors import ImageError
 from compare.image.checks import check_finite, check_pair, check_rgb
 from compare.image.tonemap import LUMINANCE_WEIGHTS, to_ldr
+from compare.metrics.model_viewer import rms_db_ldr
 
 __all__ = [
     "ERROR_MAP_RANGES",
@@ -47,6 +50,7 @@ __all__ = [
     "error_maps",
     "flip",
     "mse",
+    "mv_rms_db",
     "psnr",
     "relmse",
     "ssim",
@@ -424,7 +428,47 @@ def flip(
 #: compare against (black, saturated or flat): its LDR metrics are undefined (None).
 LDR_DEGENERATE_RANGE = 1.0 / 255.0
 #: The metrics of the tone-mapped images (None for such a reference), as results.json names them.
-LDR_METRICS = ("psnr", "ssim", "flip", "flip_median", "flip_p95")
+LDR_METRICS = ("psnr", "ssim", "flip", "flip_median", "flip_p95", "mv_rms_db")
+
+
+def mv_rms_db(ref, test, *, exposure: float = 1.0, operator: Operator = "aces", mask=None) -> float | None:
+    """model-viewer's fidelity number of the test image against the reference, in dB (lower is better).
+
+    Both images go through :func:`compare.image.tonemap.to_ldr` with ``exposure`` and ``operator``
+    and are rounded to 8 bits like the run's PNG previews; then
+    ``10 · log10(sqrt(mean δ²) / 35215)`` over the model's pixels, with δ pixelmatch's squared YIQ
+    colour distance (:mod:`compare.metrics.model_viewer` gives the formula with model-viewer's source
+    files and lines).
+
+    Parameters
+    ----------
+    ref, test : array_like, shape (H, W, 3)
+        Linear RGB, finite, same shape.
+    exposure, operator
+        Passed to :func:`compare.image.tonemap.to_ldr`.
+    mask : array_like of bool, shape (H, W), optional
+        The model's pixels; default every pixel (the suite's images are opaque, as model-viewer's
+        screenshots with the environment shown behind the model).
+
+    Returns
+    -------
+    float or None
+        In [:data:`compare.metrics.model_viewer.MV_DB_FLOOR`, 0]: −100 dB (the floor) for identical
+        8-bit images, 0 dB for the largest error everywhere. ``None`` when the tone-mapped
+        reference spreads less than one 8-bit step (:data:`LDR_DEGENERATE_RANGE`: black,
+        saturated or flat), as for the other LDR metrics: a constant test image would otherwise
+        score as perfect against it.
+
+    Raises
+    ------
+    ImageError
+        On NaN/Inf, a wrong shape, a shape mismatch, or an empty mask.
+    """
+    r, t = _checked_pair(ref, test)
+    rl, tl = _ldr_pair(r, t, exposure, operator)
+    if float(rl.max() - rl.min()) < LDR_DEGENERATE_RANGE:
+        return None
+    return rms_db_ldr(rl, tl, mask=mask)
 
 
 def flip_statistics(fmap) -> dict[str, float]:
@@ -479,7 +523,7 @@ def compare_images(
     ref, test : array_like, shape (H, W, 3)
         Linear RGB, finite, same shape, at least 11×11 pixels (SSIM window).
     exposure, operator
-        The tone mapping for the LDR metrics (PSNR, SSIM, LDR-FLIP).
+        The tone mapping for the LDR metrics (PSNR, SSIM, LDR-FLIP, ``mv_rms_db``).
     flip_hdr : bool, optional
         Also compute HDR-FLIP (several LDR-FLIP passes, the slowest metric).
     hdr_range : (float, float), optional
@@ -491,16 +535,19 @@ def compare_images(
     dict
         ``mse``, ``relmse`` (linear HDR), ``psnr``, ``ssim``, ``flip``,
         ``flip_median``, ``flip_p95`` (tone-mapped LDR; :func:`flip_statistics`),
+        ``mv_rms_db`` (model-viewer's number on the 8-bit images, every pixel; :func:`mv_rms_db`),
         ``flip_hdr`` (when requested), and ``ldr_range``, the
         spread (max − min) of the tone-mapped reference. All values are Python
         floats, except three documented ``None`` cases so the dict stays valid
         JSON: ``psnr`` is ``None`` when the LDR images are identical (PSNR is
         +inf); ``flip_hdr`` is ``None`` when the reference is black (HDR-FLIP
-        has no exposure range); and ``psnr``, ``ssim`` and ``flip`` are all
+        has no exposure range); and ``psnr``, ``ssim``, ``flip`` (with its
+        pooled values) and ``mv_rms_db`` are all
         ``None`` when the reference tone-maps to a constant (``ldr_range`` below
         one 8-bit step, :data:`LDR_DEGENERATE_RANGE`: black, saturated, or
         flat): there is nothing to compare, and a constant test image would
-        otherwise score as perfect (SSIM 1, FLIP 0) against it.
+        otherwise score as perfect (SSIM 1, FLIP 0) against it. Identical 8-bit
+        images give ``mv_rms_db`` its floor, −100 dB, not −inf.
 
     Raises
     ------
@@ -519,7 +566,8 @@ def compare_images(
     if ldr_range >= LDR_DEGENERATE_RANGE:
         p = _psnr_ldr(rl, tl)
         mean, fmap, _ = _flip_eval(rl, tl, "LDR", {})
-        out.update(psnr=None if math.isinf(p) else p, ssim=_ssim_ldr(rl, tl)[0], flip=mean, **flip_statistics(fmap))
+        out.update(psnr=None if math.isinf(p) else p, ssim=_ssim_ldr(rl, tl)[0], flip=mean, **flip_statistics(fmap),
+                   mv_rms_db=rms_db_ldr(rl, tl))
     if flip_hdr:
         params = {} if hdr_range is None else {"startExposure": float(hdr_range[0]),
                                                "stopExposure": float(hdr_range[1])}

@@ -31,6 +31,11 @@ METRICS = (
     Metric("flip_hdr", "HDR-FLIP", 4),
     Metric("ssim", "SSIM", 4, higher_is_better=True),
     Metric("psnr", "PSNR (dB)", 2, higher_is_better=True),
+    # model-viewer's fidelity figure (compare.metrics.model_viewer): 10·log10 of the RMS of pixelmatch's
+    # YIQ distance over its maximum, on the 8-bit images; lower is better, 0 dB the worst, model-viewer
+    # fails a scenario above −22 dB; −100 dB (the floor) for identical images, null for a ground truth
+    # that tone-maps to a constant
+    Metric("mv_rms_db", "model-viewer RMS (dB)", 4),
     Metric("relmse", "relMSE", 4),
     Metric("mse", "MSE", 4),
     # derived and diagnostic values (compare.report.results.metric_value, compare.metrics.images)

@@ -93,7 +93,7 @@ from typing import Any
 
 import numpy as np
 
-from compare.scene import geometry, gltf_pose, gltf_specgloss
+from compare.scene import geometry, gltf_instancing, gltf_pose, gltf_specgloss
 from compare.scene.model import LAYER_MAPS, LAYERS
 from compare.scene.gltf_decode import DECODED_EXTENSIONS, DecodeError, decoded_glb, used
 from compare.scene.glb import GlbError, parse_glb
@@ -106,7 +106,8 @@ TYPE_SIZES = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9
 #: Extensions that are read. A file that *requires* any other (Draco, meshopt, BasisU, WebP, ...) is
 #: refused; others it merely uses are ignored with one warning.
 SUPPORTED_EXTENSIONS = ("KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_mesh_quantization",
-                        "KHR_texture_transform", *dict.fromkeys(layer.extension for layer in LAYERS))
+                        "KHR_texture_transform", gltf_instancing.EXTENSION,
+                        *dict.fromkeys(layer.extension for layer in LAYERS))
 #: Extensions converted into the scene model's terms: name → what becomes of it.
 CONVERTED_EXTENSIONS = {gltf_specgloss.EXTENSION: "converted to metallic-roughness with KHR_materials_specular and "
                                                   "KHR_materials_ior (glTF-Transform's metalRough)",
@@ -841,6 +842,16 @@ def load_gltf(path: str | os.PathLike, *, root: str | os.PathLike | None = None)
                         "glTF validator") from None
 
 
+def _mesh_triangles(r: "_Reader", mesh_index: int) -> int:
+    """Triangles mesh ``mesh_index`` holds, from its accessors' counts (nothing decoded)."""
+    total = 0
+    for p in r.item("meshes", mesh_index, "mesh").get("primitives", []):
+        key = p.get("indices", p.get("attributes", {}).get("POSITION"))
+        count = r.item("accessors", key, "accessor").get("count", 0) if key is not None else 0
+        total += max(int(count) // 3, 1) if isinstance(count, int) else 1
+    return total
+
+
 def _read_document(path: Path, r: "_Reader") -> GltfDocument:
     doc = r.doc
     nodes = doc.get("nodes", [])
@@ -860,6 +871,7 @@ def _read_document(path: Path, r: "_Reader") -> GltfDocument:
     lights: list[GltfLight] = []
     worlds: dict[int, np.ndarray] = {}
     parts: list[tuple[int, str, np.ndarray, int]] = []  # (node, name, world, mesh) of each mesh node, in order
+    instanced: dict[str, int] = {}  # parts and triangles of EXT_mesh_gpu_instancing so far (bounded)
 
     def visit(index: int, parent: np.ndarray, parent_index: int | None, inherited: str | None) -> list:
         """One node's parts; returns its children to visit, as (index, world, its index, inherited name)."""
@@ -875,7 +887,12 @@ def _read_document(path: Path, r: "_Reader") -> GltfDocument:
             own = r.item("meshes", node["mesh"], f"nodes[{index}].mesh").get("name") or None
         name = str(own or inherited or f"node{index}")
         if "mesh" in node:  # made once every node's world is known: a skin's joints may come later
-            parts.append((index, name, world, node["mesh"]))
+            instances = gltf_instancing.instance_matrices(r, node, f"nodes[{index}]", _mesh_triangles(r, node["mesh"]),
+                                                          instanced)
+            if instances is None:
+                parts.append((index, name, world, node["mesh"]))
+            else:  # each instance a part of its own, sharing the mesh's triangles
+                parts.extend((index, f"{name}#{k}", world @ m, node["mesh"]) for k, m in enumerate(instances))
         if "camera" in node:
             cam = r.item("cameras", node["camera"], f"nodes[{index}].camera")
             if cam.get("type") == "perspective" and "perspective" in cam:
