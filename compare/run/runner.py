@@ -36,6 +36,7 @@ import datetime
 import os
 import platform
 import sys
+import time
 from pathlib import Path
 from typing import Iterable, Mapping
 
@@ -299,6 +300,8 @@ def _run_held(jobs: dict, out: Path, settings: RunSettings, registry: Registry, 
             for spec in dict.fromkeys([settings.ground_truth, *plans[sid]]):
                 registry.get(spec).preflight(sc, context)
         units = sum(1 + len(plans[sid]) for sid in jobs)
+        phases: dict[str, float] = {}  # seconds of each stage, said at the end (where the time goes)
+        started = time.perf_counter()
         if executor == "serial":
             with tqdm(total=units, desc="compare run", unit="unit", disable=not progress) as bar:
                 for sid, sc in jobs.items():
@@ -325,6 +328,8 @@ def _run_held(jobs: dict, out: Path, settings: RunSettings, registry: Registry, 
                     tqdm.write(f"compare: a worker failed ({exc}); the rest renders here", file=sys.stderr)
             for scene_job in scene_jobs.values():
                 scene_job.fresh = False  # the workers' fresh renders are this run's
+        phases["render"] = time.perf_counter() - started
+        started = time.perf_counter()
         results: list[SceneResult] = []
         with tqdm(total=len(jobs), desc="metrics", unit="scene", disable=not progress) as bar:
             for sid, sc in jobs.items():
@@ -334,6 +339,7 @@ def _run_held(jobs: dict, out: Path, settings: RunSettings, registry: Registry, 
                 bar.update(1)
         for scene_job in scene_jobs.values():
             facts = {**scene_job.facts, **facts}
+        phases["measure"] = time.perf_counter() - started  # with what the render stage left to it
     finally:
         context.close()
 
@@ -345,7 +351,11 @@ def _run_held(jobs: dict, out: Path, settings: RunSettings, registry: Registry, 
         compare_version=__version__,
         failures=[f for scene_job in scene_jobs.values() for f in scene_job.failures],
     )
+    started = time.perf_counter()
     _save_with_report(res, out, report)
+    phases["report" if report else "results.json"] = time.perf_counter() - started
+    if progress:
+        tqdm.write("compare run: " + ", ".join(f"{k} {v:.1f} s" for k, v in phases.items()), file=sys.stderr)
     return res
 
 
