@@ -8,6 +8,12 @@
   checks after each test for GL errors and GL objects not released. Every test that uses it,
   directly or through another fixture, is marked ``gl``.
 * ``make_scene`` writes a scene TOML file into the test's temporary folder.
+* Optional components are markers: a test marked ``bpy`` (Blender's Python module), ``web`` (the web
+  engines: Chromium, Playwright, their npm packages) or ``npm("package", ...)`` (Node.js and those packages
+  in web/node_modules) is skipped with the component's own reason where it is missing (the checks are
+  tests/helpers.py's). ``mi_llvm`` and ``mi_scalar`` hand out ``mitsuba`` with that variant active and the
+  ``gltf_pbr`` plugin registered, and skip where the variant cannot be loaded; the variant active before a
+  module's first such test is restored after its last.
 * ``--update-golden`` makes the golden tests rewrite their files from the code as it is.
 * Hypothesis sizes come from a profile, ``default`` (a few dozen cases) or ``slow`` (many more):
   ``HYPOTHESIS_PROFILE=<name>`` chooses, else ``-m``: a run that selects slow tests (``-m slow``)
@@ -27,6 +33,8 @@ from pathlib import Path
 import pytest
 import tomli_w
 from hypothesis import HealthCheck, is_hypothesis_test, settings
+
+from tests.helpers import CAPABILITIES
 
 # ----------------------------------------------------------------------------- the cache folder
 
@@ -125,6 +133,11 @@ def pytest_collection_modifyitems(config, items):
             item.add_marker(pytest.mark.gl)
         if slow_run and is_hypothesis_test(getattr(item, "obj", None)):
             item.add_marker(pytest.mark.slow)  # selected by -m slow, run with the slow profile
+        for mark in list(item.iter_markers()):
+            if mark.name in CAPABILITIES:
+                why = CAPABILITIES[mark.name](*mark.args)
+                if why:  # reported at the test, with the component's reason
+                    item.add_marker(pytest.mark.skip(reason=why))
 
 
 _CALL_REPORT = pytest.StashKey[pytest.TestReport]()
@@ -349,3 +362,41 @@ def make_scene(tmp_path):
         return path
 
     return make
+
+
+# ----------------------------------------------------------------------------- Mitsuba variants
+
+
+@pytest.fixture(scope="module")
+def _mitsuba_variant_before():
+    """The Mitsuba variant active before the module's first ``mi_*`` test, set again after its last."""
+    import sys
+
+    before = sys.modules["mitsuba"].variant() if "mitsuba" in sys.modules else None
+    yield
+    if before and sys.modules["mitsuba"].variant() != before:
+        sys.modules["mitsuba"].set_variant(before)
+
+
+def _mitsuba_variant(name: str):
+    """``mitsuba`` with ``name`` active and the plugin registered with it; skips with Mitsuba's reason where
+    the variant cannot be loaded (a registered variant is made active again at once)."""
+    from compare.mitsuba.bsdf import register
+    from compare.util.errors import MissingComponentError
+
+    try:
+        return register(name)
+    except MissingComponentError as exc:
+        pytest.skip(f"Mitsuba variant {name} unavailable: {exc}")
+
+
+@pytest.fixture
+def mi_llvm(_mitsuba_variant_before):
+    """``mitsuba`` with ``llvm_ad_rgb`` (the JIT variant: needs libLLVM) active."""
+    return _mitsuba_variant("llvm_ad_rgb")
+
+
+@pytest.fixture
+def mi_scalar(_mitsuba_variant_before):
+    """``mitsuba`` with ``scalar_rgb`` active."""
+    return _mitsuba_variant("scalar_rgb")

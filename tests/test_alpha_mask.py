@@ -7,110 +7,21 @@ import textwrap
 
 import numpy as np
 import pytest
-from PIL import Image
 
 from compare.util.errors import SceneError
 from compare.progressive.rasterizer import render_progressive
 from compare.progressive.frame.gpu_scene import GpuScene
 from compare.mitsuba.reference import ReferenceRenderer
 from compare.scene.loader import load_scene
-
-#: Quadrants of the card (image row, column) that are solid; the other two are holes.
-SOLID = ((0, 1), (1, 0))
-CARD = 1.6
+from tests.helpers import CARD_GEOMETRY, CARD_LIGHT, CARD_MASKED, card_regions, card_scene
 
 
-def _card_png(path, *, alpha_solid: int = 255, alpha_hole: int = 0):
-    """A 64 x 64 RGBA map: green where solid, magenta (never seen) in the holes."""
-    img = np.zeros((64, 64, 4), dtype=np.uint8)
-    img[...] = (220, 40, 220, alpha_hole)
-    for r, c in SOLID:
-        img[32 * r:32 * r + 32, 32 * c:32 * c + 32] = (60, 200, 70, alpha_solid)
-    Image.fromarray(img, "RGBA").save(path)
-
-
-LIGHT = """[[lights]]
-        center = [0.1, 1.5, 0.1]
-        size = [0.7, 0.7]
-        normal = [0, -1, 0]
-        radiance = [6, 6, 6]"""
 #: A light to the card's -x side: the card's shadow falls on the floor beside it, in view.
 SIDE_LIGHT = """[[lights]]
         center = [-0.9, 1.6, 0.0]
         size = [0.4, 0.4]
         normal = [0.514496, -0.857493, 0.0]
         radiance = [12, 12, 12]"""
-
-
-def _scene(folder, card: str, *, light: str = LIGHT, extra: str = ""):
-    """A grey floor, and 0.6 above it ``card`` (TOML meshes), under one light above the card."""
-    _card_png(folder / "card.png")
-    (folder / "t.toml").write_text(textwrap.dedent(f'''
-        [camera]
-        position = [0.0, 2.4, 2.3]
-        target = [0.0, 0.2, 0.0]
-        fov = 50
-        resolution = [80, 60]
-        [materials.grey]
-        base_color = [0.6, 0.6, 0.6]
-        roughness = 1.0
-        [materials.leaf]
-        base_color_texture = "card.png"
-        roughness = 1.0
-        alpha_mode = "mask"
-        alpha_cutoff = 0.5
-        [materials.green]
-        base_color = [{(60 / 255) ** 2.2:.6f}, {(200 / 255) ** 2.2:.6f}, {(70 / 255) ** 2.2:.6f}]
-        roughness = 1.0
-        [materials.ghost]
-        base_color = [0.9, 0.1, 0.1]
-        alpha_mode = "mask"
-        alpha = 0.4
-        [[meshes]]
-        name = "floor"
-        shape = "quad"
-        size = [4.0, 4.0]
-        material = "grey"
-        {card}
-        {light}
-        [render]
-        max_depth = 2
-        '''))
-    return load_scene(folder / "t.toml")
-
-
-MASKED = f'''[[meshes]]
-        name = "card"
-        shape = "quad"
-        size = [{CARD}, {CARD}]
-        material = "leaf"
-        translate = [0.0, 0.6, 0.0]'''
-# The card's solid quadrants as real geometry (image top = +z, left = -x on a quad).
-GEOMETRY = "\n".join(f'''[[meshes]]
-        name = "solid {r}{c}"
-        shape = "quad"
-        size = [{CARD / 2}, {CARD / 2}]
-        material = "green"
-        translate = [{(c - 0.5) * CARD / 2}, 0.6, {(0.5 - r) * CARD / 2}]''' for r, c in SOLID)
-
-
-def _regions(scene) -> dict[str, np.ndarray]:
-    """Pixels whose ray crosses the card's plane well inside a solid quadrant ("card") or a hole
-    ("through a hole": the floor seen through it), and pixels that see the floor beside the card."""
-    cam = scene.camera
-    jj, ii = np.mgrid[0:cam.height, 0:cam.width]
-    d = cam.ray_directions(ii + 0.5, jj + 0.5)
-    o = np.asarray(cam.position)
-    t = (0.6 - o[1]) / np.where(d[..., 1] < 0, d[..., 1], -1e-30)
-    p = o + d * t[..., None]
-    x, z = p[..., 0], p[..., 2]
-    h = CARD / 2
-    inner = (np.abs(x) > 0.1) & (np.abs(x) < h - 0.1) & (np.abs(z) > 0.1) & (np.abs(z) < h - 0.1) & (t > 0)
-    solid = ((x > 0) & (z > 0)) | ((x < 0) & (z < 0))
-    tf = -o[1] / np.where(d[..., 1] < 0, d[..., 1], -1e-30)
-    pf = o + d * tf[..., None]
-    beside = (np.abs(x) > h + 0.15) & (np.abs(pf[..., 0]) < 1.4) & (np.abs(pf[..., 2]) < 1.4) & (tf > 0)
-    return {"card": inner & solid, "through a hole": inner & ~solid, "floor beside": beside}
 
 
 def _both(scene, gl_ctx, seed=0):
@@ -123,12 +34,12 @@ def test_a_masked_card_is_the_geometry_it_cuts_out(tmp_path, gl_ctx):
     """The masked card and its solid quadrants as real quads give the same image in each renderer (the
     card, the floor seen through its holes with the shadows of its solid parts); and the rasterizer is
     within 5 % of the reference on the card and beside it, 10 % in the penumbra seen through the holes."""
-    masked = _scene(tmp_path, MASKED)
+    masked = card_scene(tmp_path, CARD_MASKED)
     (tmp_path / "geometry").mkdir()
-    geometry = _scene(tmp_path / "geometry", GEOMETRY)
+    geometry = card_scene(tmp_path / "geometry", CARD_GEOMETRY)
     assert masked.features().alpha_mask and not geometry.features().alpha_mask
     got, want = _both(masked, gl_ctx), _both(geometry, gl_ctx)
-    regions = _regions(masked)
+    regions = card_regions(masked)
     for name, m in regions.items():
         assert m.sum() > 25, name
         for k, renderer in enumerate(("rasterizer", "reference")):
@@ -149,11 +60,12 @@ def test_the_mask_casts_the_shadow_of_its_solid_parts(tmp_path, gl_ctx):
     """Lit from the side, the card's shadow falls on the floor beside it: where the light passes a hole the
     floor is lit as under the card's solid parts as geometry, and brighter than under an opaque card (the
     shadow-map pass tests alpha); in the reference too."""
-    masked = _scene(tmp_path, MASKED, light=SIDE_LIGHT)
+    masked = card_scene(tmp_path, CARD_MASKED, light=SIDE_LIGHT)
     (tmp_path / "opaque").mkdir()
-    opaque = _scene(tmp_path / "opaque", MASKED.replace('material = "leaf"', 'material = "green"'), light=SIDE_LIGHT)
+    opaque = card_scene(tmp_path / "opaque", CARD_MASKED.replace('material = "leaf"', 'material = "green"'),
+                        light=SIDE_LIGHT)
     (tmp_path / "geometry").mkdir()
-    geometry = _scene(tmp_path / "geometry", GEOMETRY, light=SIDE_LIGHT)
+    geometry = card_scene(tmp_path / "geometry", CARD_GEOMETRY, light=SIDE_LIGHT)
     cam = masked.camera
     jj, ii = np.mgrid[0:cam.height, 0:cam.width]
     d = cam.ray_directions(ii + 0.5, jj + 0.5)
@@ -174,26 +86,26 @@ def test_the_mask_casts_the_shadow_of_its_solid_parts(tmp_path, gl_ctx):
 
 def test_the_alpha_factor_alone_can_hide_a_surface(tmp_path, gl_ctx):
     """alpha 0.4 below the cutoff 0.5 without a map: the card is gone, for the camera and for shadows."""
-    hidden = _scene(tmp_path, MASKED.replace('material = "leaf"', 'material = "ghost"'))
+    hidden = card_scene(tmp_path, CARD_MASKED.replace('material = "leaf"', 'material = "ghost"'))
     (tmp_path / "none").mkdir()
-    empty = _scene(tmp_path / "none", "")
+    empty = card_scene(tmp_path / "none", "")
     for k, (a, b) in enumerate(zip(_both(hidden, gl_ctx), _both(empty, gl_ctx))):
         np.testing.assert_allclose(a.mean((0, 1)), b.mean((0, 1)), rtol=0.02, err_msg=["rasterizer", "reference"][k])
     # and just at the cutoff, it is there (glTF: coverage >= cutoff is solid)
     (tmp_path / "t.toml").write_text((tmp_path / "t.toml").read_text().replace("alpha = 0.4", "alpha = 0.5"))
     shown = load_scene(tmp_path / "t.toml")
     red = render_progressive(shown, frames=8, ctx=gl_ctx).image
-    m = _regions(shown)["card"]
+    m = card_regions(shown)["card"]
     assert red[m].mean(0)[0] > 3 * red[m].mean(0)[1]
 
 
 def test_holes_keep_the_kind_of_light_seen_through_them(tmp_path):
     """The reference counts a hole as no bounce: direct light seen through a hole is direct light at
     max_depth 2 (Mitsuba's path would count the hole and lose it), and the layers sum to the image."""
-    scene = _scene(tmp_path, MASKED)
+    scene = card_scene(tmp_path, CARD_MASKED)
     r = ReferenceRenderer(scene, cache_dir=False, progress=False)
     image, layers, _ = r.render_layers(64)
-    m = _regions(scene)["through a hole"]
+    m = card_regions(scene)["through a hole"]
     assert layers["direct_area"][m].mean() > 0.9 * image[m].mean() > 0.02
     assert layers["indirect_diffuse"][m].max() == 0 and layers["indirect_specular"][m].max() == 0
 
@@ -201,7 +113,7 @@ def test_holes_keep_the_kind_of_light_seen_through_them(tmp_path):
 def test_no_alpha_work_without_a_mask(tmp_path, gl_ctx):
     """A textured scene without a mask draws its occluders from positions alone; a masked scene draws its
     masked meshes with a shadow program that reads texture coordinates, its opaque ones without."""
-    _scene(tmp_path, MASKED)
+    card_scene(tmp_path, CARD_MASKED)
     text = (tmp_path / "t.toml").read_text().replace('alpha_mode = "mask"', 'alpha_mode = "opaque"')
     (tmp_path / "t.toml").write_text(text)
     plain = load_scene(tmp_path / "t.toml")
@@ -215,7 +127,7 @@ def test_no_alpha_work_without_a_mask(tmp_path, gl_ctx):
     finally:
         g.release()
     (tmp_path / "m").mkdir()
-    g = GpuScene(gl_ctx, _scene(tmp_path / "m", MASKED))
+    g = GpuScene(gl_ctx, card_scene(tmp_path / "m", CARD_MASKED))
     try:
         assert g.masked
         programs = g.occluder_programs(gl_ctx, "shadow.glsl")
@@ -232,7 +144,7 @@ def test_no_alpha_work_without_a_mask(tmp_path, gl_ctx):
     ("alpha", "-0.1", "alpha"),
 ])
 def test_bad_alpha_settings_name_the_field(tmp_path, field, value, message):
-    _scene(tmp_path, MASKED)
+    card_scene(tmp_path, CARD_MASKED)
     text = (tmp_path / "t.toml").read_text()
     text = text.replace("[materials.green]", f"[materials.bad]\n{field} = {value}\n[materials.green]")
     (tmp_path / "t.toml").write_text(text)
@@ -242,7 +154,7 @@ def test_bad_alpha_settings_name_the_field(tmp_path, field, value, message):
 
 
 def test_an_emissive_mask_is_refused(tmp_path):
-    _scene(tmp_path, MASKED)
+    card_scene(tmp_path, CARD_MASKED)
     text = (tmp_path / "t.toml").read_text().replace('alpha_cutoff = 0.5', 'alpha_cutoff = 0.5\nemission = [1, 1, 1]')
     (tmp_path / "t.toml").write_text(text)
     with pytest.raises(SceneError, match="materials.leaf.alpha_mode.*emissive"):
@@ -253,7 +165,7 @@ def test_the_mask_round_trips_through_gltf(tmp_path):
     """Exported as alphaMode MASK with its cutoff and factor, and read back as the same material."""
     from compare.renderers.job import export_gltf
 
-    scene = _scene(tmp_path, MASKED)
+    scene = card_scene(tmp_path, CARD_MASKED)
     (tmp_path / "g").mkdir()
     export_gltf(scene, tmp_path / "g" / "scene.gltf")
     doc = json.loads((tmp_path / "g" / "scene.gltf").read_text())
@@ -268,7 +180,7 @@ def test_the_mask_round_trips_through_gltf(tmp_path):
         [[include]]
         file = "scene.gltf"
         prefix = ""
-        {LIGHT}
+        {CARD_LIGHT}
         '''))
     back = load_scene(tmp_path / "g" / "t.toml").materials["leaf"]
     assert (back.alpha_mode, back.alpha, back.alpha_cutoff) == ("mask", 1.0, 0.5)
@@ -292,9 +204,10 @@ def test_mip_levels_keep_the_coverage_of_the_map():
 
 def test_variance_shadow_maps_see_the_holes_too(tmp_path, gl_ctx):
     """The VSM shadow pass (moments) tests alpha as the hard one does: the same light through the holes."""
-    masked = _scene(tmp_path, MASKED, light=SIDE_LIGHT)
+    masked = card_scene(tmp_path, CARD_MASKED, light=SIDE_LIGHT)
     (tmp_path / "opaque").mkdir()
-    opaque = _scene(tmp_path / "opaque", MASKED.replace('material = "leaf"', 'material = "green"'), light=SIDE_LIGHT)
+    opaque = card_scene(tmp_path / "opaque", CARD_MASKED.replace('material = "leaf"', 'material = "green"'),
+                        light=SIDE_LIGHT)
     mean = {(name, f): render_progressive(s, frames=32, ctx=gl_ctx, shadow_filter=f).image.mean()
             for name, s in (("masked", masked), ("opaque", opaque)) for f in ("hard", "vsm")}
     assert mean["masked", "vsm"] == pytest.approx(mean["masked", "hard"], rel=0.02)

@@ -18,7 +18,6 @@ above the plane.
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -26,9 +25,9 @@ import pytest
 from compare.metrics.closed_form import polygon_irradiance
 from compare.progressive.rasterizer import render_progressive
 from compare.scene.loader import load_scene
+from tests.helpers import CORNELL
 
 
-ROOT = Path(__file__).resolve().parent.parent
 ALBEDO = 0.5
 RADIANCE = 4.0
 SAMPLES = 32  # the paper's default n_i for one light and 128 frames
@@ -249,7 +248,7 @@ def test_ltc_first_frame_is_the_exact_unshadowed_light(gl_ctx):
     same light drawn from frame 0's G-buffer, and every later frame before a light sample shows it too."""
     from compare.progressive.rasterizer import Rasterizer
 
-    s = load_scene(ROOT / "scenes" / "cornell.toml").with_resolution(48, 36)
+    s = load_scene(CORNELL).with_resolution(48, 36)
     firsts = {}
     for mode in ("forward", "gbuffer"):
         with Rasterizer(s, frames=8, ctx=gl_ctx, shadow_size=64, area_model="ltc", first_frame=mode,
@@ -272,7 +271,7 @@ def test_ltc_first_frame_is_the_exact_unshadowed_light(gl_ctx):
 def test_ltc_combines_with_the_other_options(gl_ctx, options):
     """Variance shadow maps, a frame budget and probes change ``ltc``'s image as they change the
     radiometric model's: the images' means move by the same factor within 3 %."""
-    s = load_scene(ROOT / "scenes" / "cornell.toml").with_resolution(48, 36)
+    s = load_scene(CORNELL).with_resolution(48, 36)
     change = {}
     for model in ("ltc", "radiometric"):
         kw = dict(frames=32, ctx=gl_ctx, shadow_size=64, area_model=model)

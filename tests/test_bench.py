@@ -4,13 +4,11 @@ from __future__ import annotations
 
 import json
 import math
-from pathlib import Path
 
 import pytest
 
 from compare.bench.suite import format_table, run_bench, time_to_error
-
-ROOT = Path(__file__).resolve().parent.parent
+from tests.helpers import CORNELL, ROOT
 
 
 def test_time_to_error_interpolates_log_log():
@@ -22,7 +20,7 @@ def test_time_to_error_interpolates_log_log():
 
 
 def test_bench_reports_ratios(tmp_path, gl_ctx):
-    result = run_bench(ROOT / "scenes" / "cornell.toml", size=(48, 36), frames=8, spp=4, repeats=2,
+    result = run_bench(CORNELL, size=(48, 36), frames=8, spp=4, repeats=2,
                        items=("first-frame", "depth-floor", "area-models", "wrapper-overhead"), progress=False)
     names = [f["name"] for f in result["figures"]]
     assert names == ["first-frame", "first-frame-total", "first-frame-full-size", "depth-floor", "area-model-ltc",
@@ -45,7 +43,7 @@ def test_bench_times_texturing_and_skips_a_scene_without_maps(tmp_path, gl_ctx):
     (f,) = result["figures"]
     assert f["name"] == "textures" and f["a_median"] > 0 and f["b_median"] > 0 and len(f["b_samples"]) == 2
     assert "materials textured" in f["note"]
-    plain = run_bench(ROOT / "scenes" / "cornell.toml", size=(32, 24), frames=4, spp=4, repeats=1,
+    plain = run_bench(CORNELL, size=(32, 24), frames=4, spp=4, repeats=1,
                       items=("textures",), progress=False)
     assert plain["figures"] == [] and "no material of the scene has a map" in plain["skipped"]["textures"]
 
@@ -64,7 +62,7 @@ def test_bench_equal_error_times_fresh_renders(tmp_path, gl_ctx, monkeypatch):
         return real(registry, spec, scene, steps=steps, checkpoints=checkpoints, seed=seed, context=context)
 
     monkeypatch.setattr(bench, "_render", recording)
-    result = run_bench(ROOT / "scenes" / "cornell.toml", size=(32, 24), frames=4, spp=4, repeats=2,
+    result = run_bench(CORNELL, size=(32, 24), frames=4, spp=4, repeats=2,
                        items=("equal-error",), progress=False)
     names = [f["name"] for f in result["figures"]]
     assert names == ["equal-error-full", "equal-error-full-ltc-probes", "equal-error-direct", "equal-error-direct-ltc"]
@@ -81,12 +79,11 @@ def test_setup_items_measure_every_renderer_on_the_car_and_the_scaled_scenes(tmp
     from compare.bench.setup_cost import SCALES, bench_setup, scaled_scene
     from compare.scene.gltf_read import load_gltf
 
-    root = Path(__file__).resolve().parent.parent
     scene = scaled_scene(4, tmp_path, triangles=200, map_size=32)
     doc = load_gltf(scene.with_suffix(".glb"))
     assert len(doc.primitives) == 4 and len(doc.images) == 4
     assert 4 * 150 <= sum(p.mesh.triangle_count for p in doc.primitives) <= 4 * 250
-    figures = bench_setup(root / "scenes" / "car.toml", tmp_path, size=(32, 24), repeats=1,
+    figures = bench_setup(ROOT / "scenes" / "car.toml", tmp_path, size=(32, 24), repeats=1,
                           renderers=["mitsuba"], triangles=200, map_size=32)
     assert [(f.name, f.a) for f in figures] == [
         ("setup-seconds", "mitsuba car"), ("setup-rss", "mitsuba car"),
@@ -119,7 +116,7 @@ def test_a_failing_item_is_recorded_and_every_figure_is_written_as_it_is_measure
 
     monkeypatch.setitem(progressive.ITEMS, "first-frame", broken)
     monkeypatch.setitem(progressive.ITEMS, "depth-floor", fine)
-    rc = main(["bench", "--scene", str(Path(__file__).resolve().parent.parent / "scenes" / "cornell.toml"),
+    rc = main(["bench", "--scene", str(CORNELL),
                "--size", "16x12", "--frames", "2", "--spp", "4", "--repeats", "1",
                "--only", "first-frame,depth-floor", "-o", str(tmp_path / "bench.json")])
     assert rc == 1

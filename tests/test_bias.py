@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,9 +10,7 @@ from compare.run import runner as run_mod
 from compare.metrics.bias import bias_variance
 from compare.mitsuba.renderer import MitsubaRenderer
 from compare.report.results import RunSettings
-
-ROOT = Path(__file__).resolve().parent.parent
-CORNELL = ROOT / "scenes" / "cornell.toml"
+from tests.helpers import CORNELL
 
 
 @pytest.mark.parametrize("k", [2, 4, 8])

@@ -25,12 +25,8 @@ from compare.util.errors import MissingComponentError
 from compare.image.exr import write_exr
 from compare.mitsuba.reference import ReferenceRenderer
 from compare.scene.loader import load_scene
-
-ROOT = Path(__file__).resolve().parents[1]
-CORNELL = ROOT / "scenes" / "cornell.toml"
-
-_HAVE_BPY, _WHY = blender_available()
-needs_bpy = pytest.mark.skipif(not _HAVE_BPY, reason=f"Blender renders need bpy: {_WHY}")
+from tests.helpers import (CARD_GEOMETRY, CARD_MASKED, CORNELL, QUADRANTS, QUADRANT_MAPS, ROOT, card_regions,
+                           card_scene, quadrant_regions, quadrant_scene, tilt_ratio, tilt_scenes)
 
 
 def _write(path: Path, text: str) -> Path:
@@ -291,7 +287,7 @@ def test_region_stats_agree_on_identical_expectations():
 # ----------------------------------------------------------------------------- renders (bpy)
 
 
-@needs_bpy
+@pytest.mark.bpy
 def test_cycles_area_light_radiometry(tmp_path):
     """A Lambertian plane under one light: Cycles against Lambert's polygon formula."""
     scene = _plane_scene(tmp_path)
@@ -308,7 +304,7 @@ def test_cycles_area_light_radiometry(tmp_path):
     write_exr(tmp_path / "r.exr", r.image, metadata=r.metadata)  # EXR-ready metadata
 
 
-@needs_bpy
+@pytest.mark.bpy
 def test_cycles_area_light_is_one_sided(tmp_path):
     """A light facing away from the floor lights nothing, and shows its radiance to the camera it faces."""
     scene = _plane_scene(tmp_path, light_normal=(0.0, 1.0, 0.0), size=16)
@@ -322,7 +318,7 @@ def test_cycles_area_light_is_one_sided(tmp_path):
     np.testing.assert_allclose(full, np.broadcast_to(scene.lights[0].radiance, full.shape), rtol=1e-5)
 
 
-@needs_bpy
+@pytest.mark.bpy
 def test_cycles_environment_orientation(tmp_path):
     """A map whose texels hold their own direction: every pixel must show the direction it looks along."""
     write_exr(tmp_path / "env.exr", (0.5 + 0.5 * equirect_directions(128, 64)).astype(np.float32))
@@ -353,7 +349,7 @@ intensity = 2.0
     assert np.percentile(err, 99) < 0.02, err.max()
 
 
-@needs_bpy
+@pytest.mark.bpy
 def test_cycles_checkpoints_are_prefixes_of_the_full_render():
     scene = load_scene(CORNELL).with_resolution(16, 12)
     r = render_blender(scene, engine="cycles", samples=8, seed=5, ladder=[1, 2, 4])
@@ -364,14 +360,14 @@ def test_cycles_checkpoints_are_prefixes_of_the_full_render():
     assert all(c.seconds > 0 for c in r.checkpoints)
 
 
-@needs_bpy
+@pytest.mark.bpy
 def test_worker_failure_is_a_blender_error(tmp_path):
     scene = load_scene(CORNELL).with_resolution(16, 12)
     with pytest.raises(BlenderError, match="no_such_setting"):
         render_blender(scene, engine="cycles", samples=1, settings={"no_such_setting": 1})
 
 
-@needs_bpy
+@pytest.mark.bpy
 def test_cornell_geometry_and_lights_match_mitsuba_with_lambert():
     """Lambert on both sides isolates camera, geometry, lights and bounces from the BSDF models."""
     from compare.run.likeness import cycles_likeness
@@ -391,7 +387,7 @@ def cornell_cycles_pairs():
                             for sd in (0, 1)) for d in ("multi_ggx", "ggx")}
 
 
-@needs_bpy
+@pytest.mark.bpy
 @pytest.mark.parametrize("materials, distribution", [("cycles", "multi_ggx"), ("cycles-ggx", "ggx")])
 def test_cornell_reference_is_cycles_like(materials, distribution, cornell_cycles_pairs):
     """The criterion at test size: FLIP(Mitsuba, Cycles) ≤ 1.25 × FLIP(Cycles A, Cycles B), and the same
@@ -413,7 +409,7 @@ def test_cornell_reference_is_cycles_like(materials, distribution, cornell_cycle
     assert not bad, bad
 
 
-@needs_bpy
+@pytest.mark.bpy
 def test_likeness_tells_the_distributions_apart(cornell_cycles_pairs):
     """The test above could fail: the Multiscatter model against GGX renders is far from Cycles-like
     (measured 4.1 at 96x72, 512 spp), and a mode and renders of different distributions are refused."""
@@ -427,7 +423,7 @@ def test_likeness_tells_the_distributions_apart(cornell_cycles_pairs):
         cycles_likeness(scene, spp=256, materials="cycles-ggx", cache_dir=False, cycles=pairs["multi_ggx"])
 
 
-@needs_bpy
+@pytest.mark.bpy
 @pytest.mark.slow
 def test_eevee_area_light_radiometry(tmp_path):
     """EEVEE's area lights (LTC) are exact for a Lambertian plane without occluders."""
@@ -439,7 +435,7 @@ def test_eevee_area_light_radiometry(tmp_path):
     assert r.metadata["engine"] == "eevee" and r.metadata["warmup_seconds"] > 0
 
 
-@needs_bpy
+@pytest.mark.bpy
 @pytest.mark.slow
 def test_eevee_renders_the_cornell_box():
     """EEVEE without ray tracing or baked probes has no light between surfaces: it matches Cycles' direct light."""
@@ -452,7 +448,7 @@ def test_eevee_renders_the_cornell_box():
     np.testing.assert_allclose(r.image[wall].mean(0), c.image[wall].mean(0), rtol=0.05)
 
 
-@needs_bpy
+@pytest.mark.bpy
 @pytest.mark.parametrize("engine, option", [("cycles", "--spp"), ("eevee", "--samples")])
 def test_compare_render_takes_the_blender_renderers(tmp_path, capsys, engine, option):
     """``compare render --renderer cycles|eevee`` through the registry, like every other renderer."""
@@ -460,7 +456,7 @@ def test_compare_render_takes_the_blender_renderers(tmp_path, capsys, engine, op
     from compare.image.exr import read_exr
 
     out = tmp_path / f"{engine}.exr"
-    assert main(["render", "--scene", str(ROOT / "scenes" / "cornell.toml"), "--renderer", engine, option, "4",
+    assert main(["render", "--scene", str(CORNELL), "--renderer", engine, option, "4",
                  "--size", "24x18", "-o", str(out)]) == 0
     image, meta = read_exr(out)
     assert image.shape == (18, 24, 3) and np.isfinite(image).all() and image.mean() > 0
@@ -468,95 +464,76 @@ def test_compare_render_takes_the_blender_renderers(tmp_path, capsys, engine, op
     assert "4 spp in" in capsys.readouterr().out
 
 
-@needs_bpy
+@pytest.mark.bpy
 def test_cycles_reads_the_metallic_roughness_map_as_its_factors(tmp_path):
     """glTF's channels in Blender (G = roughness, B = metallic, Non-Color): each half of the map renders
     as the factors it holds."""
-    from test_textures import _regions, _scene
-
-    textured = _scene(tmp_path, 'base_color = [0.8, 0.6, 0.4]\nmetallic_roughness_texture = "mr.png"')
-    regions = _regions(textured)
+    textured = quadrant_scene(tmp_path, 'base_color = [0.8, 0.6, 0.4]\nmetallic_roughness_texture = "mr.png"')
+    regions = quadrant_regions(textured)
     got = render_blender(textured, engine="cycles", samples=256, seed=1).image
     for half, factors, names in (("left", "metallic = 0.0\nroughness = 1.0", ("quadrant 00", "quadrant 10")),
                                  ("right", f"metallic = 1.0\nroughness = {204 / 255}", ("quadrant 01", "quadrant 11"))):
         (tmp_path / half).mkdir()
-        want = render_blender(_scene(tmp_path / half, f"base_color = [0.8, 0.6, 0.4]\n{factors}"), engine="cycles",
-                              samples=256, seed=1).image
+        want = render_blender(quadrant_scene(tmp_path / half, f"base_color = [0.8, 0.6, 0.4]\n{factors}"),
+                              engine="cycles", samples=256, seed=1).image
         for name in names:
             m = regions[name]
             np.testing.assert_allclose(got[m].mean(0), want[m].mean(0), rtol=0.03, err_msg=f"{half} {name}")
 
 
-#: Texture transforms that move whole quadrants of the map (the floor's regions stay one colour each), with
-#: the quadrant (row, column) of the map that region (r, c) then shows: glTF's rotation matrix
-#: [[cos, sin], [-sin, cos]] takes (u, v) to (v, 1 - u) at 90 degrees (repeat wrap).
-QUADRANT_MAPS = [
-    ("texture_offset = [0.5, 0.0]", lambda r, c: (r, 1 - c)),
-    ("texture_rotation = 90", lambda r, c: (1 - c, r)),
-    ("texture_rotation = 180", lambda r, c: (1 - r, 1 - c)),
-    ("texture_offset = [0.5, 0.5]\ntexture_scale = [-1.0, 1.0]", lambda r, c: (1 - r, c)),
-]
-
-
-@needs_bpy
+@pytest.mark.bpy
 def test_cycles_multiplies_the_emission_by_its_map(tmp_path):
     from compare.image.tonemap import srgb_decode
-    from test_textures import QUADRANTS, _regions, _scene
 
-    scene = _scene(tmp_path, 'base_color = [0.0, 0.0, 0.0]\nemission = [2.0, 1.0, 0.5]\n'
-                             'emissive_texture = "quadrants.png"', light=False)
+    scene = quadrant_scene(tmp_path, 'base_color = [0.0, 0.0, 0.0]\nemission = [2.0, 1.0, 0.5]\n'
+                                     'emissive_texture = "quadrants.png"', light=False)
     image = render_blender(scene, engine="cycles", samples=16, seed=1).image
-    regions = _regions(scene)
+    regions = quadrant_regions(scene)
     for (r, c), colour in QUADRANTS.items():
         want = np.array([2.0, 1.0, 0.5]) * srgb_decode(np.array(colour) / 255.0)
         np.testing.assert_allclose(image[regions[f"quadrant {r}{c}"]].mean(0), want, rtol=0.01, err_msg=f"{r}{c}")
 
 
-@needs_bpy
+@pytest.mark.bpy
 @pytest.mark.parametrize("settings, source", QUADRANT_MAPS)
 def test_cycles_applies_the_texture_transform(tmp_path, settings, source):
     """The material's texture transform through a Mapping node (Blender's v runs up): an emission map
     turned and shifted by whole quadrants shows each region the quadrant the transform says."""
     from compare.image.tonemap import srgb_decode
-    from test_textures import QUADRANTS, _regions, _scene
 
-    scene = _scene(tmp_path, 'base_color = [0.0, 0.0, 0.0]\nemission = [1.0, 1.0, 1.0]\n'
-                             f'emissive_texture = "quadrants.png"\n{settings}', light=False)
+    scene = quadrant_scene(tmp_path, 'base_color = [0.0, 0.0, 0.0]\nemission = [1.0, 1.0, 1.0]\n'
+                                     f'emissive_texture = "quadrants.png"\n{settings}', light=False)
     image = render_blender(scene, engine="cycles", samples=16, seed=1).image
-    regions = _regions(scene)
+    regions = quadrant_regions(scene)
     for (r, c) in QUADRANTS:
         want = srgb_decode(np.array(QUADRANTS[source(r, c)]) / 255.0)
         np.testing.assert_allclose(image[regions[f"quadrant {r}{c}"]].mean(0), want, rtol=0.01, err_msg=f"{r}{c}")
 
 
-@needs_bpy
+@pytest.mark.bpy
 def test_cycles_normal_map_is_the_relief_it_stands_for(tmp_path):
     """glTF's normal map through Blender's Normal Map node (tangent space, the UV map's tangents): the
     flat square with a map tilted up the image shades as the square tilted that way (tests/test_textures.py)."""
-    from test_textures import _ratio, _tilt_scenes
-
-    mapped, tilted, other = _tilt_scenes(tmp_path)
+    mapped, tilted, other = tilt_scenes(tmp_path)
     img = {k: render_blender(s, engine="cycles", samples=64, seed=1).image
            for k, s in (("mapped", mapped), ("tilted", tilted), ("other", other))}
-    assert _ratio(img["mapped"], img["tilted"], img["other"]) == pytest.approx(1.0, abs=0.01)
-    assert _ratio(img["mapped"], img["other"], img["tilted"]) > 1.3
+    assert tilt_ratio(img["mapped"], img["tilted"], img["other"]) == pytest.approx(1.0, abs=0.01)
+    assert tilt_ratio(img["mapped"], img["other"], img["tilted"]) > 1.3
 
 
-@needs_bpy
+@pytest.mark.bpy
 @pytest.mark.parametrize("engine, samples", [("cycles", 256), ("eevee", 64)])
 def test_blender_alpha_mask_is_the_geometry_it_cuts_out(tmp_path, engine, samples):
     """glTF's alpha mask on the Principled BSDF's Alpha: the masked card renders as its solid quadrants as
     real quads (the card, the floor seen through its holes, the shadows) within 3 % in Cycles and in EEVEE,
     and in Cycles as the reference does within 5 %."""
-    from test_alpha_mask import GEOMETRY, MASKED, _regions, _scene
-
-    masked = _scene(tmp_path, MASKED)
+    masked = card_scene(tmp_path, CARD_MASKED)
     (tmp_path / "geometry").mkdir()
-    geometry = _scene(tmp_path / "geometry", GEOMETRY)
+    geometry = card_scene(tmp_path / "geometry", CARD_GEOMETRY)
     a = render_blender(masked, engine=engine, samples=samples, seed=1).image
     b = render_blender(geometry, engine=engine, samples=samples, seed=2).image
     ref = ReferenceRenderer(masked, cache_dir=False, progress=False).render(512).image if engine == "cycles" else None
-    for name, m in _regions(masked).items():
+    for name, m in card_regions(masked).items():
         np.testing.assert_allclose(a[m].mean(0), b[m].mean(0), rtol=0.03, atol=0.003, err_msg=name)
         if ref is not None:
             np.testing.assert_allclose(a[m].mean(0), ref[m].mean(0), rtol=0.05, atol=0.002, err_msg=name)

@@ -28,7 +28,6 @@ import numpy as np
 import pytest
 
 from compare import brdf
-from compare.util.errors import MissingComponentError
 
 N_RANDOM = 4096
 PLUGIN_RTOL = 1e-5
@@ -133,30 +132,7 @@ def _report():
 
 # -- Mitsuba ---------------------------------------------------------------------------
 
-def _use_variant(name):
-    """Register the plugin in a variant (skip when unavailable), restore the previous variant after."""
-    import sys
-
-    from compare.mitsuba.bsdf import register
-
-    before = sys.modules["mitsuba"].variant() if "mitsuba" in sys.modules else None
-    try:
-        mi = register(name)
-    except MissingComponentError as exc:
-        pytest.skip(f"Mitsuba variant {name} unavailable: {exc}")
-    yield mi
-    if before and before != name:
-        mi.set_variant(before)
-
-
-@pytest.fixture(scope="module")
-def mi_llvm():
-    yield from _use_variant("llvm_ad_rgb")
-
-
-@pytest.fixture(scope="module")
-def mi_scalar():
-    yield from _use_variant("scalar_rgb")
+# mi_llvm and mi_scalar (tests/conftest.py): the plugin registered with that variant, made active.
 
 
 def _compare_plugin(mi, name, wi, wo, c, m, r):

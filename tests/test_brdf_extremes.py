@@ -20,7 +20,6 @@ import numpy as np
 import pytest
 
 from compare import brdf
-from compare.util.errors import MissingComponentError
 
 COSINES = (1.0, 0.5, 1e-3, 1e-6, 1e-12, 1e-30, 0.0, -1e-7, -0.5)
 ROUGH = (0.0, 1.0)
@@ -94,31 +93,21 @@ def test_numpy_helpers_extremes():
         np.testing.assert_allclose(brdf.fresnel_schlick(0.04, np.array([0.0, 1.0, 2.0, -1.0])), [1.0, 0.04, 0.04, 1.0])
 
 
-@pytest.mark.parametrize("variant", ["llvm_ad_rgb", "scalar_rgb"])
-def test_plugin_extremes_finite(extremes, variant):
-    import sys
+@pytest.mark.parametrize("variant, fixture", [("llvm_ad_rgb", "mi_llvm"), ("scalar_rgb", "mi_scalar")])
+def test_plugin_extremes_finite(extremes, variant, fixture, request):
+    from compare.mitsuba.bsdf import evaluate
 
-    from compare.mitsuba.bsdf import evaluate, register
-
-    before = sys.modules["mitsuba"].variant() if "mitsuba" in sys.modules else None
-    try:
-        register(variant)
-    except MissingComponentError as exc:
-        pytest.skip(f"Mitsuba variant {variant} unavailable: {exc}")
-    try:
-        n, v, l, c, m, r = extremes
-        value, pdf = evaluate(v, l, c, m, r, variant=variant)
-        _check_extremes(f"plugin {variant}", value, n, v, l)
-        assert np.all(np.isfinite(pdf)) and np.all(pdf >= 0.0)
-        ok = _comparable(v, l)
-        ref = brdf.eval_brdf(n[ok], v[ok], l[ok], c[ok], m[ok], r[ok], alpha_min=brdf.REFERENCE_ALPHA_MIN)
-        _assert_close(f"plugin {variant}", value[ok] / l[ok, 2:], ref, n[ok], v[ok], l[ok], r[ok], 1e-5,
-                      alpha_min=brdf.REFERENCE_ALPHA_MIN)
-        if variant == "llvm_ad_rgb":
-            _check_sampling_extremes(sys.modules["mitsuba"])
-    finally:
-        if before and before != variant:
-            sys.modules["mitsuba"].set_variant(before)
+    mi = request.getfixturevalue(fixture)  # the variant active, the plugin registered (tests/conftest.py)
+    n, v, l, c, m, r = extremes
+    value, pdf = evaluate(v, l, c, m, r, variant=variant)
+    _check_extremes(f"plugin {variant}", value, n, v, l)
+    assert np.all(np.isfinite(pdf)) and np.all(pdf >= 0.0)
+    ok = _comparable(v, l)
+    ref = brdf.eval_brdf(n[ok], v[ok], l[ok], c[ok], m[ok], r[ok], alpha_min=brdf.REFERENCE_ALPHA_MIN)
+    _assert_close(f"plugin {variant}", value[ok] / l[ok, 2:], ref, n[ok], v[ok], l[ok], r[ok], 1e-5,
+                  alpha_min=brdf.REFERENCE_ALPHA_MIN)
+    if variant == "llvm_ad_rgb":
+        _check_sampling_extremes(mi)
 
 
 def _check_sampling_extremes(mi):

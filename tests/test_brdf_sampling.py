@@ -32,7 +32,6 @@ import numpy as np
 import pytest
 
 from compare import brdf
-from compare.util.errors import MissingComponentError
 
 ROUGHNESS = (0.05, 0.3, 1.0)
 METALLIC = (0.0, 1.0)
@@ -50,21 +49,10 @@ CYCLES_CHI2 = ((0.3, 0.0, 0.5), (1.0, 0.5, 0.999), (0.05, 0.0, 0.01))
 _p_values: dict[tuple, float] = {}
 
 
-@pytest.fixture(scope="module")
-def mi():
+@pytest.fixture
+def mi(mi_llvm):
     """llvm_ad_rgb with the plugin registered (the chi2 harness needs a JIT variant)."""
-    import sys
-
-    from compare.mitsuba.bsdf import register
-
-    before = sys.modules["mitsuba"].variant() if "mitsuba" in sys.modules else None
-    try:
-        mod = register("llvm_ad_rgb")
-    except MissingComponentError as exc:
-        pytest.skip(f"Mitsuba variant llvm_ad_rgb unavailable: {exc}")
-    yield mod
-    if before and before != "llvm_ad_rgb":
-        mod.set_variant(before)
+    return mi_llvm
 
 
 @pytest.fixture(scope="module", autouse=True)

@@ -30,9 +30,9 @@ import numpy as np
 import pytest
 
 from compare.image.tonemap import to_ldr
+from tests.helpers import CORNELL, EVIL, cornell_named, synthetic_report
 
 CHROMIUM = Path("/usr/bin/chromium")
-EVIL = "<script>alert(1)</script>"
 #: A hermetic headless browser: no GPU, no network chatter, a fresh profile per session.
 CHROMIUM_FLAGS = ["--disable-gpu", "--disable-quic", "--no-first-run", "--disable-background-networking",
                   "--disable-component-update", "--disable-sync", "--disable-dev-shm-usage"]
@@ -125,10 +125,8 @@ class Browser:
 @pytest.fixture(scope="module")
 def report(tmp_path_factory):
     """A synthetic two-scene report (48×36): the Cornell box and one with a hostile name."""
-    from test_run_report import CORNELL, scene_file, synthetic_report
-
     tmp = tmp_path_factory.mktemp("browser")
-    evil = scene_file(tmp, EVIL)
+    evil = cornell_named(tmp, EVIL)
     res = synthetic_report(tmp / "report", [CORNELL, evil])
     return tmp / "report", res
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,8 +11,7 @@ from compare.progressive.rasterizer import Rasterizer, render_progressive
 from compare.progressive.schedule.distributor import plan
 from compare.progressive.schedule.budget import BudgetScheduler, FrameCosts
 from compare.scene.loader import load_scene
-
-ROOT = Path(__file__).resolve().parent.parent
+from tests.helpers import ROOT
 
 
 def _scene(name: str, size=(48, 36)):

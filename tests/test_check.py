@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import tomllib
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -19,8 +18,7 @@ from compare.cli.check import add_check_parser
 from compare.util.errors import CompareError
 from compare.report.results import Point, Reference, RendererRun, Results, RunSettings, SceneResult
 from compare.run.runner import collect_machine
-
-ROOT = Path(__file__).resolve().parent.parent
+from tests.helpers import CORNELL, ROOT
 
 
 def results() -> Results:
@@ -144,7 +142,7 @@ def test_cornell_box_meets_repository_thresholds(tmp_path, gl_ctx):
     """The CI gate: the built-in Cornell box at test resolution, real renderers, thresholds.toml."""
     from compare.run.runner import run
 
-    res = run([ROOT / "scenes" / "cornell.toml"], tmp_path / "out", RunSettings(**CORNELL_TEST_SETTINGS),
+    res = run([CORNELL], tmp_path / "out", RunSettings(**CORNELL_TEST_SETTINGS),
               progress=False, cache_dir=tmp_path / "cache", gl_ctx=gl_ctx, report=False)
     assert_thresholds(res, ROOT / "thresholds.toml")
 
@@ -174,7 +172,7 @@ def test_gate_on_flip_pooling_and_fixed_hdr_flip(tmp_path, gl_ctx):
     from compare.image.exr import read_exr
     from compare.metrics.images import flip, hdr_exposure_range
 
-    res = run_mod.run([ROOT / "scenes" / "cornell.toml"], tmp_path / "r",
+    res = run_mod.run([CORNELL], tmp_path / "r",
                       RunSettings(frames=4, spp=8, sizes=[[32, 24]]), progress=False,
                       cache_dir=tmp_path / "cache", gl_ctx=gl_ctx, report=False)
     (scene,) = res.scenes

@@ -11,15 +11,13 @@ import pytest
 
 from compare.cli.main import main
 from compare.image.exr import read_exr, write_exr
-
-ROOT = Path(__file__).resolve().parent.parent
-CORNELL = str(ROOT / "scenes" / "cornell.toml")
+from tests.helpers import CORNELL
 
 
 def test_render_mitsuba_writes_exr_with_metadata_and_png(tmp_path, capsys, monkeypatch):
     monkeypatch.setenv("COMPARE_CACHE", str(tmp_path / "cache"))
     out = tmp_path / "ref.exr"
-    assert main(["render", "--scene", CORNELL, "--renderer", "mitsuba", "--spp", "4", "--size", "32x24",
+    assert main(["render", "--scene", str(CORNELL), "--renderer", "mitsuba", "--spp", "4", "--size", "32x24",
                  "-o", str(out)]) == 0
     image, meta = read_exr(out)
     assert image.shape == (24, 32, 3) and np.isfinite(image).all()
@@ -34,8 +32,8 @@ def test_render_mitsuba_writes_exr_with_metadata_and_png(tmp_path, capsys, monke
 def test_render_progressive_and_diff(tmp_path, capsys, monkeypatch):
     monkeypatch.setenv("COMPARE_CACHE", str(tmp_path / "cache"))
     ref, ours = tmp_path / "ref.exr", tmp_path / "ours.exr"
-    assert main(["render", "--scene", CORNELL, "--spp", "16", "--size", "32x24", "-o", str(ref)]) == 0
-    assert main(["render", "--scene", CORNELL, "--renderer", "progressive", "--frames", "8", "--size", "32x24",
+    assert main(["render", "--scene", str(CORNELL), "--spp", "16", "--size", "32x24", "-o", str(ref)]) == 0
+    assert main(["render", "--scene", str(CORNELL), "--renderer", "progressive", "--frames", "8", "--size", "32x24",
                  "-o", str(ours)]) == 0
     assert read_exr(ours)[1]["renderer"] == "progressive"
     capsys.readouterr()
@@ -49,7 +47,7 @@ def test_render_progressive_and_diff(tmp_path, capsys, monkeypatch):
 @pytest.mark.gl
 def test_render_progressive_variant(tmp_path, capsys):
     out = tmp_path / "vsm.exr"
-    assert main(["render", "--scene", CORNELL, "--renderer", "progressive:vsm+budget1000", "--frames", "8",
+    assert main(["render", "--scene", str(CORNELL), "--renderer", "progressive:vsm+budget1000", "--frames", "8",
                  "--size", "32x24", "-o", str(out)]) == 0
     meta = read_exr(out)[1]
     assert meta["shadow_filter"] == "vsm" and meta["distributor"] == "frame budget"
@@ -58,7 +56,7 @@ def test_render_progressive_variant(tmp_path, capsys):
 
 def test_unknown_variant_is_refused_before_rendering(tmp_path, capsys):
     with pytest.raises(SystemExit) as exc:
-        main(["render", "--scene", CORNELL, "--renderer", "progressive:ssao", "-o", str(tmp_path / "x.exr")])
+        main(["render", "--scene", str(CORNELL), "--renderer", "progressive:ssao", "-o", str(tmp_path / "x.exr")])
     assert exc.value.code == 2
     assert "unknown option 'ssao'" in capsys.readouterr().err
 
@@ -92,7 +90,7 @@ def test_help_on_every_command():
 
 def test_bad_size_is_a_usage_error(capsys):
     with pytest.raises(SystemExit) as info:
-        main(["render", "--scene", CORNELL, "--size", "big", "-o", "x.exr"])
+        main(["render", "--scene", str(CORNELL), "--size", "big", "-o", "x.exr"])
     assert info.value.code == 2
     assert "expected WIDTHxHEIGHT" in capsys.readouterr().err
 
@@ -100,7 +98,7 @@ def test_bad_size_is_a_usage_error(capsys):
 def _scene_copy(tmp_path) -> Path:
     """The Cornell box in tmp_path (it references no other file)."""
     scene = tmp_path / "s.toml"
-    scene.write_text(Path(CORNELL).read_text())
+    scene.write_text(CORNELL.read_text())
     return scene
 
 
@@ -151,7 +149,7 @@ def test_render_refuses_to_overwrite_a_file_the_scene_reads(tmp_path, capsys):
     env = tmp_path / "sky.exr"
     write_exr(env, np.full((4, 8, 3), 0.5, np.float32))
     scene = tmp_path / "s.toml"
-    scene.write_text(Path(CORNELL).read_text() + '\n[environment]\nfile = "sky.exr"\n')
+    scene.write_text(CORNELL.read_text() + '\n[environment]\nfile = "sky.exr"\n')
     before = env.read_bytes()
     assert main(["render", "--scene", str(scene), "--spp", "2", "--size", "16x12", "-o", str(env)]) == 2
     assert capsys.readouterr().err.strip() == (f"compare: error: -o {env}: is an input of this command ({env}); "
@@ -173,7 +171,7 @@ def test_output_folders_that_are_files_are_refused_before_any_work(tmp_path, cap
     results = tmp_path / "results.json"
     results.write_text("{}")
     option = "--maps" if command == "diff" else "-o"
-    argv = {"run": ["run", "--scenes", CORNELL, "--size", "16x12", "--frames", "2", "--spp", "2", "-o", str(out)],
+    argv = {"run": ["run", "--scenes", str(CORNELL), "--size", "16x12", "--frames", "2", "--spp", "2", "-o", str(out)],
             "report": ["report", str(results), "-o", str(out)],
             "diff": ["diff", str(exr), str(exr), "--maps", str(out)]}[command]
     assert main(argv) == 2
@@ -189,7 +187,7 @@ def test_a_bad_exposure_is_refused_before_any_work(tmp_path, capsys, command, va
     out = tmp_path / "x.exr"
     exr = tmp_path / "a.exr"
     write_exr(exr, np.ones((12, 12, 3), np.float32))
-    argv = (["render", "--scene", CORNELL, "--size", "16x12", "--spp", "2", "-o", str(out)] if command == "render"
+    argv = (["render", "--scene", str(CORNELL), "--size", "16x12", "--spp", "2", "-o", str(out)] if command == "render"
             else ["diff", str(exr), str(exr)])
     with pytest.raises(SystemExit) as exc:
         main(argv + ["--exposure", value])
@@ -213,7 +211,7 @@ def test_folders_that_cannot_be_written_are_one_error_before_any_work(tmp_path, 
         assert main(argv) == 2
         assert capsys.readouterr().err.startswith(message), argv
     monkeypatch.setenv("COMPARE_CACHE", "/proc/compare-cache")
-    assert main(["render", "--scene", CORNELL, "--spp", "1", "--size", "8x6", "-o", str(tmp_path / "x.exr")]) == 2
+    assert main(["render", "--scene", str(CORNELL), "--spp", "1", "--size", "8x6", "-o", str(tmp_path / "x.exr")]) == 2
     assert capsys.readouterr().err.startswith("compare: error: $COMPARE_CACHE (the reference cache; set it to a "
                                               "writable folder) /proc/compare-cache: cannot write in /proc (")
     assert not (tmp_path / "x.exr").exists()

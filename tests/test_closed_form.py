@@ -2,15 +2,14 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 
 from compare.metrics.closed_form import polygon_irradiance
 from compare.mitsuba.reference import ReferenceRenderer
 from compare.scene.loader import parse_scene
+from tests.helpers import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 ALBEDO = np.array([0.8, 0.6, 0.4])
 RADIANCE = np.array([4.0, 5.0, 6.0])
 

@@ -14,22 +14,21 @@ with the shared BRDF), with the measured values and seeds 1 and 2 noted beside e
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from compare.metrics.images import compare_images
 from compare.scene.loader import load_scene
+from tests.helpers import CORNELL
 
-ROOT = Path(__file__).resolve().parent.parent
 SPP = 512
 CHECKPOINTS = (1, 4, 16, 64, 128)
 
 
 @pytest.fixture(scope="module")
 def cornell():
-    return load_scene(ROOT / "scenes" / "cornell.toml").with_resolution(320, 240)
+    return load_scene(CORNELL).with_resolution(320, 240)
 
 
 @pytest.fixture(scope="module")

@@ -3,16 +3,13 @@
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import pytest
 
 from compare.run.executor import ExecutorError, parse_executor
 from compare.report.results import RunSettings
 from compare.run.runner import run
-
-ROOT = Path(__file__).resolve().parent.parent
-CORNELL = ROOT / "scenes" / "cornell.toml"
+from tests.helpers import CORNELL
 
 
 def test_parse_executor():

@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 import math
 import shutil
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,8 +13,8 @@ from compare.cli.main import main
 from compare.scene import framing
 from compare.scene.loader import load_scene
 from compare.util.errors import SceneError
+from tests.helpers import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 CAR = ROOT / "scenes" / "car"
 ENV = """
 [environment]

@@ -24,8 +24,7 @@ import tomli_w
 from hypothesis import given, strategies as st
 
 from compare.util.errors import CompareError
-
-ROOT = Path(__file__).resolve().parent.parent
+from tests.helpers import ROOT
 
 
 # --------------------------------------------------------------------------- a scene with one of everything

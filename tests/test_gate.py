@@ -8,8 +8,6 @@ import math
 import re
 import os
 import shutil
-import sys
-import textwrap
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -18,12 +16,7 @@ import pytest
 
 from compare.cli.main import main
 from compare.metrics.regression import coefficient_of_variation, holm, image_test, paired, welch
-from compare.report.results import RunSettings
-
-ROOT = Path(__file__).resolve().parent.parent
-CORNELL = ROOT / "scenes" / "cornell.toml"
-RENDERER = Path(__file__).resolve().parent / "gate_renderer.py"
-SEEDS = 5
+from tests.helpers import GATE_SEEDS, ROOT, gate_run
 
 
 # --------------------------------------------------------------------------- the statistics
@@ -110,40 +103,12 @@ def test_image_test_is_calibrated_and_sees_a_small_brightness_change():
 # --------------------------------------------------------------------------- the whole gate
 
 
-def renderer_config(folder: Path, *, bright=1.0, slow=1.0, jitter=0.0, salt=0) -> Path:
-    """A renderer file with the ground truth ("truth", 64 steps) and the renderer under test ("mine", 8 steps)."""
-    folder.mkdir(parents=True, exist_ok=True)
-    path = folder / "renderers.toml"
-    path.write_text(textwrap.dedent(f'''
-        [renderer.truth]
-        command = ["{sys.executable}", "{RENDERER}", "1", "0", "0", "0", "{{job}}"]
-        unit = "frames"
-        steps = 64
-        [renderer.mine]
-        command = ["{sys.executable}", "{RENDERER}", "{bright}", "{slow}", "{jitter}", "{salt}", "{{job}}"]
-        unit = "frames"
-        steps = 8
-    '''))
-    return path
-
-
-def render(folder: Path, **renderer) -> Path:
-    """``compare run`` of the gate renderer at 32x24 with 5 seeds; returns results.json."""
-    from compare.run.runner import run
-
-    config = renderer_config(folder / "config", **renderer)
-    run([CORNELL], folder / "out", RunSettings(frames=8, sizes=[[32, 24]], renderers=["mine"], ground_truth="truth",
-                                               seeds=SEEDS, renderer_config=str(config)),
-        progress=False, report=False)
-    return folder / "out" / "results.json"
-
-
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory) -> dict[str, Path]:
     """The baseline and five candidates: a rerun of the same code with the same seeds, and four whose salt gives
     them noise independent of the baseline's (as a renderer whose noise is not reproducible would have)."""
     root = tmp_path_factory.mktemp("gate")
-    return {name: render(root / name, **kw) for name, kw in [
+    return {name: gate_run(root / name, **kw) for name, kw in [
         ("base", {}), ("rerun", {}), ("same", {"salt": 1}), ("darker", {"bright": 0.95, "salt": 2}),
         ("slower", {"slow": 1.3, "salt": 3}), ("noisy", {"jitter": 0.5, "salt": 4})]}
 
@@ -317,7 +282,7 @@ def test_bad_input_is_one_error_naming_the_file_and_field(runs, baseline, tmp_pa
 def test_baseline_save_and_update(runs, baseline, tmp_path, capsys):
     index = json.loads((baseline / "baseline.json").read_text())
     (run,) = index["runs"]
-    assert len(run["images"]) == SEEDS and run["dof"] == SEEDS - 1 and index["machine"]["cores"] >= 1
+    assert len(run["images"]) == GATE_SEEDS and run["dof"] == GATE_SEEDS - 1 and index["machine"]["cores"] >= 1
     files = [p for p in baseline.rglob("*") if p.is_file()]
     assert sum(p.stat().st_size for p in files) < 300_000  # small enough to commit or cache
     kept = {p.relative_to(baseline).as_posix() for p in files}
@@ -430,9 +395,9 @@ def test_false_alarm_rate_of_same_code_pairs(tmp_path):
 
     failed, tests = [], 0
     for i in range(20):
-        base = render(tmp_path / f"b{i}", salt=100 + 2 * i)
+        base = gate_run(tmp_path / f"b{i}", salt=100 + 2 * i)
         save_baseline(base, tmp_path / f"b{i}" / "baseline")
-        report = run_gate(render(tmp_path / f"c{i}", salt=101 + 2 * i), tmp_path / f"b{i}" / "baseline")
+        report = run_gate(gate_run(tmp_path / f"c{i}", salt=101 + 2 * i), tmp_path / f"b{i}" / "baseline")
         tests += sum(g.p is not None for g in report.gates)
         if report.failed:
             failed.append([g.name for g in report.gates if g.failed(report.settings)])

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import json
 import struct
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,8 +17,8 @@ from PIL import Image
 
 from compare.scene.glb import pack_glb, parse_glb
 from compare.scene.gltf_read import GltfError, load_gltf
+from tests.helpers import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 CAR = ROOT / "scenes" / "car"
 #: variant → (extension it must use, smallest PSNR in dB of any of its maps against the plain PNG).
 #: Measured: WebP (quality 90) 27.2 dB on the tread's normal map, 34–46 dB elsewhere; UASTC 34.7 dB.

@@ -13,7 +13,7 @@ import pytest
 
 from compare.renderers.job import export_gltf
 from compare.scene.loader import load_scene
-from tests.helpers import CORNELL, ROOT, npm_missing, validate_gltf
+from tests.helpers import CORNELL, ROOT, validate_gltf
 
 SCENES = sorted([*ROOT.glob("scenes/*.toml"), *ROOT.glob("scenes/effects/*.toml"), *ROOT.glob("scenes/stress/*.toml"),
                  *ROOT.glob("scenes/khronos/*.toml")])
@@ -21,11 +21,6 @@ SCENES = sorted([*ROOT.glob("scenes/*.toml"), *ROOT.glob("scenes/effects/*.toml"
 #: Warnings a job glTF may carry: a material with KHR_materials_volume that is double-sided (the TOML scenes'
 #: default; the volume's thickness is then the file's own statement, kept as written).
 ALLOWED_WARNINGS = {"KHR_MATERIALS_VOLUME_DOUBLE_SIDED"}
-
-#: The validator's check as a skipif, and the validator, for modules that import them from here.
-needs_validator = pytest.mark.skipif(bool(npm_missing("gltf-validator")), reason=str(npm_missing("gltf-validator")))
-validate = validate_gltf
-
 
 @pytest.fixture(scope="module")
 def shipped_reports(tmp_path_factory) -> dict[str, set[tuple[str, int]]]:

@@ -11,6 +11,7 @@ import pytest
 
 from compare.scene.loader import load_scene
 from compare.util.errors import CompareError, SceneError
+from tests.helpers import ROOT
 
 LIT = """
     include = "model.gltf"
@@ -197,9 +198,8 @@ def test_a_spot_of_a_90_degree_cone_lights_the_ground_truth(make_scene):
 
 def test_negative_timings_in_results_are_refused(tmp_path):
     from compare.report.results import Results, ResultsError
-    from pathlib import Path
 
-    golden = Path(__file__).resolve().parent / "data" / "cornell-48x36-golden.json"
+    golden = ROOT / "tests" / "data" / "cornell-48x36-golden.json"
     for path, value in ((("runs", 0, "points", 0, "seconds"), -464651.0), (("runs", 1, "setup_seconds"), -1.0),
                         (("runs", 0, "first_frame_seconds"), -0.5)):
         d = json.loads(golden.read_text())

@@ -9,7 +9,6 @@ Mitsuba (mirror sphere, concave corner).
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -24,8 +23,7 @@ from compare.ibl.irradiance import irradiance_at, sh9_irradiance, sh9_project
 from compare.ibl.lut import split_sum_lut
 from compare.ibl.prefilter import level_sizes, prefilter, source_chain
 from compare.scene.loader import parse_scene
-
-ROOT = Path(__file__).resolve().parent.parent
+from tests.helpers import CORNELL, ROOT
 
 
 @pytest.fixture(autouse=True)
@@ -318,7 +316,7 @@ def test_plan_env_samples_follow_the_paper(frames, count):
 def test_plan_without_environment_or_occlusion_has_no_env_samples(tmp_path):
     from compare.progressive.schedule.distributor import plan
 
-    cornell = __import__("compare.scene.loader", fromlist=["load_scene"]).load_scene(ROOT / "scenes" / "cornell.toml")
+    cornell = __import__("compare.scene.loader", fromlist=["load_scene"]).load_scene(CORNELL)
     assert cornell.environment is None
     p = plan(cornell, 32)
     assert p.env_frames == 0 and p.env_counts == (0, 0) and not any(fp.env_samples for fp in p)

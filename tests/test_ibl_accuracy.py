@@ -26,7 +26,8 @@ def test_split_sum_is_exact_in_a_constant_environment_and_not_under_a_sun(gl_ctx
         r = by[("constant", rough)]
         assert r["rel_l1"] < r["mc_noise"] + 0.01, r
     # The sun at roughness 1: the n = v = r lobe reaches the sun where the true lobe is clipped by
-    # the horizon, far more error than the noise (measured at 128² faces: +41 % bias).
+    # the horizon, far more error than the noise (measured at these 16² faces: rel_l1 0.51, a +47 % bias,
+    # against noise 0.074; +41 % at 128²).
     assert by[("sky", 1.0)]["rel_l1"] > 3 * by[("sky", 1.0)]["mc_noise"]
     text = accuracy.format_tables({"split_sum": rows})
     assert "rel_l1" in text and "constant" in text

@@ -24,8 +24,8 @@ from compare.metrics.images import flip
 from compare.progressive.rasterizer import Rasterizer, render_progressive
 from compare.mitsuba.reference import ReferenceRenderer
 from compare.scene.loader import load_scene, parse_scene
+from tests.helpers import CORNELL, ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 
 #: Small preprocessing for tests: 16² or 32² cube faces, few GGX samples.
 SMALL = {"ibl_size": 16, "ibl_samples": 64}
@@ -65,7 +65,7 @@ def disc_mask(scene, fraction: float) -> np.ndarray:
 
 def test_scene_without_environment_does_no_environment_work(gl_ctx, tmp_path, monkeypatch):
     monkeypatch.setenv("COMPARE_CACHE", str(tmp_path))
-    cornell = load_scene(ROOT / "scenes" / "cornell.toml").with_resolution(32, 24)
+    cornell = load_scene(CORNELL).with_resolution(32, 24)
     with Rasterizer(cornell, frames=4, ctx=gl_ctx, shadow_size=64) as r:
         assert r.environment is None and r.env_occlusion is None and r.env_acc is None
         assert r.accumulate.environment is None

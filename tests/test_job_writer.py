@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import hashlib
-import io
 import json
 from pathlib import Path
 
@@ -11,64 +10,18 @@ import numpy as np
 import pytest
 
 from compare.scene.loader import load_scene
-
-
-def _png(rgb: np.ndarray) -> bytes:
-    from PIL import Image
-
-    buf = io.BytesIO()
-    Image.fromarray(rgb, "RGB").save(buf, format="PNG")
-    return buf.getvalue()
+from tests.helpers import COATED_SCENE, coated_model, png_bytes
 
 
 def _digest(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
-def _coated_model(folder: Path) -> Path:
-    """A .gltf beside its own maps (as a download unpacks): a card whose clearcoat and clearcoat
-    roughness come from external PNGs, the last of them the extension's last map."""
-    from compare.scene import geometry
-    from compare.scene.gltf_write import GltfWriter
-
-    stripes = np.zeros((4, 8, 3), dtype=np.uint8)
-    stripes[:, 4:] = 255
-    (folder / "CoatStrength.png").write_bytes(_png(stripes))
-    (folder / "RoughnessStripes.png").write_bytes(_png(stripes[:, ::-1].copy()))
-    w = GltfWriter()
-    mat = w.material("card", (0.8, 0.2, 0.1), 0.0, 0.5)
-    infos = []
-    for uri in ("CoatStrength.png", "RoughnessStripes.png"):
-        image = w._add("images", {"uri": uri})  # noqa: SLF001 - an external image, as downloads have
-        infos.append({"index": w._add("textures", {"source": image})})  # noqa: SLF001
-    w.doc["materials"][mat]["extensions"] = {"KHR_materials_clearcoat": {
-        "clearcoatFactor": 1.0, "clearcoatTexture": infos[0],
-        "clearcoatRoughnessFactor": 1.0, "clearcoatRoughnessTexture": infos[1]}}
-    w._use("KHR_materials_clearcoat")  # noqa: SLF001
-    w.node("card", mesh=w.mesh("card", [(geometry.quad((2.0, 2.0)), mat)], uvs=True),
-           rotation=[np.sin(np.pi / 4), 0.0, 0.0, np.cos(np.pi / 4)])  # +Y normal turned to +Z
-    return w.write(folder / "card.gltf")
-
-
-SCENE = """
-    include = "model/card.gltf"
-
-    [camera]
-    position = [0.0, 0.0, 3.0]
-    target = [0.0, 0.0, 0.0]
-    fov = 50.0
-    resolution = [24, 16]
-
-    [environment]
-    constant = [0.5, 0.5, 0.5]
-    """
-
-
 @pytest.fixture
 def coated_scene(tmp_path, make_scene):
     (tmp_path / "model").mkdir()
-    _coated_model(tmp_path / "model")
-    return load_scene(make_scene(SCENE))
+    coated_model(tmp_path / "model")
+    return load_scene(make_scene(COATED_SCENE))
 
 
 def test_the_job_glTF_is_written_where_asked_and_no_map_of_the_model_changes(tmp_path, coated_scene):
@@ -115,7 +68,6 @@ def test_the_job_writer_refuses_a_folder_where_it_would_replace_a_map(tmp_path, 
     assert {p.name: _digest(p) for p in model.iterdir()} == before
 
 
-
 def test_a_factor_baked_into_a_map_reaches_the_job_as_an_8_bit_png(tmp_path, make_scene):
     """glTF multiplies a map by its factor; the scene model bakes the product into a float EXR, which glTF
     readers cannot load (PlayCanvas: "the source image could not be decoded"). The job's glTF names PNG
@@ -131,11 +83,11 @@ def test_a_factor_baked_into_a_map_reaches_the_job_as_an_8_bit_png(tmp_path, mak
     texels[:, 4:] = [255, 255, 255]
     w = GltfWriter()
     mat = w.material("tinted", (0.5, 0.25, 1.0), 0.0, 0.5)
-    w.doc["materials"][mat]["pbrMetallicRoughness"]["baseColorTexture"] = w.texture(_png(texels))
+    w.doc["materials"][mat]["pbrMetallicRoughness"]["baseColorTexture"] = w.texture(png_bytes(texels))
     w.node("card", mesh=w.mesh("card", [(geometry.quad((2.0, 2.0)), mat)], uvs=True))
     (tmp_path / "model").mkdir()
     w.write(tmp_path / "model" / "card.gltf")
-    scene = load_scene(make_scene(SCENE))
+    scene = load_scene(make_scene(COATED_SCENE))
     (m,) = scene.materials.values()
     assert m.base_color_texture.suffix == ".exr"  # the factor is baked in
     (tmp_path / "job").mkdir()

@@ -10,8 +10,9 @@ from pathlib import Path
 import pytest
 
 from compare.util.code import code_fingerprint, import_closure
+from tests.helpers import ROOT
 
-PACKAGE = Path(__file__).resolve().parents[1] / "compare"
+PACKAGE = ROOT / "compare"
 #: The layers of the package, bottom up; a package may import its own layer and those below it.
 LAYERS = [("util",), ("image", "brdf"), ("scene", "metrics"), ("renderers", "report"),
           ("mitsuba", "ibl", "web"), ("progressive", "blender"), ("run",), ("bench",), ("cli",)]

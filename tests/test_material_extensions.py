@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import json
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,8 +13,7 @@ from compare.mitsuba.reference import ReferenceRenderer
 from compare.scene.loader import load_scene
 from compare.scene.model import LAYERS, MATERIAL_FEATURE_NAMES
 from compare.util.errors import SceneError
-from test_blender import needs_bpy
-from test_web import needs_web
+from tests.helpers import EFFECTS, ROOT
 
 ENV = 0.5
 
@@ -235,7 +233,7 @@ def test_material_coverage_counts_first_hits(make_scene):
     assert share == pytest.approx(math.pi * r * r / 4, rel=0.1)
 
 
-@needs_bpy
+@pytest.mark.bpy
 @pytest.mark.parametrize("ior", [1.5, 2.0])
 def test_cycles_glass_reflects_fresnels_share_at_normal_incidence(make_scene, ior):
     """The same closed form through Blender's Principled BSDF (Transmission Weight, IOR)."""
@@ -246,7 +244,7 @@ def test_cycles_glass_reflects_fresnels_share_at_normal_incidence(make_scene, io
     assert float(image.mean()) == pytest.approx(want, rel=0.03)
 
 
-@needs_bpy
+@pytest.mark.bpy
 def test_cycles_blends_a_card_by_its_alpha(make_scene):
     from compare.blender.render import render_blender
 
@@ -254,7 +252,7 @@ def test_cycles_blends_a_card_by_its_alpha(make_scene):
     assert float(image.mean()) == pytest.approx((1 - 0.3) * ENV, rel=0.02)
 
 
-@needs_web
+@pytest.mark.web
 def test_threejs_blends_a_card_by_its_alpha(make_scene):
     """three.js reads alphaMode BLEND from the job's glTF: a transparent material over the background."""
     from compare.renderers import RenderContext
@@ -353,7 +351,7 @@ def test_a_clear_coat_over_black_reflects_four_percent_at_normal_incidence(make_
     assert float(image.mean()) == pytest.approx(0.04, rel=0.02)
 
 
-@needs_bpy
+@pytest.mark.bpy
 def test_cycles_coat_reflects_as_the_reference_does(make_scene):
     from compare.blender.render import render_blender
 
@@ -446,9 +444,6 @@ def test_sheen_conserves_energy_in_a_furnace(make_scene):
     ball = plain[..., 0] < 0.999 * ENV  # pixels on the ball
     assert sheen[ball].mean() <= ENV * 1.01
     assert abs(sheen[ball].mean() - plain[ball].mean()) > 1e-3  # the sheen changes what is seen
-
-
-EFFECTS = Path(__file__).resolve().parent.parent / "scenes" / "effects"
 
 
 def test_the_material_furnace_holds_per_material():
@@ -559,7 +554,7 @@ def test_the_report_has_a_layer_grid_for_every_count_of_layers():
     security policy allows no inline style): every count up to all the layers has its class."""
     from compare.metrics.layers import LAYERS
 
-    css = (Path(__file__).resolve().parent.parent / "compare" / "report" / "report.css").read_text()
+    css = (ROOT / "compare" / "report" / "report.css").read_text()
     for n in range(1, len(LAYERS) + 1):
         assert f".layer-maps.cols-{n} {{ grid-template-columns: 12rem repeat({n}," in css
 
@@ -628,7 +623,7 @@ def test_a_transmission_map_makes_glass_where_it_says(tmp_path, make_scene):
     assert [(f, c) for f, c, _ in back.layer_images] == [("transmission", "r")]
 
 
-@pytest.mark.parametrize("renderer", ["reference", pytest.param("cycles", marks=needs_bpy)])
+@pytest.mark.parametrize("renderer", ["reference", pytest.param("cycles", marks=pytest.mark.bpy)])
 def test_a_specular_map_weights_the_reflection_where_it_says(tmp_path, make_scene, renderer):
     """A black smooth card whose specularTexture (alpha) is 0 on one half and 1 on the other, IOR 2, and a
     specularColorTexture tinting it orange: the emitter facing it is reflected by the second half only,

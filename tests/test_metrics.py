@@ -11,6 +11,7 @@ from scipy.ndimage import gaussian_filter
 
 from compare.image.maps import save_maps
 from compare.metrics import images as M
+from compare.metrics.model_viewer import MV_DB_FLOOR
 from compare.util.errors import ImageError
 
 H, W = 48, 64
@@ -55,7 +56,8 @@ def test_identical_images(reference):
     res = M.compare_images(reference, reference)
     ldr_range = res.pop("ldr_range")
     assert res == {"mse": 0.0, "relmse": 0.0, "psnr": None, "ssim": pytest.approx(1.0),
-                   "flip": 0.0, "flip_median": 0.0, "flip_p95": 0.0, "flip_hdr": 0.0}
+                   "flip": 0.0, "flip_median": 0.0, "flip_p95": 0.0, "flip_hdr": 0.0,
+                   "mv_rms_db": MV_DB_FLOOR}  # identical 8-bit images: model-viewer's number at its floor
     assert ldr_range > 0.5  # the checkerboard spans most of the LDR range
     json.dumps(res, allow_nan=False)  # strict JSON, psnr inf reported as null
 

@@ -9,27 +9,20 @@ import sys
 import numpy as np
 import pytest
 
-from compare.util.errors import MissingComponentError
 
 PLUGIN_MODULES = ("base", "bsdf", "coat", "sheen", "glass", "textures")
 
 
 @pytest.fixture
-def variants():
-    """Registers every plugin with llvm_ad_rgb and scalar_rgb (skips when one is unavailable); the variant
-    active before is restored after."""
-    from compare.mitsuba import bsdf, coat, glass, sheen, textures
+def variants(mi_llvm, mi_scalar):
+    """Registers every plugin with llvm_ad_rgb and scalar_rgb (mi_llvm and mi_scalar skip where one is
+    unavailable, and the module's first test's variant is set again after its last)."""
+    from compare.mitsuba import coat, glass, sheen, textures
 
-    before = sys.modules["mitsuba"].variant() if "mitsuba" in sys.modules else None
-    try:
-        for variant in ("llvm_ad_rgb", "scalar_rgb"):
-            for module in (bsdf, coat, sheen, glass, textures):
-                module.register(variant)
-    except MissingComponentError as exc:
-        pytest.skip(f"a Mitsuba variant is unavailable: {exc}")
-    yield sys.modules["mitsuba"]
-    if before:
-        sys.modules["mitsuba"].set_variant(before)
+    for variant in ("llvm_ad_rgb", "scalar_rgb"):
+        for module in (coat, sheen, glass, textures):
+            module.register(variant)
+    return mi_scalar
 
 
 def _layered(mi):

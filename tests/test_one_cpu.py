@@ -14,10 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from test_blender import needs_bpy
-from test_web import needs_web
+from tests.helpers import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 one_cpu = pytest.mark.skipif(not hasattr(os, "sched_setaffinity"), reason="needs CPU affinity (Linux)")
 
 
@@ -86,13 +84,13 @@ def test_a_textured_environment_lit_scene_renders_on_one_cpu(tmp_path, renderer,
 
 
 @one_cpu
-@needs_bpy
+@pytest.mark.bpy
 def test_cycles_renders_on_one_cpu(tmp_path):
     _render_on_one_cpu(tmp_path, "cycles", "--spp", "2")
 
 
 @one_cpu
-@needs_web
+@pytest.mark.web
 def test_a_web_engine_renders_on_one_cpu(tmp_path):
     _render_on_one_cpu(tmp_path, "threejs", "--frames", "2")
 

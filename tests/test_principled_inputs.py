@@ -15,7 +15,6 @@ from compare.brdf.multiscatter import lookup_2d
 from compare.mitsuba import principled
 from compare.mitsuba.reference import ReferenceRenderer
 from compare.scene.loader import load_scene
-from test_blender import needs_bpy
 
 Z = np.array([0.0, 0.0, 1.0])
 
@@ -254,7 +253,7 @@ def test_reference_mirror_reflects_the_tinted_f0(make_scene, mode, color):
     np.testing.assert_allclose(image[..., :3].reshape(-1, 3).mean(axis=0), _mirror_f0(color), rtol=0.02)
 
 
-@needs_bpy
+@pytest.mark.bpy
 @pytest.mark.parametrize("color", COLOURS)
 def test_cycles_mirror_reflects_the_tinted_f0(make_scene, color):
     """The same closed form through Blender's Principled BSDF (IOR, Specular IOR Level, Specular Tint)."""
@@ -328,7 +327,7 @@ def _coated_sphere(make_scene, clearcoat: float):
                    f"clearcoat = {clearcoat}\nclearcoat_roughness = 0.3")
 
 
-@needs_bpy
+@pytest.mark.bpy
 def test_cycles_flavour_coats_as_cycles_does(make_scene):
     """What a coat adds to a blue sphere in a white environment, the reference's ``cycles`` mode against Cycles.
     Measured: within 0.1 % at 128 spp (0.03 % at 1024); glTF's layering (the ``shared`` mode) 1.1 % off in blue."""
@@ -340,7 +339,7 @@ def _glass_ball(make_scene):
                    "thickness = 1.0", fov=3.0, size=8, depth=32)
 
 
-@needs_bpy
+@pytest.mark.bpy
 def test_cycles_flavour_tints_glass_as_cycles_does(make_scene):
     """Through the middle of a coloured glass ball in a white environment (two interfaces at near-normal
     incidence): Cycles tints each by √(base colour), the colour once in all; the reference's ``cycles``
@@ -423,7 +422,7 @@ def _sheen_sphere(make_scene, sheen: float):
                    f"sheen_color = [{sheen}, {0.8 * sheen}, {0.5 * sheen}]\nsheen_roughness = 0.3")
 
 
-@needs_bpy
+@pytest.mark.bpy
 def test_cycles_flavour_sheens_as_cycles_does(make_scene):
     """What a sheen adds to a blue cloth in a white environment, the reference's ``cycles`` mode against Cycles.
     Measured: within 0.07 % at 256 spp (0.4 % in a studio environment); glTF's Charlie sheen (the ``shared``
@@ -567,7 +566,7 @@ def test_multiscatter_rough_glass_keeps_its_energy(make_scene):
     assert mean["cycles-ggx"] < 0.9
 
 
-@needs_bpy
+@pytest.mark.bpy
 def test_cycles_rough_glass_is_as_bright_as_the_references(make_scene):
     """The same ball in Blender Cycles, Multiscatter GGX and GGX, against the reference's two modes: within
     2 % (measured 1.1 % and 0.15 %; 0.7 % with GGX before the glass's masking was height-correlated)."""

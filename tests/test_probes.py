@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import functools
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -22,9 +21,7 @@ from compare.progressive.rasterizer import Rasterizer, render_progressive
 from compare.progressive import rasterizer as renderer_module
 from compare.progressive.indirect.probes import ProbeVolume, backface_fraction, distance_moments, probe_grid, project_sh9
 from compare.scene.loader import load_scene
-
-ROOT = Path(__file__).resolve().parent.parent
-CORNELL = ROOT / "scenes" / "cornell.toml"
+from tests.helpers import CORNELL
 
 
 def random_normals(n: int, seed: int = 0) -> np.ndarray:
@@ -331,9 +328,9 @@ def test_environment_is_not_counted_twice(gl_ctx, tmp_path, make_scene, monkeypa
     assert with_probes.metadata["indirect"] == "probes"
     plane = without.image[30:, :]
     assert np.isfinite(with_probes.image).all()
-    # Measured: identical (the SH9 irradiance of the plane seen below the probes clamps to 0
-    # for the plane's upward normal); the bound leaves room for ringing.
-    assert np.abs(with_probes.image[30:, :] - plane).mean() < 0.05 * plane.mean()
+    # Measured: identical, seeds 0-2 (the SH9 irradiance of the plane seen below the probes clamps to 0
+    # for the plane's upward normal); the bound leaves room for ringing, the sky counted twice would double it.
+    assert np.abs(with_probes.image[30:, :] - plane).mean() < 1e-3 * plane.mean()
 
 
 def test_emissive_mesh_lights_the_plane_through_the_probes(gl_ctx, make_scene):

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -21,9 +20,7 @@ from compare.progressive.schedule.distributor import plan
 from compare.progressive.schedule.distributor import default_samples_per_light, round_half_up
 from compare.progressive.schedule.sampling import light_sample_points, pixel_jitter
 from compare.scene.loader import Camera, load_scene
-
-ROOT = Path(__file__).resolve().parent.parent
-CORNELL = ROOT / "scenes" / "cornell.toml"
+from tests.helpers import CORNELL, ROOT
 
 
 # ----------------------------------------------------------------------------- helpers
@@ -541,8 +538,11 @@ def test_forward_first_frame_matches_the_gbuffer_frame(gl_ctx, scene_file):
     for im in (f1, h1, h2):
         assert im.shape == g1.shape and np.isfinite(im).all() and im.min() >= 0
     np.testing.assert_allclose(fin, gin, rtol=1e-4, atol=1e-6)
-    assert np.abs(f1 - g1).mean() < 0.03 * g1.mean()  # measured 0.2 % (Cornell) and 0.8 % (car) at 160x120
-    assert f1.mean() > 0.9 * g1.mean()
+    # Frame 0 drawn forward against drawn from the G-buffer, mean |difference| / mean, measured at 48x36 (seed 0;
+    # seeds 0-3): Cornell 0.14 % (0.14-0.22 %), car 1.1 % (0.85-1.5 %); the means 0.991-0.998 of the G-buffer's.
+    bound = {"cornell.toml": 0.005, "car.toml": 0.03}[scene_file]
+    assert np.abs(f1 - g1).mean() < bound * g1.mean()
+    assert f1.mean() > 0.98 * g1.mean()
     # Half size: the final images differ by exactly frame 0's share of the every-frame mean,
     # (b_0 - mean of b_1 … b_N-1) / N; the direct light and the environment's occlusion means are the same.
     b0, rest = means["gbuffer", 1.0, 0], means["forward", 0.5]
@@ -612,7 +612,7 @@ def test_image_sizes_beyond_the_context_are_refused_up_front(gl_ctx, monkeypatch
 ])
 def test_layers_sum_to_the_displayed_image(gl_ctx, scene_file, options):
     """The rasterizer's layers (compare.mitsuba.layers names) are its targets, and sum to its image."""
-    scene = load_scene(Path(__file__).resolve().parent.parent / "scenes" / scene_file).with_resolution(40, 30)
+    scene = load_scene(ROOT / "scenes" / scene_file).with_resolution(40, 30)
     res = render_progressive(scene, frames=12, ctx=gl_ctx, **options)
     layers = res.layers
     assert "emission" in layers and "direct_area" in layers

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-from pathlib import Path
 
 import numpy as np
 
@@ -12,8 +11,7 @@ from compare.progressive.config import RasterizerOptions
 from compare.progressive.gl.passes import RenderPass
 from compare.progressive.rasterizer import Rasterizer, render_progressive
 from compare.scene.loader import load_scene
-
-ROOT = Path(__file__).resolve().parents[1]
+from tests.helpers import CORNELL, ROOT
 
 
 def test_the_rasterizer_resets_describes_and_releases_through_its_list_of_passes(gl_ctx):
@@ -42,7 +40,7 @@ def test_the_rasterizer_resets_describes_and_releases_through_its_list_of_passes
 
 
 def test_metadata_defaults_stand_where_no_pass_replaces_them(gl_ctx):
-    scene = load_scene(ROOT / "scenes" / "cornell.toml").with_resolution(8, 6)
+    scene = load_scene(CORNELL).with_resolution(8, 6)
     meta = render_progressive(scene, frames=2, ctx=gl_ctx, first_frame="gbuffer").metadata
     assert (meta["first_frame"], meta["first_frame_scale"], meta["environment"]) == ("gbuffer", 1.0, "none")
     assert "occlusion" not in meta and meta["shadow_bias"] == "1,1,1"

@@ -14,7 +14,7 @@ from compare.progressive.lights.punctual import ShadowMap
 from compare.progressive.rasterizer import Rasterizer, render_progressive
 from compare.scene.loader import load_scene
 from compare.scene.model import PUNCTUAL_KINDS, PunctualLight
-from test_punctual import EFFECTS, _effect, _plane_points, closed_form
+from tests.helpers import EFFECTS, effect_scene, ground_points, punctual_closed_form
 
 FRAMES = 32
 
@@ -22,8 +22,8 @@ FRAMES = 32
 def _check_closed_form(image, scene, light, samples: int):
     """Within 2 % per pixel of the plane's closed form, beyond the pixel-sampling spread of ``samples``
     jittered frames (4 standard errors) and 1e-3 of the peak; the lit mean within 0.5 %."""
-    want, spread = closed_form(scene, light)
-    _, hit = _plane_points(scene)
+    want, spread = punctual_closed_form(scene, light)
+    _, hit = ground_points(scene)
     got, want, spread = image[hit], want[hit], spread[hit]
     peak = want.max()
     bound = 0.02 * want + 4 * spread / math.sqrt(samples) + 1e-3 * peak
@@ -35,7 +35,7 @@ def _check_closed_form(image, scene, light, samples: int):
 
 @pytest.mark.parametrize("kind", PUNCTUAL_KINDS)
 def test_rasterizer_matches_the_closed_form_of_each_punctual_light(gl_ctx, kind):
-    scene = _effect(kind).with_resolution(48, 36)
+    scene = effect_scene(kind).with_resolution(48, 36)
     (light,) = scene.punctual
     result = render_progressive(scene, frames=FRAMES, materials="diffuse", ctx=gl_ctx, checkpoints=(1,))
     # The shadow map lands in frame 1 and restarts the mean: FRAMES − 1 jittered frames after it.
@@ -76,14 +76,14 @@ def test_each_punctual_map_is_rendered_once_as_early_as_it_can():
     assert punctual_frames(3, 8) == [[], [0], [1], [2], [], [], [], []]
     assert punctual_frames(5, 3) == [[], [0, 1, 2], [3, 4]]
     assert punctual_frames(2, 1) == [[0, 1]]
-    scene = _effect("point")
+    scene = effect_scene("point")
     p = plan(scene, 8)
     assert [fp.punctual for fp in p] == [(), (0,), (), (), (), (), (), ()]
     assert p[1].shadow_passes == 1 and not p[0].preview
 
 
 def test_the_frame_budget_hands_out_punctual_maps_first():
-    scene = _effect("spot")
+    scene = effect_scene("spot")
     s = BudgetScheduler(plan(scene, 8), budget=1.0)
     s.costs = FrameCosts(base=0.1, light=0.2, env=0.2, punctual=0.5)
     assert s.punctual == [0] and not s.done

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import math
 import re
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,53 +13,7 @@ from compare.mitsuba.reference import ReferenceRenderer
 from compare.scene.loader import load_scene
 from compare.scene.model import PUNCTUAL_KINDS
 from compare.util.errors import SceneError
-from test_blender import needs_bpy
-from test_web import needs_web
-
-ALBEDO = 0.8  # the white plane of scenes/effects
-
-
-def _plane_points(scene, dx: float = 0.5, dy: float = 0.5):
-    """World points of the plane y = 0 seen through each pixel at (dx, dy) in it, (H, W, 3), and a mask of
-    hits."""
-    cam = scene.camera
-    x, y = np.meshgrid(np.arange(cam.width) + dx, np.arange(cam.height) + dy)
-    d = cam.ray_directions(x, y)
-    o = np.asarray(cam.position)
-    t = -o[1] / d[..., 1]
-    p = o + t[..., None] * d
-    hit = (t > 0) & (np.abs(p[..., 0]) < 19.0) & (np.abs(p[..., 2]) < 19.0)
-    return p, hit
-
-
-def closed_form(scene, light, n: int = 8) -> tuple[np.ndarray, np.ndarray]:
-    """Radiance of a Lambert plane y = 0 (albedo 0.8, normal +Y) lit by one punctual light alone, averaged
-    over an n × n grid in each pixel (the reference's box filter); and its spread within each pixel (the
-    standard deviation over the grid), which sets the pixel-sampling noise of a render."""
-    grid = (np.arange(n) + 0.5) / n
-    samples = np.array([_closed_form_at(scene, light, _plane_points(scene, dx, dy)[0]) for dx in grid for dy in grid])
-    return samples.mean(0), samples.std(0)
-
-
-def _closed_form_at(scene, light, p) -> np.ndarray:
-    if light.kind == "directional":
-        cos_n = max(-light.direction[1], 0.0)
-        e = np.asarray(light.intensity) * cos_n
-        return np.broadcast_to(ALBEDO / math.pi * e, p.shape).copy()
-    v = np.asarray(light.position) - p
-    dist = np.linalg.norm(v, axis=-1)
-    w = v / dist[..., None]
-    cos_n = np.clip(w[..., 1], 0.0, None)
-    cone = light.falloff((-w) @ np.asarray(light.direction))
-    return ALBEDO / math.pi * (cos_n * cone / dist ** 2)[..., None] * np.asarray(light.intensity)
-
-
-EFFECTS = Path(__file__).resolve().parent.parent / "scenes" / "effects"
-
-
-def _effect(kind: str):
-    """The generated closed-form scene of one kind of light (scenes/effects/, scenes/generate.py)."""
-    return load_scene(EFFECTS / f"{kind}_light.toml")
+from tests.helpers import EFFECTS, effect_scene, ground_points, punctual_closed_form
 
 
 #: The effect scenes' plane (everything before their light) and each kind's light, from the generated files.
@@ -73,13 +26,13 @@ LIGHTS = {kind: "[[lights]]" + (EFFECTS / f"{kind}_light.toml").read_text().spli
 def test_reference_matches_the_closed_form_of_each_punctual_light(tmp_path, make_scene, kind):
     """A white Lambert plane under one light: the reference within 2 % per pixel (1e-3 of the peak where
     the spot's cone goes to zero), with glTF's own spot falloff (not Mitsuba's linear-in-angle one)."""
-    scene = _effect(kind).with_resolution(48, 36)
+    scene = effect_scene(kind).with_resolution(48, 36)
     (light,) = scene.punctual
     assert light.kind == kind and not scene.lights
     spp = 256
     image = ReferenceRenderer(scene, materials="diffuse", cache_dir=False, progress=False).render(spp).image
-    want, spread = closed_form(scene, light)
-    _, hit = _plane_points(scene)
+    want, spread = punctual_closed_form(scene, light)
+    _, hit = ground_points(scene)
     got, want, spread = image[hit], want[hit], spread[hit]
     peak = want.max()
     assert peak > 0
@@ -181,10 +134,7 @@ def test_bad_punctual_lights_name_the_field(tmp_path, make_scene, light, field, 
         load_scene(make_scene(PLANE, "[[lights]]\n" + light + "\n"))
 
 
-
-
-
-@needs_bpy
+@pytest.mark.bpy
 @pytest.mark.parametrize("engine", ["cycles", pytest.param("eevee", marks=pytest.mark.slow)])  # EEVEE: ~1 s a sample
 @pytest.mark.parametrize("kind", LIGHTS)
 def test_blender_matches_the_closed_form_of_each_punctual_light(tmp_path, make_scene, kind, engine):
@@ -197,7 +147,7 @@ def test_blender_matches_the_closed_form_of_each_punctual_light(tmp_path, make_s
     from compare.blender.export import blender_spot_falloff
     from compare.blender.render import render_blender
 
-    scene = _effect(kind).with_resolution(48, 36)
+    scene = effect_scene(kind).with_resolution(48, 36)
     (light,) = scene.punctual
     image = render_blender(scene, engine=engine, samples=64, materials="diffuse").image
 
@@ -206,21 +156,21 @@ def test_blender_matches_the_closed_form_of_each_punctual_light(tmp_path, make_s
             return blender_spot_falloff(self, cos_theta) if self.kind == "spot" else super().falloff(cos_theta)
 
     theirs = Blenders(**{f.name: getattr(light, f.name) for f in dataclasses.fields(light)})
-    want, spread = closed_form(scene, theirs)
-    _, hit = _plane_points(scene)
+    want, spread = punctual_closed_form(scene, theirs)
+    _, hit = ground_points(scene)
     peak = want[hit].max()
     bound = 0.05 * want + 4 * spread / 8.0 + 2e-3 * peak
     worst = (np.abs(image - want) - bound)[hit]
     assert worst.max() <= 0, worst.max()
     if kind == "spot":  # glTF's squared ramp against Blender's smoothstep: what Blender cannot reproduce
-        gltf, _ = closed_form(scene, light)
+        gltf, _ = punctual_closed_form(scene, light)
         ratio = want[hit].sum() / gltf[hit].sum()
         # smoothstep averages 1/2 over the ramp, the square 1/3: Blender is brighter, by less than 1.5x
         # over the whole cone (measured: 1.37 for this 10-30 degree spot)
         assert 1.0 < ratio < 1.5, ratio
 
 
-@needs_bpy
+@pytest.mark.bpy
 @pytest.mark.slow  # EEVEE: ~1 s a sample
 def test_eevee_does_not_cull_a_weak_punctual_light():
     """EEVEE drops a light beyond the distance where it falls under its light threshold; a point light
@@ -229,17 +179,17 @@ def test_eevee_does_not_cull_a_weak_punctual_light():
 
     from compare.blender.render import render_blender
 
-    scene = _effect("point").with_resolution(32, 24)
+    scene = effect_scene("point").with_resolution(32, 24)
     (light,) = scene.punctual
     weak = dataclasses.replace(light, intensity=tuple(c * 1e-4 for c in light.intensity))
     scene = dataclasses.replace(scene, punctual=(weak,))
     image = render_blender(scene, engine="eevee", samples=8, materials="diffuse").image
-    want, _ = closed_form(scene, weak)
-    _, hit = _plane_points(scene)
+    want, _ = punctual_closed_form(scene, weak)
+    _, hit = ground_points(scene)
     assert image[hit].sum() == pytest.approx(want[hit].sum(), rel=0.05)
 
 
-@needs_web
+@pytest.mark.web
 @pytest.mark.parametrize("kind", LIGHTS)
 def test_threejs_draws_each_punctual_light_as_the_reference_does(tmp_path, make_scene, kind):
     """three.js's own point, spot and directional lights (from the job glTF's KHR_lights_punctual) within
@@ -253,7 +203,7 @@ def test_threejs_draws_each_punctual_light_as_the_reference_does(tmp_path, make_
     from compare.renderers.registry import Registry
     from compare.report.results import RunSettings
 
-    scene = _effect(kind).with_resolution(48, 36)
+    scene = effect_scene(kind).with_resolution(48, 36)
     (light,) = scene.punctual
     renderer = Registry().get("threejs")
     given, changed = renderer.prepare(scene)
@@ -272,11 +222,11 @@ def test_threejs_draws_each_punctual_light_as_the_reference_does(tmp_path, make_
     theirs = dataclasses.replace(scene, punctual=(Threes(**{f.name: getattr(light, f.name)
                                                             for f in dataclasses.fields(light)}),))
     ref = ReferenceRenderer(theirs, cache_dir=False, progress=False).render(256).image
-    _, hit = _plane_points(scene)
+    _, hit = ground_points(scene)
     peak = ref[hit].max()
     assert peak > 0
     # beyond 5 %: the pixel-sampling error of 16 jittered frames where the light's gradient crosses a pixel
-    _, spread = closed_form(scene, theirs.punctual[0])
+    _, spread = punctual_closed_form(scene, theirs.punctual[0])
     worst = (np.abs(image - ref) - (0.05 * ref + 4 * spread / math.sqrt(16) + 5e-3 * peak))[hit]
     assert worst.max() <= 0, worst.max()
     lit = ref[hit][:, 0] > 0.3 * peak
@@ -287,7 +237,7 @@ def test_reference_puts_punctual_light_into_its_own_layer():
     """Error by kind of light: a point or directional light's light is the direct_punctual layer (a
     directional light is 'infinite' to Mitsuba, but not environment light)."""
     for kind in ("point", "directional"):
-        scene = _effect(kind).with_resolution(24, 18)
+        scene = effect_scene(kind).with_resolution(24, 18)
         image, layers, _ = ReferenceRenderer(scene, materials="diffuse", cache_dir=False,
                                              progress=False).render_layers(16, 0)
         assert layers["direct_punctual"].max() > 0
@@ -303,7 +253,7 @@ def test_job_schema_2_carries_punctual_lights_and_schema_1_renderers_get_stand_i
     from compare.renderers.job import write_job
     from compare.scene.gltf_read import load_gltf
 
-    scene = _effect("spot")
+    scene = effect_scene("spot")
     job = json.loads(write_job(scene, tmp_path / "job", renderer="mine", unit="frame", checkpoints=[1], seed=0,
                                output_dir=tmp_path / "out").read_text())
     assert job["schema"] == 2 and job["lumens_per_watt"] == 683.0

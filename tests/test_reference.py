@@ -2,37 +2,13 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from compare.mitsuba.reference import ReferenceRenderer, ladder_passes
 from compare.scene.loader import parse_scene
-
-ROOT = Path(__file__).resolve().parent.parent
-
-
-def furnace_scene(albedo: float = 1.0, size: int = 24, *, double_sided: bool = True):
-    """A diffuse unit sphere inside a uniform environment of radiance 1. ``double_sided`` False: single-sided,
-    as a closed glTF solid is, so that a ray its smooth shading normals send below the facets leaves through
-    the culled inside, as it would leave an ideal sphere (double-sided, the inside reflects it: indirect
-    light a convex object does not have, 2e-5 of the direct here)."""
-    data = {
-        "camera": {"position": [0, 0, 4], "target": [0, 0, 0], "fov": 35, "resolution": [size, size]},
-        "materials": {"white": {"base_color": [albedo] * 3, "roughness": 1.0, "double_sided": double_sided}},
-        "meshes": [{"shape": "sphere", "radius": 1.0, "material": "white", "segments": 96, "rings": 48}],
-        "environment": {"constant": [1.0, 1.0, 1.0]},
-        "render": {"max_depth": -1},
-    }
-    return parse_scene(data, ROOT / "tests" / "furnace.toml")
-
-
-def sphere_mask(size: int) -> np.ndarray:
-    """Pixels well inside the sphere's silhouette (no edge pixels that mix in background)."""
-    j, i = np.mgrid[0:size, 0:size]
-    c = (size - 1) / 2
-    return np.hypot(i - c, j - c) < 0.35 * size
+from tests.helpers import CORNELL, ROOT, furnace_scene, sphere_mask
 
 
 def test_ladder_passes_double():
@@ -169,7 +145,7 @@ def _spp_of(renderer, victim):
 def test_cornell_renders_finite_and_plausible():
     from compare.scene.loader import load_scene
 
-    scene = load_scene(ROOT / "scenes" / "cornell.toml").with_resolution(32, 24)
+    scene = load_scene(CORNELL).with_resolution(32, 24)
     img = ReferenceRenderer(scene, materials="shared", cache_dir=False, progress=False).render(16).image
     assert img.shape == (24, 32, 3) and np.isfinite(img).all()
     left, right = img[8:16, 6:8].mean((0, 1)), img[8:16, 24:26].mean((0, 1))
@@ -187,7 +163,7 @@ def test_a_bad_cache_entry_is_discarded_reported_and_rendered_again(tmp_path, ta
     from compare.image.exr import read_exr, write_exr
     from compare.scene.loader import load_scene
 
-    scene = load_scene(Path(__file__).resolve().parent.parent / "scenes" / "cornell.toml").with_resolution(16, 12)
+    scene = load_scene(CORNELL).with_resolution(16, 12)
     r = ReferenceRenderer(scene, cache_dir=tmp_path, progress=False)
     good, _ = r.render_chunk(4, 0)
     path = r._chunk_path(4, 0)
@@ -223,7 +199,7 @@ def test_a_bad_cache_entry_is_discarded_reported_and_rendered_again(tmp_path, ta
 def _cornell(width: int, height: int):
     from compare.scene.loader import load_scene
 
-    return load_scene(ROOT / "scenes" / "cornell.toml").with_resolution(width, height)
+    return load_scene(CORNELL).with_resolution(width, height)
 
 
 def test_a_pass_is_exactly_a_bare_mitsuba_render():

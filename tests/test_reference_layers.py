@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,10 +11,7 @@ from compare.mitsuba.reference import ReferenceRenderer
 from compare.metrics.layers import EXTRA_LAYERS, LAYERS, SUM_LAYERS
 from compare.scene.loader import load_scene
 from compare.metrics.ztest import pass_statistics, z_test
-from test_reference import furnace_scene, sphere_mask
-
-ROOT = Path(__file__).resolve().parent.parent
-CORNELL = ROOT / "scenes" / "cornell.toml"
+from tests.helpers import CORNELL, furnace_scene, sphere_mask
 
 
 @pytest.fixture(scope="module")

@@ -25,10 +25,21 @@ from compare.renderers.registry import Registry
 from compare.renderers.job import export_gltf, read_checkpoints
 from compare.report.results import Results, RunSettings
 from compare.scene.loader import load_scene
+from tests.helpers import CORNELL, ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
-CORNELL = ROOT / "scenes" / "cornell.toml"
 SIZE = (16, 12)
+
+
+# Every test of this module: the job folders the renderers make (tempfile's folder) go to a folder of the
+# test's own, so that the tests that look for what a job left find only their own (tests in parallel too).
+@pytest.fixture(autouse=True)
+def own_tempdir(tmp_path, monkeypatch):
+    """Job folders go to a folder of this test's own (tests in parallel must not see each other's)."""
+    import tempfile
+
+    folder = tmp_path / "tmp"
+    folder.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(folder))
 
 
 class GreyRenderer(Renderer):
@@ -140,16 +151,6 @@ def test_toml_renderer_is_measured_beside_mitsuba(tmp_path):
     assert again.scenes[0].run("mine").key == mine.key
     # nothing of the job is left in the temporary folder
     assert not list(Path(tempfile_dir()).glob("compare-job-mine-*"))
-
-
-@pytest.fixture(autouse=True)
-def own_tempdir(tmp_path, monkeypatch):
-    """Job folders go to a folder of this test's own (tests in parallel must not see each other's)."""
-    import tempfile
-
-    folder = tmp_path / "tmp"
-    folder.mkdir()
-    monkeypatch.setattr(tempfile, "tempdir", str(folder))
 
 
 def tempfile_dir() -> str:
@@ -443,7 +444,7 @@ def test_every_builtin_is_an_entry_point_and_its_options_come_from_its_declarati
 
 def test_the_docs_table_of_builtins_is_the_registry():
     """docs/renderers.md lists exactly the registered built-ins, each with its declared options."""
-    text = (Path(__file__).resolve().parents[1] / "docs" / "renderers.md").read_text(encoding="utf-8")
+    text = (ROOT / "docs" / "renderers.md").read_text(encoding="utf-8")
     start = text.index("<!-- builtins -->")
     end = text.index("<!-- /builtins -->")
     rows = [line for line in text[start:end].splitlines() if line.startswith("| `")]
@@ -574,16 +575,13 @@ def test_a_job_folder_that_a_killed_run_left_is_swept_at_the_next_run(tmp_path, 
     assert not left.exists() and mine.exists()
 
 
+@pytest.mark.bpy
 def test_sigterm_to_compare_stops_a_blender_render_and_removes_its_folder(tmp_path):
     """The same for a Blender render: its worker process ends with `compare`, and its folder goes."""
     import os
     import signal
     import subprocess
 
-    from test_blender import needs_bpy
-
-    if needs_bpy.args[0]:
-        pytest.skip(needs_bpy.kwargs["reason"])
     temp = tmp_path / "temp"
     temp.mkdir()
     proc = subprocess.Popen([sys.executable, "-m", "compare.cli.main", "render", "--scene", str(CORNELL),
@@ -612,6 +610,7 @@ def test_sigterm_to_compare_stops_a_blender_render_and_removes_its_folder(tmp_pa
     assert not list(temp.glob("compare-blender-*"))
 
 
+@pytest.mark.web
 def test_sigterm_to_compare_stops_a_web_render_and_its_browser(tmp_path):
     """The same for a web engine: Chromium and Playwright's driver end with `compare`, nothing of theirs
     is left in the temporary folder."""
@@ -619,10 +618,6 @@ def test_sigterm_to_compare_stops_a_web_render_and_its_browser(tmp_path):
     import signal
     import subprocess
 
-    from test_web import needs_web
-
-    if needs_web.args[0]:
-        pytest.skip(needs_web.kwargs["reason"])
     temp = tmp_path / "temp"
     temp.mkdir()
     proc = subprocess.Popen([sys.executable, "-m", "compare.cli.main", "render", "--scene", str(CORNELL),

@@ -1,6 +1,6 @@
 """``compare run`` and ``compare report``: results schema, resume, plots, HTML, escaping.
 
-Most tests stand in fast synthetic renderers (:func:`synthetic_renderers`) so
+Most tests stand in fast synthetic renderers (:func:`tests.helpers.synthetic_renderers`) so
 they check the bookkeeping (keys, resume, schema, report) without Mitsuba or
 OpenGL and in well under a second per run; one test runs the real renderers on
 a tiny Cornell box (48×36, 16 spp, 8 frames).
@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import argparse
 import base64
-import contextlib
 import json
 import hashlib
 import math
@@ -28,7 +27,6 @@ from compare.run import runner as run_mod
 from compare.run import scene_job
 from compare.progressive import renderer as progressive_adapter
 from compare.image.exr import read_exr
-from compare.mitsuba.reference import Checkpoint
 from compare.report.results import (
     NoiseFloor,
     Point,
@@ -40,151 +38,10 @@ from compare.report.results import (
     SceneResult,
     check_json_finite,
 )
+from tests.helpers import (CORNELL, EVIL, ROOT, FakeReference, cornell_named, fake_blender, fake_progressive,
+                           synthetic_renderers, synthetic_report, synthetic_truth)
 
-ROOT = Path(__file__).resolve().parent.parent
-CORNELL = ROOT / "scenes" / "cornell.toml"
-EVIL = "<script>alert(1)</script>"
-
-
-# --------------------------------------------------------------------------- synthetic renderers
-
-
-def _truth(w: int, h: int) -> np.ndarray:
-    """A smooth HDR image with a bright patch (values up to ~20, like an area light)."""
-    y, x = np.mgrid[0:h, 0:w].astype(np.float64)
-    img = np.stack([0.2 + 0.6 * x / w, 0.1 + 0.5 * y / h, 0.3 + 0.2 * np.sin(x / 3.0) ** 2], axis=-1)
-    img[: h // 4, w // 3: 2 * w // 3] = [18.0, 14.0, 7.0]
-    return img.astype(np.float32)
-
-
-class FakeReference:
-    """Stands in for compare.mitsuba.reference.ReferenceRenderer: truth + noise falling as 1/sqrt(spp)."""
-
-    renders: list[tuple[int, int]] = []  # (spp, seed) of every ladder actually iterated
-
-    def __init__(self, scene, *, materials="shared", cache_dir=None, progress=True, **_):
-        self.scene = scene
-        self.variant = "fake_rgb"
-        self.load_seconds = 0.01
-        self.variance = None  # no per-pixel variance of its passes
-
-    def settings(self) -> dict:
-        return {"scene_hash": self.scene.hash, "variant": self.variant, "resolution": list(self.scene.camera.resolution)}
-
-    def iter_checkpoints(self, checkpoints, seed=0):
-        from compare.mitsuba.reference import pass_plan
-
-        w, h = self.scene.camera.resolution
-        truth = _truth(w, h)
-        rng = np.random.default_rng(seed)
-        acc = np.zeros_like(truth, dtype=np.float64)
-        total = 0
-        for upto in pass_plan(checkpoints):
-            n = upto - total
-            # n samples of standard deviation 0.5 each: their sum has deviation 0.5·sqrt(n)
-            acc += truth * n + rng.normal(0, 0.5, truth.shape) * np.sqrt(n)
-            total = upto
-            FakeReference.renders.append((total, seed))
-            if total in checkpoints:
-                yield Checkpoint(total, 0.01 * total, (acc / total).clip(0).astype(np.float32))
-
-    def iter_ladder(self, spp, seed=0):
-        yield from self.iter_checkpoints(doubling_steps(spp), seed)
-
-    def render_layers(self, spp, seed=0):
-        """Per-effect layers of the truth: the patch is emission, the rest 60 % direct, 40 % indirect."""
-        layers = _split(_truth(*self.scene.camera.resolution))
-        layers["indirect_diffuse"] = layers.pop("rest") * 0.4
-        layers["direct_area"] = layers["indirect_diffuse"] * 1.5
-        layers["direct_area_unshadowed"] = layers["direct_area"] * 1.1
-        image = layers["emission"] + layers["direct_area"] + layers["indirect_diffuse"]
-        return image, layers, 0.01
-
-
-def _split(image: np.ndarray) -> dict[str, np.ndarray]:
-    """The bright patch of _truth as emission, the rest as 'rest'."""
-    patch = np.zeros(image.shape[:2], dtype=bool)
-    h, w = image.shape[:2]
-    patch[: h // 4, w // 3: 2 * w // 3] = True
-    return {"emission": np.where(patch[..., None], image, 0).astype(np.float32),
-            "rest": np.where(patch[..., None], 0, image).astype(np.float32)}
-
-
-def fake_progressive(scene, *, frames, seed, options, checkpoints, ctx):
-    """A biased, quickly converging stand-in for the progressive renderer."""
-    area_model = options.get("area_model")
-    w, h = scene.camera.resolution
-    truth = _truth(w, h) * (0.8 if area_model == "paper" else 0.9)
-    rng = np.random.default_rng(seed + 7)
-    cps = [(f, 0.002 * f, (truth + rng.normal(0, 0.05, truth.shape) / f).clip(0).astype(np.float32))
-           for f in checkpoints]
-    layers = _split(cps[-1][2])
-    layers["direct_area"] = layers.pop("rest")  # the rasterizer has no indirect light
-    return cps, 0.05, {"gl_renderer": "fake GL", "area_model": area_model or "radiometric", "frames": frames,
-                       "first_frame_scale": options.get("first_frame_scale", 0.5)}, layers
-
-
-def fake_blender(scene, *, engine, samples, seed, ladder, distribution=None):
-    """Synthetic Blender renders: Cycles close to the truth, EEVEE biased; one render per ladder step."""
-    w, h = scene.camera.resolution
-    truth = _truth(w, h) * (1.0 if engine == "cycles" else 0.85)
-    rng = np.random.default_rng(seed + (11 if engine == "cycles" else 13))
-    cps = [(n, 0.01 * n, (truth + rng.normal(0, 0.05, truth.shape) / np.sqrt(n)).clip(0).astype(np.float32))
-           for n in list(ladder) + [samples]]
-    return cps, 1.5, {"engine": engine, "samples": samples, "blender": "fake 5.0.1"}, None
-
-
-def fake_likeness(scene, *, spp, materials, seeds, cache_dir, cycles, match_noise, exposure, operator):
-    """The likeness's reference passes, faked: the two Cycles renders it gets are the run's and one more."""
-    from compare.run.likeness import Likeness, RegionStat
-
-    a, b = cycles
-    assert a.samples == b.samples == spp and seeds[1] == seeds[0] + 1 and not np.array_equal(a.image, b.image)
-    region = RegionStat(name="all", pixels=100, cycles=[0.5] * 3, mitsuba=[0.5] * 3, se_cycles=[0.01] * 3,
-                        se_mitsuba=[0.01] * 3)
-    assert region.agrees
-    return Likeness(scene=scene.name, spp=spp, resolution=scene.camera.resolution, materials=materials,
-                    flip_seed=0.045, flip_cross=0.05, flip_mitsuba_seed=0.05, relmse_seed=0.01, relmse_cross=0.01,
-                    relmse_mitsuba_seed=0.01, mitsuba_spp=spp,
-                    regions=[region] * 15)
-
-
-@contextlib.contextmanager
-def synthetic_renderers(progressive=fake_progressive):
-    """Patch run.py's renderers with the fakes above (usable outside function-scoped fixtures).
-
-    Every patch goes through this one MonkeyPatch, undone on exit; mixing it
-    with pytest's ``monkeypatch`` fixture on the same attribute would "restore"
-    a fake after the test and leak it into later tests.
-    """
-    mp = pytest.MonkeyPatch()
-    try:
-        mp.setattr("compare.mitsuba.reference.ReferenceRenderer", FakeReference)
-        mp.setattr("compare.progressive.renderer._progressive_checkpoints", progressive)
-        mp.setattr("compare.progressive.renderer._create_gl_context", lambda: None)
-        mp.setattr("compare.blender.renderer._blender_checkpoints", fake_blender)
-        mp.setattr("compare.run.likeness.cycles_likeness", fake_likeness)
-        mp.setattr("compare.blender.blender_available", lambda: (True, "fake"))
-        yield
-    finally:
-        mp.undo()
-
-
-def scene_file(tmp_path: Path, name: str) -> Path:
-    """The Cornell box under another name (to test escaping of scene-provided strings)."""
-    text = CORNELL.read_text(encoding="utf-8")
-    text = re.sub(r'^name = .*$', f"name = {json.dumps(name)}", text, count=1, flags=re.M)
-    path = tmp_path / "scene.toml"
-    path.write_text(text, encoding="utf-8")
-    return path
-
-
-def synthetic_report(out: Path, scenes: list[Path], *, size=(48, 36), frames=8, spp=16,
-                     renderers=("mitsuba", "progressive"), report=True, **more) -> Results:
-    """A full ``compare run`` output folder made with the synthetic renderers."""
-    settings = RunSettings(frames=frames, spp=spp, sizes=[list(size)], renderers=list(renderers), **more)
-    with synthetic_renderers():
-        return run_mod.run(scenes, out, settings, progress=False, report=report)
+# The synthetic renderers (synthetic_renderers, synthetic_report, FakeReference, fake_*) are tests/helpers.py's.
 
 
 # --------------------------------------------------------------------------- helpers
@@ -211,7 +68,7 @@ def test_parse_sizes_and_renderers():
 def test_scene_id_is_file_name_safe(tmp_path):
     from compare.scene.loader import load_scene
 
-    sid = run_mod.scene_id(load_scene(scene_file(tmp_path, EVIL)).with_resolution(48, 36))
+    sid = run_mod.scene_id(load_scene(cornell_named(tmp_path, EVIL)).with_resolution(48, 36))
     assert re.fullmatch(r"[a-z0-9-]+", sid) and sid.endswith("-48x36"), sid
 
 
@@ -423,7 +280,7 @@ def test_nan_from_a_renderer_is_an_error_not_a_number(tmp_path):
 
 def test_report_escapes_scene_strings(tmp_path):
     out = tmp_path / "out"
-    res = synthetic_report(out, [scene_file(tmp_path, EVIL)])
+    res = synthetic_report(out, [cornell_named(tmp_path, EVIL)])
     html = (out / "index.html").read_text(encoding="utf-8")
     assert "<script>alert" not in html
     assert "&lt;script&gt;alert(1)&lt;/script&gt;" in html
@@ -439,7 +296,7 @@ def test_report_escapes_scene_strings(tmp_path):
 def test_hdr_payload_round_trips_as_float16():
     from compare.report.html import hdr_payload
 
-    img = _truth(16, 12)
+    img = synthetic_truth(16, 12)
     img[0, 0] = [1e6, -1.0, 0.5]
     text = hdr_payload("x", [("reference", "a <b> & c", img)], exposure=2.0)
     body = json.loads(re.search(r"\] = (\{.*\});\s*$", text, re.S).group(1))

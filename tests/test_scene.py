@@ -2,15 +2,14 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from compare.util.errors import SceneError
 from compare.scene.loader import load_scene
+from tests.helpers import CORNELL
 
-ROOT = Path(__file__).resolve().parent.parent
 
 GOOD = """
 [camera]
@@ -215,7 +214,7 @@ def test_hash_tracks_content_not_formatting(tmp_path, make_scene):
 
 
 def test_cornell_box_geometry():
-    s = load_scene(ROOT / "scenes" / "cornell.toml")
+    s = load_scene(CORNELL)
     assert s.features().names() == ["area_lights"]
     lo, hi = s.bounds()
     np.testing.assert_allclose(lo, [0, 0, 0], atol=1e-6)
@@ -283,7 +282,7 @@ def test_textures_are_checked_when_the_scene_loads(tmp_path):
     from compare.util.errors import SceneError
     from compare.image.exr import write_exr
 
-    base = (Path(__file__).resolve().parent.parent / "scenes" / "cornell.toml").read_text()
+    base = CORNELL.read_text()
     white = "[materials.white]\nbase_color = [0.885809, 0.698859, 0.666422]"
     neg = np.full((4, 4, 3), 0.5, np.float32)
     neg[0, 0] = -2.0

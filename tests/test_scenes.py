@@ -19,13 +19,11 @@ import pytest
 
 from compare.scene.gltf_read import load_gltf
 from compare.scene.loader import load_scene
+from tests.helpers import FAST_IBL, SCENES
 
-ROOT = Path(__file__).resolve().parent.parent
-SCENES = ROOT / "scenes"
 ALL_SCENES = sorted(p for folder in (SCENES, SCENES / "stress", SCENES / "effects") for p in folder.glob("*.toml"))
 SIZE = (48, 36)
 #: Small environment preprocessing for tests (the defaults are for measurements).
-FAST_IBL = {"ibl_size": 16, "ibl_levels": 5, "ibl_samples": 16}
 #: Scenes whose rasterizer image is known to exceed the energy bound (see tests/test_stress.py).
 #: Scenes whose rasterized image is known to exceed the brightest source (none since direct.glsl bounds
 #: the representative-point specular by the lobe's albedo; grazing.toml reached 1.8x before).

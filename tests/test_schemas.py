@@ -15,8 +15,8 @@ from referencing import Registry, Resource
 
 from compare.cli.main import main
 from compare.report.results import RunSettings
+from tests.helpers import CORNELL, ROOT, gate_run
 
-ROOT = Path(__file__).resolve().parent.parent
 NAMES = ("results", "job", "baseline")
 
 
@@ -76,16 +76,15 @@ def test_results_and_baselines_conform(tmp_path, gl_ctx):
     """results.json of a run with the reference, the rasterizer and two seeds (noise floor, per-pixel variance,
     per-seed runs), of an external renderer's run, and the baseline made of it."""
     from compare.run.runner import run
-    from tests.test_gate import render
 
-    res = run([ROOT / "scenes" / "cornell.toml"], tmp_path / "r", RunSettings(frames=4, spp=8, sizes=[[32, 24]],
+    res = run([CORNELL], tmp_path / "r", RunSettings(frames=4, spp=8, sizes=[[32, 24]],
                                                                                 seeds=2),
               progress=False, cache_dir=tmp_path / "cache", gl_ctx=gl_ctx, report=False)
     data = validate("results", tmp_path / "r" / "results.json")
     scene = data["scenes"][0]
     assert scene["noise_floor"] and scene["reference"]["variance"]
     assert all(len(r["seed_runs"]) == 2 for r in scene["runs"]) and res.scenes[0].run("progressive").seed_runs
-    external = render(tmp_path / "ext")
+    external = gate_run(tmp_path / "ext")
     validate("results", external)
     for source, folder in ((tmp_path / "r" / "results.json", tmp_path / "bl"), (external, tmp_path / "bl2")):
         assert main(["baseline", "save", str(folder), "--results", str(source)]) == 0
@@ -116,7 +115,7 @@ def test_measured_results_conform(tmp_path):
         write_exr(folder / f"step-{step}.exr", np.full((12, 16, 3), 0.3, np.float32))
     (folder / "timings.json").write_text(json.dumps({"setup_seconds": 0.2, "seconds": {"1": 0.1, "2": 0.2, "4": 0.4}}))
     out = tmp_path / "measured"
-    assert main(["measure", str(folder), "--scene", str(ROOT / "scenes" / "cornell.toml"), "--spp", "4", "--quiet",
+    assert main(["measure", str(folder), "--scene", str(CORNELL), "--spp", "4", "--quiet",
                  "-o", str(out)]) == 0
     assert validate("results", out / "results.json")["scenes"][0]["runs"][0]["renderer"] == "engine"
 
@@ -213,7 +212,7 @@ def test_a_bad_field_of_a_job_is_one_error_naming_file_and_field(tmp_path):
     from compare.renderers.job import write_job
     from compare.scene.loader import load_scene
 
-    scene = load_scene(ROOT / "scenes" / "cornell.toml").with_resolution(16, 12)
+    scene = load_scene(CORNELL).with_resolution(16, 12)
     with pytest.raises(RendererError) as exc:
         write_job(scene, tmp_path / "job", renderer="mine", unit="frame", checkpoints=[1, 0], seed=3,
                   output_dir=tmp_path / "out", cache_dir=tmp_path / "cache")

@@ -11,10 +11,9 @@ import pytest
 
 from compare.progressive.gl import shaders, units
 from compare.progressive.gl.units import GBUFFER, LAYERS, MAPS, PROGRAM_UNITS, Units, check_units
+from tests.helpers import ROOT
 
-ROOT = Path(__file__).resolve().parents[1]
 PROGRESSIVE = ROOT / "compare" / "progressive"
-CORNELL = ROOT / "scenes" / "cornell.toml"
 
 
 def _glsl_files() -> dict[str, Path]:
@@ -174,7 +173,6 @@ def test_the_passes_pass_their_constants(gl_ctx):
     del defines["LTC_SIZE"]
     with pytest.raises(RuntimeError, match="LTC_SIZE comes from direct.py"):
         shaders.load_program(gl_ctx, "direct.glsl", defines)
-
 
 
 def _shared_includes() -> dict[str, tuple[str, dict]]:

@@ -21,10 +21,9 @@ import numpy as np
 import pytest
 
 from compare.scene.loader import load_scene
+from tests.helpers import CORNELL, ROOT, SMALL_IBL
 
-ROOT = Path(__file__).resolve().parent.parent
 STRESS = ROOT / "scenes" / "stress"
-FAST_IBL = {"ibl_size": 32, "ibl_levels": 6, "ibl_samples": 32}
 
 
 def load(name: str, size=(48, 36)):
@@ -219,7 +218,7 @@ def test_sun_and_tiny_light_rasterizer_matches_closed_form(gl_ctx, tmp_path):
     expected, mask = _sun_scene_expectation(s)
     # Occlusion off (d_occ = 0): the closed form is for the unoccluded floor, and the screen-space occlusion
     # darkens floor near the sphere on screen by up to 10 % (its samples land on the sphere's depth).
-    result = progressive(s, gl_ctx, frames=32, materials="diffuse", cache_dir=tmp_path, d_occ=0.0, **FAST_IBL)
+    result = progressive(s, gl_ctx, frames=32, materials="diffuse", cache_dir=tmp_path, d_occ=0.0, **SMALL_IBL)
     image = result.image
     assert np.isfinite(image).all() and image.min() >= 0
     assert result.metadata["environment"] != "none"
@@ -235,7 +234,7 @@ def test_sun_and_tiny_light_rasterizer_matches_closed_form(gl_ctx, tmp_path):
 def test_dark_scene_is_the_bright_one_scaled(gl_ctx):
     """Radiance 1e-6: both renderers are linear, so ×1e6 gives the Cornell box (same seed) to float precision."""
     dark = load("dark.toml")
-    bright = load(str(ROOT / "scenes" / "cornell.toml"))
+    bright = load(str(CORNELL))
     for name, render in (("reference", lambda s: reference(s, 16)),
                          ("rasterizer", lambda s: progressive(s, gl_ctx, frames=32).image)):
         d, b = render(dark).astype(np.float64) * 1e6, render(bright).astype(np.float64)
@@ -411,9 +410,9 @@ def _drift(gl_ctx, frames: int) -> float:
 
 
 def test_long_accumulation_float32_drift_1e4_frames(gl_ctx):
-    """10⁴ frames of a 4 × 4 image: the RGBA32F running mean stays within 1e-5 of the float64 mean
-    (measured: 4.7e-7 after 10³ frames, 8.5e-7 after 10⁴)."""
-    assert _drift(gl_ctx, 10_000) < 1e-5
+    """10⁴ frames of a 4 × 4 image: the RGBA32F running mean stays within 5e-6 of the float64 mean
+    (measured, seed 0: 4.7e-7 after 10³ frames, 8.5e-7 after 10⁴; seeds 1 and 2: 7.5e-8 and 9.2e-7 after 10⁴)."""
+    assert _drift(gl_ctx, 10_000) < 5e-6
 
 
 @pytest.mark.slow
@@ -430,7 +429,7 @@ def test_rasterizer_is_never_negative_at_any_checkpoint(gl_ctx, tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         s = load_scene(ROOT / "scenes" / "car.toml").with_resolution(48, 36)
-    result = progressive(s, gl_ctx, frames=64, checkpoints=(2, 4, 8, 16, 32, 64), cache_dir=tmp_path, **FAST_IBL)
+    result = progressive(s, gl_ctx, frames=64, checkpoints=(2, 4, 8, 16, 32, 64), cache_dir=tmp_path, **SMALL_IBL)
     for c in result.checkpoints:
         assert c.image.min() >= 0, f"frame {c.frame}: min {c.image.min():g}"
 

@@ -4,17 +4,13 @@ definition for every renderer), written into the job's glTF."""
 from __future__ import annotations
 
 import json
-import shutil
 
 import numpy as np
 import pytest
 
 from compare.scene import geometry
-from compare.scene.tangents import PACKAGE, with_tangents
+from compare.scene.tangents import with_tangents
 from compare.util.errors import MissingComponentError, SceneError
-
-needs_mikktspace = pytest.mark.skipif(shutil.which("node") is None or not PACKAGE.is_dir(),
-                                      reason="MikkTSpace needs Node.js and web/node_modules (npm ci --prefix web)")
 
 
 def uv_tangents(positions, normals, uvs, indices) -> np.ndarray:
@@ -65,7 +61,7 @@ def _same_vertex_tangents(mesh, welded):
     return np.abs(welded.tangents - expect[src]).max()
 
 
-@needs_mikktspace
+@pytest.mark.npm("mikktspace")
 @pytest.mark.parametrize("make", [lambda: geometry.quad((2.0, 1.0)), lambda: geometry.box((1.0, 2.0, 3.0))])
 def test_mikktspace_matches_the_closed_form_on_planar_charts(make):
     mesh = make()
@@ -77,7 +73,7 @@ def test_mikktspace_matches_the_closed_form_on_planar_charts(make):
     assert np.allclose(welded.positions[welded.indices], mesh.positions[mesh.indices])
 
 
-@needs_mikktspace
+@pytest.mark.npm("mikktspace")
 def test_a_mirrored_chart_splits_and_flips_the_sign():
     """Two quads sharing an edge, the second's u mirrored: the shared vertices split, and the w differ."""
     p = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [2, 0, 0], [2, 1, 0]], dtype=np.float32)
@@ -169,7 +165,7 @@ def test_bad_tangents_are_one_error_naming_the_field(tmp_path, tangent, message)
         _scene(tmp_path, tangent)
 
 
-@needs_mikktspace
+@pytest.mark.npm("mikktspace")
 def test_the_jobs_gltf_carries_the_tangents(tmp_path):
     from compare.renderers.job import export_gltf
 

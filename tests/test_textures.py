@@ -15,87 +15,18 @@ from compare.progressive.rasterizer import render_progressive
 from compare.progressive.frame.gpu_scene import GpuScene
 from compare.mitsuba.reference import ReferenceRenderer
 from compare.scene.loader import load_scene
-
-LIGHT = """[[lights]]
-        center = [0.0, 1.4, 0.3]
-        size = [1.2, 1.2]
-        normal = [0, -1, 0]
-        radiance = [4, 4, 4]"""
-QUADRANTS = {(0, 0): (230, 40, 40), (0, 1): (40, 200, 60), (1, 0): (50, 60, 220), (1, 1): (240, 230, 60)}
-
-
-def _scene(tmp_path, material: str, *, light: bool = True, environment: bool = False, extra: str = ""):
-    """A 2 x 2 floor quad (the map's quadrants: image top = +z, left = -x) beside a grey control quad,
-    under one light, direct light only."""
-    img = np.zeros((64, 64, 3), dtype=np.uint8)
-    for (r, c), colour in QUADRANTS.items():
-        img[32 * r:32 * r + 32, 32 * c:32 * c + 32] = colour
-    Image.fromarray(img).save(tmp_path / "quadrants.png")
-    mrmap = np.zeros((64, 64, 3), dtype=np.uint8)
-    mrmap[:, :32] = (0, 255, 0)        # left half: rough dielectric
-    mrmap[:, 32:] = (0, 204, 255)      # right half: metal of roughness 0.8
-    Image.fromarray(mrmap).save(tmp_path / "mr.png")
-    ao = np.zeros((64, 64, 3), dtype=np.uint8)
-    ao[:, 32:] = 255                   # left half occluded, right half open
-    Image.fromarray(ao).save(tmp_path / "ao.png")
-    (tmp_path / "t.toml").write_text(textwrap.dedent(f'''
-        [camera]
-        position = [0.0, 2.2, 2.6]
-        target = [0.2, 0.0, 0.0]
-        fov = 45
-        resolution = [80, 60]
-        [materials.floor]
-        {material}
-        [materials.grey]
-        base_color = [0.5, 0.5, 0.5]
-        roughness = 1.0
-        [[meshes]]
-        name = "floor"
-        shape = "quad"
-        size = [2.0, 2.0]
-        material = "floor"
-        [[meshes]]
-        name = "control"
-        shape = "quad"
-        size = [0.8, 0.8]
-        material = "grey"
-        translate = [1.6, 0.0, 0.0]
-        {extra}
-        {LIGHT if light else ""}
-        {"[environment]" if environment else ""}
-        {"constant = [0.6, 0.6, 0.6]" if environment else ""}
-        [render]
-        max_depth = 2
-        '''))
-    return load_scene(tmp_path / "t.toml")
-
-
-def _regions(scene) -> dict[str, np.ndarray]:
-    """Pixels whose camera ray hits the floor well inside one quadrant (or the control quad)."""
-    cam = scene.camera
-    jj, ii = np.mgrid[0:cam.height, 0:cam.width]
-    d = cam.ray_directions(ii + 0.5, jj + 0.5)
-    o = np.asarray(cam.position)
-    t = -o[1] / np.where(d[..., 1] < 0, d[..., 1], -1e-30)
-    p = o + d * t[..., None]
-    x, z = p[..., 0], p[..., 2]
-    out = {}
-    for (r, c) in QUADRANTS:
-        xs = (x > -0.9) & (x < -0.1) if c == 0 else (x > 0.1) & (x < 0.9)
-        zs = (z > 0.1) & (z < 0.9) if r == 0 else (z > -0.9) & (z < -0.1)
-        out[f"quadrant {r}{c}"] = (t > 0) & xs & zs
-    out["control"] = (t > 0) & (np.abs(x - 1.6) < 0.3) & (np.abs(z) < 0.3)
-    return out
+from tests.helpers import (QUADRANTS, QUADRANT_LIGHT, QUADRANT_MAPS, quadrant_regions, quadrant_scene, tilt_ratio,
+                           tilt_scenes)
 
 
 def test_base_colour_map_matches_the_reference(tmp_path, gl_ctx):
     """Every quadrant of an sRGB base-colour map within 5 % of Mitsuba's (direct light; the control too)."""
-    scene = _scene(tmp_path, 'base_color_texture = "quadrants.png"\nroughness = 1.0')
+    scene = quadrant_scene(tmp_path, 'base_color_texture = "quadrants.png"\nroughness = 1.0')
     # LTC: the unshadowed light in closed form, so that the point-sample discretisation of the default
     # area model (-9 ... +8 % per pixel, issue 18's measurements) does not hide what the map does
     raster = render_progressive(scene, frames=64, ctx=gl_ctx, area_model="ltc").image
     ref = ReferenceRenderer(scene, cache_dir=False, progress=False).render(512).image
-    for name, mask in _regions(scene).items():
+    for name, mask in quadrant_regions(scene).items():
         assert mask.sum() > 30, name
         np.testing.assert_allclose(raster[mask].mean(0), ref[mask].mean(0), rtol=0.05, atol=0.002, err_msg=name)
 
@@ -103,10 +34,10 @@ def test_base_colour_map_matches_the_reference(tmp_path, gl_ctx):
 def test_metallic_roughness_map_is_its_factors(tmp_path, gl_ctx):
     """glTF's channels (G = roughness, B = metallic): each half of the map renders as the factors it
     holds, in the rasterizer and in the reference."""
-    textured = _scene(tmp_path, 'base_color = [0.8, 0.6, 0.4]\nmetallic_roughness_texture = "mr.png"')
+    textured = quadrant_scene(tmp_path, 'base_color = [0.8, 0.6, 0.4]\nmetallic_roughness_texture = "mr.png"')
     halves = {"left": ("metallic = 0.0\nroughness = 1.0", ("quadrant 00", "quadrant 10")),
               "right": (f"metallic = 1.0\nroughness = {204 / 255}", ("quadrant 01", "quadrant 11"))}
-    regions = _regions(textured)
+    regions = quadrant_regions(textured)
 
     def images(scene):
         return (render_progressive(scene, frames=32, ctx=gl_ctx, area_model="ltc").image,
@@ -116,7 +47,7 @@ def test_metallic_roughness_map_is_its_factors(tmp_path, gl_ctx):
     for half, (factors, names) in halves.items():
         sub = tmp_path / half
         sub.mkdir()
-        want = images(_scene(sub, f"base_color = [0.8, 0.6, 0.4]\n{factors}"))
+        want = images(quadrant_scene(sub, f"base_color = [0.8, 0.6, 0.4]\n{factors}"))
         for renderer, a, b, tol in (("rasterizer", got[0], want[0], 0.01), ("reference", got[1], want[1], 0.03)):
             for name in names:
                 m = regions[name]
@@ -124,20 +55,20 @@ def test_metallic_roughness_map_is_its_factors(tmp_path, gl_ctx):
 
 
 def test_maps_replace_their_factors_and_leave_the_control_alone(tmp_path, gl_ctx):
-    textured = _scene(tmp_path, 'base_color_texture = "quadrants.png"\nroughness = 1.0')
+    textured = quadrant_scene(tmp_path, 'base_color_texture = "quadrants.png"\nroughness = 1.0')
     (tmp_path / "plain").mkdir()
-    plain = _scene(tmp_path / "plain", 'base_color = [0.8, 0.8, 0.8]\nroughness = 1.0')
+    plain = quadrant_scene(tmp_path / "plain", 'base_color = [0.8, 0.8, 0.8]\nroughness = 1.0')
     a = render_progressive(textured, frames=16, ctx=gl_ctx).image
     b = render_progressive(plain, frames=16, ctx=gl_ctx).image
-    regions = _regions(textured)
+    regions = quadrant_regions(textured)
     np.testing.assert_array_equal(a[regions["control"]], b[regions["control"]])  # direct light: no crosstalk
     red, green = a[regions["quadrant 00"]].mean(0), a[regions["quadrant 01"]].mean(0)
     assert red[0] > 3 * red[1] and green[1] > 3 * green[0]  # the map, the right way up and round
 
 
 def test_no_texture_work_without_textures(tmp_path, gl_ctx):
-    plain = _scene(tmp_path, 'base_color = [0.8, 0.8, 0.8]')
-    textured = _scene(tmp_path, 'base_color_texture = "quadrants.png"')
+    plain = quadrant_scene(tmp_path, 'base_color = [0.8, 0.8, 0.8]')
+    textured = quadrant_scene(tmp_path, 'base_color_texture = "quadrants.png"')
     gpu = [GpuScene(gl_ctx, plain), GpuScene(gl_ctx, textured)]
     try:
         assert not gpu[0].textured and gpu[1].textured
@@ -152,12 +83,12 @@ def test_emission_map_multiplies_the_emission(tmp_path, gl_ctx):
     rasterizer and in the reference."""
     from compare.image.tonemap import srgb_decode
 
-    scene = _scene(tmp_path, 'base_color = [0.0, 0.0, 0.0]\nemission = [2.0, 1.0, 0.5]\n'
-                             'emissive_texture = "quadrants.png"', light=False)
+    scene = quadrant_scene(tmp_path, 'base_color = [0.0, 0.0, 0.0]\nemission = [2.0, 1.0, 0.5]\n'
+                                     'emissive_texture = "quadrants.png"', light=False)
     assert scene.features().textures and scene.materials["floor"].is_emissive
     raster = render_progressive(scene, frames=16, ctx=gl_ctx).image
     ref = ReferenceRenderer(scene, cache_dir=False, progress=False).render(64).image
-    regions = _regions(scene)
+    regions = quadrant_regions(scene)
     for (r, c), colour in QUADRANTS.items():
         m = regions[f"quadrant {r}{c}"]
         want = np.array([2.0, 1.0, 0.5]) * srgb_decode(np.array(colour) / 255.0)
@@ -179,30 +110,29 @@ def test_emission_map_multiplies_the_emission(tmp_path, gl_ctx):
 def test_texture_transform_and_sampler_agree_with_the_reference(tmp_path, gl_ctx, settings):
     """KHR_texture_transform (offset · rotation · scale), wrap and filter: every region's mean in the
     rasterizer within 5 % of the reference's."""
-    scene = _scene(tmp_path, f'base_color_texture = "quadrants.png"\nroughness = 1.0\n{settings}')
+    scene = quadrant_scene(tmp_path, f'base_color_texture = "quadrants.png"\nroughness = 1.0\n{settings}')
     raster = render_progressive(scene, frames=64, ctx=gl_ctx, area_model="ltc").image
     ref = ReferenceRenderer(scene, cache_dir=False, progress=False).render(256).image
-    for name, mask in _regions(scene).items():
+    for name, mask in quadrant_regions(scene).items():
         np.testing.assert_allclose(raster[mask].mean(0), ref[mask].mean(0), rtol=0.05, atol=0.003, err_msg=name)
     if settings == "texture_offset = [0.5, 0.0]":  # half a turn along u: left and right quadrants swap
-        regions = _regions(scene)
+        regions = quadrant_regions(scene)
         red = ref[regions["quadrant 01"]].mean(0)
         assert red[0] > 3 * red[1]  # quadrant (0, 0)'s red, now on the right
 
 
 @pytest.mark.parametrize("index", range(4))
 def test_texture_transform_moves_whole_quadrants(tmp_path, gl_ctx, index):
-    """Transforms that move whole quadrants of an emission map (tests/test_blender.py QUADRANT_MAPS): each
+    """Transforms that move whole quadrants of an emission map (tests/helpers.py QUADRANT_MAPS): each
     region shows the quadrant glTF's KHR_texture_transform says, in the rasterizer and the reference."""
     from compare.image.tonemap import srgb_decode
-    from test_blender import QUADRANT_MAPS
 
     settings, source = QUADRANT_MAPS[index]
-    scene = _scene(tmp_path, 'base_color = [0.0, 0.0, 0.0]\nemission = [1.0, 1.0, 1.0]\n'
-                             f'emissive_texture = "quadrants.png"\n{settings}', light=False)
+    scene = quadrant_scene(tmp_path, 'base_color = [0.0, 0.0, 0.0]\nemission = [1.0, 1.0, 1.0]\n'
+                                     f'emissive_texture = "quadrants.png"\n{settings}', light=False)
     raster = render_progressive(scene, frames=8, ctx=gl_ctx).image
     ref = ReferenceRenderer(scene, cache_dir=False, progress=False).render(16).image
-    regions = _regions(scene)
+    regions = quadrant_regions(scene)
     for (r, c) in QUADRANTS:
         want = srgb_decode(np.array(QUADRANTS[source(r, c)]) / 255.0)
         sampled = srgb_decode_table(gl_ctx)[np.array(QUADRANTS[source(r, c)])]  # the sampler's sRGB decode
@@ -216,12 +146,13 @@ def test_occlusion_map_darkens_only_the_ambient_light(tmp_path, gl_ctx, strength
     """glTF's occlusion map scales the rasterizer's environment light by 1 + strength (map - 1) and leaves
     the area light's direct light as it was; the reference, a path tracer, leaves the map out."""
     (tmp_path / "plain").mkdir()
-    plain = _scene(tmp_path / "plain", 'base_color = [0.8, 0.8, 0.8]\nroughness = 1.0', environment=True)
-    occluded = _scene(tmp_path, 'base_color = [0.8, 0.8, 0.8]\nroughness = 1.0\n'
-                                f'occlusion_texture = "ao.png"\nocclusion_strength = {strength}', environment=True)
+    plain = quadrant_scene(tmp_path / "plain", 'base_color = [0.8, 0.8, 0.8]\nroughness = 1.0', environment=True)
+    occluded = quadrant_scene(tmp_path, 'base_color = [0.8, 0.8, 0.8]\nroughness = 1.0\n'
+                                        f'occlusion_texture = "ao.png"\nocclusion_strength = {strength}',
+                              environment=True)
     a = render_progressive(occluded, frames=16, ctx=gl_ctx).layers
     b = render_progressive(plain, frames=16, ctx=gl_ctx).layers
-    regions = _regions(occluded)
+    regions = quadrant_regions(occluded)
     np.testing.assert_array_equal(a["direct_area"], b["direct_area"])
     for name in ("quadrant 00", "quadrant 10"):  # the map's left half: 0
         m = regions[name]
@@ -241,74 +172,26 @@ def test_occlusion_map_darkens_only_the_ambient_light(tmp_path, gl_ctx, strength
     np.testing.assert_array_equal(ref[0], ref[1])
 
 
-def _tilt_scenes(tmp_path, degrees: float = 25.0, material: str = 'base_color = [0.8, 0.8, 0.8]\nroughness = 1.0'):
-    """A Lambert square under a distant light, once flat with a constant normal map tilted by ``degrees``
-    towards +Y (up the image), and as geometry: the square tilted that way (towards the image's top
-    edge, +z) and the other way."""
-    t = math.radians(degrees)
-    c = np.array([0.0, math.sin(t), math.cos(t)])
-    Image.fromarray(np.tile(np.round((c + 1) / 2 * 255).astype(np.uint8), (8, 8, 1))).save(tmp_path / "n.png")
-
-    def scene(name, material, rotate):
-        (tmp_path / f"{name}.toml").write_text(textwrap.dedent(f'''
-            [camera]
-            position = [0.0, 3.0, 3.0]
-            target = [0.0, 0.0, 0.0]
-            fov = 40
-            resolution = [64, 48]
-            [materials.m]
-            {base}
-            {material}
-            [[meshes]]
-            name = "square"
-            shape = "quad"
-            size = [1.5, 1.5]
-            material = "m"
-            rotate = [{rotate}, 0.0, 0.0]
-            [[lights]]
-            center = [0.0, 24.0, 12.0]
-            size = [1.0, 1.0]
-            normal = [0, -2, -1]
-            radiance = [480, 480, 480]
-            [render]
-            max_depth = 2
-            '''))
-        return load_scene(tmp_path / f"{name}.toml")
-
-    base = material.replace("\n", "\n            ")
-    return (scene("mapped", 'normal_texture = "n.png"', 0.0), scene("tilted", "", degrees),
-            scene("other", "", -degrees))
-
-
-def _ratio(a, b, *others):
-    """Median per-pixel ratio a / b where every image shows the square."""
-    both = (a[..., 0] > 0.02) & (b[..., 0] > 0.02)
-    for o in others:
-        both &= o[..., 0] > 0.02
-    assert both.sum() > 100
-    return float(np.median(a[both][:, 0] / b[both][:, 0]))
-
-
 def test_normal_map_is_the_relief_it_stands_for(tmp_path, gl_ctx):
     """A flat square with a constant normal map tilted by 25 degrees up the image (glTF: +Y up) shades as
     the square tilted that way, in the rasterizer and in the reference; tilted the other way it does not.
     Bound: 1 %, for a light 27 m away (the tilted square's points move 0.3 m, 1 % of that distance);
     measured 0.9996 (reference) and 1.0012 (rasterizer), against 1.59 for the wrong way."""
-    mapped, tilted, other = _tilt_scenes(tmp_path)
+    mapped, tilted, other = tilt_scenes(tmp_path)
     ref = {k: ReferenceRenderer(s, cache_dir=False, progress=False).render(256).image
            for k, s in (("mapped", mapped), ("tilted", tilted), ("other", other))}
     ras = {k: render_progressive(s, frames=32, ctx=gl_ctx, area_model="ltc").image
            for k, s in (("mapped", mapped), ("tilted", tilted), ("other", other))}
     for name, img in (("reference", ref), ("rasterizer", ras)):
-        assert _ratio(img["mapped"], img["tilted"], img["other"]) == pytest.approx(1.0, abs=0.01), name
-        assert _ratio(img["mapped"], img["other"], img["tilted"]) > 1.3, name
-    assert _ratio(ras["mapped"], ref["mapped"]) == pytest.approx(1.0, abs=0.01)
+        assert tilt_ratio(img["mapped"], img["tilted"], img["other"]) == pytest.approx(1.0, abs=0.01), name
+        assert tilt_ratio(img["mapped"], img["other"], img["tilted"]) > 1.3, name
+    assert tilt_ratio(ras["mapped"], ref["mapped"]) == pytest.approx(1.0, abs=0.01)
     # scale 0: no perturbation at all
-    flat = _scene(tmp_path, 'base_color = [0.8, 0.8, 0.8]\nroughness = 1.0')
+    flat = quadrant_scene(tmp_path, 'base_color = [0.8, 0.8, 0.8]\nroughness = 1.0')
     (tmp_path / "s0").mkdir()
     Image.open(tmp_path / "n.png").save(tmp_path / "s0" / "n.png")
-    zero = _scene(tmp_path / "s0", 'base_color = [0.8, 0.8, 0.8]\nroughness = 1.0\nnormal_texture = "n.png"\n'
-                                    'normal_scale = 0.0')
+    zero = quadrant_scene(tmp_path / "s0", 'base_color = [0.8, 0.8, 0.8]\nroughness = 1.0\nnormal_texture = "n.png"\n'
+                                            'normal_scale = 0.0')
     np.testing.assert_allclose(render_progressive(zero, frames=8, ctx=gl_ctx).image,
                                render_progressive(flat, frames=8, ctx=gl_ctx).image, rtol=1e-5, atol=1e-6)
 
@@ -371,7 +254,7 @@ def test_a_gltf_with_every_map_round_trips_and_renders_as_the_reference(tmp_path
                 'normal_texture = "n.png"\nnormal_scale = 0.5\nocclusion_texture = "ao.png"\n'
                 'emission = [0.05, 0.05, 0.05]\nemissive_texture = "quadrants.png"\ntexture_offset = [0.5, 0.0]')
     _card_png(tmp_path / "card.png")
-    original = _scene(tmp_path, material, extra=CARD)
+    original = quadrant_scene(tmp_path, material, extra=CARD)
     (tmp_path / "gltf").mkdir()
     export_gltf(original, tmp_path / "gltf" / "scene.gltf")
     (tmp_path / "gltf" / "t.toml").write_text(textwrap.dedent(f'''
@@ -383,7 +266,7 @@ def test_a_gltf_with_every_map_round_trips_and_renders_as_the_reference(tmp_path
         [[include]]
         file = "scene.gltf"
         prefix = ""
-        {LIGHT}
+        {QUADRANT_LIGHT}
         [render]
         max_depth = 2
         '''))
@@ -398,7 +281,7 @@ def test_a_gltf_with_every_map_round_trips_and_renders_as_the_reference(tmp_path
     leaf = imported.materials["leaf"]
     assert (leaf.alpha_mode, leaf.alpha, leaf.alpha_cutoff) == ("mask", 0.9, 0.6)
     raster = render_progressive(imported, frames=64, ctx=gl_ctx, area_model="ltc").image
-    regions = {**_regions(imported), **_card_regions(imported)}
+    regions = {**quadrant_regions(imported), **_card_regions(imported)}
     for name, mask in regions.items():
         assert mask.sum() > 10, name
         np.testing.assert_allclose(raster[mask].mean(0), ref[mask].mean(0), rtol=0.05, atol=0.003, err_msg=name)
@@ -500,11 +383,11 @@ def test_normal_map_bends_the_sheen(tmp_path, mode):
     """glTF's normal map bends the sheen as well as the base (Blender's Principled too, without a coat):
     a white sheen over dark grey under a constant tilted map shades as the tilted square, within 1.5 %
     (with the sheen in the unbent frame: 1.69 in the shared mode, 1.08 in the cycles mode)."""
-    mapped, tilted, other = _tilt_scenes(tmp_path, material='base_color = [0.1, 0.1, 0.1]\nroughness = 1.0\n'
-                                         'sheen_color = [1.0, 1.0, 1.0]\nsheen_roughness = 0.5')
+    mapped, tilted, other = tilt_scenes(tmp_path, material='base_color = [0.1, 0.1, 0.1]\nroughness = 1.0\n'
+                                        'sheen_color = [1.0, 1.0, 1.0]\nsheen_roughness = 0.5')
     img = {k: ReferenceRenderer(s, materials=mode, cache_dir=False, progress=False).render(256).image
            for k, s in (("mapped", mapped), ("tilted", tilted), ("other", other))}
-    assert _ratio(img["mapped"], img["tilted"], img["other"]) == pytest.approx(1.0, abs=0.015)
+    assert tilt_ratio(img["mapped"], img["tilted"], img["other"]) == pytest.approx(1.0, abs=0.015)
 
 
 def test_normal_map_bends_the_transmission_and_not_the_coat(tmp_path):
@@ -519,10 +402,10 @@ def test_normal_map_bends_the_transmission_and_not_the_coat(tmp_path):
                      normal_texture=tmp_path / "n.png")
     for mode in ("shared", "cycles"):
         d = material_dict(glass, mode)
-        assert d["type"] == "normalmap" and d["bsdf"]["type"] == "blendbsdf", mode
+        assert d["type"] == "gltf_normalmap" and d["bsdf"]["type"] == "blendbsdf", mode
     coated = dataclasses.replace(glass, transmission=0.0, clearcoat=1.0)
     for mode in ("shared", "cycles"):
         d = material_dict(coated, mode)
         assert d["type"] == "twosided", mode  # double-sided and opaque: the stack under Mitsuba's twosided
         d = d["bsdf"]
-        assert d["type"] == "gltf_coat" and d["base"]["type"] == "normalmap", mode
+        assert d["type"] == "gltf_coat" and d["base"]["type"] == "gltf_normalmap", mode

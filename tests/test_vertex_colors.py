@@ -10,66 +10,13 @@ import pytest
 
 from compare.scene.loader import load_scene
 from compare.util.errors import SceneError
-
-SCENE = """
-    include = "plane.gltf"
-
-    [camera]
-    position = [0.0, 0.0, 2.0]
-    target = [0.0, 0.0, 0.0]
-    fov = 40.0
-    resolution = [16, 16]
-
-    [environment]
-    constant = [1.0, 1.0, 1.0]
-    """
-
-
-def _plane(folder, base=(0.8, 0.8, 0.8, 1.0), colors=None, *, accessor=None, alpha_mode=None):
-    """A glTF card facing +Z (two triangles) whose vertices carry ``colors`` (4×3 or 4×4), written as
-    ``accessor`` says: "float", "ubyte" or "ushort" (normalized)."""
-    from compare.scene.gltf_write import GltfWriter
-
-    w = GltfWriter()
-    mat = w.material("card", base[:3], 0.0, 1.0)
-    w.doc["materials"][mat]["pbrMetallicRoughness"]["baseColorFactor"] = list(base)
-    if alpha_mode:
-        w.doc["materials"][mat]["alphaMode"] = alpha_mode
-    pos = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], dtype=np.float32)
-    nrm = np.tile(np.array([[0, 0, 1]], dtype=np.float32), (4, 1))
-    attrs = {"POSITION": w.accessor(pos, bounds=True), "NORMAL": w.accessor(nrm)}
-    if colors is not None:
-        c = np.asarray(colors, dtype=np.float32)
-        if accessor in (None, "float"):
-            attrs["COLOR_0"] = w.accessor(c)
-        else:
-            scale, dtype, ctype = (255, np.uint8, 5121) if accessor == "ubyte" else (65535, np.uint16, 5123)
-            data = np.round(c * scale).astype(dtype)
-            if accessor == "ubyte" and data.shape[1] == 3:  # a VEC3 of bytes: rows padded to 4 bytes
-                data = np.concatenate([data, np.zeros((4, 1), dtype)], axis=1)
-                stride = 4
-            else:
-                stride = None
-            view = w.view(data.tobytes())
-            if stride:
-                w.doc["bufferViews"][view]["byteStride"] = stride
-            attrs["COLOR_0"] = w._add("accessors", {  # noqa: SLF001
-                "bufferView": view, "componentType": ctype, "normalized": True, "count": 4,
-                "type": "VEC3" if c.shape[1] == 3 else "VEC4"})
-    idx = w.accessor(np.array([[0, 1, 2], [0, 2, 3]], dtype=np.uint32), indices=True)
-    w._add("meshes", {"name": "card", "primitives": [{"attributes": attrs, "indices": idx,  # noqa: SLF001
-                                                      "material": mat}]})
-    w.node("card", mesh=len(w.doc["meshes"]) - 1)
-    return w.write(folder / "plane.gltf")
-
-
-RED = [[1, 0, 0]] * 4
+from tests.helpers import COLORED_CARD_SCENE, RED_CORNERS, colored_card
 
 
 @pytest.mark.parametrize("accessor", ["float", "ubyte", "ushort"])
 def test_color_0_is_read_in_every_encoding(tmp_path, make_scene, accessor):
-    _plane(tmp_path, colors=RED, accessor=accessor)
-    scene = load_scene(make_scene(SCENE))
+    colored_card(tmp_path, colors=RED_CORNERS, accessor=accessor)
+    scene = load_scene(make_scene(COLORED_CARD_SCENE))
     (mesh,) = scene.meshes
     assert mesh.has_vertex_colors
     np.testing.assert_allclose(mesh.triangles().colors, [[1, 0, 0, 1]] * 4, atol=1e-6)
@@ -78,11 +25,11 @@ def test_color_0_is_read_in_every_encoding(tmp_path, make_scene, accessor):
 
 
 def test_white_vertex_colors_change_nothing_and_bad_ones_name_the_field(tmp_path, make_scene):
-    _plane(tmp_path, colors=[[1, 1, 1, 1]] * 4)
-    assert not load_scene(make_scene(SCENE)).meshes[0].has_vertex_colors
-    _plane(tmp_path, colors=[[1.5, 0, 0]] * 4)
+    colored_card(tmp_path, colors=[[1, 1, 1, 1]] * 4)
+    assert not load_scene(make_scene(COLORED_CARD_SCENE)).meshes[0].has_vertex_colors
+    colored_card(tmp_path, colors=[[1.5, 0, 0]] * 4)
     with pytest.raises(SceneError, match=r"COLOR_0.*\[0, 1\]"):
-        load_scene(make_scene(SCENE))
+        load_scene(make_scene(COLORED_CARD_SCENE))
 
 
 def _reference(scene, spp=16):
@@ -94,14 +41,14 @@ def _reference(scene, spp=16):
 def test_the_reference_multiplies_the_base_colour_by_the_vertex_colour(tmp_path, make_scene):
     """A grey card whose vertices are red renders as the card whose base colour is that product, the same
     samples giving the same image; a card of red and blue vertices is red at one side, blue at the other."""
-    _plane(tmp_path, base=(0.8, 0.8, 0.8, 1.0), colors=RED)
-    tinted = _reference(load_scene(make_scene(SCENE)))
-    _plane(tmp_path, base=(0.8, 0.0, 0.0, 1.0))
-    plain = _reference(load_scene(make_scene(SCENE)))
+    colored_card(tmp_path, base=(0.8, 0.8, 0.8, 1.0), colors=RED_CORNERS)
+    tinted = _reference(load_scene(make_scene(COLORED_CARD_SCENE)))
+    colored_card(tmp_path, base=(0.8, 0.0, 0.0, 1.0))
+    plain = _reference(load_scene(make_scene(COLORED_CARD_SCENE)))
     np.testing.assert_allclose(tinted, plain, rtol=1e-4, atol=1e-6)
     assert tinted[..., 0].mean() > 0.3 and tinted[..., 1:].max() < 0.1
-    _plane(tmp_path, base=(1.0, 1.0, 1.0, 1.0), colors=[[1, 0, 0], [0, 0, 1], [0, 0, 1], [1, 0, 0]])
-    image = _reference(load_scene(make_scene(SCENE)))
+    colored_card(tmp_path, base=(1.0, 1.0, 1.0, 1.0), colors=[[1, 0, 0], [0, 0, 1], [0, 0, 1], [1, 0, 0]])
+    image = _reference(load_scene(make_scene(COLORED_CARD_SCENE)))
     left, right = image[6:10, 1:3].mean((0, 1)), image[6:10, 13:15].mean((0, 1))
     assert left[0] > 3 * left[2] and right[2] > 3 * right[0]
 
@@ -110,8 +57,8 @@ def test_the_job_glTF_carries_the_vertex_colours(tmp_path, make_scene):
     from compare.renderers.job import export_gltf
     from compare.scene.gltf_read import load_gltf
 
-    _plane(tmp_path, colors=RED)
-    scene = load_scene(make_scene(SCENE))
+    colored_card(tmp_path, colors=RED_CORNERS)
+    scene = load_scene(make_scene(COLORED_CARD_SCENE))
     (tmp_path / "job").mkdir()
     out = export_gltf(scene, tmp_path / "job" / "scene.gltf")
     assert "COLOR_0" in json.loads(out.read_text())["meshes"][0]["primitives"][0]["attributes"]
@@ -122,8 +69,8 @@ def test_the_job_glTF_carries_the_vertex_colours(tmp_path, make_scene):
 def test_a_renderer_that_does_not_draw_them_says_so(tmp_path, make_scene):
     from compare.renderers.registry import Registry
 
-    _plane(tmp_path, colors=RED)
-    scene = load_scene(make_scene(SCENE))
+    colored_card(tmp_path, colors=RED_CORNERS)
+    scene = load_scene(make_scene(COLORED_CARD_SCENE))
     reg = Registry()
     _, notes = reg.get("mitsuba").prepare(scene, {"plane/card": 1.0})
     assert notes == []
@@ -141,14 +88,14 @@ def _rasterized(scene, gl_ctx, frames=4):
 
 
 def test_the_rasterizer_multiplies_the_base_colour_by_the_vertex_colour(tmp_path, make_scene, gl_ctx):
-    _plane(tmp_path, base=(0.8, 0.8, 0.8, 1.0), colors=RED)
-    tinted = _rasterized(load_scene(make_scene(SCENE)), gl_ctx)
-    _plane(tmp_path, base=(0.8, 0.0, 0.0, 1.0))
-    plain = _rasterized(load_scene(make_scene(SCENE)), gl_ctx)
+    colored_card(tmp_path, base=(0.8, 0.8, 0.8, 1.0), colors=RED_CORNERS)
+    tinted = _rasterized(load_scene(make_scene(COLORED_CARD_SCENE)), gl_ctx)
+    colored_card(tmp_path, base=(0.8, 0.0, 0.0, 1.0))
+    plain = _rasterized(load_scene(make_scene(COLORED_CARD_SCENE)), gl_ctx)
     np.testing.assert_allclose(tinted, plain, rtol=1e-5, atol=1e-6)
     assert tinted[..., 0].mean() > 0.3 and tinted[..., 1:].max() < 0.1
-    _plane(tmp_path, base=(1.0, 1.0, 1.0, 1.0), colors=[[1, 0, 0], [0, 0, 1], [0, 0, 1], [1, 0, 0]])
-    image = _rasterized(load_scene(make_scene(SCENE)), gl_ctx)
+    colored_card(tmp_path, base=(1.0, 1.0, 1.0, 1.0), colors=[[1, 0, 0], [0, 0, 1], [0, 0, 1], [1, 0, 0]])
+    image = _rasterized(load_scene(make_scene(COLORED_CARD_SCENE)), gl_ctx)
     left, right = image[6:10, 1:3].mean((0, 1)), image[6:10, 13:15].mean((0, 1))
     assert left[0] > 3 * left[2] and right[2] > 3 * right[0]
 
@@ -156,10 +103,10 @@ def test_the_rasterizer_multiplies_the_base_colour_by_the_vertex_colour(tmp_path
 def test_a_blended_cards_vertex_alpha_is_its_coverage(tmp_path, make_scene, gl_ctx):
     """alphaMode BLEND with a vertex alpha of 0.25: a quarter of the card's colour over the background in
     the reference and the rasterizer alike (glTF multiplies the alpha by the vertex colour's)."""
-    _plane(tmp_path, base=(0.0, 0.0, 0.0, 1.0), colors=[[1, 1, 1, 0.25]] * 4, alpha_mode="BLEND")
-    scene = load_scene(make_scene(SCENE))
-    _plane(tmp_path, base=(0.0, 0.0, 0.0, 0.25), alpha_mode="BLEND")
-    factor = load_scene(make_scene(SCENE))
+    colored_card(tmp_path, base=(0.0, 0.0, 0.0, 1.0), colors=[[1, 1, 1, 0.25]] * 4, alpha_mode="BLEND")
+    scene = load_scene(make_scene(COLORED_CARD_SCENE))
+    colored_card(tmp_path, base=(0.0, 0.0, 0.0, 0.25), alpha_mode="BLEND")
+    factor = load_scene(make_scene(COLORED_CARD_SCENE))
     for render in (lambda s: _reference(s, spp=64), lambda s: _rasterized(s, gl_ctx)):
         a, b = float(render(scene)[4:12, 4:12].mean()), float(render(factor)[4:12, 4:12].mean())
         assert a == pytest.approx(b, rel=0.03) and 0.6 < a < 0.9  # 3/4 of the background comes through

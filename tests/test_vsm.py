@@ -9,7 +9,6 @@ point does.
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,9 +17,8 @@ from compare.progressive.rasterizer import Rasterizer, render_progressive
 from compare.progressive.lights.shadow import (SHADOW_FILTERS, VSM_FILTER_TEXELS, ShadowAtlas, chebyshev_visibility,
                                         vsm_face_size, vsm_filter_width)
 from compare.scene.loader import load_scene
+from tests.helpers import CORNELL, ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
-CORNELL = ROOT / "scenes" / "cornell.toml"
 VSM_GLSL = ROOT / "compare" / "progressive" / "lights" / "vsm.glsl"
 SHADOW_SIZE = 256
 
@@ -278,10 +276,11 @@ def test_occluder_shadow_is_still_there(renders, truth):
     umbra, open_floor = eroded(floor & (seen == 0.0), 1), eroded(floor & (seen == 1.0), 1)
     assert umbra.sum() >= 20 and open_floor.sum() >= 50
     visibility = vsm / np.maximum(lit, 1e-12)
-    # Measured: umbra mean 0.0002, max 0.0075 (33 pixels); open floor min 0.986 (98 pixels).
-    assert visibility[umbra].mean() < 0.02 and visibility[umbra].max() < 0.05
+    # Measured (96×72, 32 frames, seed 0): umbra mean 0.0002, max 0.0075 (33 pixels); open floor min 0.986
+    # (98 pixels). Seeds 1-3: umbra mean at most 0.0010, max 0.027; open floor min 1.0.
+    assert visibility[umbra].mean() < 0.005 and visibility[umbra].max() < 0.05
     assert visibility[open_floor].min() > 0.95
-    assert vsm[umbra].mean() < 0.01 * vsm[open_floor].mean()
+    assert vsm[umbra].mean() < 0.005 * vsm[open_floor].mean()  # measured 0.0002 (seeds 1-3: at most 0.0010)
 
 
 def test_error_against_direct_reference_is_close_to_hard(cornell_96, renders, tmp_path_factory):

@@ -12,7 +12,6 @@ installs them).
 from __future__ import annotations
 
 import textwrap
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -23,16 +22,15 @@ from compare.renderers import RenderContext, RendererError
 from compare.renderers.registry import Registry
 from compare.report.results import RunSettings
 from compare.scene.loader import load_scene
+from tests.helpers import (CARD_GEOMETRY, CARD_MASKED, COATED_SCENE, COLORED_CARD_SCENE, CORNELL, QUADRANTS,
+                           QUADRANT_MAPS, RED_CORNERS, card_regions, card_scene, centre_mean, coated_model,
+                           colored_card, quadrant_regions, quadrant_scene, sided_card, synthetic_report)
 
-ROOT = Path(__file__).resolve().parent.parent
-CORNELL = ROOT / "scenes" / "cornell.toml"
 _REGISTRY = Registry()
 #: The web engines that rasterize (counted in frames), from the registry's ``web`` group.
 RASTER = [n for n in _REGISTRY.groups()["web"] if _REGISTRY.get(n).unit == "frame"]
 #: The same, three.js in the default run and the others among the slow tests (each page load costs seconds).
 RASTER_THREE_FIRST = [e if e == "threejs" else pytest.param(e, marks=pytest.mark.slow) for e in RASTER]
-_MISSING = [why for n in _REGISTRY.groups()["web"] for ok, why in [_REGISTRY.get(n).available()] if not ok]
-needs_web = pytest.mark.skipif(bool(_MISSING), reason=f"web engines unavailable: {_MISSING[:1]}")
 _CONTEXT: list[RenderContext] = []
 
 
@@ -56,7 +54,7 @@ def _render(engine: str, scene, steps: int, checkpoints=None):
     return r.render(scene, steps=steps, checkpoints=list(checkpoints or [steps]), seed=0, context=_CONTEXT[0])
 
 
-@needs_web
+@pytest.mark.web
 def test_threejs_beside_mitsuba_and_the_rasterizer(tmp_path, gl_ctx):
     settings = RunSettings(frames=8, spp=64, sizes=[[32, 24]], renderers=["mitsuba", "progressive", "threejs"])
     res = run_mod.run([CORNELL], tmp_path / "out", settings, progress=False, gl_ctx=gl_ctx)
@@ -72,7 +70,7 @@ def test_threejs_beside_mitsuba_and_the_rasterizer(tmp_path, gl_ctx):
     assert "three.js" in (tmp_path / "out" / "index.html").read_text()
 
 
-@needs_web
+@pytest.mark.web
 @pytest.mark.parametrize("engine", RASTER)
 def test_web_engine_lands_on_the_same_pixels(tmp_path, engine):
     """A small light facing the camera off the image centre: its pixels are where the camera's own
@@ -119,7 +117,7 @@ def test_web_engine_lands_on_the_same_pixels(tmp_path, engine):
 #: FLIP of each engine's axes background against Mitsuba's, measured: three.js 0.016, PlayCanvas 0.022,
 #: Babylon.js 0.064 (its 256-pixel cube map, a pixel softer than the 256 x 128 map); a map turned the
 #: wrong way or mirrored measures 0.18 to 0.5.
-@needs_web
+@pytest.mark.web
 @pytest.mark.parametrize("engine", RASTER)
 def test_web_environment_has_the_suites_orientation(tmp_path, engine):
     """The axes test map, turned 30 degrees: each engine's background against Mitsuba's."""
@@ -151,7 +149,7 @@ def test_web_environment_has_the_suites_orientation(tmp_path, engine):
     np.testing.assert_allclose(ours.mean((0, 1)), truth.mean((0, 1)), rtol=0.05)
 
 
-@needs_web
+@pytest.mark.web
 def test_browser_path_tracer_converges_towards_mitsuba(tmp_path):
     scene = load_scene(CORNELL).with_resolution(32, 24)
     res = _render("threejs-pathtracer", scene, 8, [1, 2, 4, 8])
@@ -189,7 +187,7 @@ def test_missing_pieces_are_named(monkeypatch, tmp_path):
             Registry().get(engine).render(load_scene(CORNELL), steps=1, checkpoints=[1], seed=0, context=context)
 
 
-@needs_web
+@pytest.mark.web
 @pytest.mark.parametrize("engine", RASTER)
 def test_no_webgl_is_one_clear_error(monkeypatch, engine):
     """Without WebGL 2 each engine's page fails with one line naming it, before any engine code runs."""
@@ -201,7 +199,7 @@ def test_no_webgl_is_one_clear_error(monkeypatch, engine):
         Registry().get(engine).render(scene, steps=1, checkpoints=[1], seed=0, context=context)
 
 
-@needs_web
+@pytest.mark.web
 @pytest.mark.parametrize("engine", RASTER)
 def test_no_float_render_targets_is_one_clear_error(monkeypatch, engine):
     """A WebGL 2 without EXT_color_buffer_float (a page that hides it): one line naming the extension."""
@@ -223,7 +221,7 @@ def test_no_float_render_targets_is_one_clear_error(monkeypatch, engine):
         Registry().get(engine).render(scene, steps=1, checkpoints=[1], seed=0, context=context)
 
 
-@needs_web
+@pytest.mark.web
 def test_threejs_variants(tmp_path):
     """threejs:shadows puts shadow-mapped spot lights where RectAreaLight casts none: the pixels the
     direct-light ground truth has in shadow get darker; threejs:msaa renders; bad options are named."""
@@ -245,28 +243,26 @@ def test_threejs_variants(tmp_path):
             Registry().get(bad)
 
 
-@needs_web
+@pytest.mark.web
 @pytest.mark.parametrize("engine", RASTER)
 def test_web_engine_reads_the_maps_of_the_exported_gltf(tmp_path, engine):
     """An emission map under a texture transform reaches each engine through the exported glTF (textures,
     KHR_texture_transform, sampler): each region shows the quadrant the transform says (an emission map
     shows as emission x texel, in linear light)."""
     from compare.image.tonemap import srgb_decode
-    from test_blender import QUADRANT_MAPS
-    from test_textures import QUADRANTS, _regions, _scene
 
     settings, source = QUADRANT_MAPS[1]  # a 90 degree turn
-    scene = _scene(tmp_path, 'base_color = [0.0, 0.0, 0.0]\nemission = [1.0, 1.0, 1.0]\n'
-                             f'emissive_texture = "quadrants.png"\n{settings}', light=False)
+    scene = quadrant_scene(tmp_path, 'base_color = [0.0, 0.0, 0.0]\nemission = [1.0, 1.0, 1.0]\n'
+                                     f'emissive_texture = "quadrants.png"\n{settings}', light=False)
     image = _render(engine, scene, 2).checkpoints[-1].image
-    regions = _regions(scene)
+    regions = quadrant_regions(scene)
     for (r, c) in QUADRANTS:
         want = srgb_decode(np.array(QUADRANTS[source(r, c)]) / 255.0)
         np.testing.assert_allclose(image[regions[f"quadrant {r}{c}"]].mean(0), want, rtol=0.03, atol=0.003,
                                    err_msg=f"{r}{c}")
 
 
-@needs_web
+@pytest.mark.web
 @pytest.mark.parametrize("engine", [pytest.param(e, marks=pytest.mark.xfail(
     strict=True, reason="Babylon.js 9.28 lights an untextured material with its specular term only in a scene where "
     "another material has a base-colour map: the floor measures 0.0596 with and without specular in the scene "
@@ -275,20 +271,18 @@ def test_web_engine_reads_the_maps_of_the_exported_gltf(tmp_path, engine):
 def test_web_engine_cuts_the_holes_of_an_alpha_mask(tmp_path, engine):
     """alphaMode MASK reaches each engine through the exported glTF: the masked card renders as its solid
     quadrants as real quads (the card, and the floor seen through its holes) within 3 %."""
-    from test_alpha_mask import GEOMETRY, MASKED, _regions, _scene
-
-    masked = _scene(tmp_path, MASKED)
+    masked = card_scene(tmp_path, CARD_MASKED)
     (tmp_path / "geometry").mkdir()
-    geometry = _scene(tmp_path / "geometry", GEOMETRY)
+    geometry = card_scene(tmp_path / "geometry", CARD_GEOMETRY)
     a = _render(engine, masked, 4).checkpoints[-1].image
     b = _render(engine, geometry, 4).checkpoints[-1].image
-    for name, m in _regions(masked).items():
+    for name, m in card_regions(masked).items():
         np.testing.assert_allclose(a[m].mean(0), b[m].mean(0), rtol=0.03, atol=0.003, err_msg=name)
-    card = a[_regions(masked)["card"]].mean(0)
+    card = a[card_regions(masked)["card"]].mean(0)
     assert card[1] > 3 * card[0]  # green, the map's solid colour (the holes' magenta is never drawn)
 
 
-@needs_web
+@pytest.mark.web
 def test_the_feature_table_is_measured():
     """The engine x feature table comes from renders: three.js' RectAreaLight casts no shadow, its shadows
     variant does, and the table says so with the measured ratios."""
@@ -310,7 +304,6 @@ def test_run_features_land_in_the_reports_machine_section(tmp_path, monkeypatch)
 
     import compare.bench.features as features
     from compare.cli import run as cli_run
-    from test_run_report import CORNELL, synthetic_report
 
     res = synthetic_report(tmp_path / "r", [CORNELL])
     asked = []
@@ -329,63 +322,55 @@ def test_run_features_land_in_the_reports_machine_section(tmp_path, monkeypatch)
     assert "features of progressive" in html and "clearcoat yes (0.50)" in html
 
 
-@needs_web
+@pytest.mark.web
 @pytest.mark.parametrize("engine", RASTER_THREE_FIRST)
 def test_web_engines_that_declare_vertex_colours_draw_them(tmp_path, make_scene, engine):
     """A rasterizing web engine reads COLOR_0 from the job's glTF: the tinted grey card renders as the red
     one (each engine's own shading on both sides)."""
-    from test_vertex_colors import RED, SCENE, _plane
-
     assert "vertex_colors" in Registry().get(engine).renders
-    _plane(tmp_path, base=(0.8, 0.8, 0.8, 1.0), colors=RED)
-    tinted = load_scene(make_scene(SCENE))
+    colored_card(tmp_path, base=(0.8, 0.8, 0.8, 1.0), colors=RED_CORNERS)
+    tinted = load_scene(make_scene(COLORED_CARD_SCENE))
     (tmp_path / "plain").mkdir()
-    _plane(tmp_path / "plain", base=(0.8, 0.0, 0.0, 1.0))
-    (tmp_path / "plain" / "scene.toml").write_text(SCENE)
+    colored_card(tmp_path / "plain", base=(0.8, 0.0, 0.0, 1.0))
+    (tmp_path / "plain" / "scene.toml").write_text(COLORED_CARD_SCENE)
     plain = load_scene(tmp_path / "plain" / "scene.toml")
     a, b = (_render(engine, s, 2).checkpoints[-1].image for s in (tinted, plain))
     np.testing.assert_allclose(a[4:12, 4:12].mean((0, 1)), b[4:12, 4:12].mean((0, 1)), rtol=0.02, atol=0.005)
     assert a[4:12, 4:12, 0].mean() > 5 * a[4:12, 4:12, 1].mean()
 
 
-@needs_web
+@pytest.mark.web
 def test_threejs_renders_a_model_with_extension_maps(tmp_path, make_scene):
     """The case that lost a user's map: a web engine renders a scene whose material has clearcoat maps
     (it read the job's glTF, not a 404)."""
-    from test_job_writer import SCENE as COATED, _coated_model
-
     (tmp_path / "model").mkdir()
-    _coated_model(tmp_path / "model")
-    image = _render("threejs", load_scene(make_scene(COATED)), 2).checkpoints[-1].image
+    coated_model(tmp_path / "model")
+    image = _render("threejs", load_scene(make_scene(COATED_SCENE)), 2).checkpoints[-1].image
     assert image.shape == (16, 24, 3) and np.isfinite(image).all() and float(image.mean()) > 0.0
 
 
-@needs_web
+@pytest.mark.web
 @pytest.mark.parametrize("engine", RASTER_THREE_FIRST)
 def test_web_engines_cull_single_sided_back_faces(tmp_path, make_scene, engine):
     """The job's glTF carries doubleSided: from behind, a single-sided card is the background around it, a
     double-sided one its front's grey."""
-    from test_sides import _centre, _scene
-
     assert "single_sided" in Registry().get(engine).renders
     images = {}
     for sided, behind in ((False, False), (False, True), (True, True)):
-        scene = _scene(make_scene, tmp_path, double_sided=sided, from_behind=behind)
+        scene = sided_card(make_scene, tmp_path, double_sided=sided, from_behind=behind)
         images[sided, behind] = _render(engine, scene, 2).checkpoints[-1].image
     culled = images[False, True]
-    assert _centre(culled) == pytest.approx(float(culled[0:2, 0:2].mean()), rel=0.02)  # the background
-    assert _centre(images[True, True]) == pytest.approx(_centre(images[False, False]), rel=0.1)
-    assert _centre(images[False, False]) < 0.7 * float(culled[0:2, 0:2].mean())
+    assert centre_mean(culled) == pytest.approx(float(culled[0:2, 0:2].mean()), rel=0.02)  # the background
+    assert centre_mean(images[True, True]) == pytest.approx(centre_mean(images[False, False]), rel=0.1)
+    assert centre_mean(images[False, False]) < 0.7 * float(culled[0:2, 0:2].mean())
 
 
-@needs_web
+@pytest.mark.web
 def test_a_page_that_does_not_answer_in_time_is_stopped_with_one_message(make_scene):
     """A page that waits forever (an image that never decodes) used to hang the run: each call into the
     page is bounded by the render's deadline; past it the tab is closed and the error says where it was."""
-    from test_sides import _scene
-
     _close_shared()  # one Playwright driver per thread: this test's own context starts its own
-    scene = _scene(make_scene, make_scene("").parent, double_sided=True, from_behind=False)
+    scene = sided_card(make_scene, make_scene("").parent, double_sided=True, from_behind=False)
     with RenderContext(RunSettings(frames=2), timeout=0.05) as context:
         with pytest.raises(RendererError, match=r"no answer from the page within 0.05 s \(--timeout\) while"):
             Registry().get("threejs").render(scene, steps=2, checkpoints=[2], seed=0, context=context)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,9 +11,7 @@ from compare.image.exr import write_exr
 from compare.mitsuba.reference import ReferenceRenderer
 from compare.scene.loader import load_scene
 from compare.metrics.ztest import pass_statistics, z_test
-
-ROOT = Path(__file__).resolve().parent.parent
-CORNELL = ROOT / "scenes" / "cornell.toml"
+from tests.helpers import CORNELL
 
 
 @pytest.fixture(scope="module")
