@@ -334,20 +334,28 @@ def card_regions(scene) -> dict[str, np.ndarray]:
     return {"card": inner & solid, "through a hole": inner & ~solid, "floor beside": beside}
 
 
-# ----------------------------------------------------------------------------- a vertex-coloured card
+# ----------------------------------------------------------------------------- cards seen face on
 
-COLORED_CARD_SCENE = """
-    include = "plane.gltf"
+def facing_scene(include: str, *, distance: float = 2.0, fov: float = 40.0, size=(16, 16), sky: float = 1.0,
+               extra: str = "") -> str:
+    """A scene file's text: ``include`` seen face on from +Z at ``distance`` under a uniform sky of ``sky``."""
+    return f"""
+    include = "{include}"
 
     [camera]
-    position = [0.0, 0.0, 2.0]
+    position = [0.0, 0.0, {distance}]
     target = [0.0, 0.0, 0.0]
-    fov = 40.0
-    resolution = [16, 16]
+    fov = {fov}
+    resolution = [{size[0]}, {size[1]}]
 
     [environment]
-    constant = [1.0, 1.0, 1.0]
-    """
+    constant = [{sky}, {sky}, {sky}]
+    """ + extra
+
+
+# ----------------------------------------------------------------------------- a vertex-coloured card
+
+COLORED_CARD_SCENE = facing_scene("plane.gltf")
 
 
 def colored_card(folder, base=(0.8, 0.8, 0.8, 1.0), colors=None, *, accessor=None, alpha_mode=None):
@@ -426,19 +434,7 @@ def coated_model(folder: Path) -> Path:
     return w.write(folder / "card.gltf")
 
 
-COATED_SCENE = """
-    include = "model/card.gltf"
-
-    [camera]
-    position = [0.0, 0.0, 3.0]
-    target = [0.0, 0.0, 0.0]
-    fov = 50.0
-    resolution = [24, 16]
-
-    [environment]
-    constant = [0.5, 0.5, 0.5]
-    """
-
+COATED_SCENE = facing_scene("model/card.gltf", distance=3.0, fov=50.0, size=(24, 16), sky=0.5)
 
 # ----------------------------------------------------------------------------- a single- or double-sided card
 

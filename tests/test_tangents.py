@@ -11,6 +11,7 @@ import pytest
 from compare.scene import geometry
 from compare.scene.tangents import with_tangents
 from compare.util.errors import MissingComponentError, SceneError
+from tests.helpers import facing_scene
 
 
 def uv_tangents(positions, normals, uvs, indices) -> np.ndarray:
@@ -126,19 +127,7 @@ def _card(folder, tangent=None):
     return w.write(folder / "card.gltf")
 
 
-SCENE = """
-    include = "card.gltf"
-
-    [camera]
-    position = [0.0, 0.0, 3.0]
-    target = [0.0, 0.0, 0.0]
-    fov = 40.0
-    resolution = [8, 8]
-
-    [environment]
-    constant = [1.0, 1.0, 1.0]
-    """
-
+SCENE = facing_scene("card.gltf", distance=3.0, size=(8, 8))
 
 def _scene(tmp_path, tangent=None):
     from compare.scene.loader import load_scene

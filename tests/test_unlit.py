@@ -7,28 +7,17 @@ import numpy as np
 import pytest
 
 from compare.scene.loader import load_scene
+from tests.helpers import facing_scene
 
 #: Under a bright area light and a grey sky: an unlit card must show its base colour all the same.
-SCENE = """
-    include = "card.gltf"
-
-    [camera]
-    position = [0.0, 0.0, 2.0]
-    target = [0.0, 0.0, 0.0]
-    fov = 40.0
-    resolution = [16, 16]
-
-    [environment]
-    constant = [0.5, 0.5, 0.5]
-
+SCENE = facing_scene("card.gltf", sky=0.5, extra="""
     [[lights]]
     name = "lamp"
     center = [0.0, 2.0, 1.0]
     size = [0.5, 0.5]
     normal = [0.0, -0.894, -0.447]
     radiance = [50.0, 50.0, 50.0]
-    """
-
+    """)
 BASE = (0.6, 0.2, 0.05, 1.0)
 
 
