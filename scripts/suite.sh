@@ -178,7 +178,8 @@ case "$job" in
         setup_blender
         log "ruff (syntax errors, undefined and unused names)"
         "$VENV/bin/ruff" check --quiet compare tools tests scenes examples scripts notebooks/make_notebooks.py
-        exec "$VENV/bin/python" -m pytest "$@"
+        # the slowest tests are listed at the end: where the default run's time goes
+        exec "$VENV/bin/python" -m pytest --durations=25 "$@"
         ;;
     slow)
         setup
