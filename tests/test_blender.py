@@ -522,7 +522,8 @@ def test_cycles_normal_map_is_the_relief_it_stands_for(tmp_path):
 
 
 @pytest.mark.bpy
-@pytest.mark.parametrize("engine, samples", [("cycles", 256), ("eevee", 64)])
+# EEVEE's render takes about 90 s on two CPU cores: a slow test (scripts/suite.sh slow), Cycles' stays
+@pytest.mark.parametrize("engine, samples", [("cycles", 256), pytest.param("eevee", 64, marks=pytest.mark.slow)])
 def test_blender_alpha_mask_is_the_geometry_it_cuts_out(tmp_path, engine, samples):
     """glTF's alpha mask on the Principled BSDF's Alpha: the masked card renders as its solid quadrants as
     real quads (the card, the floor seen through its holes, the shadows) within 3 % in Cycles and in EEVEE,

@@ -150,6 +150,7 @@ def test_web_environment_has_the_suites_orientation(tmp_path, engine):
 
 
 @pytest.mark.web
+@pytest.mark.slow  # about 60 s of SwiftShader path tracing on two CPU cores
 def test_browser_path_tracer_converges_towards_mitsuba(tmp_path):
     scene = load_scene(CORNELL).with_resolution(32, 24)
     res = _render("threejs-pathtracer", scene, 8, [1, 2, 4, 8])
