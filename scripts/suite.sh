@@ -178,13 +178,14 @@ case "$job" in
         setup_blender
         log "ruff (syntax errors, undefined and unused names)"
         "$VENV/bin/ruff" check --quiet compare tools tests scenes examples scripts notebooks/make_notebooks.py
-        # the slowest tests are listed at the end: where the default run's time goes
-        exec "$VENV/bin/python" -m pytest --durations=25 "$@"
+        # the slowest tests are listed at the end: where the default run's time goes; one worker per
+        # core (pytest-xdist; the caches are content-keyed and shared), each test to whichever is free
+        exec "$VENV/bin/python" -m pytest -n auto --dist worksteal --durations=25 "$@"
         ;;
     slow)
         setup
         setup_blender
-        exec "$VENV/bin/python" -m pytest -m slow "$@"
+        exec "$VENV/bin/python" -m pytest -n auto --dist worksteal -m slow "$@"
         ;;
     *)
         echo "usage: scripts/suite.sh {main|test|slow|setup} [extra arguments]" >&2

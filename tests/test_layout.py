@@ -155,6 +155,13 @@ def test_no_engine_key_holds_code_that_renders_nothing(module):
     assert not held, f"{module}'s key holds {held}"
 
 
+def test_the_likeness_key_holds_the_reference_it_renders():
+    """The likeness renders Mitsuba's reference and Cycles itself, whatever the run's ground truth: its key is
+    its own module's closure, which must hold both engines (and so follows an edit to either)."""
+    closure = {p.relative_to(PACKAGE).as_posix() for p in import_closure("compare.run.likeness", {"compare": PACKAGE})}
+    assert {"mitsuba/reference.py", "mitsuba/scene_dict.py", "blender/render.py"} <= closure
+
+
 def test_editing_a_metric_renders_nothing_again(tmp_path):
     """A finished run, then a change to the metrics' code (a FLIP parameter, say): the rerun measures again
     but renders nothing, neither the reference (its pass cache and its finished unit) nor the rasterizer."""

@@ -43,6 +43,7 @@ from tqdm.auto import tqdm
 
 from compare import __version__
 from compare.brdf import PRINCIPLED_MODES
+from compare.util.code import code_fingerprint
 from compare.util.errors import CompareError, ImageError
 from compare.image.exr import read_exr, write_exr
 from compare.util.files import sha256_bytes, write_text_atomic
@@ -511,7 +512,9 @@ class SceneJob:
 
             render_key, record = self._render_unit(scene, sid, run.renderer, truth=False)
             unit = self._unit(sid, run.renderer)
-            key = _key("likeness", render_key, self.registry.get(s.ground_truth).code_key(), s.materials,
+            # the likeness renders its own reference (compare.run.likeness): that code, not the run's
+            # ground truth's, is what its figures depend on
+            key = _key("likeness", render_key, code_fingerprint("compare.run.likeness"), s.materials,
                        s.exposure, s.tonemap, __version__, LIKENESS_VERSION)
             stored = None if self.fresh else unit.likeness(key)
             if stored is None:
