@@ -480,19 +480,19 @@ def test_texture_transform_and_sampler_are_imported_and_exported(tmp_path, make_
                                                              "scale": [2.0, 3.0]}}}
     w.write(tmp_path / "t.glb")
     s = quiet_load(make_scene('include = "t.glb"\n'))
-    mat = s.materials["t/paint"]
-    assert mat.texture_offset == (0.25, 0.5) and mat.texture_rotation == pytest.approx(90.0)
-    assert mat.texture_scale == (2.0, 3.0) and mat.texture_wrap == "mirror" and mat.texture_filter == "nearest"
-    np.testing.assert_allclose(mat.uv_transform() @ [1.0, 0.0, 1.0], [0.25, 0.5 - 2.0, 1.0], atol=1e-12)
+    t = s.materials["t/paint"].sampling("base_color_texture")
+    assert t.offset == (0.25, 0.5) and t.rotation == pytest.approx(90.0)
+    assert t.scale == (2.0, 3.0) and t.wrap == ("mirror", "mirror") and t.filter == "nearest"
+    np.testing.assert_allclose(t.uv_transform() @ [1.0, 0.0, 1.0], [0.25, 0.5 - 2.0, 1.0], atol=1e-12)
     (tmp_path / "out").mkdir()
     out = export_gltf(s, tmp_path / "out" / "scene.gltf")
     from compare.scene.gltf_read import load_gltf
 
-    again = next(m for m in load_gltf(out).materials if m.base_color_image is not None)
-    t = again.texture_settings
-    assert (t["texture_offset"], t["texture_scale"], t["texture_wrap"], t["texture_filter"]) == (
-        (0.25, 0.5), (2.0, 3.0), "mirror", "nearest")
-    assert t["texture_rotation"] == pytest.approx(90.0)
+    again = dict(next(m for m in load_gltf(out).materials if m.base_color_image is not None).sampling)
+    a = again["base_color_texture"]
+    assert (a.offset, a.scale, a.wrap, a.filter, a.texcoord) == ((0.25, 0.5), (2.0, 3.0), ("mirror", "mirror"),
+                                                                 "nearest", 0)
+    assert a.rotation == pytest.approx(90.0)
 
 
 def test_a_factor_beside_a_map_is_baked_into_it(tmp_path):

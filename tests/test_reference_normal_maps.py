@@ -220,7 +220,7 @@ def mitsuba_normalmap(mat, bsdf: dict) -> dict:
     if mat.normal_texture is None:
         return bsdf
     return {"type": "normalmap", "bsdf": bsdf,
-            "normalmap": bitmap_dict(mat, normal_map(mat.normal_texture, mat.normal_scale, flip_y=True), raw=True)}
+            "normalmap": bitmap_dict(mat, "normal_texture", normal_map(mat.normal_texture, mat.normal_scale, flip_y=True), raw=True)}
 
 
 @pytest.mark.parametrize("mirrored", [False, True], ids=["as-generated", "mirrored-u"])

@@ -10,7 +10,7 @@ from __future__ import annotations
 from compare.renderers.base import RenderContext, Renderer, Rendering
 from compare.mitsuba.backend import MITSUBA_VARIANTS
 from compare.renderers.options import parse_spec
-from compare.scene.model import MATERIAL_FEATURE_NAMES
+from compare.scene.model import MAP_FEATURE_NAMES, MATERIAL_FEATURE_NAMES
 
 __all__ = ["MitsubaRenderer"]
 
@@ -51,7 +51,8 @@ class MitsubaRenderer(Renderer):
     unit = "spp"
     default_budget = "spp"
     # every material feature in both flavours (the cycles flavour: as Blender's Principled v2 inputs)
-    renders = frozenset({"punctual_lights", "vertex_colors", "single_sided"}) | frozenset(MATERIAL_FEATURE_NAMES)
+    renders = (frozenset({"punctual_lights", "vertex_colors", "single_sided"}) | frozenset(MATERIAL_FEATURE_NAMES)
+               | frozenset(MAP_FEATURE_NAMES))
 
     OPTIONS = {v: f"Mitsuba's {v} variant instead of the best available" for v in MITSUBA_VARIANTS}
 

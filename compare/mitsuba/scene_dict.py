@@ -137,14 +137,22 @@ def sensor_dict(scene: Scene, *, spp: int, sampler: str = "independent", scale: 
     }
 
 
-def bitmap_dict(mat: Material, filename, *, raw: bool) -> dict:
-    """A Mitsuba ``bitmap`` of one of ``mat``'s maps, with its texture transform and sampler settings."""
+def bitmap_dict(mat: Material, which: str, filename, *, raw: bool) -> dict:
+    """A Mitsuba texture of ``mat``'s map ``which`` (:meth:`~compare.scene.model.Material.sampling`) read from
+    ``filename`` (the map, or a map derived from it): a ``bitmap`` with the map's texture transform, wrap and
+    magnification filter, on its texture coordinate set (:func:`compare.mitsuba.textures.uv_mapped`). A path
+    tracer averages many samples per pixel, so minification needs no mip levels."""
     import mitsuba as mi
 
-    d = {"type": "bitmap", "filename": str(filename), "raw": raw, "wrap_mode": mat.texture_wrap,
-         "filter_type": "nearest" if mat.texture_filter == "nearest" else "bilinear"}
-    if mat.has_uv_transform:
-        d["to_uv"] = mi.ScalarTransform3f(mat.uv_transform().tolist())
+    s = mat.sampling(which)
+    d = {"type": "bitmap", "filename": str(filename), "raw": raw, "wrap_mode": s.wrap[0],
+         "filter_type": "nearest" if s.filter == "nearest" else "bilinear"}
+    if s.has_uv_transform:
+        d["to_uv"] = mi.ScalarTransform3f(s.uv_transform().tolist())
+    if s.texcoord or s.wrap[0] != s.wrap[1]:
+        from compare.mitsuba.textures import uv_mapped
+
+        return uv_mapped(d, s.texcoord, s.wrap)
     return d
 
 
@@ -172,7 +180,7 @@ def _normal_mapped(mat: Material, bsdf: dict) -> dict:
 
     register()
     return {"type": PLUGIN_NAME, "bsdf": bsdf, **_tangent_frame(),
-            "normalmap": bitmap_dict(mat, normal_map(mat.normal_texture, mat.normal_scale, flip_y=NORMALMAP_FLIP_Y),
+            "normalmap": bitmap_dict(mat, "normal_texture", normal_map(mat.normal_texture, mat.normal_scale, flip_y=NORMALMAP_FLIP_Y),
                                      raw=True)}
 
 
@@ -188,7 +196,7 @@ def _opacity(mat: Material, vc: bool = False) -> dict | float | None:
         else:
             from compare.scene.textures import blend_map
 
-            opacity = bitmap_dict(mat, blend_map(mat.base_color_texture, mat.alpha), raw=True)
+            opacity = bitmap_dict(mat, "base_color_texture", blend_map(mat.base_color_texture, mat.alpha), raw=True)
         if vc:
             from compare.mitsuba.textures import tinted
 
@@ -200,7 +208,7 @@ def _opacity(mat: Material, vc: bool = False) -> dict | float | None:
         return float(mat.alpha >= mat.alpha_cutoff)
     from compare.scene.textures import opacity_map
 
-    return bitmap_dict(mat, opacity_map(mat.base_color_texture, mat.alpha, mat.alpha_cutoff), raw=True)
+    return bitmap_dict(mat, "base_color_texture", opacity_map(mat.base_color_texture, mat.alpha, mat.alpha_cutoff), raw=True)
 
 
 def _masked(mat: Material, bsdf: dict, vc: bool = False) -> dict:
@@ -271,7 +279,7 @@ def _coated(mat: Material, mode: str, bsdf: dict) -> dict:
         from compare.scene.textures import normal_map
 
         # the coat's own normal, in glTF's tangent frame as the base's (_normal_mapped)
-        coat["normalmap"] = bitmap_dict(mat, normal_map(mat.clearcoat_normal_texture, mat.clearcoat_normal_scale,
+        coat["normalmap"] = bitmap_dict(mat, "clearcoat_normal_texture", normal_map(mat.clearcoat_normal_texture, mat.clearcoat_normal_scale,
                                                         flip_y=NORMALMAP_FLIP_Y), raw=True)
         coat.update(_tangent_frame())
     return coat
@@ -294,10 +302,10 @@ def _dielectric(mat: Material, mode: str, vc: bool = False) -> dict:
 
         tint = ({"type": "rgb", "value": [math.sqrt(min(max(c, 0.0), 1.0)) for c in mat.base_color]}
                 if mat.base_color_texture is None
-                else bitmap_dict(mat, sqrt_colour_map(mat.base_color_texture), raw=True))
+                else bitmap_dict(mat, "base_color_texture", sqrt_colour_map(mat.base_color_texture), raw=True))
     else:
         tint = ({"type": "rgb", "value": list(mat.base_color)} if mat.base_color_texture is None
-                else bitmap_dict(mat, mat.base_color_texture, raw=False))
+                else bitmap_dict(mat, "base_color_texture", mat.base_color_texture, raw=False))
     if vc:
         from compare.mitsuba.textures import tinted
 
@@ -332,7 +340,7 @@ def _specular_f0(mat: Material):
         return {"type": "rgb", "value": [float(x) for x in f0]}
     from compare.scene.textures import specular_f0_map
 
-    return bitmap_dict(mat, specular_f0_map(colour[2], mat.specular_color, mat.ior), raw=True)
+    return bitmap_dict(mat, "specular_color", specular_f0_map(colour[2], mat.specular_color, mat.ior), raw=True)
 
 
 def _unbounded(texture: dict) -> dict:
@@ -357,7 +365,7 @@ def _layer_value(mat: Material, name: str, scale: float = 1.0):
     if found is not None:
         from compare.scene.textures import channel_map
 
-        return bitmap_dict(mat, channel_map(found[2], found[1], factor), raw=True)
+        return bitmap_dict(mat, name, channel_map(found[2], found[1], factor), raw=True)
     if isinstance(factor, tuple):
         return {"type": "rgb", "value": [float(x) for x in factor]}
     return float(factor)
@@ -381,7 +389,7 @@ def _transmissive(mat: Material, mode: str, bsdf: dict, vc: bool = False) -> dic
 
 
 def _surface_dict(mat: Material, mode: str, vc: bool = False) -> dict:
-    base = (bitmap_dict(mat, mat.base_color_texture, raw=False)
+    base = (bitmap_dict(mat, "base_color_texture", mat.base_color_texture, raw=False)
             if mat.base_color_texture else {"type": "rgb", "value": list(mat.base_color)})
     if vc:  # glTF's COLOR_0 multiplies the base colour
         from compare.mitsuba.textures import tinted
@@ -393,8 +401,8 @@ def _surface_dict(mat: Material, mode: str, vc: bool = False) -> dict:
 
         # glTF's channels (B = metallic, G = roughness) as two maps; like every map, they replace the factors.
         m_file, r_file = split_metallic_roughness(mat.metallic_roughness_texture)
-        metallic = bitmap_dict(mat, m_file, raw=True)
-        roughness = bitmap_dict(mat, r_file, raw=True)
+        metallic = bitmap_dict(mat, "metallic_roughness_texture", m_file, raw=True)
+        roughness = bitmap_dict(mat, "metallic_roughness_texture", r_file, raw=True)
     if mode == "shared":
         from compare.mitsuba.bsdf import register
 
@@ -548,7 +556,7 @@ def mesh_object(name: str, scene: Scene, mesh_index: int, mode: str, scale: floa
 
     mesh = scene.meshes[mesh_index]
     mat = scene.materials[mesh.material]
-    tri = mesh.triangles(tangents=mat.normal_mapped)
+    tri = mesh.triangles(tangents=mat.normal_mapped, tangent_uv=mat.tangent_uv)
     props = mi.Properties()
     props["bsdf"] = mi.load_dict(material_dict(mat, mode, vertex_colors=tri.colors is not None))
     if absorbs(mat) and mode != "diffuse":
@@ -558,7 +566,7 @@ def mesh_object(name: str, scene: Scene, mesh_index: int, mode: str, scale: floa
         if mat.emissive_texture is not None:
             from compare.scene.textures import emission_map
 
-            radiance = bitmap_dict(mat, emission_map(mat.emissive_texture, mat.emission), raw=True)
+            radiance = bitmap_dict(mat, "emissive_texture", emission_map(mat.emissive_texture, mat.emission), raw=True)
         props["emitter"] = mi.load_dict({"type": "area", "radiance": radiance})
     m = mi.Mesh(name, len(tri.positions), tri.triangle_count, props, has_vertex_normals=True,
                 has_vertex_texcoords=True)
@@ -568,6 +576,10 @@ def mesh_object(name: str, scene: Scene, mesh_index: int, mode: str, scale: floa
     params["vertex_texcoords"] = tri.uvs.ravel()
     params["faces"] = tri.indices.ravel()
     params.update()
+    if tri.uvs1 is not None and any(mat.sampling(n).texcoord for n in mat.map_names()):
+        from compare.mitsuba.textures import ATTRIBUTE_UV1  # read by the compare_uv texture
+
+        m.add_attribute(ATTRIBUTE_UV1, 3, np.column_stack([tri.uvs1, np.zeros(len(tri.uvs1))]).astype(np.float32).ravel())
     if tri.colors is not None:  # read by compare.mitsuba.textures's texture
         from compare.mitsuba.textures import ATTRIBUTE_ALPHA, ATTRIBUTE_RGB
 

@@ -184,7 +184,7 @@ void main() {
 #if BLEND
     float coverage = u_blend_alpha;
 #if TEXTURES
-    coverage *= HAS_BASE_COLOR_MAP ? sample_map(u_base_color_map).a : 1.0;
+    coverage *= HAS_BASE_COLOR_MAP ? sample_map(u_base_color_map, 0).a : 1.0;
 #endif
     coverage *= VERTEX_ALPHA;
     out_color = vec4((c + env + direct + punctual) * coverage, coverage);

@@ -8,6 +8,7 @@ import time
 import numpy as np
 
 from compare.progressive.frame.gpu_scene import RENDERED_LAYERS
+from compare.scene.model import MAP_FEATURE_NAMES
 from compare.progressive.options import OPTIONS, describe, renderer_options
 from compare.renderers.base import Checkpoint, RenderContext, Renderer, Rendering
 
@@ -54,7 +55,8 @@ class ProgressiveRenderer(Renderer):
     """Otto et al.'s progressive rasterizer (moderngl), with the options of :mod:`compare.progressive.options`."""
 
     unit = "frame"
-    renders = frozenset({"punctual_lights", "alpha_blend", "vertex_colors", "single_sided"}) | RENDERED_LAYERS
+    renders = (frozenset({"punctual_lights", "alpha_blend", "vertex_colors", "single_sided"}) | RENDERED_LAYERS
+               | frozenset(MAP_FEATURE_NAMES))
     #: A frame budget decides the frame count itself: its last checkpoint is the frames it rendered.
     open_ended = False
     OPTIONS = OPTIONS

@@ -90,22 +90,28 @@ def export_gltf(scene, out: Path) -> Path:
             textures[key] = w._add("images", {"uri": name})  # noqa: SLF001 - the writer's own list
         return textures[key]
 
-    samplers: dict[tuple[str, str], int] = {}
+    samplers: dict[tuple, int] = {}
+    gl_wraps = {"repeat": 10497, "clamp": 33071, "mirror": 33648}
 
-    def info(m, src, srgb: bool = False) -> dict:
-        """A texture info of map ``src`` (a colour map if ``srgb``) with material ``m``'s sampler and texture
-        transform."""
-        key = (m.texture_wrap, m.texture_filter)
+    def info(m, which: str, src, srgb: bool = False) -> dict:
+        """A texture info of map ``src`` (a colour map if ``srgb``), material ``m``'s map ``which``
+        (:meth:`~compare.scene.model.Material.sampling`): its texture coordinate set, sampler and transform."""
+        s = m.sampling(which)
+        key = (s.wrap, s.filter, s.mipmaps)
         if key not in samplers:
-            wrap = {"repeat": 10497, "clamp": 33071, "mirror": 33648}[m.texture_wrap]
-            filt = 9728 if m.texture_filter == "nearest" else 9729
-            samplers[key] = w._add("samplers", {"wrapS": wrap, "wrapT": wrap, "magFilter": filt})  # noqa: SLF001
+            mag = 9728 if s.filter == "nearest" else 9729
+            # minification as the renderers read it: mip levels unless the file said otherwise
+            minify = {(9728, True): 9986, (9729, True): 9987}.get((mag, s.mipmaps), mag)
+            samplers[key] = w._add("samplers", {"wrapS": gl_wraps[s.wrap[0]], "wrapT": gl_wraps[s.wrap[1]],  # noqa: SLF001
+                                                "magFilter": mag, "minFilter": minify})
         tex = w._add("textures", {"source": texture(Path(src), srgb), "sampler": samplers[key]})  # noqa: SLF001
-        out = {"index": tex}
-        if m.has_uv_transform:
-            out["extensions"] = {"KHR_texture_transform": {"offset": list(m.texture_offset),
-                                                           "rotation": math.radians(m.texture_rotation),
-                                                           "scale": list(m.texture_scale)}}
+        out: dict = {"index": tex}
+        if s.texcoord:
+            out["texCoord"] = s.texcoord
+        if s.has_uv_transform:
+            out["extensions"] = {"KHR_texture_transform": {"offset": list(s.offset),
+                                                           "rotation": math.radians(s.rotation),
+                                                           "scale": list(s.scale)}}
             w._use("KHR_texture_transform")  # noqa: SLF001
         return out
 
@@ -115,15 +121,15 @@ def export_gltf(scene, out: Path) -> Path:
         pbr = w.doc["materials"][index[name]]["pbrMetallicRoughness"]
         # a map replaces its factor in the scene model; glTF multiplies them: the factor it replaces is 1
         if m.base_color_texture is not None:
-            pbr["baseColorTexture"] = info(m, m.base_color_texture, srgb=True)
+            pbr["baseColorTexture"] = info(m, "base_color_texture", m.base_color_texture, srgb=True)
             pbr["baseColorFactor"][:3] = [1.0, 1.0, 1.0]
         if m.metallic_roughness_texture is not None:
-            pbr["metallicRoughnessTexture"] = info(m, m.metallic_roughness_texture)
+            pbr["metallicRoughnessTexture"] = info(m, "metallic_roughness_texture", m.metallic_roughness_texture)
             pbr["metallicFactor"] = pbr["roughnessFactor"] = 1.0
         if m.emissive_texture is not None:
-            w.doc["materials"][index[name]]["emissiveTexture"] = info(m, m.emissive_texture, srgb=True)
+            w.doc["materials"][index[name]]["emissiveTexture"] = info(m, "emissive_texture", m.emissive_texture, srgb=True)
         if m.normal_texture is not None:
-            w.doc["materials"][index[name]]["normalTexture"] = {**info(m, m.normal_texture), "scale": m.normal_scale}
+            w.doc["materials"][index[name]]["normalTexture"] = {**info(m, "normal_texture", m.normal_texture), "scale": m.normal_scale}
         if m.is_masked:
             pbr["baseColorFactor"][3] = float(m.alpha)
             w.doc["materials"][index[name]].update(alphaMode="MASK", alphaCutoff=float(m.alpha_cutoff))
@@ -141,19 +147,20 @@ def export_gltf(scene, out: Path) -> Path:
             key = next(k for k, (f, _) in LAYER_MAPS.items() if f == fld)
             ext = next(layer.extension for layer in LAYERS if layer.field == fld)
             table = w.doc["materials"][index[name]].setdefault("extensions", {}).setdefault(ext, {})
-            table[key] = info(m, src, srgb=channel == "rgb")
+            table[key] = info(m, fld, src, srgb=channel == "rgb")
             w._use(ext)  # noqa: SLF001
         if m.clearcoat_normal_texture is not None and m.clearcoat > 0.0:
             table = w.doc["materials"][index[name]].setdefault("extensions", {}).setdefault(
                 "KHR_materials_clearcoat", {})
-            table["clearcoatNormalTexture"] = {**info(m, m.clearcoat_normal_texture),
+            table["clearcoatNormalTexture"] = {**info(m, "clearcoat_normal_texture", m.clearcoat_normal_texture),
                                                "scale": float(m.clearcoat_normal_scale)}
             w._use("KHR_materials_clearcoat")  # noqa: SLF001
         if m.occlusion_texture is not None:
-            w.doc["materials"][index[name]]["occlusionTexture"] = {**info(m, m.occlusion_texture),
+            w.doc["materials"][index[name]]["occlusionTexture"] = {**info(m, "occlusion_texture", m.occlusion_texture),
                                                                    "strength": m.occlusion_strength}
     for mesh in scene.meshes:
-        tri = mesh.triangles(tangents=scene.materials[mesh.material].normal_mapped)
+        mat = scene.materials[mesh.material]
+        tri = mesh.triangles(tangents=mat.normal_mapped, tangent_uv=mat.tangent_uv)
         uvs = tri.uvs is not None and len(tri.uvs) == len(tri.positions)
         w.node(mesh.name, mesh=w.mesh(mesh.name, [(tri, index[mesh.material])], uvs=uvs))
     for light in scene.punctual:  # glTF's units (cd, lux) at 683 lm/W; the node's −Z along the light

@@ -21,7 +21,8 @@ class TriangleMesh:
     """World-space triangles: positions (N,3), normals (N,3), uvs (N,2) float32; indices (M,3) uint32;
     colors (N,4) float32 or None: glTF's COLOR_0, linear RGBA multiplying the base colour and alpha;
     tangents (N,4) float32 or None: glTF's TANGENT (xyz along +u, w = ±1 the bitangent's sign), the file's
-    or MikkTSpace's (:func:`compare.scene.tangents.with_tangents`)."""
+    or MikkTSpace's (:func:`compare.scene.tangents.with_tangents`); uvs1 (N,2) float32 or None: glTF's
+    TEXCOORD_1, the second set a map may read (:attr:`compare.scene.model.MapSampling.texcoord`)."""
 
     positions: np.ndarray
     normals: np.ndarray
@@ -29,6 +30,7 @@ class TriangleMesh:
     indices: np.ndarray
     colors: np.ndarray | None = None
     tangents: np.ndarray | None = None
+    uvs1: np.ndarray | None = None
 
     @property
     def triangle_count(self) -> int:
@@ -55,7 +57,14 @@ class TriangleMesh:
             t /= np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-30)
             w = self.tangents[:, 3:4] * (-1.0 if mirrored else 1.0)
             tangents = np.concatenate([t, w], axis=1).astype(np.float32)
-        return TriangleMesh(p.astype(np.float32), n.astype(np.float32), self.uvs, indices, self.colors, tangents)
+        return TriangleMesh(p.astype(np.float32), n.astype(np.float32), self.uvs, indices, self.colors, tangents,
+                            self.uvs1)
+
+    def uv_set(self, texcoord: int) -> np.ndarray:
+        """Texture coordinate set ``texcoord`` (0: TEXCOORD_0, 1: TEXCOORD_1; zeros where the mesh has none)."""
+        if texcoord == 0:
+            return self.uvs
+        return self.uvs1 if self.uvs1 is not None else np.zeros_like(self.uvs)
 
     def surface_area(self) -> float:
         p = self.positions.astype(np.float64)
@@ -63,7 +72,7 @@ class TriangleMesh:
         return float(0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1).sum())
 
 
-def _mesh(p, n, uv, idx, colors=None, tangents=None) -> TriangleMesh:
+def _mesh(p, n, uv, idx, colors=None, tangents=None, uv1=None) -> TriangleMesh:
     return TriangleMesh(
         np.ascontiguousarray(p, dtype=np.float32),
         np.ascontiguousarray(n, dtype=np.float32),
@@ -71,6 +80,7 @@ def _mesh(p, n, uv, idx, colors=None, tangents=None) -> TriangleMesh:
         np.ascontiguousarray(idx, dtype=np.uint32).reshape(-1, 3),
         None if colors is None else np.ascontiguousarray(colors, dtype=np.float32),
         None if tangents is None else np.ascontiguousarray(tangents, dtype=np.float32),
+        None if uv1 is None else np.ascontiguousarray(uv1, dtype=np.float32),
     )
 
 

@@ -33,9 +33,11 @@ Materials
     ``baseColorFactor`` (times the base-colour image's alpha) cut holes; BLEND is
     rendered opaque, with a note. ``emissiveFactor`` × ``KHR_materials_emissive_strength``
     is the emission in W·sr⁻¹·m⁻², and ``emissiveTexture`` (sRGB) multiplies it.
-    ``KHR_texture_transform`` (offset, rotation, scale) and the sampler's wrapS and
-    magFilter become the material's texture settings (one per material: the base
-    colour map's, with a note when its maps differ).
+    Each map keeps how the file reads it (``Material.map_sampling``): its ``texCoord``
+    (TEXCOORD_0 or _1; a higher set is read on TEXCOORD_0, with a note), its
+    ``KHR_texture_transform`` (offset, rotation, scale, and the texCoord it overrides)
+    and its texture's sampler (wrapS and wrapT apart, magFilter, whether minFilter
+    reads mip levels).
     ``occlusionTexture`` and its strength are the occlusion map, ``normalTexture`` and its scale the
     normal map; their tangents are the file's ``TANGENT``, else MikkTSpace's (:mod:`compare.scene.tangents`).
     Primitives without a material get glTF's
@@ -94,7 +96,7 @@ from typing import Any
 import numpy as np
 
 from compare.scene import geometry, gltf_instancing, gltf_pose, gltf_specgloss
-from compare.scene.model import LAYER_MAPS, LAYERS
+from compare.scene.model import LAYER_MAPS, LAYERS, TEXCOORD_SETS, MapSampling
 from compare.scene.gltf_decode import DECODED_EXTENSIONS, DecodeError, decoded_glb, used
 from compare.scene.glb import GlbError, parse_glb
 from compare.util.files import sha256_bytes, write_bytes_atomic
@@ -117,6 +119,14 @@ CONVERTED_EXTENSIONS = {gltf_specgloss.EXTENSION: "converted to metallic-roughne
 MAX_ZERO_ELEMENTS = 1 << 28
 #: Maps of the material extensions read apart from LAYER_MAPS (the coat's own normal map).
 MAPS_READ_APART = ("clearcoatNormalTexture",)
+#: A glTF texture key → the scene model's names of the maps it makes (Material.sampling): a spec-gloss
+#: material's specularGlossinessTexture gives its roughness map and its specular colour.
+MAP_KEYS = {"baseColorTexture": ("base_color_texture",), "diffuseTexture": ("base_color_texture",),
+            "metallicRoughnessTexture": ("metallic_roughness_texture",),
+            "specularGlossinessTexture": ("metallic_roughness_texture", "specular_color"),
+            "emissiveTexture": ("emissive_texture",), "occlusionTexture": ("occlusion_texture",),
+            "normalTexture": ("normal_texture",), "clearcoatNormalTexture": ("clearcoat_normal_texture",),
+            **{key: (fld,) for key, (fld, _) in LAYER_MAPS.items()}}
 #: glTF sampler codes → the scene model's texture_wrap and texture_filter.
 GL_WRAPS = {10497: "repeat", 33071: "clamp", 33648: "mirror"}
 GL_FILTERS = {9728: "nearest", 9729: "linear"}
@@ -166,9 +176,9 @@ class GltfMaterial:
     #: KHR_materials_unlit (converted: its base colour is the emission; compare.scene.include keeps its
     #: surfaces meshes, never area lights: what it shows is not a light of the scene's author).
     unlit: bool = False
-    #: The scene model's texture_offset, texture_rotation, texture_scale, texture_wrap and texture_filter
-    #: (compare.scene.model.Material), from KHR_texture_transform and the sampler; empty: the defaults.
-    texture_settings: dict = field(default_factory=dict)
+    #: How each map is read (compare.scene.model.Material.map_sampling: the map's name in the scene model,
+    #: its texCoord, KHR_texture_transform and sampler).
+    sampling: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -478,6 +488,11 @@ class _Reader:
         if "TEXCOORD_0" not in attrs and self._has_maps(prim.get("material")):
             self.notes.append(f"{w}: its material has texture maps but the primitive has no TEXCOORD_0: "
                               f"every map is read at texture coordinate (0, 0)")
+        uv1 = (self.accessor(attrs["TEXCOORD_1"], f"{w}.attributes.TEXCOORD_1") + deltas.get("TEXCOORD_1", 0.0)
+               if "TEXCOORD_1" in attrs else None)
+        for key, where in ((uv, "TEXCOORD_0"), (uv1, "TEXCOORD_1")):
+            if key is not None and (key.ndim != 2 or key.shape[1] != 2 or len(key) != nv):
+                raise self.err(f"{w}.attributes.{where}", f"expected {nv} VEC2 texture coordinates")
         colors = self._colors(attrs, w, nv, deltas.get("COLOR_0"))
         n = tangents = None
         if "NORMAL" in attrs:
@@ -505,7 +520,7 @@ class _Reader:
                 n[bad] = geometry.vertex_normals(p, tri)[bad]
                 length = np.linalg.norm(n, axis=1)
             n = n / length[:, None]
-            return geometry._mesh(p, n, uv, tri, colors, tangents)
+            return geometry._mesh(p, n, uv, tri, colors, tangents, uv1)
         # glTF: without normals, flat shading. Unweld so every triangle has its own face normal.
         pa, pb, pc = p[tri[:, 0]], p[tri[:, 1]], p[tri[:, 2]]
         fn = np.cross(pb - pa, pc - pa)
@@ -513,7 +528,7 @@ class _Reader:
         fn = np.where(length > 1e-30, fn / np.maximum(length, 1e-30), np.array([0.0, 1.0, 0.0]))
         flat = tri.ravel()
         return geometry._mesh(p[flat], np.repeat(fn, 3, axis=0), uv[flat], np.arange(len(flat)).reshape(-1, 3),
-                              None if colors is None else colors[flat])
+                              None if colors is None else colors[flat], None, None if uv1 is None else uv1[flat])
 
     def _tangents(self, attrs: dict, w: str, nv: int) -> np.ndarray | None:
         """The file's TANGENT (nv, 4): xyz unit length, w = ±1 (glTF's rules; a file breaking them is named).
@@ -599,22 +614,26 @@ class _Reader:
                            f"expected a finite number >= 0, got {strength!r}")
         emission = np.asarray(factor, dtype=np.float64) * float(strength)
 
-        sampling: list[tuple[str, tuple]] = []  # (texture key, its transform and sampler) of each map
+        sampling: dict[str, MapSampling] = {}  # glTF texture key → how that map is read
 
         def image(key: str, table: dict | None = None, ext: str | None = None) -> int | None:
             info = (pbr if table is None else table).get(key)
             if info is None:
                 return None
             xf = info.get("extensions", {}).get("KHR_texture_transform", {})
-            if info.get("texCoord", 0) != 0 or xf.get("texCoord", 0) != 0:
-                self.notes.append(f"{w}.{key}: only TEXCOORD_0 is supported")
             where = (f"{w}.pbrMetallicRoughness.{key}" if table is None else
                      f"{w}.extensions.{ext}.{key}" if ext else f"{w}.{key}")
+            # KHR_texture_transform's texCoord, where given, overrides the textureInfo's (the extension's text)
+            texcoord = xf.get("texCoord", info.get("texCoord", 0))
+            if isinstance(texcoord, bool) or not isinstance(texcoord, int) or texcoord < 0:
+                raise self.err(f"{where}.texCoord", f"expected an integer >= 0, got {texcoord!r}")
+            if texcoord >= TEXCOORD_SETS:
+                self.notes.append(f"{w}.{key}: TEXCOORD_{texcoord} is not read (TEXCOORD_0 and _1 are); "
+                                  "the map is read on TEXCOORD_0")
+                texcoord = 0
             tex = self.item("textures", info.get("index", -1), f"{where}.index")
             sampler = self.item("samplers", tex["sampler"], f"{where}: texture sampler") if "sampler" in tex else {}
             wrap_s, wrap_t = sampler.get("wrapS", 10497), sampler.get("wrapT", 10497)
-            if wrap_s != wrap_t:
-                self.notes.append(f"{w}.{key}: wrapT differs from wrapS; wrapS is used for both")
             try:
                 offset = tuple(float(x) for x in xf.get("offset", [0.0, 0.0]))
                 scale = tuple(float(x) for x in xf.get("scale", [1.0, 1.0]))
@@ -624,8 +643,11 @@ class _Reader:
             if len(offset) != 2 or len(scale) != 2 or not all(map(math.isfinite, offset + scale + (rotation,))):
                 raise self.err(f"{where}.extensions.KHR_texture_transform", f"expected finite offset, rotation and "
                                                                             f"scale, got {xf!r}")
-            sampling.append((key, (offset, rotation, scale, GL_WRAPS.get(wrap_s, "repeat"),
-                                   GL_FILTERS.get(sampler.get("magFilter", 9729), "linear"))))
+            # minFilter NEAREST or LINEAR reads level 0 only; absent or *_MIPMAP_*: mip levels
+            sampling[key] = MapSampling(texcoord, offset, rotation, scale,
+                                        (GL_WRAPS.get(wrap_s, "repeat"), GL_WRAPS.get(wrap_t, "repeat")),
+                                        GL_FILTERS.get(sampler.get("magFilter", 9729), "linear"),
+                                        sampler.get("minFilter") not in GL_FILTERS)
             src = tex.get("source")
             if src is None:
                 self.notes.append(f"{w}.{key}: texture has no PNG/JPEG source; ignored")
@@ -660,12 +682,6 @@ class _Reader:
                 or not math.isfinite(coat_normal_scale):
             raise self.err(f"{w}.extensions.KHR_materials_clearcoat.clearcoatNormalTexture.scale",
                            f"expected a finite number, got {coat_normal_scale!r}")
-        # The scene model has one transform and sampler per material: the first map's (base colour first).
-        offset, rotation, scale, wrap, filt = sampling[0][1] if sampling else ((0.0, 0.0), 0.0, (1.0, 1.0),
-                                                                             "repeat", "linear")
-        if any(s != sampling[0][1] for _, s in sampling[1:]):
-            self.notes.append(f"{w}: its maps have different texture transforms or samplers; "
-                              f"{sampling[0][0]}'s is used for all")
         layers = self._layers(m, w)
         if sg is not None:  # the conversion sets KHR_materials_specular and _ior (which must not sit beside it)
             clash = sorted({f for f in layers if f in gltf_specgloss.SETS}
@@ -684,6 +700,8 @@ class _Reader:
             base = [0.0, 0.0, 0.0, base[3]]  # the base map keeps only its alpha (a mask's holes)
             metallic, roughness = 0.0, 1.0
             layers, layer_images, coat_normal_image = {"specular": 0.0}, [], None
+            if "baseColorTexture" in sampling:
+                sampling["emissiveTexture"] = sampling["baseColorTexture"]
         if mode != "OPAQUE" and max(emission) > 0:
             self.notes.append(f"{w}: alphaMode {mode} of an emissive material is not modelled (rendered opaque)")
             mode = "OPAQUE"
@@ -693,9 +711,8 @@ class _Reader:
             metallic=metallic,
             roughness=roughness,
             emission=tuple(float(max(e, 0.0)) for e in emission),  # type: ignore[arg-type]
-            texture_settings=({} if not sampling else
-                              dict(texture_offset=offset, texture_rotation=rotation, texture_scale=scale,
-                                   texture_wrap=wrap, texture_filter=filt)),
+            sampling=tuple((name, sampling[key]) for key, names in MAP_KEYS.items() if key in sampling
+                           for name in names),
             **images,
             occlusion_strength=clamp(m.get("occlusionTexture", {}).get("strength", 1.0)),
             normal_scale=float(m.get("normalTexture", {}).get("scale", 1.0)),

@@ -111,6 +111,8 @@ class GltfWriter:
                 attrs["NORMAL"] = self.accessor(tri.normals)
             if uvs:
                 attrs["TEXCOORD_0"] = self.accessor(tri.uvs)
+                if tri.uvs1 is not None:  # the second set a map may name (texCoord 1)
+                    attrs["TEXCOORD_1"] = self.accessor(tri.uvs1)
             if tri.colors is not None:  # glTF's COLOR_0: linear RGBA, multiplying base colour and alpha
                 attrs["COLOR_0"] = self.accessor(tri.colors)
             if tri.tangents is not None and normals:  # the frame of its normal maps: no reader guesses its own

@@ -164,7 +164,7 @@ class _Materials:
                            emissive_texture=tex(m.emissive_image), occlusion_texture=tex(m.occlusion_image),
                            occlusion_strength=m.occlusion_strength, normal_texture=tex(m.normal_image),
                            normal_scale=m.normal_scale, alpha_mode=m.alpha_mode, alpha=m.alpha,
-                           alpha_cutoff=m.alpha_cutoff, double_sided=m.double_sided, **m.texture_settings,
+                           alpha_cutoff=m.alpha_cutoff, double_sided=m.double_sided, map_sampling=m.sampling,
                            **m.layers,
                            layer_maps=tuple((f, c, tex(i)) for f, c, i in m.layer_images if tex(i) is not None),
                            clearcoat_normal_texture=tex(m.clearcoat_normal_image),

@@ -29,9 +29,6 @@ import numpy as np
 from compare.scene import framing, geometry
 from compare.brdf.multiscatter import DEFAULT_DISTRIBUTION, DISTRIBUTIONS
 
-#: Texture sampling settings of a material (glTF samplers: wrapS/T and magFilter).
-TEXTURE_WRAPS = ("repeat", "clamp", "mirror")
-TEXTURE_FILTERS = ("linear", "nearest")
 from compare.util.errors import CompareError, MissingComponentError, SceneError
 from compare.util.files import sha256_bytes
 from compare.scene.fields import boolean as _boolean
@@ -43,7 +40,7 @@ from compare.scene.model import (DEFAULT_PROBE_BOUNCES, DEFAULT_PROBE_GRID, ENV_
                           INDIRECT_MODES, MAX_PROBES_PER_AXIS, MESH_FILE_SUFFIXES, MESH_SHAPES, TEXTURE_SUFFIXES,
                           DEFAULT_STAND_IN_SIZE, PUNCTUAL_KINDS, AreaLight, Camera, Environment, Material, Mesh,
                           PunctualLight, Scene, floored_light, mesh_bounds)
-from compare.scene.model import ALPHA_MODES, LAYERS
+from compare.scene.model import ALPHA_MODES, LAYERS, TEXTURE_FILTERS, TEXTURE_WRAPS
 
 
 def _camera(ctx: _Ctx, raw: Any, framed: Callable[[], tuple[np.ndarray, np.ndarray]]) -> Camera:

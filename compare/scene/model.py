@@ -138,6 +138,44 @@ LAYERS = (
     Layer("specular", 1.0, "KHR_materials_specular", "specularFactor"),
     Layer("specular_color", (1.0, 1.0, 1.0), "KHR_materials_specular", "specularColorFactor", color=True, hi=math.inf),
 )
+#: How a map wraps ("repeat", "clamp", "mirror") and is filtered when magnified ("linear", "nearest").
+TEXTURE_WRAPS = ("repeat", "clamp", "mirror")
+TEXTURE_FILTERS = ("linear", "nearest")
+#: The texture coordinate sets a map may read (glTF's TEXCOORD_0 and TEXCOORD_1).
+TEXCOORD_SETS = 2
+
+
+@dataclass(frozen=True)
+class MapSampling:
+    """How one map is read: glTF's ``texCoord`` of its textureInfo, its ``KHR_texture_transform`` (offset,
+    rotation in degrees here, radians in glTF, scale; applied as offset · rotation · scale) and its texture's
+    sampler (wrapS and wrapT apart; the magnification filter; whether minification reads mip levels)."""
+
+    texcoord: int = 0
+    offset: tuple[float, float] = (0.0, 0.0)
+    rotation: float = 0.0
+    scale: tuple[float, float] = (1.0, 1.0)
+    wrap: tuple[str, str] = ("repeat", "repeat")
+    filter: str = "linear"
+    mipmaps: bool = True
+
+    def uv_transform(self) -> np.ndarray:
+        """The 3 × 3 matrix glTF's KHR_texture_transform applies to texture coordinates (column vectors)."""
+        c, s = math.cos(math.radians(self.rotation)), math.sin(math.radians(self.rotation))
+        t = np.array([[1.0, 0.0, self.offset[0]], [0.0, 1.0, self.offset[1]], [0.0, 0.0, 1.0]])
+        r = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+        return t @ r @ np.diag([self.scale[0], self.scale[1], 1.0])
+
+    @property
+    def has_uv_transform(self) -> bool:
+        return (self.offset, self.rotation, self.scale) != ((0.0, 0.0), 0.0, (1.0, 1.0))
+
+
+#: The names of a material's maps a sampling is given for (:meth:`Material.sampling`): the core maps' fields,
+#: the coat's normal map, and the extensions' maps by the field they multiply (:data:`LAYER_MAPS`).
+CORE_MAPS = ("base_color_texture", "metallic_roughness_texture", "emissive_texture", "occlusion_texture",
+             "normal_texture", "clearcoat_normal_texture")
+
 #: The scene feature each material extension makes (Features fields); "alpha_blend" is alphaMode BLEND.
 MATERIAL_FEATURES = {"KHR_materials_transmission": "transmission", "KHR_materials_volume": "volume",
                      "KHR_materials_ior": "ior", "KHR_materials_clearcoat": "clearcoat",
@@ -156,8 +194,12 @@ MATERIAL_FEATURE_NAMES = ("alpha_blend", *MATERIAL_FEATURES.values(), "layer_map
 #: of the meshes that carry it): "vertex_colors", glTF's COLOR_0 multiplying base colour and alpha;
 #: "single_sided", a material with doubleSided false, whose back faces are culled.
 GEOMETRY_FEATURE_NAMES = ("vertex_colors", "single_sided")
+#: How a material's maps are read beyond one texture coordinate set and one sampler, declared like a material
+#: feature: "uv_sets", a map on TEXCOORD_1; "map_samplers", maps of one material with different texture
+#: transforms or samplers, or a sampler whose wrapS and wrapT differ.
+MAP_FEATURE_NAMES = ("uv_sets", "map_samplers")
 #: Every feature a renderer may declare it renders (Renderer.renders, an external renderer's `renders`).
-FEATURE_NAMES = MATERIAL_FEATURE_NAMES + GEOMETRY_FEATURE_NAMES
+FEATURE_NAMES = MATERIAL_FEATURE_NAMES + MAP_FEATURE_NAMES + GEOMETRY_FEATURE_NAMES
 #: glTF's alpha modes in the scene model.
 ALPHA_MODES = ("opaque", "mask", "blend")
 
@@ -225,6 +267,24 @@ class Material:
     #: normal; None: the geometry's (not the base's normal map).
     clearcoat_normal_texture: Path | None = None
     clearcoat_normal_scale: float = 1.0
+    #: The maps read otherwise than the material-wide settings above (``texture_*``): (map name of
+    #: :data:`CORE_MAPS` or a layer map's field, its :class:`MapSampling`), as a glTF gives each map its own.
+    map_sampling: tuple[tuple[str, MapSampling], ...] = ()
+
+    @property
+    def default_sampling(self) -> MapSampling:
+        """The sampling of every map not named in :attr:`map_sampling` (the ``texture_*`` fields)."""
+        return MapSampling(0, self.texture_offset, self.texture_rotation, self.texture_scale,
+                           (self.texture_wrap, self.texture_wrap), self.texture_filter, self.texture_filter != "nearest")
+
+    def sampling(self, name: str) -> MapSampling:
+        """How map ``name`` (a field of :data:`CORE_MAPS`, or a layer map's field) is read."""
+        return dict(self.map_sampling).get(name, self.default_sampling)
+
+    def map_names(self) -> list[str]:
+        """The names (:meth:`sampling`) of the maps this material has."""
+        core = [n for n in CORE_MAPS if getattr(self, n) is not None]
+        return core + [fld for fld, _, _ in self.layer_maps]
 
     def uses(self) -> set[str]:
         """The features (:data:`MATERIAL_FEATURES`, "alpha_blend") this material needs beyond the core
@@ -252,14 +312,16 @@ class Material:
             out.add("layer_maps")
         elif not any(MATERIAL_FEATURES[extension_of[fld]] in out for fld, _, _ in self.layer_maps):
             out.discard("layer_maps")  # only maps of layers that a zero factor turns off
+        samplings = {self.sampling(n) for n in self.map_names()}
+        if any(s.texcoord != 0 for s in samplings):
+            out.add("uv_sets")
+        if len(samplings) > 1 or any(s.wrap[0] != s.wrap[1] for s in samplings):
+            out.add("map_samplers")
         return out
 
     def uv_transform(self) -> np.ndarray:
-        """The 3 × 3 matrix glTF's KHR_texture_transform applies to texture coordinates (column vectors)."""
-        c, s = math.cos(math.radians(self.texture_rotation)), math.sin(math.radians(self.texture_rotation))
-        t = np.array([[1.0, 0.0, self.texture_offset[0]], [0.0, 1.0, self.texture_offset[1]], [0.0, 0.0, 1.0]])
-        r = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
-        return t @ r @ np.diag([self.texture_scale[0], self.texture_scale[1], 1.0])
+        """The 3 × 3 texture transform of the maps read with the material-wide settings."""
+        return self.default_sampling.uv_transform()
 
     @property
     def normal_mapped(self) -> bool:
@@ -269,7 +331,13 @@ class Material:
 
     @property
     def has_uv_transform(self) -> bool:
-        return (self.texture_offset, self.texture_rotation, self.texture_scale) != ((0.0, 0.0), 0.0, (1.0, 1.0))
+        return self.default_sampling.has_uv_transform
+
+    @property
+    def tangent_uv(self) -> int:
+        """The texture coordinate set of the tangent frame (glTF: MikkTSpace on the normal map's set)."""
+        name = "normal_texture" if self.normal_texture is not None else "clearcoat_normal_texture"
+        return self.sampling(name).texcoord
     #: The Principled BSDF's microfacet distribution in Blender (``multi_ggx``, Blender's default, or
     #: ``ggx``): what the Blender comparators set and the reference's ``cycles`` mode models. The
     #: glTF BRDF (the rasterizer, the ``shared`` reference) is single-scattering GGX either way.
@@ -312,15 +380,16 @@ class Mesh:
         tri = self.params.get("triangles") if self.shape == "gltf" else None
         return tri is not None and tri.colors is not None
 
-    def triangles(self, *, tangents: bool = False) -> geometry.TriangleMesh:
+    def triangles(self, *, tangents: bool = False, tangent_uv: int = 0) -> geometry.TriangleMesh:
         """World-space triangles of this mesh; with ``tangents``, with the tangent frame of its normal maps: the
-        file's ``TANGENT``, else MikkTSpace's of the mesh in its own frame (what a baker and glTF assume)."""
+        file's ``TANGENT``, else MikkTSpace's of the mesh in its own frame (what a baker and glTF assume), on
+        texture coordinate set ``tangent_uv`` (:attr:`Material.tangent_uv`)."""
         local = self._local()
         if tangents and local.tangents is None:
             from compare.scene.tangents import with_tangents
             from compare.util.cache import default_cache_dir
 
-            local = with_tangents(local, cache_dir=default_cache_dir())
+            local = with_tangents(local, cache_dir=default_cache_dir(), texcoord=tangent_uv)
         return local.transformed(self.transform)
 
     def _local(self) -> geometry.TriangleMesh:
@@ -530,6 +599,8 @@ class Features:
     sheen: bool = False
     specular: bool = False
     layer_maps: bool = False
+    uv_sets: bool = False
+    map_samplers: bool = False
     vertex_colors: bool = False
     single_sided: bool = False
 
@@ -596,7 +667,7 @@ class Scene:
             emissive_meshes=any(m.is_emissive for m in used),
             alpha_mask=any(m.is_masked for m in used),
             punctual_lights=bool(self.punctual),
-            **{name: any(name in m.uses() for m in used) for name in MATERIAL_FEATURE_NAMES},
+            **{name: any(name in m.uses() for m in used) for name in MATERIAL_FEATURE_NAMES + MAP_FEATURE_NAMES},
             vertex_colors=any(m.has_vertex_colors for m in self.meshes),
             single_sided=any(not m.double_sided for m in used),
         )

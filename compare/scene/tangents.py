@@ -80,18 +80,20 @@ def mikktspace(positions, normals, uvs, indices, *, cache_dir: Path | None = Non
     return corners, t
 
 
-def with_tangents(mesh, *, cache_dir: Path | None = None):
-    """``mesh`` (a :class:`compare.scene.geometry.TriangleMesh`) with MikkTSpace tangents, its vertices split
-    where their corners' tangents differ; a mesh that has tangents (the file's ``TANGENT``) is returned as it is."""
+def with_tangents(mesh, *, cache_dir: Path | None = None, texcoord: int = 0):
+    """``mesh`` (a :class:`compare.scene.geometry.TriangleMesh`) with MikkTSpace tangents of its texture
+    coordinate set ``texcoord`` (glTF: the normal map's), its vertices split where their corners' tangents
+    differ; a mesh that has tangents (the file's ``TANGENT``) is returned as it is."""
     from compare.scene.geometry import TriangleMesh
 
     if mesh.tangents is not None:
         return mesh
-    corners, t = mikktspace(mesh.positions, mesh.normals, mesh.uvs, mesh.indices, cache_dir=cache_dir)
+    corners, t = mikktspace(mesh.positions, mesh.normals, mesh.uv_set(texcoord), mesh.indices, cache_dir=cache_dir)
     # weld: corners of one vertex with bit-identical tangents share a vertex again
     rows = np.concatenate([corners[:, None], t.view(np.int32).astype(np.int64)], axis=1)
     _, first, inverse = np.unique(rows, axis=0, return_index=True, return_inverse=True)
     src = corners[first]
     return TriangleMesh(mesh.positions[src], mesh.normals[src], mesh.uvs[src],
                         np.ascontiguousarray(inverse.reshape(-1, 3), dtype=np.uint32),
-                        None if mesh.colors is None else mesh.colors[src], tangents=np.ascontiguousarray(t[first]))
+                        None if mesh.colors is None else mesh.colors[src], tangents=np.ascontiguousarray(t[first]),
+                        uvs1=None if mesh.uvs1 is None else mesh.uvs1[src])

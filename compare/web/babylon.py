@@ -13,7 +13,7 @@ float. ``babylon:shadows`` puts shadow-mapped spot lights where the area lights 
 
 from __future__ import annotations
 
-from compare.scene.model import MATERIAL_FEATURE_NAMES
+from compare.scene.model import MAP_FEATURE_NAMES, MATERIAL_FEATURE_NAMES
 from compare.web.host import WebRenderer
 
 __all__ = ["BabylonRenderer"]
@@ -30,7 +30,8 @@ class BabylonRenderer(WebRenderer):
     VERSION_KEY = "babylon"
     OPTIONS = {"shadows": WebRenderer.SPOT_SHADOWS}
     VARIANTS = ("babylon:shadows",)
-    renders = frozenset(MATERIAL_FEATURE_NAMES) | {"punctual_lights", "vertex_colors", "single_sided"}
+    renders = (frozenset(MATERIAL_FEATURE_NAMES) | frozenset(MAP_FEATURE_NAMES)
+               | {"punctual_lights", "vertex_colors", "single_sided"})
 
     def describe(self, opts: list[str]) -> str:
         return "Babylon.js (" + ("shadow-mapped spot lights" if "shadows" in opts else "RectAreaLight") \

@@ -13,7 +13,7 @@ rectangular light cast a shadow from its spot shadow map.
 
 from __future__ import annotations
 
-from compare.scene.model import MATERIAL_FEATURE_NAMES
+from compare.scene.model import MAP_FEATURE_NAMES, MATERIAL_FEATURE_NAMES
 
 from compare.web.host import WebRenderer
 
@@ -34,7 +34,8 @@ class PlayCanvasRenderer(WebRenderer):
     # StandardMaterial from the glTF: clearcoat, sheen, transmission (refraction), ior, specular, volume
     # (thickness, attenuation) and BLEND are read by PlayCanvas' glTF parser; the extensions' maps are not
     # checked here, so they are declared left out
-    renders = (frozenset(MATERIAL_FEATURE_NAMES) - {"layer_maps"}) | {"punctual_lights", "vertex_colors", "single_sided"}
+    renders = ((frozenset(MATERIAL_FEATURE_NAMES) - {"layer_maps"})
+               | {"punctual_lights", "vertex_colors", "single_sided", *MAP_FEATURE_NAMES})
 
     def describe(self, opts: list[str]) -> str:
         return "PlayCanvas (rectangular lights" + (" with spot shadow maps" if "shadows" in opts else "") \

@@ -17,7 +17,7 @@ compilation, BVH build) are set-up.
 
 from __future__ import annotations
 
-from compare.scene.model import MATERIAL_FEATURE_NAMES
+from compare.scene.model import MAP_FEATURE_NAMES, MATERIAL_FEATURE_NAMES
 from compare.web.host import WebRenderer
 
 __all__ = ["THREEJS_OPTIONS", "ThreeJsPathTracer", "ThreeJsRenderer"]
@@ -40,7 +40,8 @@ class ThreeJsRenderer(WebRenderer):
     VARIANTS = ("threejs:shadows",)
     # GLTFLoader reads every material extension of the job's glTF into MeshPhysicalMaterial, and BLEND as a
     # transparent material; three's PointLight, SpotLight and DirectionalLight too; COLOR_0 as vertexColors.
-    renders = frozenset(MATERIAL_FEATURE_NAMES) | {"punctual_lights", "vertex_colors", "single_sided"}
+    renders = (frozenset(MATERIAL_FEATURE_NAMES) | frozenset(MAP_FEATURE_NAMES)
+               | {"punctual_lights", "vertex_colors", "single_sided"})
 
     def describe(self, opts: list[str]) -> str:
         what = ("shadow-mapped spot lights" if "shadows" in opts else "RectAreaLight") + ", PMREM" \

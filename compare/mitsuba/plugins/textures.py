@@ -1,5 +1,5 @@
-"""The classes of the reference's texture plugins ``compare_product`` and ``compare_front_side``
-(:mod:`compare.mitsuba.textures`). Bound to a variant: see :mod:`compare.mitsuba.plugins`.
+"""The classes of the reference's texture plugins ``compare_product``, ``compare_front_side`` and
+``compare_uv`` (:mod:`compare.mitsuba.textures`). Bound to a variant: see :mod:`compare.mitsuba.plugins`.
 """
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from mitsuba import ParamFlags
 
 from compare.mitsuba.plugins import bound_variant
 
-__all__ = ["FrontSide", "Product"]
+__all__ = ["FrontSide", "Product", "UvMapped"]
 
 mv = bound_variant(__name__)
 
@@ -80,3 +80,66 @@ class FrontSide(mv.Texture):
 
     def to_string(self):
         return self._plugin
+
+
+#: Wrap modes of :class:`UvMapped`'s axes (compare.scene.model.TEXTURE_WRAPS).
+_WRAPS = {"repeat": 0, "clamp": 1, "mirror": 2}
+
+
+def _wrapped(x, mode: int):
+    if mode == 0:
+        return x - dr.floor(x)
+    if mode == 2:
+        return 1.0 - dr.abs(x - 2.0 * dr.floor(0.5 * x) - 1.0)
+    return dr.clip(x, 0.0, 1.0)
+
+
+class UvMapped(mv.Texture):
+    """``texture`` read at other texture coordinates: the mesh attribute ``attribute`` (glTF's TEXCOORD_1,
+    (u, v, 0)) instead of the surface's uv, and, with ``wrap_u``/``wrap_v`` given, transformed by ``to_uv``
+    and wrapped per axis before the lookup (glTF's wrapS and wrapT apart; Mitsuba's bitmap has one mode)."""
+
+    def __init__(self, props):
+        super().__init__(props)
+        self._plugin = props.plugin_name()  # its registered name, for to_string
+        self.texture = props.get_texture("texture")
+        self.attribute = props.get("attribute", "")
+        self.wrap = (_WRAPS[props.get("wrap_u")], _WRAPS[props.get("wrap_v")]) if "wrap_u" in props else None
+        identity = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0))
+        self.to_uv = tuple(tuple(float(props.get(f"to_uv_{i}{j}", identity[i][j])) for j in range(3))
+                           for i in range(2))
+
+    def _at(self, si):
+        out = mv.SurfaceInteraction3f(si)
+        if self.attribute:
+            uvw = si.shape.eval_attribute_3(self.attribute, si)
+            out.uv = mv.Point2f(uvw.x, uvw.y)
+        if self.wrap is not None:
+            (a, b, c), (d, e, f) = self.to_uv
+            u, v = out.uv.x, out.uv.y
+            out.uv = mv.Point2f(_wrapped(a * u + b * v + c, self.wrap[0]), _wrapped(d * u + e * v + f, self.wrap[1]))
+        return out
+
+    def eval(self, si, active=True):
+        return self.texture.eval(self._at(si), active)
+
+    def eval_1(self, si, active=True):
+        return self.texture.eval_1(self._at(si), active)
+
+    def eval_3(self, si, active=True):
+        return self.texture.eval_3(self._at(si), active)
+
+    def mean(self):
+        return self.texture.mean()
+
+    def max(self):
+        return self.texture.max()
+
+    def is_spatially_varying(self):
+        return True
+
+    def traverse(self, callback):
+        callback.put("texture", self.texture, ParamFlags.NonDifferentiable)
+
+    def to_string(self):
+        return f"{self._plugin}[{self.attribute or 'uv'}, {self.texture}]"

@@ -23,6 +23,20 @@ import numpy as np
 from compare.progressive.gl.passes import RenderPass
 from compare.progressive.gl.shaders import set_uniform
 from compare.progressive.gl.units import LAYERS, MAPS, bind
+from compare.scene.model import TEXTURE_WRAPS
+
+#: The maps a mesh binds, in the order of material.glsl's slots (its u_map_transform and u_map_read) and of
+#: the texture units of MAPS.
+MAP_SLOTS = ("base_color_texture", "metallic_roughness_texture", "emissive_texture", "occlusion_texture",
+             "normal_texture")
+
+
+def _set_array(program, name: str, data: bytes, count: int) -> None:
+    """Write the elements of uniform array ``name`` the linker kept (it trims an array read at constant
+    indices to the last one read); ``data`` holds ``count`` elements."""
+    member = program.get(name, None)
+    if member is not None:
+        member.write(data[: len(data) // count * member.array_length])
 
 
 #: OpenGL internal formats of 8-bit maps: colour (sRGB-encoded) and factors (linear).
@@ -124,8 +138,10 @@ class GpuMesh:
     occlusion_strength: float = 1.0
     normal_map: object = None
     normal_scale: float = 1.0
-    uv_transform: bytes = b""
-    wrap: float = 0.0
+    map_transforms: bytes = b""
+    """Each map's texture transform (:data:`MAP_SLOTS` order; GLSL mat3, column-major)."""
+    map_read: bytes = b""
+    """Each map's (texture coordinate set, wrap s, wrap t) as material.glsl's u_map_read."""
     alpha: float = 1.0
     alpha_cutoff: float = -1.0
     """glTF's alpha mask: the coverage test's cutoff, negative for an opaque mesh."""
@@ -168,10 +184,10 @@ class GpuScene(RenderPass):
             for mesh in scene.meshes:
                 mat = scene.materials[mesh.material]
                 # normal maps in the file's tangent frame (its TANGENT, else MikkTSpace's), as every renderer
-                tri = mesh.triangles(tangents=self.textured and mat.normal_mapped)
+                tri = mesh.triangles(tangents=self.textured and mat.normal_mapped, tangent_uv=mat.tangent_uv)
                 gm = self._upload(mesh.name, tri.positions, tri.normals, tri.indices, mat.base_color, mat.metallic,
                                   mat.roughness, mat.emission, 1.0, uvs=tri.uvs, colors=tri.colors,
-                                  tangents=tri.tangents)
+                                  tangents=tri.tangents, uvs1=tri.uvs1)
                 self.meshes.append(gm)  # owned (and released on failure) before its maps are made
                 gm.centre = tuple(float(x) for x in (tri.positions.min(0) + tri.positions.max(0)) / 2)
                 if mat.alpha_mode == "blend":
@@ -181,23 +197,27 @@ class GpuScene(RenderPass):
                     gm.layers = material_layers(mat)
                 if self.textured:
                     if mat.base_color_texture is not None:
-                        gm.base_color_map = self._map(mat.base_color_texture, mat, srgb=True,
+                        gm.base_color_map = self._map(mat.base_color_texture, mat, "base_color_texture", srgb=True,
                                                       alpha=mat.is_masked or mat.alpha_mode == "blend")
                     if mat.is_masked:
                         gm.alpha, gm.alpha_cutoff = float(mat.alpha), float(mat.alpha_cutoff)
                     if mat.metallic_roughness_texture is not None:
-                        gm.metallic_roughness_map = self._map(mat.metallic_roughness_texture, mat, srgb=False)
+                        gm.metallic_roughness_map = self._map(mat.metallic_roughness_texture, mat,
+                                                              "metallic_roughness_texture", srgb=False)
                     if mat.emissive_texture is not None:
-                        gm.emission_map = self._map(mat.emissive_texture, mat, srgb=True)
+                        gm.emission_map = self._map(mat.emissive_texture, mat, "emissive_texture", srgb=True)
                     if mat.normal_texture is not None:
-                        gm.normal_map = self._map(mat.normal_texture, mat, srgb=False)
+                        gm.normal_map = self._map(mat.normal_texture, mat, "normal_texture", srgb=False)
                         gm.normal_scale = float(mat.normal_scale)
                     if mat.occlusion_texture is not None:
-                        gm.occlusion_map = self._map(mat.occlusion_texture, mat, srgb=False)
+                        gm.occlusion_map = self._map(mat.occlusion_texture, mat, "occlusion_texture", srgb=False)
                         gm.occlusion_strength = float(mat.occlusion_strength)
-                    # GLSL mat3 is column-major: the bytes of the transpose of the row-major matrix
-                    gm.uv_transform = np.ascontiguousarray(mat.uv_transform().T, dtype=np.float32).tobytes()
-                    gm.wrap = float(("repeat", "clamp", "mirror").index(mat.texture_wrap))
+                    samplings = [mat.sampling(name) for name in MAP_SLOTS]
+                    # GLSL mat3 is column-major: the bytes of the transpose of each row-major matrix
+                    gm.map_transforms = np.ascontiguousarray([x.uv_transform().T for x in samplings],
+                                                             dtype=np.float32).tobytes()
+                    gm.map_read = np.asarray([(x.texcoord, *(TEXTURE_WRAPS.index(a) for a in x.wrap))
+                                              for x in samplings], dtype=np.float32).tobytes()
             quad = np.array([[0, 1, 2], [0, 2, 3]], dtype=np.uint32)
             for i, light in enumerate(scene.lights):
                 normals = np.tile(np.asarray(light.normal, dtype=np.float32), (4, 1))
@@ -218,7 +238,8 @@ class GpuScene(RenderPass):
 
     def defines(self) -> dict[str, int]:
         """The material defines of a pass that shades the scene (material.glsl)."""
-        return {"TEXTURES": int(self.textured), "ALPHA_MASK": int(self.masked), "LAYERS": int(self.layered),
+        return {"TEXTURES": int(self.textured), "MAP_SLOT_COUNT": len(MAP_SLOTS), "ALPHA_MASK": int(self.masked),
+                "LAYERS": int(self.layered),
                 "VERTEX_COLORS": int(self.colored)}
 
     def layers_for(self, materials: str = "shared") -> bool:
@@ -270,7 +291,8 @@ class GpuScene(RenderPass):
         programs = {False: load_program(ctx, name, {**base, "TEXTURES": 0, "ALPHA_MASK": 0})}
         if self.masked:
             try:
-                programs[True] = load_program(ctx, name, {**base, "TEXTURES": 1, "ALPHA_MASK": 1,
+                programs[True] = load_program(ctx, name, {**base, "TEXTURES": 1, "MAP_SLOT_COUNT": len(MAP_SLOTS),
+                                                          "ALPHA_MASK": 1,
                                                           "IS_MASKED": "true"})
             except BaseException:
                 programs[False].release()
@@ -293,15 +315,17 @@ class GpuScene(RenderPass):
             texels[..., 3] = np.rint(a.reshape(lh, lw) * 255.0) if eight else a.reshape(lh, lw)
             tex.write(texels.tobytes(), level=level, alignment=1)
 
-    def _map(self, path, mat, *, srgb: bool, alpha: bool = False):
-        """One map file as a texture, mipmapped by the GPU unless the material samples it ``nearest``
-        (uploaded once per file, kind and sampler settings); ``alpha``: with the file's alpha channel (an
+    def _map(self, path, mat, which: str, *, srgb: bool, alpha: bool = False):
+        """One map file as a texture, sampled as ``mat``'s map ``which`` is (its wrap per axis, its filters:
+        mipmapped by the GPU unless its minification reads level 0 only; uploaded once per file, kind and
+        sampler settings); ``alpha``: with the file's alpha channel (an
         alpha mask's), else without. An 8-bit file stays 8 bits per channel, an sRGB texture for colour
         (decoded to linear by the sampler, before filtering) and a linear one for factors and normals;
         only float files (EXR, 16-bit PNG) are uploaded as RGBA16F."""
         from compare.scene.textures import load_alpha, load_texels8, load_texture
 
-        key = (str(path), srgb, mat.texture_wrap == "repeat", mat.texture_filter,
+        s = mat.sampling(which)
+        key = (str(path), srgb, tuple(w == "repeat" for w in s.wrap), s.filter, s.mipmaps,
                (mat.alpha_cutoff / max(mat.alpha, 1e-9)) if alpha else None)
         if key not in self._maps:
             texels = load_texels8(path, alpha=alpha)
@@ -330,21 +354,27 @@ class GpuScene(RenderPass):
             else:
                 tex = self.ctx.texture((w, h), 4, texels, dtype="f2")
             # "mirror" is wrapped in the shader; its samplers clamp, which at a mirror's seam is exact
-            tex.repeat_x = tex.repeat_y = mat.texture_wrap == "repeat"
-            if mat.texture_filter == "nearest":
-                tex.filter = (self.ctx.NEAREST, self.ctx.NEAREST)
+            tex.repeat_x, tex.repeat_y = (w == "repeat" for w in s.wrap)
+            mag = self.ctx.NEAREST if s.filter == "nearest" else self.ctx.LINEAR
+            if not s.mipmaps:
+                tex.filter = (mag, mag)
             else:
                 tex.build_mipmaps()
-                tex.filter = (self.ctx.LINEAR_MIPMAP_LINEAR, self.ctx.LINEAR)
+                tex.filter = (self.ctx.NEAREST_MIPMAP_LINEAR if s.filter == "nearest" else self.ctx.LINEAR_MIPMAP_LINEAR,
+                              mag)
                 if alpha and mat.alpha > 0:
                     self._preserve_coverage(tex, coverage, mat.alpha_cutoff / mat.alpha)
             self._maps[key] = tex
         return self._maps[key]
 
     def _upload(self, name, positions, normals, indices, base, metallic, roughness, emission, kind, light=None,
-                uvs=None, colors=None, tangents=None):
+                uvs=None, colors=None, tangents=None, uvs1=None):
         n = len(positions)
-        uv = np.zeros((n, 2), dtype=np.float32) if uvs is None else np.asarray(uvs, dtype=np.float32)
+        uv = np.zeros((n, 4), dtype=np.float32)  # TEXCOORD_0 and TEXCOORD_1 (zeros where absent)
+        if uvs is not None:
+            uv[:, :2] = uvs
+        if uvs1 is not None:
+            uv[:, 2:] = uvs1
         # Tangents only for normal maps (Mesh.triangles gives them): others do no tangent work.
         tangents = np.zeros((n, 4), dtype=np.float32) if tangents is None else np.asarray(tangents, np.float32)
         columns = [np.asarray(positions, dtype=np.float32), np.asarray(normals, dtype=np.float32), uv, tangents]
@@ -362,7 +392,7 @@ class GpuScene(RenderPass):
         if vao is None:
             # The attributes the program reads, the others skipped (the vertex buffer is interleaved).
             fmt, names = [], []
-            attributes = (("in_position", 3), ("in_normal", 3), ("in_uv", 2), ("in_tangent", 4))
+            attributes = (("in_position", 3), ("in_normal", 3), ("in_uv", 4), ("in_tangent", 4))
             for name, size in attributes + ((("in_color", 4),) if self.colored else ()):
                 if program.get(name, None) is not None:
                     fmt.append(f"{size}f")
@@ -407,9 +437,9 @@ class GpuScene(RenderPass):
     def _bind_maps(self, program, mesh: GpuMesh, *, all_maps: bool) -> None:
         """Set ``mesh``'s texture uniforms and bind its maps (``all_maps`` False: only what the alpha
         test reads)."""
-        if mesh.uv_transform:
-            set_uniform(program, "u_uv_transform", mesh.uv_transform)
-            set_uniform(program, "u_wrap", mesh.wrap)
+        if mesh.map_transforms:
+            _set_array(program, "u_map_transform", mesh.map_transforms, len(MAP_SLOTS))
+            _set_array(program, "u_map_read", mesh.map_read, len(MAP_SLOTS))
             set_uniform(program, "u_occlusion_strength", mesh.occlusion_strength)
             set_uniform(program, "u_normal_scale", mesh.normal_scale)
         set_uniform(program, "u_alpha", mesh.alpha)

@@ -79,10 +79,16 @@ uniform float u_sheen_roughness;
 #ifndef IS_MASKED
 #define IS_MASKED (u_alpha_cutoff >= 0.0)
 #endif
-in vec2 v_uv;
+in vec4 v_uv;                                // xy: TEXCOORD_0, zw: TEXCOORD_1
 in vec4 v_tangent;                           // glTF tangent: xyz along +u, w: sign of the bitangent
-uniform mat3 u_uv_transform;                 // the material's KHR_texture_transform
-uniform float u_wrap;                        // 0 repeat, 1 clamp, 2 mirror
+// Per map (the slots of MAP_SLOTS: base colour, metallic-roughness, emission, occlusion, normal): its
+// KHR_texture_transform, and (its texture coordinate set, wrap along s, wrap along t; 0 repeat, 1 clamp,
+// 2 mirror)
+#ifndef MAP_SLOT_COUNT
+#error MAP_SLOT_COUNT comes from gpu_scene.py (MAP_SLOTS) as a define
+#endif
+uniform mat3 u_map_transform[MAP_SLOT_COUNT];
+uniform vec3 u_map_read[MAP_SLOT_COUNT];
 uniform sampler2D u_base_color_map;
 uniform sampler2D u_metallic_roughness_map;
 uniform float u_has_base_color_map;          // 1: sample u_base_color_map, 0: u_base_color
@@ -99,30 +105,30 @@ uniform float u_occlusion_strength;
 // Texture coordinates wrapped here for "mirror" (the samplers repeat for "repeat" and clamp
 // otherwise, which at a mirror's seam is what mirroring gives), with the derivatives of the
 // unwrapped coordinates, so that mip levels do not jump at the seams.
-vec4 sample_map(sampler2D map) {
-    vec2 uv = (u_uv_transform * vec3(v_uv, 1.0)).xy;
+vec4 sample_map(sampler2D map, int slot) {
+    vec3 read = u_map_read[slot];
+    vec2 uv = (u_map_transform[slot] * vec3(read.x > 0.5 ? v_uv.zw : v_uv.xy, 1.0)).xy;
     vec2 dx = dFdx(uv);
     vec2 dy = dFdy(uv);
-    if (u_wrap > 1.5) {
-        uv = 1.0 - abs(mod(uv, 2.0) - 1.0);
-    }
+    vec2 mirrored = 1.0 - abs(mod(uv, 2.0) - 1.0);
+    uv = vec2(read.y > 1.5 ? mirrored.x : uv.x, read.z > 1.5 ? mirrored.y : uv.y);
     return textureGrad(map, uv, dx, dy);
 }
 vec3 material_base_color() {
-    return (HAS_BASE_COLOR_MAP ? sample_map(u_base_color_map).rgb : u_base_color) * VERTEX_RGB;
+    return (HAS_BASE_COLOR_MAP ? sample_map(u_base_color_map, 0).rgb : u_base_color) * VERTEX_RGB;
 }
 float material_metallic() {
-    return HAS_METALLIC_ROUGHNESS_MAP ? sample_map(u_metallic_roughness_map).b : u_metallic;
+    return HAS_METALLIC_ROUGHNESS_MAP ? sample_map(u_metallic_roughness_map, 1).b : u_metallic;
 }
 float material_roughness() {
-    return HAS_METALLIC_ROUGHNESS_MAP ? sample_map(u_metallic_roughness_map).g : u_roughness;
+    return HAS_METALLIC_ROUGHNESS_MAP ? sample_map(u_metallic_roughness_map, 1).g : u_roughness;
 }
 vec3 material_emission() {
-    return HAS_EMISSION_MAP ? u_emission * sample_map(u_emission_map).rgb : u_emission;
+    return HAS_EMISSION_MAP ? u_emission * sample_map(u_emission_map, 2).rgb : u_emission;
 }
 // glTF's occlusion: 1 + strength (map - 1), the factor on ambient and indirect light (1 without a map).
 float material_occlusion() {
-    return HAS_OCCLUSION_MAP ? 1.0 + u_occlusion_strength * (sample_map(u_occlusion_map).r - 1.0) : 1.0;
+    return HAS_OCCLUSION_MAP ? 1.0 + u_occlusion_strength * (sample_map(u_occlusion_map, 3).r - 1.0) : 1.0;
 }
 // The shading normal: the normal map's in the frame (tangent, bitangent = cross(n, tangent) w, n).
 vec3 material_normal(vec3 n) {
@@ -131,7 +137,7 @@ vec3 material_normal(vec3 n) {
     }
     vec3 t = normalize(v_tangent.xyz - n * dot(n, v_tangent.xyz));
     vec3 b = cross(n, t) * (v_tangent.w < 0.0 ? -1.0 : 1.0);
-    vec3 c = sample_map(u_normal_map).xyz * 2.0 - 1.0;
+    vec3 c = sample_map(u_normal_map, 4).xyz * 2.0 - 1.0;
     c.xy *= u_normal_scale;
     return normalize(t * c.x + b * c.y + n * c.z);
 }
@@ -140,7 +146,7 @@ uniform float u_alpha;
 uniform float u_alpha_cutoff;
 void alpha_test() {
     if (IS_MASKED) {
-        float a = u_alpha * (HAS_BASE_COLOR_MAP ? sample_map(u_base_color_map).a : 1.0) * VERTEX_ALPHA;
+        float a = u_alpha * (HAS_BASE_COLOR_MAP ? sample_map(u_base_color_map, 0).a : 1.0) * VERTEX_ALPHA;
         if (a < u_alpha_cutoff) {
             discard;
         }
