@@ -154,11 +154,14 @@ def test_the_elements_own_view_is_measured_with_ldr_metrics_only(tmp_path, gl_ct
 def test_the_environment_is_turned_for_threejs_lookup():
     """Column i of the element's map is the suite's map at u + rotation/360 − 1/4 (three.js's u is the
     suite's + 1/4): a whole roll where the shift is whole, linear between two rolls otherwise."""
-    img = np.arange(2 * 8 * 3, dtype=np.float32).reshape(2, 8, 3)
+    img = np.arange(128 * 256 * 3, dtype=np.float32).reshape(128, 256, 3)
     np.testing.assert_array_equal(model_viewer_environment(img, 90.0, 1.0), img)
-    np.testing.assert_array_equal(model_viewer_environment(img, 0.0, 2.0), 2 * np.roll(img, 2, axis=1))
-    half = model_viewer_environment(img, 90.0 + 360.0 / 16, 1.0)
+    np.testing.assert_array_equal(model_viewer_environment(img, 0.0, 2.0), 2 * np.roll(img, 64, axis=1))
+    half = model_viewer_environment(img, 90.0 + 360.0 / 512, 1.0)
     np.testing.assert_allclose(half, 0.5 * (img + np.roll(img, -1, axis=1)))
+    # a constant environment's tiny map is repeated up to a width three.js prefilters
+    small = model_viewer_environment(np.ones((8, 16, 3), np.float32), 90.0, 0.5)
+    assert small.shape == (128, 256, 3) and np.all(small == 0.5)
 
 
 def test_display_output_enters_the_ldr_metrics_as_it_is():

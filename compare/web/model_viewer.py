@@ -35,14 +35,22 @@ __all__ = ["ModelViewerRenderer", "model_viewer_environment"]
 
 #: The element lights with environments and glTF lights only.
 MODEL_VIEWER_AREA_LIGHTS = False
+#: The narrowest map handed to the element: three.js sizes the prefiltered environment by the map's own
+#: size, and a map a few pixels wide (a constant environment, 16 × 8) lights nothing at all; narrower maps
+#: are repeated pixel by pixel, which leaves the radiance of every direction as it was.
+MIN_MAP_WIDTH = 256
 
 
 def model_viewer_environment(image: np.ndarray, rotation_deg: float, intensity: float) -> np.ndarray:
     """The suite's equirectangular map (Mitsuba's u, :mod:`compare.scene.equirect`) as three.js looks it up
     (``u = atan2(z, x) / 2π + ½``, the suite's u + ¼) with the scene's rotation about +Y and intensity baked
     in: column i of the result is the map at u + rotation/360 − ¼, a whole-pixel roll where that shift is
-    whole, else linear between the two nearest rolls."""
+    whole, else linear between the two nearest rolls. A map narrower than :data:`MIN_MAP_WIDTH` is repeated
+    pixel by pixel first."""
     img = np.asarray(image, dtype=np.float64) * float(intensity)
+    if img.shape[1] < MIN_MAP_WIDTH:
+        k = -(-MIN_MAP_WIDTH // img.shape[1])
+        img = np.repeat(np.repeat(img, k, axis=0), k, axis=1)
     w = img.shape[1]
     shift = (w * (float(rotation_deg) / 360.0 - 0.25)) % w
     lo = math.floor(shift)
