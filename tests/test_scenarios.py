@@ -166,10 +166,10 @@ def test_bad_files_are_one_error(assets):
 
 
 def test_excluded_renderers_map_to_the_suites():
-    known = ["mitsuba", "progressive", "threejs", "threejs-pathtracer", "babylon", "cycles"]
+    known = ["mitsuba", "progressive", "threejs", "threejs-pathtracer", "babylon", "cycles", "model-viewer"]
     assert suite_renderers(["model-viewer", "filament", "babylon", "three-gpu-pathtracer", "stellar",
-                            "blender-cycles", "dspbr-pt"], known) == ("threejs", "babylon", "threejs-pathtracer",
-                                                                       "cycles")
+                            "blender-cycles", "dspbr-pt"], known) == ("model-viewer", "babylon",
+                                                                       "threejs-pathtracer", "cycles")
     assert suite_renderers(["progressive", "nonesuch"], known) == ("progressive",)  # the suite's own names too
     assert set(RENDERER_NAMES.values()) <= set(known)
 
@@ -211,12 +211,12 @@ def test_inspect_lists_the_scenarios(assets, capsys):
     text = capsys.readouterr().out
     for part in ("2 scenario(s)", "khronos-Sponza", MODEL, HDR, "768×768", "1024×512",
                  "theta 90°, phi 90°, radius 0 m", "looking along [-1, 0,", "fov 45°",
-                 "model-viewer, dspbr-pt (the suite's: threejs)", "../gone.glb  (not found)",
+                 "model-viewer, dspbr-pt (the suite's: model-viewer)", "../gone.glb  (not found)",
                  "renderSkybox false"):
         assert part in text, part
     assert main(["inspect", str(path), "--json"]) == 0
     rows = json.loads(capsys.readouterr().out)["scenarios"]
-    assert rows[0]["excluded_renderers"] == ["threejs"] and rows[1]["model_found"] is False
+    assert rows[0]["excluded_renderers"] == ["model-viewer"] and rows[1]["model_found"] is False
     np.testing.assert_allclose(rows[0]["camera"]["position"], [0, 1, 0], atol=1e-12)
 
 

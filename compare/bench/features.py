@@ -144,7 +144,8 @@ def measure_features(specs: list[str], *, frames: int = 8, spp: int = 128, featu
                      progress: Callable[[str], None] | None = None) -> dict[str, dict[str, dict]]:
     """``{renderer: {feature: {"value": number, "drawn": bool, "unit": text}}}`` for each renderer spec,
     from the probes of :data:`FEATURES` (all, or ``features``). A renderer that fails a probe gets
-    ``{"error": message}`` for it."""
+    ``{"error": message}`` for it; a probe lit by an area light is ``{"unmeasured": why}`` for a renderer
+    that draws none (:attr:`~compare.renderers.base.Renderer.area_lights`)."""
     from compare.mitsuba.reference import ReferenceRenderer
     from compare.renderers import RenderContext
     from compare.renderers.registry import Registry
@@ -171,6 +172,11 @@ def measure_features(specs: list[str], *, frames: int = 8, spp: int = 128, featu
                 if progress:
                     progress(f"{spec}: {probe.title}")
                 r = registry.get(spec)
+                if not r.area_lights and with_scene.lights:
+                    # a renderer without area lights would show the probe unlit: nothing to tell from it
+                    out[spec][name] = {"unmeasured": "its probe is lit by an area light, which the renderer "
+                                                      "does not draw"}
+                    continue
                 try:
                     images = []
                     for s in (with_scene, without_scene):
@@ -197,7 +203,8 @@ def feature_table(measured: dict[str, dict[str, dict]]) -> str:
         cells = []
         for s in specs:
             m = measured[s].get(n, {})
-            cells.append("error" if "error" in m else f"{'✓' if m.get('drawn') else '✗'} {m.get('value', float('nan')):.2f}")
+            cells.append("error" if "error" in m else "n/a" if "unmeasured" in m
+                         else f"{'✓' if m.get('drawn') else '✗'} {m.get('value', float('nan')):.2f}")
         lines.append(f"| {FEATURES[n].title} ({FEATURES[n].unit}) | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 

@@ -625,8 +625,12 @@ def write_png(
     *,
     exposure: float = 1.0,
     operator: str | Callable[[np.ndarray], np.ndarray] = "aces",
+    display: bool = False,
 ) -> Path:
     """Tone-map a linear HDR image and write it as an 8-bit sRGB PNG, atomically.
+
+    With ``display`` the image is display-encoded already (an engine's own tone-mapped sRGB, values in
+    [0, 1]) and is written as it is.
 
     Parameters
     ----------
@@ -652,7 +656,8 @@ def write_png(
     import imageio.v3 as iio  # deferred: imageio is only needed for writing previews
 
     a = check_rgb(image_hdr, f"{path}")
-    ldr = to_ldr(a, exposure=exposure, operator=operator, transfer="srgb")
+    ldr = (to_ldr(a, operator="clamp", transfer="linear") if display
+           else to_ldr(a, exposure=exposure, operator=operator, transfer="srgb"))
     u8 = np.round(ldr * 255.0).astype(np.uint8)
     path = Path(path)
     with atomic_path(path, suffix=".png") as tmp:

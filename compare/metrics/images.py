@@ -79,12 +79,15 @@ def _checked_pair(ref, test) -> tuple[np.ndarray, np.ndarray]:
     return r, t
 
 
-def _ldr_pair(r: np.ndarray, t: np.ndarray, exposure: float, operator: Operator) -> tuple[np.ndarray, np.ndarray]:
+def _ldr_pair(r: np.ndarray, t: np.ndarray, exposure: float, operator: Operator,
+              display: bool = False) -> tuple[np.ndarray, np.ndarray]:
     # One function, same arguments for both: the only way LDR metrics can
-    # differ is through the images themselves.
+    # differ is through the images themselves. A display-encoded test image (an
+    # engine that shows only its own tone-mapped 8-bit sRGB) is LDR already: it is
+    # taken as it is, against the reference as the suite tone-maps it.
     return (
         to_ldr(r, exposure=exposure, operator=operator),
-        to_ldr(t, exposure=exposure, operator=operator),
+        to_ldr(t, operator="clamp", transfer="linear") if display else to_ldr(t, exposure=exposure, operator=operator),
     )
 
 
@@ -513,6 +516,7 @@ def compare_images(
     operator: Operator = "aces",
     flip_hdr: bool = True,
     hdr_range: tuple[float, float] | None = None,
+    display: bool = False,
 ) -> dict[str, float | None]:
     """Every metric for one reference/test pair, as a JSON-ready dict.
 
@@ -529,6 +533,11 @@ def compare_images(
     hdr_range : (float, float), optional
         HDR-FLIP's exposure range (:func:`hdr_exposure_range` of the ground
         truth); None lets FLIP choose it from ``ref``.
+    display : bool, optional
+        ``test`` holds display-encoded values in [0, 1] (an engine's own tone
+        mapping, 8-bit sRGB; :data:`compare.renderers.base.DISPLAY_OUTPUT`), not
+        linear radiance: it enters the LDR metrics as it is, and the HDR metrics
+        (``mse``, ``relmse``, ``flip_hdr``) are ``None``.
 
     Returns
     -------
@@ -555,11 +564,11 @@ def compare_images(
         On NaN/Inf, a wrong shape, or a shape mismatch.
     """
     r, t = _checked_pair(ref, test)
-    rl, tl = _ldr_pair(r, t, exposure, operator)
+    rl, tl = _ldr_pair(r, t, exposure, operator, display)
     ldr_range = float(rl.max() - rl.min())
     out: dict[str, float | None] = {
-        "mse": float(np.mean(np.square(t.astype(np.float64) - r.astype(np.float64)))),
-        "relmse": float(np.mean(_relmse_terms(r, t, RELMSE_EPS))),
+        "mse": None if display else float(np.mean(np.square(t.astype(np.float64) - r.astype(np.float64)))),
+        "relmse": None if display else float(np.mean(_relmse_terms(r, t, RELMSE_EPS))),
         **dict.fromkeys(LDR_METRICS),
         "ldr_range": ldr_range,
     }
@@ -568,7 +577,9 @@ def compare_images(
         mean, fmap, _ = _flip_eval(rl, tl, "LDR", {})
         out.update(psnr=None if math.isinf(p) else p, ssim=_ssim_ldr(rl, tl)[0], flip=mean, **flip_statistics(fmap),
                    mv_rms_db=rms_db_ldr(rl, tl))
-    if flip_hdr:
+    if flip_hdr and display:
+        out["flip_hdr"] = None  # no radiance to sweep exposures over
+    elif flip_hdr:
         params = {} if hdr_range is None else {"startExposure": float(hdr_range[0]),
                                                "stopExposure": float(hdr_range[1])}
         try:
@@ -586,6 +597,7 @@ def error_maps(
     exposure: float = 1.0,
     operator: Operator = "aces",
     eps: float = RELMSE_EPS,
+    display: bool = False,
 ) -> dict[str, np.ndarray]:
     """Per-pixel error maps for a reference/test pair.
 
@@ -597,6 +609,9 @@ def error_maps(
         The tone mapping for the LDR maps (FLIP, SSIM).
     eps : float, optional
         relMSE's ε, default 1e-2.
+    display : bool, optional
+        ``test`` is display-encoded (see :func:`compare_images`): its LDR maps
+        only, no ``"relmse"``.
 
     Returns
     -------
@@ -614,13 +629,12 @@ def error_maps(
     if not (math.isfinite(eps) and eps > 0):
         raise ValueError(f"eps must be a finite number > 0, got {eps!r}")
     r, t = _checked_pair(ref, test)
-    rl, tl = _ldr_pair(r, t, exposure, operator)
+    rl, tl = _ldr_pair(r, t, exposure, operator, display)
     _, smap = _ssim_ldr(rl, tl)
-    return {
-        "flip": _flip_eval(rl, tl, "LDR", {})[1],
-        "one_minus_ssim": 1.0 - smap.mean(axis=2),
-        "relmse": _relmse_terms(r, t, eps).mean(axis=2),
-    }
+    maps = {"flip": _flip_eval(rl, tl, "LDR", {})[1], "one_minus_ssim": 1.0 - smap.mean(axis=2)}
+    if not display:
+        maps["relmse"] = _relmse_terms(r, t, eps).mean(axis=2)
+    return maps
 
 
 #: Fixed colour-map ranges, so that maps of different renderers and runs share

@@ -45,7 +45,7 @@ import numpy as np
 
 from compare.util.errors import CompareError
 
-__all__ = ["NOTE_KINDS", "UNITS", "UNIT_PLURALS", "unit_word", "Checkpoint", "RenderContext", "Renderer", "RendererError", "Rendering", "check_layers",
+__all__ = ["DISPLAY_OUTPUT", "OUTPUT_KEY", "is_display", "NOTE_KINDS", "UNITS", "UNIT_PLURALS", "unit_word", "Checkpoint", "RenderContext", "Renderer", "RendererError", "Rendering", "check_layers",
            "check_renderer", "check_rendering", "doubling_steps"]
 
 #: What a step may count.
@@ -53,6 +53,18 @@ __all__ = ["NOTE_KINDS", "UNITS", "UNIT_PLURALS", "unit_word", "Checkpoint", "Re
 #: metadata (``--frames``, ``"samples": 64``).
 UNIT_PLURALS = {"spp": "spp", "frame": "frames", "sample": "samples"}
 UNITS = tuple(UNIT_PLURALS)
+
+
+#: The metadata key of a rendering whose images are not linear radiance, and its one value: display-encoded
+#: values in [0, 1] (an engine's own tone mapping and sRGB transfer, 8-bit), which the suite measures with its
+#: LDR metrics only (:func:`compare.metrics.images.compare_images` ``display``) and shows as they are.
+OUTPUT_KEY = "output"
+DISPLAY_OUTPUT = "display"
+
+
+def is_display(metadata) -> bool:
+    """Whether a rendering's (or a run record's) metadata says its images are display-encoded, not linear."""
+    return isinstance(metadata, dict) and metadata.get(OUTPUT_KEY) == DISPLAY_OUTPUT
 
 
 #: The kinds of :meth:`Renderer.notes` a report shows, and where.
@@ -197,6 +209,9 @@ class Renderer(abc.ABC):
     #: Scene features it draws as they are, beyond area lights and opaque metallic-roughness materials
     #: (names of :class:`compare.scene.model.Features`): :meth:`prepare` adapts a scene's others.
     renders: ClassVar[frozenset[str]] = frozenset()
+    #: Whether it draws the scene's rectangular area lights; one that does not (an engine without area
+    #: lights) gets the scene without them, and :meth:`prepare` says so.
+    area_lights: ClassVar[bool] = True
 
     @classmethod
     def from_spec(cls, spec: str) -> "Renderer":
@@ -246,6 +261,9 @@ class Renderer(abc.ABC):
         out, with the share of the pixels its materials cover where ``coverage`` (material name → fraction
         of the pixels, :func:`compare.mitsuba.coverage.material_coverage`) is given."""
         given, changed = (scene, []) if "punctual_lights" in self.renders else scene.with_punctual_as_area()
+        if not self.area_lights and given.lights:
+            changed.append(f"{len(given.lights)} area light(s) not rendered (neither their light nor their face)")
+            given = given.without_area_lights()
         for feature, names in scene.material_features().items():
             if feature in self.renders:
                 continue
@@ -354,6 +372,9 @@ def check_rendering(renderer: Renderer, rendering: Any, *, scene, checkpoints: l
             y, x = np.argwhere(bad.any(axis=-1))[0]
             raise RendererError(f"{where}: {int(bad.any(axis=-1).sum())} pixel(s) are NaN or infinite "
                                 f"(first at x={x}, y={y})")
+        if is_display(rendering.metadata) and (img.min() < 0 or img.max() > 1):
+            raise RendererError(f"{where}: display-encoded output must lie in [0, 1], got {img.min():g} … "
+                                f"{img.max():g}")
         if int(c.step) in checkpoints:
             out.append(Checkpoint(int(c.step), float(t), img))
     variance = rendering.variance

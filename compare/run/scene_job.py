@@ -48,7 +48,7 @@ from compare.util.errors import CompareError, ImageError
 from compare.image.exr import read_exr, write_exr
 from compare.util.files import sha256_bytes, write_text_atomic
 from compare.renderers import RenderContext, Renderer, RendererError, check_layers, check_rendering
-from compare.renderers.base import NOTE_KINDS
+from compare.renderers.base import NOTE_KINDS, is_display
 from compare.renderers.registry import Registry
 from compare.renderers.registry import TRUTH_FOLDER
 from compare.report.results import (NoiseFloor, Point, Reference, RendererRun, RunSettings, SceneResult, SeedRun,
@@ -158,12 +158,13 @@ def exr_metadata(meta: dict) -> dict:
 
 
 def _write_image(path: Path, image: np.ndarray, metadata: dict, *, exposure: float, tonemap: str) -> None:
+    # a display-encoded image (is_display) is its own preview: the engine tone-mapped it
     """EXR + tone-mapped PNG preview. The EXR is float32: the measure stage reads it back, and
     measures exactly what the renderer returned (half floats would round it to ~3 digits)."""
     from compare.image.tonemap import write_png
 
     write_exr(path, image, metadata=exr_metadata(metadata), half=False)
-    write_png(path.with_suffix(".png"), image, exposure=exposure, operator=tonemap)
+    write_png(path.with_suffix(".png"), image, exposure=exposure, operator=tonemap, display=is_display(metadata))
 
 
 def _paths_in(d: Any) -> Iterable[str]:
@@ -549,8 +550,10 @@ class SceneJob:
         for p in tqdm(record["points"], desc="metrics", unit="checkpoint", leave=False, disable=not self.progress):
             image = read_exr(self.out / p["image"])[0]
             what = f"{scene.name}: {spec} at {record['unit']} {p['step']}"
-            metrics = _measure(gt, image, s, what, final=p is last, hdr_range=hdr_range())
-            if others and all(p["step"] in o for o in others):
+            display = is_display(record["metadata"])
+            metrics = _measure(gt, image, s, what, final=p is last, hdr_range=hdr_range(), display=display)
+            # the seeds' bias and variance are of radiance: a display-encoded run has none to give
+            if others and not display and all(p["step"] in o for o in others):
                 from compare.metrics.bias import bias_variance
 
                 replica_images = [read_exr(self.out / o[p["step"]])[0] for o in others]
@@ -573,7 +576,7 @@ class SceneJob:
             seconds=points[-1].seconds, first_frame_seconds=points[0].seconds,
             setup_seconds=float(record["setup_seconds"]), metadata=dict(record["metadata"]),
             image=points[-1].image, preview=points[-1].preview,
-            maps=_maps(unit, gt, image, s), points=points,
+            maps=_maps(unit, gt, image, s, display=is_display(record["metadata"])), points=points,
             variant_of=record.get("variant_of"), variant_note=record.get("variant_note") or "",
             notes=dict(record.get("notes") or {}),
             layers=_layers(unit, truth_layers(), record, self.out, s, f"{scene.name}: {spec}"))
@@ -587,18 +590,19 @@ class SceneJob:
 
 
 def _measure(gt: np.ndarray, image: np.ndarray, settings: RunSettings, what: str, *, final: bool,
-             hdr_range: tuple[float, float] | None = None) -> dict:
+             hdr_range: tuple[float, float] | None = None, display: bool = False) -> dict:
     """Metrics of one checkpoint against the ground truth.
 
     HDR-FLIP runs several LDR-FLIP passes (one per exposure of its range) and
     costs more than all other metrics together, so it is computed for a
     run's final image only; intermediate checkpoints carry ``flip_hdr: null``.
+    A display-encoded image (``display``) gets the LDR metrics only.
     """
     from compare.metrics.images import compare_images
 
     try:
         m = compare_images(gt, image, exposure=settings.exposure, operator=settings.tonemap, flip_hdr=final,
-                           hdr_range=hdr_range)
+                           hdr_range=hdr_range, display=display)
     except ImageError as e:
         raise ImageError(f"{what}: {e}") from e
     m.setdefault("flip_hdr", None)
@@ -606,11 +610,12 @@ def _measure(gt: np.ndarray, image: np.ndarray, settings: RunSettings, what: str
     return m
 
 
-def _maps(unit: _Unit, gt: np.ndarray, image: np.ndarray, settings: RunSettings) -> dict[str, str]:
+def _maps(unit: _Unit, gt: np.ndarray, image: np.ndarray, settings: RunSettings, *,
+          display: bool = False) -> dict[str, str]:
     from compare.image.maps import save_maps
     from compare.metrics.images import ERROR_MAP_RANGES, error_maps
 
-    maps = error_maps(gt, image, exposure=settings.exposure, operator=settings.tonemap)
+    maps = error_maps(gt, image, exposure=settings.exposure, operator=settings.tonemap, display=display)
     written = save_maps(unit.dir / "maps", maps, ranges=ERROR_MAP_RANGES)
     return {name: unit.rel(path) for name, path in written.items()}
 

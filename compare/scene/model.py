@@ -726,6 +726,10 @@ class Scene:
             notes.append(f"{kinds['directional']} directional light(s) not rendered")
         return dataclasses.replace(self, lights=self.lights + squares, punctual=()), notes
 
+    def without_area_lights(self) -> "Scene":
+        """The same scene without its rectangular area lights (for a renderer that draws none)."""
+        return dataclasses.replace(self, lights=())
+
     def with_max_depth(self, max_depth: int) -> "Scene":
         """The same scene with another path depth for the reference (2 = direct light only)."""
         return dataclasses.replace(self, max_depth=int(max_depth))

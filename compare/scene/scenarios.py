@@ -86,7 +86,7 @@ DEFAULTS: dict[str, Any] = {
 #: Renderer names of model-viewer's fidelity page → the suite's renderer of the same engine. The page's
 #: others (filament, gltf-sample-viewer, dspbr-pt, stellar, rhodonite, vray, ...) have none here.
 RENDERER_NAMES = {
-    "model-viewer": "threejs",  # <model-viewer> draws with three.js
+    "model-viewer": "model-viewer",  # the <model-viewer> element itself (compare.web.model_viewer)
     "three-gpu-pathtracer": "threejs-pathtracer",
     "babylon": "babylon",
     "blender-cycles": "cycles",

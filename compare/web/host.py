@@ -3,10 +3,13 @@
 The scene goes to the page as the job an external renderer receives
 (:mod:`compare.renderers.job`: the glTF, the rectangular lights, the environment
 EXR, the camera), served from local files by a server on 127.0.0.1 that the page
-cannot leave (every other request is aborted). ``page/index.html`` loads the engine's
-own script (:attr:`WebRenderer.SCRIPT`), which builds the scene in that engine and
-renders into float render targets; the pixels come back as float32, never through an
-8-bit screenshot. Every engine's script defines the same three functions:
+cannot leave (every other request is aborted). ``page/index.html`` (or the engine's own
+page, :attr:`WebRenderer.HTML`, where its import map differs) loads the engine's own script
+(:attr:`WebRenderer.SCRIPT`), which builds the scene in that engine and renders into float
+render targets; the pixels come back as float32, never through an 8-bit screenshot, except
+from an engine that shows only 8-bit sRGB: its set-up answer says ``output: "display"`` and
+the rendering's metadata carries it (:data:`compare.renderers.base.OUTPUT_KEY`), so the suite
+measures it with its LDR metrics only. Every engine's script defines the same three functions:
 
 * ``await compareSetup({job, engine, options})`` builds the scene and compiles its
   shaders (set-up);
@@ -34,7 +37,8 @@ from typing import ClassVar
 
 import numpy as np
 
-from compare.renderers.base import DEFAULT_TIMEOUT_S, Checkpoint, RenderContext, Renderer, RendererError, Rendering
+from compare.renderers.base import (DEFAULT_TIMEOUT_S, DISPLAY_OUTPUT, OUTPUT_KEY, Checkpoint, RenderContext, Renderer,
+                                    RendererError, Rendering)
 from compare.renderers.options import parse_spec
 from compare.util.files import sha256_bytes
 
@@ -123,6 +127,8 @@ class WebRenderer(Renderer):
     PACKAGES: ClassVar[tuple[str, ...]] = ()
     #: Metadata keys the page's set-up answer adds (the engine's version).
     VERSION_KEY: ClassVar[str] = "version"
+    #: The page (in ``page/``) that loads :attr:`SCRIPT`: its import map names the packages' files.
+    HTML: ClassVar[str] = "index.html"
 
     def __init__(self, spec: str):
         family = spec.partition(":")[0]
@@ -160,7 +166,7 @@ class WebRenderer(Renderer):
         return True, ""
 
     def key(self, scene, settings) -> list:
-        files = [PAGE / f for f in (*SHARED_SCRIPTS, self.SCRIPT)] + [web_root() / "package-lock.json"]
+        files = [PAGE / f for f in (*SHARED_SCRIPTS, self.HTML, self.SCRIPT)] + [web_root() / "package-lock.json"]
         return ["web", self.engine, sorted(self.options),
                 [(f.name, sha256_bytes(f.read_bytes())) for f in files if f.is_file()]]
 
@@ -185,6 +191,7 @@ class WebRenderer(Renderer):
             t0 = time.perf_counter()
             write_job(scene, folder, renderer=self.name, unit=self.unit, checkpoints=checkpoints, seed=seed,
                       output_dir=folder, cache_dir=context.cache_dir or None)
+            self.write_files(scene, folder, context)
             handler = type("Handler", (_Handler,), {"roots": {"/web/node_modules/": (web_root() / "node_modules").resolve(),
                                                               "/web/": PAGE,
                                                               "/job/": folder.resolve()}})
@@ -223,7 +230,7 @@ class WebRenderer(Renderer):
             page.route("**/*", lambda route: route.continue_() if route.request.url.startswith(origin)
                        else route.abort())
             try:
-                page.goto(f"{origin}/web/index.html?script={self.SCRIPT}")
+                page.goto(f"{origin}/web/{self.HTML}?script={self.SCRIPT}")
                 page.wait_for_function("window.compareReady === true || window.compareFailed !== undefined")
             except PlaywrightTimeout:
                 raise _Timeout("loading the page") from None
@@ -243,6 +250,8 @@ class WebRenderer(Renderer):
             meta = {"compile_seconds": round(float(info.get("warm") or 0) / 1000, 3),
                     "webgl_renderer": info.get("gl_renderer"), self.VERSION_KEY: info.get("version"),
                     "chromium": browser.version, "engine": self.engine, "options": "+".join(sorted(self.options))}
+            if info.get("output") == DISPLAY_OUTPUT:
+                meta[OUTPUT_KEY] = DISPLAY_OUTPUT
             if console:
                 meta["console"] = " | ".join(console[-5:])
             return Rendering(out, setup, meta)
@@ -264,6 +273,10 @@ class WebRenderer(Renderer):
                 server.shutdown()
                 server.server_close()
             shutil.rmtree(folder, ignore_errors=True)
+
+    def write_files(self, scene, folder: Path, context: RenderContext) -> None:
+        """Write what the page needs beside the job (``job.json``, ``scene.gltf``, ``environment.exr``) into
+        ``folder``, which the page reads as ``/job/``; default: nothing."""
 
     def facts(self, metadata: dict) -> dict[str, str]:
         g = metadata.get("webgl_renderer")
