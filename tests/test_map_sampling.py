@@ -200,8 +200,8 @@ def test_the_jobs_gltf_carries_each_maps_reading(card_scene, tmp_path):
     assert again.primitives[0].mesh.uvs1 is not None
 
 
-WEB_ENGINES = [e if e == "threejs" else pytest.param(e, marks=pytest.mark.slow) for e in ("threejs", "babylon",
-                                                                                           "playcanvas")]
+WEB_ENGINES = [e if e == "threejs" else pytest.param(e, marks=pytest.mark.slow)
+               for e in ("threejs", "babylon", "playcanvas", "model-viewer:linear")]
 
 
 @pytest.mark.web
@@ -222,3 +222,22 @@ def test_web_engines_read_each_map_from_the_jobs_gltf(card_scene, engine):
         context.close()
     blocks = lambda a: a.reshape(4, 4, 4, 4, 3).mean(axis=(1, 3))  # noqa: E731
     np.testing.assert_allclose(blocks(image), blocks(expected_image()), atol=0.05)
+
+
+@pytest.mark.bpy
+def test_cycles_reads_each_map_as_the_file_says(card_scene):
+    """Blender gets both UV layers and an image node per map with its own layer, transform and wraps (per axis
+    by math nodes): Cycles' blocks hold the closed form within its noise."""
+    from compare.renderers import RenderContext
+    from compare.renderers.registry import Registry
+    from compare.report.results import RunSettings
+
+    r = Registry().get("cycles")
+    assert {"uv_sets", "map_samplers"} <= r.renders
+    context = RenderContext(RunSettings(spp=256))
+    try:
+        image = r.render(card_scene, steps=256, checkpoints=[256], seed=0, context=context).checkpoints[-1].image
+    finally:
+        context.close()
+    blocks = lambda a: a.reshape(4, 4, 4, 4, 3).mean(axis=(1, 3))  # noqa: E731
+    np.testing.assert_allclose(blocks(image), blocks(expected_image()), atol=0.02)

@@ -342,18 +342,35 @@ def blender_environment_map(image: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(out, dtype=np.float32)
 
 
-def blender_uv_mapping(mat) -> dict[str, list[float]] | None:
-    """The material's texture transform as a Blender Mapping node (POINT: scale, then rotate about Z,
-    then translate), or None for none.
+#: The UV layers of the meshes Blender gets: glTF's TEXCOORD_0 and TEXCOORD_1.
+UV_LAYERS = ("UVMap", "UVMap.001")
+#: The image node's extension of each wrap mode (one for both axes; per-axis wraps are math nodes).
+BLENDER_EXTENSIONS = {"repeat": "REPEAT", "clamp": "EXTEND", "mirror": "MIRROR"}
+
+
+def blender_map_reading(sampling) -> dict[str, Any]:
+    """How an image node reads one map (a :class:`compare.scene.model.MapSampling`): its UV layer, its texture
+    transform as a Mapping node, its interpolation, and its wrap: the node's extension where both axes wrap
+    alike, else ``axis_wraps`` (s, t) done by math nodes before an extended (clamped) lookup."""
+    same = sampling.wrap[0] == sampling.wrap[1]
+    return {"uv_map": UV_LAYERS[sampling.texcoord], "uv_mapping": blender_uv_mapping(sampling),
+            "interpolation": "Closest" if sampling.filter == "nearest" else "Linear",
+            "extension": BLENDER_EXTENSIONS[sampling.wrap[0]] if same else "EXTEND",
+            "axis_wraps": None if same else list(sampling.wrap)}
+
+
+def blender_uv_mapping(sampling) -> dict[str, list[float]] | None:
+    """A map's texture transform (a :class:`compare.scene.model.MapSampling`) as a Blender Mapping node (POINT:
+    scale, then rotate about Z, then translate), or None for none.
 
     The transform is glTF's, on glTF's coordinates (v down the image); Blender's v runs up
     (v_b = 1 − v, see the module notes), so the node applies F M F with F the flip of v. Its linear part is
     a rotation times the scales (M's rotation turns the other way in Blender's frame).
     """
-    if not mat.has_uv_transform:
+    if not sampling.has_uv_transform:
         return None
     flip = np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 1.0], [0.0, 0.0, 1.0]])
-    a = flip @ mat.uv_transform() @ flip
+    a = flip @ sampling.uv_transform() @ flip
     lin = a[:2, :2]
     sx, sy = float(np.linalg.norm(lin[:, 0])), float(np.linalg.norm(lin[:, 1]))
     if np.linalg.det(lin) < 0:
@@ -397,9 +414,8 @@ def volume_absorption(mat) -> dict[str, Any] | None:
 def _material(mat, mode: str, distribution: str | None = None) -> dict[str, Any]:
     tex = mat.base_color_texture
     return {
-        "uv_mapping": blender_uv_mapping(mat),
-        "texture_extension": {"repeat": "REPEAT", "clamp": "EXTEND", "mirror": "MIRROR"}[mat.texture_wrap],
-        "texture_interpolation": "Closest" if mat.texture_filter == "nearest" else "Linear",
+        # how each map is read (its UV layer, transform, wrap and filter), by its name in the scene model
+        "maps": {name: blender_map_reading(mat.sampling(name)) for name in mat.map_names()},
         # Blender's enum identifier of the Principled BSDF's distribution.
         "distribution": BLENDER_DISTRIBUTIONS[distribution or mat.distribution],
         "base_color": list(mat.base_color),
@@ -423,7 +439,7 @@ def _material(mat, mode: str, distribution: str | None = None) -> dict[str, Any]
         # glTF's material extensions as the Principled BSDF's inputs (Lambert only with "diffuse")
         "principled_inputs": principled_inputs(mat) if mode == "cycles" else {},
         # the extensions' maps, each times its factor on its input
-        "input_maps": ([{"input": BLENDER_INPUTS[f], "file": str(p),
+        "input_maps": ([{"input": BLENDER_INPUTS[f], "file": str(p), "map": f,
                          "channel": {"r": "Red", "g": "Green", "b": "Blue", "a": "Alpha", "rgb": "Color"}[c],
                          "factor": ([float(x) for x in getattr(mat, f)] if c == "rgb"
                                     else float(getattr(mat, f)) * BLENDER_INPUT_SCALE.get(f, 1.0))}
@@ -528,6 +544,8 @@ def build_job(scene: Scene, *, engine: str, samples: int, seed: int, folder: Pat
         arrays[f"m{k}_positions"] = np.asarray(tri.positions, dtype=np.float32)
         arrays[f"m{k}_normals"] = np.asarray(tri.normals, dtype=np.float32)
         arrays[f"m{k}_uvs"] = uv
+        if tri.uvs1 is not None:  # TEXCOORD_1, flipped alike
+            arrays[f"m{k}_uvs1"] = np.column_stack([tri.uvs1[:, 0], 1.0 - tri.uvs1[:, 1]]).astype(np.float32)
         arrays[f"m{k}_indices"] = np.asarray(tri.indices, dtype=np.int32)
         meshes.append({"name": mesh.name, "material": mesh.material, "key": f"m{k}"})
     np.savez(folder / "meshes.npz", **arrays)

@@ -11,7 +11,7 @@ from compare.blender.export import CYCLES_PAPER_SAMPLES, EEVEE_PAPER_SAMPLES
 from compare.brdf import PRINCIPLED_MODES
 from compare.renderers.base import Checkpoint, RenderContext, Renderer, Rendering
 from compare.renderers.options import parse_spec
-from compare.scene.model import MATERIAL_FEATURE_NAMES
+from compare.scene.model import MAP_FEATURE_NAMES, MATERIAL_FEATURE_NAMES
 
 __all__ = ["BlenderRenderer", "CyclesRenderer", "EeveeRenderer", "blender_ladder"]
 
@@ -57,7 +57,8 @@ class BlenderRenderer(Renderer):
     """
 
     unit = "spp"
-    renders = frozenset({"punctual_lights"}) | frozenset(MATERIAL_FEATURE_NAMES)  # Principled BSDF v2 inputs
+    # Principled BSDF v2 inputs; each map on its UV layer with its own transform, wraps and filter
+    renders = frozenset({"punctual_lights"}) | frozenset(MATERIAL_FEATURE_NAMES) | frozenset(MAP_FEATURE_NAMES)
     OPTIONS = {"ggx": "GGX (single scattering) in every Principled BSDF",
                "multi_ggx": "Multiscatter GGX in every Principled BSDF"}
 

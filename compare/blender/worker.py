@@ -49,7 +49,7 @@ def _principled(bpy, name: str, mat: dict):
         inp[key].default_value = 0.0
     base_tex = None
     if mat.get("base_color_texture"):
-        tex = base_tex = _image_node(bpy, nodes, links, mat, mat["base_color_texture"],
+        tex = base_tex = _image_node(bpy, nodes, links, mat, "base_color_texture", mat["base_color_texture"],
                                      mat["base_color_texture_colorspace"])
         links.new(tex.outputs["Color"], inp["Base Color"])
     for key, value in mat.get("principled_inputs", {}).items():
@@ -57,7 +57,7 @@ def _principled(bpy, name: str, mat: dict):
     for m_in in mat.get("input_maps", []):
         # a glTF extension's map (linear; a colour map sRGB) times its factor, on the input it drives
         colour = m_in["channel"] == "Color"
-        tex = _image_node(bpy, nodes, links, mat, m_in["file"], "sRGB" if colour else "Non-Color")
+        tex = _image_node(bpy, nodes, links, mat, m_in["map"], m_in["file"], "sRGB" if colour else "Non-Color")
         if colour:
             product = nodes.new("ShaderNodeMix")
             product.data_type = "RGBA"
@@ -89,20 +89,22 @@ def _principled(bpy, name: str, mat: dict):
         links.new(absorb.outputs["Volume"], out.inputs["Volume"])
     if mat.get("metallic_roughness_texture"):
         # glTF's channels, as Blender's own glTF importer wires them: G = roughness, B = metallic.
-        tex = _image_node(bpy, nodes, links, mat, mat["metallic_roughness_texture"], "Non-Color")
+        tex = _image_node(bpy, nodes, links, mat, "metallic_roughness_texture", mat["metallic_roughness_texture"],
+                          "Non-Color")
         split = nodes.new("ShaderNodeSeparateColor")
         links.new(tex.outputs["Color"], split.inputs["Color"])
         links.new(split.outputs["Green"], inp["Roughness"])
         links.new(split.outputs["Blue"], inp["Metallic"])
     # glTF's tangent-space normal maps (+Y up the image, Blender's OpenGL convention) on the UV map's
     # tangents, their scale the node's strength: the surface's, and the coat's own (clearcoatNormalTexture)
-    for key, scale, target in (("normal_texture", "normal_scale", "Normal"),
-                               ("coat_normal_texture", "coat_normal_scale", "Coat Normal")):
+    for key, name, scale, target in (("normal_texture", "normal_texture", "normal_scale", "Normal"),
+                                     ("coat_normal_texture", "clearcoat_normal_texture", "coat_normal_scale",
+                                      "Coat Normal")):
         if mat.get(key):
-            tex = _image_node(bpy, nodes, links, mat, mat[key], "Non-Color")
+            tex = _image_node(bpy, nodes, links, mat, name, mat[key], "Non-Color")
             nmap = nodes.new("ShaderNodeNormalMap")
             nmap.space = "TANGENT"
-            nmap.uv_map = "UVMap"
+            nmap.uv_map = mat["maps"][name]["uv_map"]  # glTF: the tangents of the normal map's own set
             nmap.inputs["Strength"].default_value = float(mat[scale])
             links.new(tex.outputs["Color"], nmap.inputs["Color"])
             links.new(nmap.outputs["Normal"], inp[target])
@@ -110,7 +112,8 @@ def _principled(bpy, name: str, mat: dict):
         emitted = None
         if mat.get("emissive_texture"):
             # glTF's emissiveTexture (sRGB) times the emission factor
-            tex = _image_node(bpy, nodes, links, mat, mat["emissive_texture"], mat["emissive_texture_colorspace"])
+            tex = _image_node(bpy, nodes, links, mat, "emissive_texture", mat["emissive_texture"],
+                              mat["emissive_texture_colorspace"])
             product = nodes.new("ShaderNodeMix")
             product.data_type = "RGBA"
             product.blend_type = "MULTIPLY"
@@ -160,28 +163,42 @@ def _alpha_mask(m, nodes, links, socket, mask: dict, base_tex) -> None:
         m.use_transparent_shadow = True  # EEVEE: shadows see the holes
 
 
-def _image_node(bpy, nodes, links, mat: dict, path: str, colorspace: str):
-    """An image texture node of ``path`` reading the mesh's UVs through the material's texture transform
-    (a Mapping node, export.blender_uv_mapping) with its wrap and filter."""
+def _image_node(bpy, nodes, links, mat: dict, name: str, path: str, colorspace: str):
+    """An image texture node of ``path`` read as the material's map ``name`` is (export.blender_map_reading):
+    on its UV layer, through its texture transform (a Mapping node), with its wrap and filter; a wrap per axis
+    by math nodes (repeat: WRAP, mirror: PINGPONG, clamp: a clamped ADD) ahead of a clamped lookup."""
+    reading = mat["maps"][name]
     tex = nodes.new("ShaderNodeTexImage")
     img = bpy.data.images.load(path, check_existing=True)
     img.colorspace_settings.name = colorspace
     tex.image = img
-    tex.interpolation = mat["texture_interpolation"]
-    tex.extension = mat["texture_extension"]
+    tex.interpolation = reading["interpolation"]
+    tex.extension = reading["extension"]
     uv = nodes.new("ShaderNodeUVMap")
-    uv.uv_map = "UVMap"
-    mapping = mat.get("uv_mapping")
+    uv.uv_map = reading["uv_map"]
+    vector = uv.outputs["UV"]
+    mapping = reading["uv_mapping"]
     if mapping:
         node = nodes.new("ShaderNodeMapping")
         node.vector_type = "POINT"
         node.inputs["Location"].default_value = mapping["location"]
         node.inputs["Rotation"].default_value = mapping["rotation"]
         node.inputs["Scale"].default_value = mapping["scale"]
-        links.new(uv.outputs["UV"], node.inputs["Vector"])
-        links.new(node.outputs["Vector"], tex.inputs["Vector"])
-    else:
-        links.new(uv.outputs["UV"], tex.inputs["Vector"])
+        links.new(vector, node.inputs["Vector"])
+        vector = node.outputs["Vector"]
+    if reading["axis_wraps"]:
+        split, join = nodes.new("ShaderNodeSeparateXYZ"), nodes.new("ShaderNodeCombineXYZ")
+        links.new(vector, split.inputs["Vector"])
+        for axis, wrap in zip("XY", reading["axis_wraps"]):
+            op = nodes.new("ShaderNodeMath")
+            op.operation = {"repeat": "WRAP", "mirror": "PINGPONG", "clamp": "ADD"}[wrap]
+            links.new(split.outputs[axis], op.inputs[0])
+            op.inputs[1].default_value = 1.0 if wrap != "clamp" else 0.0
+            op.inputs[2].default_value = 0.0
+            op.use_clamp = wrap == "clamp"
+            links.new(op.outputs["Value"], join.inputs[axis])
+        vector = join.outputs["Vector"]
+    links.new(vector, tex.inputs["Vector"])
     return tex
 
 
@@ -227,8 +244,9 @@ def _black_material(bpy, name: str):
     return m
 
 
-def _mesh(bpy, np, name: str, positions, normals, uvs, indices):
-    """A mesh object from world-space triangles with per-vertex normals and UVs."""
+def _mesh(bpy, np, name: str, positions, normals, uvs, indices, uvs1=None):
+    """A mesh object from world-space triangles with per-vertex normals and UVs (``uvs1``: a second layer,
+    glTF's TEXCOORD_1)."""
     me = bpy.data.meshes.new(name)
     nv, nt = len(positions), len(indices)
     me.vertices.add(nv)
@@ -242,6 +260,9 @@ def _mesh(bpy, np, name: str, positions, normals, uvs, indices):
     me.update(calc_edges=True)
     uv_layer = me.uv_layers.new(name="UVMap")
     uv_layer.data.foreach_set("uv", np.ascontiguousarray(uvs[indices.ravel()], dtype=np.float32).ravel())
+    if uvs1 is not None:
+        second = me.uv_layers.new(name="UVMap.001")
+        second.data.foreach_set("uv", np.ascontiguousarray(uvs1[indices.ravel()], dtype=np.float32).ravel())
     me.shade_smooth()
     me.normals_split_custom_set_from_vertices(np.asarray(normals, dtype=np.float32))
     obj = bpy.data.objects.new(name, me)
@@ -353,7 +374,7 @@ def build(bpy, np, job: dict, folder: str):
     for mesh in job["meshes"]:
         k = mesh["key"]
         obj = _mesh(bpy, np, mesh["name"], arrays[f"{k}_positions"], arrays[f"{k}_normals"], arrays[f"{k}_uvs"],
-                    arrays[f"{k}_indices"])
+                    arrays[f"{k}_indices"], arrays[f"{k}_uvs1"] if f"{k}_uvs1" in arrays.files else None)
         obj.data.materials.append(mats[mesh["material"]])
         sc.collection.objects.link(obj)
 

@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from compare.scene.model import MATERIAL_FEATURE_NAMES
+from compare.scene.model import MAP_FEATURE_NAMES, MATERIAL_FEATURE_NAMES
 from compare.web.host import WebRenderer
 
 __all__ = ["ModelViewerRenderer", "model_viewer_environment"]
@@ -76,7 +76,8 @@ class ModelViewerRenderer(WebRenderer):
     VARIANTS = ("model-viewer:linear",)
     # its GLTFLoader reads every material extension of the job's glTF into MeshPhysicalMaterial, BLEND as a
     # transparent material, COLOR_0 as vertex colours, KHR_lights_punctual as three's lights
-    renders = frozenset(MATERIAL_FEATURE_NAMES) | {"punctual_lights", "vertex_colors", "single_sided"}
+    renders = (frozenset(MATERIAL_FEATURE_NAMES) | frozenset(MAP_FEATURE_NAMES)
+               | {"punctual_lights", "vertex_colors", "single_sided"})
     area_lights = MODEL_VIEWER_AREA_LIGHTS
 
     def describe(self, opts: list[str]) -> str:
