@@ -58,7 +58,9 @@ class BlenderRenderer(Renderer):
 
     unit = "spp"
     # Principled BSDF v2 inputs; each map on its UV layer with its own transform, wraps and filter
-    renders = frozenset({"punctual_lights"}) | frozenset(MATERIAL_FEATURE_NAMES) | frozenset(MAP_FEATURE_NAMES)
+    # (no dispersion: Blender 5.0's Principled BSDF has no such input, its Glass BSDF alone has one)
+    renders = ((frozenset({"punctual_lights"}) | frozenset(MATERIAL_FEATURE_NAMES) | frozenset(MAP_FEATURE_NAMES))
+               - {"dispersion"})
     OPTIONS = {"ggx": "GGX (single scattering) in every Principled BSDF",
                "multi_ggx": "Multiscatter GGX in every Principled BSDF"}
 

@@ -314,6 +314,21 @@ def _dielectric(mat: Material, mode: str, vc: bool = False) -> dict:
         return {"type": "diffuse", "reflectance": tint}
     if mat.thickness == 0.0 and mode not in PRINCIPLED_MODES:  # Principled has no thin wall: a solid, as Cycles
         return {"type": "thindielectric", "int_ior": ior, "ext_ior": 1.0, "specular_transmittance": tint}
+    if "dispersion" in mat.uses() and mode not in PRINCIPLED_MODES:  # (Principled has no dispersion input)
+        from compare.mitsuba.dispersion import PLUGIN_NAME as DISPERSIVE, register as register_dispersive
+        from compare.scene.model import channel_iors
+
+        register_dispersive()
+        rough = mat.roughness > 0.0
+        # a rough lobe needs two different indices: the red one is kept just above 1
+        iors = [max(n, 1.0 + 1e-4) if rough else n for n in channel_iors(ior, mat.dispersion)]
+        return {"type": DISPERSIVE, "rough": rough,
+                **{f"bsdf_{k}": _interface(mat, mode, n, tint) for k, n in enumerate(iors)}}
+    return _interface(mat, mode, ior, tint)
+
+
+def _interface(mat: Material, mode: str, ior: float, tint: dict) -> dict:
+    """The dielectric interface of index ``ior`` (smooth, rough or index-matched) tinted by ``tint``."""
     if mat.roughness == 0.0 or ior <= 1.0:
         # ior 1 (valid glTF, an index-matched interface): refraction by any microfacet leaves the direction
         # as it is, so rough or smooth the light goes straight through, tinted; Mitsuba's rough dielectric

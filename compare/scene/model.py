@@ -137,6 +137,7 @@ LAYERS = (
     Layer("sheen_roughness", 0.0, "KHR_materials_sheen", "sheenRoughnessFactor"),
     Layer("specular", 1.0, "KHR_materials_specular", "specularFactor"),
     Layer("specular_color", (1.0, 1.0, 1.0), "KHR_materials_specular", "specularColorFactor", color=True, hi=math.inf),
+    Layer("dispersion", 0.0, "KHR_materials_dispersion", "dispersion", hi=math.inf),
 )
 #: How a map wraps ("repeat", "clamp", "mirror") and is filtered when magnified ("linear", "nearest").
 TEXTURE_WRAPS = ("repeat", "clamp", "mirror")
@@ -179,7 +180,8 @@ CORE_MAPS = ("base_color_texture", "metallic_roughness_texture", "emissive_textu
 #: The scene feature each material extension makes (Features fields); "alpha_blend" is alphaMode BLEND.
 MATERIAL_FEATURES = {"KHR_materials_transmission": "transmission", "KHR_materials_volume": "volume",
                      "KHR_materials_ior": "ior", "KHR_materials_clearcoat": "clearcoat",
-                     "KHR_materials_sheen": "sheen", "KHR_materials_specular": "specular"}
+                     "KHR_materials_sheen": "sheen", "KHR_materials_specular": "specular",
+                     "KHR_materials_dispersion": "dispersion"}
 #: The extensions' maps that are read: glTF key → (the field it multiplies, its channel).
 LAYER_MAPS = {"transmissionTexture": ("transmission", "r"), "clearcoatTexture": ("clearcoat", "r"),
               "clearcoatRoughnessTexture": ("clearcoat_roughness", "g"),
@@ -188,6 +190,14 @@ LAYER_MAPS = {"transmissionTexture": ("transmission", "r"), "clearcoatTexture": 
               # read and passed on (the job's glTF); the path tracers take the thickness from the geometry
               "thicknessTexture": ("thickness", "g")}
 #: (Channel "rgb": an sRGB colour map; the others: one channel of a linear map.)
+def channel_iors(ior: float, dispersion: float) -> tuple[float, float, float]:
+    """The red, green and blue IORs of a dispersive volume (KHR_materials_dispersion's rule for RGB renderers:
+    green at the material's ior, red and blue half the spread n_F − n_C = (ior − 1) / V_d below and above it,
+    V_d = 20 / dispersion; never below 1)."""
+    half = (ior - 1.0) * 0.025 * dispersion
+    return (max(ior - half, 1.0), ior, ior + half)
+
+
 #: Every material feature a renderer may declare it renders (Renderer.renders).
 MATERIAL_FEATURE_NAMES = ("alpha_blend", *MATERIAL_FEATURES.values(), "layer_maps")
 #: What a mesh's vertices may carry beyond the core model, declared like a material feature (the materials
@@ -260,6 +270,9 @@ class Material:
     sheen_roughness: float = 0.0
     specular: float = 1.0
     specular_color: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    #: KHR_materials_dispersion: 20 / Abbe number; the refracting volume's IOR per colour channel,
+    #: (ior − h, ior, ior + h) with h = (ior − 1) · 0.025 · dispersion (:func:`channel_iors`).
+    dispersion: float = 0.0
     #: The extensions' maps that are read (:data:`LAYER_MAPS`): (field, channel, linear map), each multiplying
     #: its field's factor, with the material's texture transform.
     layer_maps: tuple[tuple[str, str, Path], ...] = ()
@@ -306,6 +319,8 @@ class Material:
             out.discard("volume")
         if self.clearcoat == 0.0:
             out.discard("clearcoat")
+        if self.transmission == 0.0 or self.thickness == 0.0:
+            out.discard("dispersion")  # glTF: dispersion spreads the IOR of a volume's refraction, nothing else
         if max(self.sheen_color) == 0.0:
             out.discard("sheen")
         if self.clearcoat_normal_texture is not None and "clearcoat" in out:
@@ -598,6 +613,7 @@ class Features:
     clearcoat: bool = False
     sheen: bool = False
     specular: bool = False
+    dispersion: bool = False
     layer_maps: bool = False
     uv_sets: bool = False
     map_samplers: bool = False

@@ -1,0 +1,91 @@
+"""glTF's dispersion in the reference (``KHR_materials_dispersion``): a glass sphere over a checker, whose
+dispersive image is, channel by channel, the image of the same sphere without dispersion at that channel's
+IOR (:func:`compare.scene.model.channel_iors`): the hero-channel estimator is unbiased per channel."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from compare.scene.loader import load_scene
+from compare.scene.model import channel_iors
+
+SIZE = 24
+
+
+def _scene(make_scene, tmp_path, *, ior: float, dispersion: float, roughness: float = 0.0):
+    checker = np.kron((np.indices((8, 8)).sum(0) % 2).astype(np.uint8) * 230 + 20, np.ones((4, 4), np.uint8))
+    Image.fromarray(np.repeat(checker[..., None], 3, axis=2)).save(tmp_path / "checker.png")
+    return load_scene(make_scene(f"""
+        [camera]
+        position = [0.0, 0.0, 3.0]
+        target = [0.0, 0.0, 0.0]
+        fov = 30.0
+        resolution = [{SIZE}, {SIZE}]
+
+        [render]
+        max_depth = 16
+
+        [materials.glass]
+        base_color = [1, 1, 1]
+        roughness = {roughness}
+        transmission = 1.0
+        thickness = 1.0
+        ior = {ior}
+        dispersion = {dispersion}
+
+        [materials.checker]
+        base_color_texture = "checker.png"
+        texture_filter = "nearest"
+
+        [[meshes]]
+        shape = "sphere"
+        radius = 0.5
+        segments = 96
+        rings = 48
+        material = "glass"
+
+        [[meshes]]
+        shape = "quad"
+        size = [2.0, 2.0]
+        rotate = [90.0, 0.0, 0.0]
+        translate = [0.0, 0.0, -1.0]
+        material = "checker"
+
+        [environment]
+        constant = [1.0, 1.0, 1.0]
+        """, name=f"s-{ior}-{dispersion}-{roughness}.toml"))
+
+
+def _render(scene, spp):
+    from compare.mitsuba.reference import ReferenceRenderer
+
+    return ReferenceRenderer(scene, cache_dir=False, progress=False).render(spp, seed=3).image
+
+
+def test_channel_iors_follow_the_extensions_rule():
+    assert channel_iors(1.5, 0.0) == (1.5, 1.5, 1.5)
+    r, g, b = channel_iors(1.5, 1.0)  # V_d = 20: n_F − n_C = 0.5 / 20, half of it each side of n_d
+    assert (g, b - r) == (1.5, pytest.approx(0.025)) and r < g < b
+    assert channel_iors(1.01, 100.0)[0] == 1.0  # never below 1
+
+
+@pytest.mark.parametrize("roughness", [0.0, pytest.param(0.2, marks=pytest.mark.slow)], ids=["smooth", "rough"])
+def test_each_channel_is_the_sphere_at_that_channels_ior(make_scene, tmp_path, mi_llvm, roughness):
+    """The colour fringes (red minus blue) of the dispersive sphere are those of the three spheres at the
+    channels' IORs (correlation measured 0.89 smooth, 0.94 rough at 2048 spp; none without dispersion, where
+    red equals blue), and each channel's mean is theirs (unbiased)."""
+    ior, dispersion = 1.5, 8.0  # an exaggerated spread (0.2) so that the channels part visibly
+    scene = _scene(make_scene, tmp_path, ior=ior, dispersion=dispersion, roughness=roughness)
+    assert scene.features().dispersion
+    spread = _render(scene, 2048)
+    assert np.isfinite(spread).all()
+    per_channel = [_render(_scene(make_scene, tmp_path, ior=n, dispersion=0.0, roughness=roughness), 512)[..., k]
+                   for k, n in enumerate(channel_iors(ior, dispersion))]
+    expected = np.stack(per_channel, axis=-1)
+    blocks = lambda a: a.reshape(12, 2, 12, 2, 3).mean(axis=(1, 3))  # noqa: E731
+    fringe = lambda a: (blocks(a)[..., 0] - blocks(a)[..., 2]).ravel()  # noqa: E731
+    assert np.abs(fringe(expected)).max() > 0.1  # the channels do part
+    assert np.corrcoef(fringe(spread), fringe(expected))[0, 1] > 0.8
+    np.testing.assert_allclose(spread.mean(axis=(0, 1)), expected.mean(axis=(0, 1)), rtol=0.01)
