@@ -58,9 +58,10 @@ class BlenderRenderer(Renderer):
 
     unit = "spp"
     # Principled BSDF v2 inputs; each map on its UV layer with its own transform, wraps and filter
-    # (no dispersion: Blender 5.0's Principled BSDF has no such input, its Glass BSDF alone has one)
+    # (no dispersion: Blender 5.0's Principled BSDF has no such input, its Glass BSDF alone has one; no
+    # anisotropy: its Anisotropic input is not glTF's parameterisation and the export does not set it)
     renders = ((frozenset({"punctual_lights"}) | frozenset(MATERIAL_FEATURE_NAMES) | frozenset(MAP_FEATURE_NAMES))
-               - {"dispersion"})
+               - {"dispersion", "anisotropy"})
     OPTIONS = {"ggx": "GGX (single scattering) in every Principled BSDF",
                "multi_ggx": "Multiscatter GGX in every Principled BSDF"}
 

@@ -173,15 +173,18 @@ def _tangent_frame() -> dict:
 def _normal_mapped(mat: Material, bsdf: dict) -> dict:
     """``bsdf`` under ``gltf_normalmap`` (:mod:`compare.mitsuba.normalmap`: Mitsuba's ``normalmap`` with
     the map read in glTF's tangent frame) when the material has a normal map."""
-    if mat.normal_texture is None:
+    if mat.normal_texture is None and mat.anisotropy_strength == 0.0:
         return bsdf
     from compare.mitsuba.normalmap import PLUGIN_NAME, register
     from compare.scene.textures import normal_map
 
     register()
+    if mat.normal_texture is None:  # a flat map: the frame alone, whose tangent an anisotropy direction turns
+        flat: dict = {"type": "rgb", "value": [0.5, 0.5, 1.0]}
+        return {"type": PLUGIN_NAME, "bsdf": bsdf, **_tangent_frame(), "normalmap": flat}
     return {"type": PLUGIN_NAME, "bsdf": bsdf, **_tangent_frame(),
-            "normalmap": bitmap_dict(mat, "normal_texture", normal_map(mat.normal_texture, mat.normal_scale, flip_y=NORMALMAP_FLIP_Y),
-                                     raw=True)}
+            "normalmap": bitmap_dict(mat, "normal_texture", normal_map(mat.normal_texture, mat.normal_scale,
+                                                                       flip_y=NORMALMAP_FLIP_Y), raw=True)}
 
 
 def _opacity(mat: Material, vc: bool = False) -> dict | float | None:
@@ -423,6 +426,9 @@ def _surface_dict(mat: Material, mode: str, vc: bool = False) -> dict:
 
         register()
         d = {"type": SHARED_BSDF, "base_color": base, "metallic": metallic, "roughness": roughness}
+        if mat.anisotropy_strength > 0.0:  # in glTF's tangent frame: _normal_mapped puts it under one
+            d.update(anisotropy_strength=float(mat.anisotropy_strength),
+                     anisotropy_rotation=float(mat.anisotropy_rotation))
         if ((mat.ior, mat.specular, mat.specular_color) != (1.5, 1.0, (1.0, 1.0, 1.0))
                 or _layer_map(mat, "specular") or _layer_map(mat, "specular_color")):
             d.update(specular_f0=_specular_f0(mat), specular_weight=_layer_value(mat, "specular"))

@@ -138,6 +138,8 @@ LAYERS = (
     Layer("specular", 1.0, "KHR_materials_specular", "specularFactor"),
     Layer("specular_color", (1.0, 1.0, 1.0), "KHR_materials_specular", "specularColorFactor", color=True, hi=math.inf),
     Layer("dispersion", 0.0, "KHR_materials_dispersion", "dispersion", hi=math.inf),
+    Layer("anisotropy_strength", 0.0, "KHR_materials_anisotropy", "anisotropyStrength"),
+    Layer("anisotropy_rotation", 0.0, "KHR_materials_anisotropy", "anisotropyRotation", lo=-math.inf, hi=math.inf),
 )
 #: How a map wraps ("repeat", "clamp", "mirror") and is filtered when magnified ("linear", "nearest").
 TEXTURE_WRAPS = ("repeat", "clamp", "mirror")
@@ -181,7 +183,7 @@ CORE_MAPS = ("base_color_texture", "metallic_roughness_texture", "emissive_textu
 MATERIAL_FEATURES = {"KHR_materials_transmission": "transmission", "KHR_materials_volume": "volume",
                      "KHR_materials_ior": "ior", "KHR_materials_clearcoat": "clearcoat",
                      "KHR_materials_sheen": "sheen", "KHR_materials_specular": "specular",
-                     "KHR_materials_dispersion": "dispersion"}
+                     "KHR_materials_dispersion": "dispersion", "KHR_materials_anisotropy": "anisotropy"}
 #: The extensions' maps that are read: glTF key → (the field it multiplies, its channel).
 LAYER_MAPS = {"transmissionTexture": ("transmission", "r"), "clearcoatTexture": ("clearcoat", "r"),
               "clearcoatRoughnessTexture": ("clearcoat_roughness", "g"),
@@ -273,6 +275,11 @@ class Material:
     #: KHR_materials_dispersion: 20 / Abbe number; the refracting volume's IOR per colour channel,
     #: (ior − h, ior, ior + h) with h = (ior − 1) · 0.025 · dispersion (:func:`channel_iors`).
     dispersion: float = 0.0
+    #: KHR_materials_anisotropy: the strength s stretches the specular lobe along the anisotropy direction
+    #: (α_t = mix(α, 1, s²), α_b = α), the direction being the tangent turned by ``anisotropy_rotation``
+    #: (radians, counter-clockwise towards the bitangent).
+    anisotropy_strength: float = 0.0
+    anisotropy_rotation: float = 0.0
     #: The extensions' maps that are read (:data:`LAYER_MAPS`): (field, channel, linear map), each multiplying
     #: its field's factor, with the material's texture transform.
     layer_maps: tuple[tuple[str, str, Path], ...] = ()
@@ -321,6 +328,8 @@ class Material:
             out.discard("clearcoat")
         if self.transmission == 0.0 or self.thickness == 0.0:
             out.discard("dispersion")  # glTF: dispersion spreads the IOR of a volume's refraction, nothing else
+        if self.anisotropy_strength == 0.0:
+            out.discard("anisotropy")  # a rotation alone stretches nothing
         if max(self.sheen_color) == 0.0:
             out.discard("sheen")
         if self.clearcoat_normal_texture is not None and "clearcoat" in out:
@@ -340,9 +349,11 @@ class Material:
 
     @property
     def normal_mapped(self) -> bool:
-        """Whether a map of this material is in tangent space (normalTexture, clearcoatNormalTexture): its
-        meshes need their tangent frame (:meth:`Mesh.triangles` with ``tangents``)."""
-        return self.normal_texture is not None or self.clearcoat_normal_texture is not None
+        """Whether the material reads glTF's tangent frame: a map in tangent space (normalTexture,
+        clearcoatNormalTexture) or an anisotropy direction; its meshes need their tangent frame
+        (:meth:`Mesh.triangles` with ``tangents``)."""
+        return (self.normal_texture is not None or self.clearcoat_normal_texture is not None
+                or self.anisotropy_strength > 0.0)  # an anisotropy direction is given in that frame too
 
     @property
     def has_uv_transform(self) -> bool:
@@ -614,6 +625,7 @@ class Features:
     sheen: bool = False
     specular: bool = False
     dispersion: bool = False
+    anisotropy: bool = False
     layer_maps: bool = False
     uv_sets: bool = False
     map_samplers: bool = False

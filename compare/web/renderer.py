@@ -58,7 +58,7 @@ class ThreeJsPathTracer(WebRenderer):
     PACKAGES = ("three", "three-gpu-pathtracer", "three-mesh-bvh")
     VERSION_KEY = "three"
     unit = "spp"
-    renders = frozenset(MATERIAL_FEATURE_NAMES) - {"dispersion"}  # its material model has no dispersion
+    renders = frozenset(MATERIAL_FEATURE_NAMES) - {"dispersion", "anisotropy"}  # not in its material model
 
     def describe(self, opts: list[str]) -> str:
         return "three.js path tracer (three-gpu-pathtracer)"

@@ -131,6 +131,15 @@ class GltfPbrBSDF(PluginBSDF):
         self.specular_tint = props.get_texture("specular_tint", 1.0)
         if self.flavour == "cycles":
             tables(mv)  # built at load time, never while a kernel is traced
+        # glTF's anisotropy (KHR_materials_anisotropy): the specular lobe stretched along the local frame's x
+        # axis (glTF's tangent, under gltf_normalmap) turned by the rotation
+        self.anisotropy = float(props.get("anisotropy_strength", 0.0))
+        rotation = float(props.get("anisotropy_rotation", 0.0))
+        if not (0.0 <= self.anisotropy <= 1.0 and math.isfinite(rotation)):
+            raise ValueError(f"{name}: anisotropy_strength must be in [0, 1] and anisotropy_rotation finite")
+        if self.anisotropy > 0.0 and self.flavour == "cycles":
+            raise ValueError(f"{name}: anisotropy applies to flavour 'gltf' only")
+        self.direction = (math.cos(rotation), math.sin(rotation))
         self.m_components = [DIFFUSE, GLOSSY]
         self.m_flags = DIFFUSE | GLOSSY
 
@@ -209,6 +218,37 @@ class GltfPbrBSDF(PluginBSDF):
         p_diff = dr.select(has_d, dr.minimum(w_d * inv_total, 1.0 - SPECULAR_PROB_MIN), 0.0)
         return p_spec, p_diff
 
+    # -- anisotropy -----------------------------------------------------------------
+    def _to_aniso(self, v):
+        """``v`` in the frame whose x axis is the anisotropy direction."""
+        c, s = self.direction
+        return Vector3f(c * v.x + s * v.y, c * v.y - s * v.x, v.z)
+
+    def _from_aniso(self, v):
+        c, s = self.direction
+        return Vector3f(c * v.x - s * v.y, s * v.x + c * v.y, v.z)
+
+    def _alphas(self, alpha):
+        """(α along the direction, α across it): glTF's mix(α, 1, strength²) and α."""
+        k = self.anisotropy * self.anisotropy
+        return dr.fma(1.0 - alpha, k, alpha), alpha
+
+    def _specular_terms(self, wi, wo, h, alpha):
+        """(D, V, the visible-normal pdf of ``wo``) of the specular lobe, isotropic or anisotropic."""
+        if self.anisotropy == 0.0:
+            d = ggx.ggx_d(dr, h, alpha)
+            return d, ggx.smith_vis(dr, wi.z, wo.z, alpha), ggx.vndf_pdf(dr, d, wi.z, alpha)
+        ax, ay = self._alphas(alpha)
+        wi_a = self._to_aniso(wi)
+        d = ggx.ggx_d_aniso(dr, self._to_aniso(h), ax, ay)
+        return (d, ggx.smith_vis_aniso(dr, wi_a, self._to_aniso(wo), ax, ay), ggx.vndf_pdf_aniso(dr, d, wi_a, ax, ay))
+
+    def _sample_specular(self, wi, alpha, sample2):
+        if self.anisotropy == 0.0:
+            return ggx.sample_visible_reflection(dr, Vector3f, wi, alpha, sample2)
+        ax, ay = self._alphas(alpha)
+        return self._from_aniso(ggx.sample_visible_reflection_aniso(dr, Vector3f, self._to_aniso(wi), ax, ay, sample2))
+
     # -- the model: value (times cos_o) and pdf of one direction ------------------
     def eval_pdf(self, ctx, si, wo, active=True):
         has_d, has_s = self._lobes_enabled(ctx)
@@ -220,8 +260,7 @@ class GltfPbrBSDF(PluginBSDF):
         c, m, alpha, r = self._params(si, valid)
 
         vh = dr.clip(dr.dot(wi, h), 0.0, 1.0)
-        d = ggx.ggx_d(dr, h, alpha)
-        vis = ggx.smith_vis(dr, cos_i, cos_o, alpha)
+        d, vis, pdf_spec = self._specular_terms(wi, wo, h, alpha)
         extra = self._extra_params(si, c, valid)
         f, w_diff = self._lobes(extra, c, m, r, cos_i, vh)
 
@@ -232,7 +271,6 @@ class GltfPbrBSDF(PluginBSDF):
             value += c * (w_diff * (1.0 / dr.pi))
         value = value * dr.maximum(cos_o, 0.0)
 
-        pdf_spec = ggx.vndf_pdf(dr, d, cos_i, alpha)
         pdf_diff = dr.maximum(cos_o, 0.0) * (1.0 / dr.pi)
         p_spec, p_diff = self._lobe_probabilities(cos_i, c, m, r, has_d, has_s, extra)
         pdf = p_spec * pdf_spec + p_diff * pdf_diff
@@ -254,7 +292,7 @@ class GltfPbrBSDF(PluginBSDF):
         pick_spec = sample1 < p_spec
 
         # specular: reflect wi about a GGX visible normal (spherical caps)
-        wo_spec = ggx.sample_visible_reflection(dr, Vector3f, wi, alpha, sample2)
+        wo_spec = self._sample_specular(wi, alpha, sample2)
         # diffuse: cosine-weighted hemisphere
         wo_diff = mv.warp.square_to_cosine_hemisphere(sample2)
 
