@@ -70,8 +70,10 @@ _UNITS = units_of("first_frame.glsl")
 
 def first_frame_defines(gpu_scene, lights, punctual, environment, area_model: str, materials: str, *,
                         blend: bool) -> dict:
-    """The defines of ``first_frame.glsl``: frame 0's forward pass, or (``blend``) the blend pass."""
+    """The defines of ``first_frame.glsl``: frame 0's forward pass (its glass with TRANSMISSION), or (``blend``)
+    the blend pass."""
     defines = {"LIGHTS": len(lights), "ENVIRONMENT": int(environment is not None), "BLEND": int(blend),
+               "TRANSMISSION": int(gpu_scene.glassy and not blend),
                "PUNCTUAL": len(punctual.lights) if punctual is not None else 0, **area_model_defines(area_model),
                "MATERIALS_DIFFUSE": int(materials == "diffuse"), **gpu_scene.defines(),
                **gpu_scene.layer_defines(materials)}
