@@ -19,8 +19,7 @@
 //
 // With GLASS it draws the glass pass (glass.py): out_color is the glass's whole radiance (that shading, with
 // (1 - transmission) of the diffuse lobe, plus the light it lets through, transmission.glsl), and 1. With
-// TRANSMISSION (a scene with glass) frame 0 draws its glass so, the transmitted light seeing the environment
-// map alone.
+// TRANSMISSION alone a reduced frame 0 draws its glass so, the transmitted light seeing the environment map.
 //
 // Defines: LIGHTS (number of area lights, 0 for none), PUNCTUAL (number of punctual lights), BLEND, GLASS,
 // TRANSMISSION, ENVIRONMENT, AREA_MODEL_PAPER, AREA_MODEL_LTC (the preview is then the closed-form unshadowed
@@ -84,6 +83,12 @@ layout(location = 0) out vec4 out_color;
 // coverage; the glass pass: the glass's radiance, and 1; depth against the G-buffer's nearest opaque surface.
 uniform float u_blend_alpha;     // glTF's alpha (times the base-colour map's)
 uniform sampler2D u_gbuffer_position;
+#if GLASS
+uniform float u_glass_preview;   // 1: frame 0 drawn forward (glass.py): no G-buffer, the depth test hides the glass
+#define GBUFFER_READ (u_glass_preview < 0.5)
+#else
+#define GBUFFER_READ true
+#endif
 #elif ENVIRONMENT
 layout(location = 1) out vec4 out_env;
 layout(location = 2) out vec4 out_direct;
@@ -150,7 +155,7 @@ void main() {
 #if BLEND || GLASS
     // behind the nearest opaque surface (the G-buffer's, a hair of tolerance): hidden
     vec4 opaque = texelFetch(u_gbuffer_position, ivec2(gl_FragCoord.xy), 0);
-    if (opaque.w > 0.5 && distance(opaque.xyz, u_camera_position)
+    if (GBUFFER_READ && opaque.w > 0.5 && distance(opaque.xyz, u_camera_position)
                            < distance(v_position, u_camera_position) * (1.0 - 1e-5)) {
         discard;
     }

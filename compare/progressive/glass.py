@@ -15,8 +15,10 @@ The shading pass adds (radiance, 1) into a sum over the frames (additive blendin
 n glass frames the display is ``rgb / n + (1 − a / n) × (the opaque image)`` (``compose.glsl``), the glass's
 mean radiance where it covered the pixel every frame, the opaque image blended in at its jittered edges.
 
-Frame 0 drawn forward (:mod:`compare.progressive.first_frame`) draws the glass in its own pass, the refracted
-ray seeing the environment map alone, into the every-frame mean; from frame 1 on the glass pass covers it.
+Frame 0 drawn forward (:mod:`compare.progressive.first_frame`) leaves the glass out, and this pass draws it
+over that frame's image as a preview, without a G-buffer (the frame's depth buffer hides it, a solid's
+refracted ray sees the environment map alone), which the next frame's glass replaces; a reduced frame 0 draws
+the glass in its forward pass (its rays see the environment map alone), a preview too.
 
 What it leaves out: glass seen through glass (the refracted ray sees the opaque scene), light reflected inside
 the glass, the glass's own shadows (it is lit unshadowed) and its coloured shadows on the rest (a glass mesh
@@ -51,10 +53,13 @@ class GlassPass(RenderPass):
         self.ltc_table = ltc_table
         self.indices = [k for k, m in enumerate(gpu_scene.meshes) if m.glass]
         defines = {**first_frame_defines(gpu_scene, lights, punctual, environment, area_model, materials,
-                                         blend=False), "GLASS": 1}
+                                         blend=False, transmission=True), "GLASS": 1}
         self.count = 0
         """Glass frames summed in :attr:`texture`."""
+        self.preview = False
+        """The sum holds frame 0's preview (:meth:`run` with ``first_depth``), which the next frame replaces."""
         self._objects: list = []
+        self._first: dict = {}
         try:
             self.program = self._keep(load_program(ctx, "first_frame.glsl", defines))
             self.back_program = self._keep(load_program(ctx, "glass_back.glsl"))
@@ -83,10 +88,14 @@ class GlassPass(RenderPass):
         self._objects.append(obj)
         return obj
 
-    def run(self, gbuffer, view_proj, camera_position, frame: int) -> None:
+    def run(self, gbuffer, view_proj, camera_position, frame: int, *, first_depth=None) -> None:
         """Draw the glass over :attr:`opaque` (composed by the caller for this frame) and add it to the sum;
-        ``frame`` seeds the frame's microfacet normals."""
+        ``frame`` seeds the frame's microfacet normals. ``first_depth``: frame 0 drawn forward, without a
+        G-buffer: its depth buffer hides the glass, and a solid's refracted ray sees the environment map alone;
+        a preview, which the next frame's glass replaces."""
         ctx, scene = self.ctx, self.scene
+        if self.preview:  # frame 0's glass, seen without the G-buffer, stays out of the mean
+            self.count, self.preview = 0, False
         vp = mat_bytes(view_proj)
         cam = tuple(float(x) for x in np.asarray(camera_position, dtype=np.float64))
         # the nearest back faces: the exits' planes
@@ -98,23 +107,33 @@ class GlassPass(RenderPass):
         set_uniform(self.back_program, "u_camera_position", cam)
         for k in self.indices:
             scene.draw_mesh(self.back_program, k)
+        fbo, depth_fbo = self.fbo, self.depth_fbo
+        if first_depth is not None:  # frame 0's depth buffer, which holds the opaque scene's depth
+            if id(first_depth) not in self._first:
+                self._first[id(first_depth)] = (self._keep(ctx.framebuffer([self.sum], first_depth)),
+                                                self._keep(ctx.framebuffer(depth_attachment=first_depth)))
+            fbo, depth_fbo = self._first[id(first_depth)]
         if self.count == 0:  # the sum starts again
             self.fbo.use()
             self.fbo.clear(0.0, 0.0, 0.0, 0.0)
         # the nearest glass surface's depth, then its shading, once per pixel
-        self.depth_fbo.use()
-        self.depth_fbo.clear(depth=1.0)
+        depth_fbo.use()
+        if first_depth is None:
+            depth_fbo.clear(depth=1.0)
+        ctx.depth_func = "<"
         for program in self.depth_programs.values():
             set_uniform(program, "u_view_proj", vp)
         scene.draw_depth(self.depth_programs, self.indices)
-        self.fbo.use()
+        fbo.use()
         ctx.enable_only(ctx.DEPTH_TEST | ctx.BLEND)
         ctx.depth_func = "<="
         ctx.blend_equation = ctx.FUNC_ADD
         ctx.blend_func = ctx.ONE, ctx.ONE
         p = self.program
         bind_tables(p, scene, lut_texture=self.lut_texture, ltc_table=self.ltc_table, environment=self.environment)
-        bind_gbuffer_position(p, gbuffer)
+        if gbuffer is not None:
+            bind_gbuffer_position(p, gbuffer)
+        set_uniform(p, "u_glass_preview", float(first_depth is not None))
         bind(p, "u_opaque", self.opaque.texture, _UNITS["opaque"])
         bind(p, "u_glass_back", self.back, _UNITS["glass_back"])
         set_uniform(p, "u_view_proj", vp)
@@ -125,6 +144,7 @@ class GlassPass(RenderPass):
             scene.draw_mesh(p, k)
         ctx.enable_only(ctx.NOTHING)
         self.count += 1
+        self.preview = first_depth is not None
 
     @property
     def texture(self):
@@ -133,7 +153,7 @@ class GlassPass(RenderPass):
 
     def reset(self) -> None:
         """Start the sum again (cleared by the next frame)."""
-        self.count = 0
+        self.count, self.preview = 0, False
 
     def describe(self) -> dict:
         """The glass pass's frames."""

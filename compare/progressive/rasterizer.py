@@ -402,6 +402,9 @@ class Rasterizer:
         if index == 0 and self.first is not None:
             self.first.render(view_proj, inv_view_proj, cam_pos)
             self._preview_valid = bool(self.scene.lights)
+            if self.glass is not None and not self.first.reduced:  # a reduced frame 0 draws its own glass
+                self._compose(opaque=True)
+                self.glass.run(None, view_proj, cam_pos, index, first_depth=self.first.depth)
             return
         self.gbuffer.render(view_proj, cam_pos)
         if self.punctual is not None:

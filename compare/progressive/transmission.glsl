@@ -18,8 +18,9 @@
 //   smooth: (1 - F) / (1 + F) tint straight through (the opaque image at the pixel), and the extra
 //   reflection F (1 - F) / (1 + F) of the mirror direction.
 //
-// Frame 0 (TRANSMISSION without GLASS) has no screen textures: the exit is the thickness's slab, and the
-// refracted ray sees the environment map (nothing without one).
+// Frame 0 drawn forward has no G-buffer (GBUFFER_READ false): a solid's refracted ray sees the environment
+// map. A reduced frame 0 (TRANSMISSION without GLASS) has no screen textures at all: the exit is the
+// thickness's slab, and the refracted ray sees the environment map (nothing without one).
 
 #ifndef COMPARE_TRANSMISSION_GLSL
 #define COMPARE_TRANSMISSION_GLSL
@@ -88,7 +89,7 @@ vec3 glass_microfacet(vec3 n, vec3 w, float roughness, vec2 u) {
 vec3 glass_behind(vec3 x, vec3 d) {
 #if GLASS
     vec2 uv;
-    if (glass_project(x, uv)) {
+    if (GBUFFER_READ && glass_project(x, uv)) {
         vec4 g = glass_fetch(u_gbuffer_position, uv);
         if (g.w > 0.5) {
             // one step along the ray, as far as the opaque surface behind the exit point

@@ -488,14 +488,17 @@ class GpuScene(RenderPass):
             if tex is not None:
                 bind(program, f"u_{name}_map", tex, MAPS, k)
 
-    def draw_occluders(self, programs: dict, skip_light: int | None = None, *, casters: bool = True) -> None:
+    def draw_occluders(self, programs: dict, skip_light: int | None = None, *, casters: bool = True,
+                       glass: bool = True) -> None:
         """Draw depth only: every mesh and every light quad except ``skip_light``'s (shadow pass), each with
         the program of :meth:`occluder_programs` for it; an alpha-masked mesh leaves out its holes. A blended
         mesh casts a shadow map's shadow where its coverage is at least ½ (``casters``; a hard shadow map
-        has no partial shadow) and is left out of a depth pre-pass (``casters=False``)."""
+        has no partial shadow) and is left out of a depth pre-pass (``casters=False``); ``glass`` False leaves
+        out the glass meshes (a depth pre-pass of what the glass pass draws over)."""
         self.draw_depth(programs, [index for index, mesh in enumerate(self.meshes + self.light_quads)
                                    if not (mesh.light is not None and mesh.light == skip_light)
-                                   and not (mesh.blend >= 0.0 and not (casters and mesh.blend >= 0.5))])
+                                   and not (mesh.blend >= 0.0 and not (casters and mesh.blend >= 0.5))
+                                   and not (mesh.glass and not glass)])
 
     def draw_depth(self, programs: dict, indices) -> None:
         """Draw depth only of the meshes ``indices`` (of meshes + light quads), each with the program of
