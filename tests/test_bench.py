@@ -124,3 +124,14 @@ def test_a_failing_item_is_recorded_and_every_figure_is_written_as_it_is_measure
     assert result["failed"] == {"first-frame": "renderer 'babylon': no answer from the page within 600 s"}
     assert [f["name"] for f in result["figures"]] == ["depth-floor"]
     assert seen and seen[0]["failed"] == result["failed"] and seen[0]["figures"] == []  # written after item 1
+
+
+def test_bench_times_glass_and_skips_a_scene_without_it(tmp_path, gl_ctx):
+    """The transmission item: the glass spheres against the same spheres opaque; the Cornell box has no glass."""
+    result = run_bench(ROOT / "scenes" / "effects" / "materials_transmission.toml", size=(32, 8), frames=4, spp=4,
+                       repeats=2, items=("transmission",), progress=False)
+    (f,) = result["figures"]
+    assert f["name"] == "transmission" and f["a_median"] > 0 and f["b_median"] > 0 and len(f["b_samples"]) == 2
+    assert "5 of 5 materials transmit" in f["note"]
+    plain = run_bench(CORNELL, size=(32, 24), frames=4, spp=4, repeats=1, items=("transmission",), progress=False)
+    assert plain["figures"] == [] and "no material of the scene transmits" in plain["skipped"]["transmission"]

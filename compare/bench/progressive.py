@@ -11,8 +11,8 @@ import numpy as np
 
 from compare.util.figures import Figure, median as _median
 
-__all__ = ["ITEMS", "bench_area_models", "bench_depth_floor", "bench_env_shadows", "bench_first_frame",
-           "bench_punctual", "bench_textures"]
+__all__ = ["ITEMS", "bench_area_models", "bench_depth_floor", "bench_env_shadows", "bench_first_frame", "bench_punctual",
+           "bench_textures", "bench_transmission"]
 
 
 def bench_first_frame(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
@@ -109,6 +109,24 @@ def bench_textures(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
                    mean[0], mean[1])]
 
 
+def bench_transmission(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
+    """Mean frame time of the scene with its glass (the glass pass, :mod:`compare.progressive.glass`) ÷ the same
+    scene with every transmission 0 (the glass drawn as opaque surfaces of the G-buffer), runs alternating."""
+    import dataclasses
+
+    if not scene.features().transmission:
+        raise RuntimeError("no material of the scene transmits: there is no glass to time")
+    opaque = dataclasses.replace(scene, materials={k: dataclasses.replace(m, transmission=0.0)
+                                                   for k, m in scene.materials.items()})
+    mean = _alternating_mean_frames([dict(), dict()], scene, frames=frames, repeats=repeats, ctx=ctx,
+                                    scenes=[scene, opaque])
+    used = {scene.materials[m.material].name for m in scene.meshes}
+    glass = sum(1 for k in used if scene.materials[k].transmission > 0.0)
+    return [Figure("transmission", "mean frame with glass", "mean frame with the glass opaque", _median(mean[0]),
+                   _median(mean[1]), "s", repeats, f"{glass} of {len(used)} materials transmit, {frames} frames",
+                   mean[0], mean[1])]
+
+
 def bench_punctual(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
     """The frame cost of one punctual light against one area light: the mean frame of the scene's
     geometry lit by its N punctual lights (or, without any, point lights at its area lights' centres),
@@ -194,4 +212,5 @@ def _item(fn):
 #: The rasterizer's bench items, by name (``compare bench --only``).
 ITEMS = {"first-frame": _item(bench_first_frame), "depth-floor": _item(bench_depth_floor),
          "area-models": _item(bench_area_models), "textures": _item(bench_textures),
-         "punctual-lights": _item(bench_punctual), "env-shadows": _item(bench_env_shadows)}
+         "punctual-lights": _item(bench_punctual), "env-shadows": _item(bench_env_shadows),
+         "transmission": _item(bench_transmission)}

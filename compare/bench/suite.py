@@ -46,6 +46,10 @@ each figure:
     median of the mean frame time of the scene with its maps and alpha masks ÷ the same scene with
     its materials' factors only, runs alternating (the cost of texturing; the rasterizer's item). > 1
     means texturing costs per frame.
+``transmission``
+    median of the mean frame time of the scene with its glass (the glass pass) ÷ the same scene with every
+    transmission 0 (the glass opaque, in the G-buffer), runs alternating (scenes with glass; the rasterizer's).
+    > 1 means glass costs per frame.
 ``frame-budget``
     seconds to reach a target FLIP (1.1 × the fixed plan's final FLIP against
     the direct-light-only reference, which more samples converge to) with a per-frame time budget

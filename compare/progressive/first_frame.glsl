@@ -17,8 +17,13 @@
 // With BLEND the same shading draws the blend pass instead (blend.py): out_color is the lit colour (emission,
 // the unoccluded environment light, each light unshadowed) times the coverage, and the coverage.
 //
-// Defines: LIGHTS (number of area lights, 0 for none), PUNCTUAL (number of punctual lights), BLEND, ENVIRONMENT, AREA_MODEL_PAPER,
-// AREA_MODEL_LTC (the preview is then the closed-form unshadowed light, ltc.glsl), MATERIALS_DIFFUSE.
+// With GLASS it draws the glass pass (glass.py): out_color is the glass's whole radiance (that shading, with
+// (1 - transmission) of the diffuse lobe, plus the light it lets through, transmission.glsl), and 1. With
+// TRANSMISSION alone a reduced frame 0 draws its glass so, the transmitted light seeing the environment map.
+//
+// Defines: LIGHTS (number of area lights, 0 for none), PUNCTUAL (number of punctual lights), BLEND, GLASS,
+// TRANSMISSION, ENVIRONMENT, AREA_MODEL_PAPER, AREA_MODEL_LTC (the preview is then the closed-form unshadowed
+// light, ltc.glsl), MATERIALS_DIFFUSE.
 
 #if defined VERTEX_SHADER
 
@@ -56,6 +61,12 @@ uniform mat4 u_inv_view_proj;
 uniform vec2 u_viewport;
 #endif
 #include "layers.glsl"
+#ifndef GLASS
+#define GLASS 0
+#endif
+#ifndef TRANSMISSION
+#define TRANSMISSION GLASS
+#endif
 
 in vec3 v_position;
 in vec3 v_normal;
@@ -67,11 +78,17 @@ uniform float u_kind;             // 1 = shaded surface, 2 = emitter that reflec
 uniform float u_background_pass;
 
 layout(location = 0) out vec4 out_color;
-#if BLEND
+#if BLEND || GLASS
 // The blend pass (blend.py): one output, the lit colour premultiplied by the coverage, and the
-// coverage; depth against the G-buffer's nearest opaque surface.
+// coverage; the glass pass: the glass's radiance, and 1; depth against the G-buffer's nearest opaque surface.
 uniform float u_blend_alpha;     // glTF's alpha (times the base-colour map's)
 uniform sampler2D u_gbuffer_position;
+#if GLASS
+uniform float u_glass_preview;   // 1: frame 0 drawn forward (glass.py): no G-buffer, the depth test hides the glass
+#define GBUFFER_READ (u_glass_preview < 0.5)
+#else
+#define GBUFFER_READ true
+#endif
 #elif ENVIRONMENT
 layout(location = 1) out vec4 out_env;
 layout(location = 2) out vec4 out_direct;
@@ -92,6 +109,10 @@ uniform vec3 u_punctual_position[PUNCTUAL];
 uniform vec3 u_punctual_direction[PUNCTUAL];
 uniform vec3 u_punctual_intensity[PUNCTUAL];
 uniform vec2 u_punctual_cone[PUNCTUAL];
+#endif
+
+#if TRANSMISSION
+#include "transmission.glsl"
 #endif
 
 #if LIGHTS > 0
@@ -119,7 +140,7 @@ void main() {
 #if ENVIRONMENT
     if (u_background_pass > 0.5) {
         out_color = vec4(env_background_at_pixel(gl_FragCoord.xy, u_viewport, u_inv_view_proj), 1.0);
-#if !BLEND
+#if !BLEND && !GLASS
         out_env = vec4(0.0, 0.0, 0.0, 1.0);
         out_direct = vec4(0.0, 0.0, 0.0, 1.0);
 #if PUNCTUAL > 0
@@ -131,10 +152,10 @@ void main() {
 #endif
     alpha_test();
     cull_back_face();
-#if BLEND
+#if BLEND || GLASS
     // behind the nearest opaque surface (the G-buffer's, a hair of tolerance): hidden
     vec4 opaque = texelFetch(u_gbuffer_position, ivec2(gl_FragCoord.xy), 0);
-    if (opaque.w > 0.5 && distance(opaque.xyz, u_camera_position)
+    if (GBUFFER_READ && opaque.w > 0.5 && distance(opaque.xyz, u_camera_position)
                            < distance(v_position, u_camera_position) * (1.0 - 1e-5)) {
         discard;
     }
@@ -155,11 +176,22 @@ void main() {
         g_layers = MaterialLayers(u_layer_f0, u_layer_weight, u_clearcoat, u_clearcoat_roughness, u_sheen_color,
                                   u_sheen_roughness);
 #endif
+#if TRANSMISSION
+        // glTF's mix of the diffuse base and the transmission: the dielectric part's share that is glass
+        float glass = u_transmission * (1.0 - clamp(metallic, 0.0, 1.0));
+        vec3 tint = base_color;
+        if (glass > 0.0) {
+            env += glass * glass_transmitted(v_position, n, v, tint, roughness);
+            // the lights below light the diffuse lobe's remaining share (exact for a dielectric; a metal's
+            // Fresnel reads the lowered base colour too)
+            base_color *= 1.0 - u_transmission;
+        }
+#endif
 #if ENVIRONMENT
         vec3 diffuse;
         vec3 specular;
         env_split_sum_material(n, v, base_color, metallic, roughness, diffuse, specular);
-        env = (diffuse + specular) * material_occlusion();
+        env += (diffuse + specular) * material_occlusion();
 #endif
 #if LIGHTS > 0
         for (int i = 0; i < LIGHTS; ++i) {
@@ -188,6 +220,8 @@ void main() {
 #endif
     coverage *= VERTEX_ALPHA;
     out_color = vec4((c + env + direct + punctual) * coverage, coverage);
+#elif GLASS
+    out_color = vec4(c + env + direct + punctual, 1.0);
 #else
     out_color = vec4(c, 1.0);
 #if ENVIRONMENT

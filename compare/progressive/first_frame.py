@@ -69,9 +69,11 @@ _UNITS = units_of("first_frame.glsl")
 
 
 def first_frame_defines(gpu_scene, lights, punctual, environment, area_model: str, materials: str, *,
-                        blend: bool) -> dict:
-    """The defines of ``first_frame.glsl``: frame 0's forward pass, or (``blend``) the blend pass."""
+                        blend: bool, transmission: bool = False) -> dict:
+    """The defines of ``first_frame.glsl``: frame 0's forward pass (``transmission``: it draws glass), or
+    (``blend``) the blend pass."""
     defines = {"LIGHTS": len(lights), "ENVIRONMENT": int(environment is not None), "BLEND": int(blend),
+               "TRANSMISSION": int(transmission),
                "PUNCTUAL": len(punctual.lights) if punctual is not None else 0, **area_model_defines(area_model),
                "MATERIALS_DIFFUSE": int(materials == "diffuse"), **gpu_scene.defines(),
                **gpu_scene.layer_defines(materials)}
@@ -152,8 +154,10 @@ class FirstFramePass(RenderPass):
         self.lut_texture = lut_texture
         self.punctual = punctual
         self.punctual_texture = None
+        # A reduced frame 0 draws the glass itself (a preview, outside the means); a full-size one leaves it
+        # to the glass pass (glass.py), whose sum it starts.
         defines = first_frame_defines(gpu_scene, self.lights, punctual, environment, area_model, materials,
-                                      blend=False)
+                                      blend=False, transmission=gpu_scene.glassy and self.reduced)
         if area_model == "ltc" and ltc_table is None and self.lights:
             raise ValueError("area_model 'ltc' needs the LTC table (ltc_table)")
         self.ltc_table = ltc_table
@@ -218,14 +222,14 @@ class FirstFramePass(RenderPass):
         self.depth_fbo.use()
         for program in self.depth_programs.values():
             set_uniform(program, "u_view_proj", mat_bytes(view_proj))
-        self.scene.draw_occluders(self.depth_programs, casters=False)
+        self.scene.draw_occluders(self.depth_programs, casters=False, glass=self.reduced)
         self.fbo.use()
         bind_tables(p, self.scene, lut_texture=self.lut_texture, ltc_table=self.ltc_table,
                     environment=self.environment)
         set_uniform(p, "u_view_proj", mat_bytes(view_proj))
         set_uniform(p, "u_camera_position", tuple(float(x) for x in camera_position))
         set_uniform(p, "u_background_pass", 0.0)
-        self.scene.draw_shaded(p)
+        self.scene.draw_shaded(p, glass=self.reduced)
         if self.environment is not None:
             set_uniform(p, "u_background_pass", 1.0)
             set_uniform(p, "u_inv_view_proj", inv_view_proj)

@@ -23,7 +23,9 @@ One frame f of the :class:`~compare.progressive.schedule.distributor.Plan`:
 6. frames with environment samples (1 … m−1, never frame 0): the screen-space
    occlusion of the environment light (``env_occlusion.glsl``): the visible
    light, folded into one running mean per kind (diffuse, specular) over that
-   kind's samples.
+   kind's samples;
+7. blended meshes (:mod:`compare.progressive.blend`) and, last, glass (:mod:`compare.progressive.glass`:
+   the frame's opaque image composed, the glass drawn over it refracting it, summed over frames).
 
 With ``area_model="ltc"`` (:mod:`compare.progressive.lights.ltc`) step 3 goes: the
 lights' unshadowed light in closed form is added to per-light sums in the first
@@ -90,6 +92,7 @@ from compare.progressive.frame.gpu_scene import CameraSetup, GpuScene, mat_bytes
 from compare.progressive.indirect.probes import ProbeVolume, indirect_options
 from compare.progressive.gl.readback import read_rgb
 from compare.progressive.blend import BlendPass
+from compare.progressive.glass import GlassPass
 from compare.progressive.environment.env_shadows import EnvShadows
 from compare.progressive.lights.punctual import PunctualLights
 from compare.progressive.lights.shadow import ShadowAtlas
@@ -222,7 +225,8 @@ class Rasterizer:
         o, scene, ctx, size = self.options, self.scene, self.ctx, self.size
         check_image_size(ctx, size, str(scene.path))
         self.camera = CameraSetup(scene)
-        self.gpu_scene = self._keep(GpuScene(ctx, scene))
+        # glass apart from the G-buffer unless materials are Lambert-only (the reference's diffuse glass)
+        self.gpu_scene = self._keep(GpuScene(ctx, scene, glass=o.materials != "diffuse"))
         self.gbuffer = self._keep(GBuffer(ctx, self.gpu_scene, size))
         self._build_environment(has_env)
         # No probe work unless indirect = "probes"; the bake is part of setup (timed on its own too).
@@ -257,6 +261,13 @@ class Rasterizer:
         self.blend = None
         if self.gpu_scene.blended:
             self.blend = self._keep(BlendPass(
+                ctx, self.gpu_scene, size, scene.lights, environment=self.environment, punctual=self.punctual,
+                area_model=o.area_model, materials=o.materials,
+                lut_texture=self.direct.lut_texture if self.direct is not None else None, ltc_table=self.ltc_table))
+        # Glass: a forward pass over the opaque frame, reading its image (glass.py).
+        self.glass = None
+        if self.gpu_scene.glassy:
+            self.glass = self._keep(GlassPass(
                 ctx, self.gpu_scene, size, scene.lights, environment=self.environment, punctual=self.punctual,
                 area_model=o.area_model, materials=o.materials,
                 lut_texture=self.direct.lut_texture if self.direct is not None else None, ltc_table=self.ltc_table))
@@ -391,6 +402,9 @@ class Rasterizer:
         if index == 0 and self.first is not None:
             self.first.render(view_proj, inv_view_proj, cam_pos)
             self._preview_valid = bool(self.scene.lights)
+            if self.glass is not None and not self.first.reduced:  # a reduced frame 0 draws its own glass
+                self._compose(opaque=True)
+                self.glass.run(None, view_proj, cam_pos, index, first_depth=self.first.depth)
             return
         self.gbuffer.render(view_proj, cam_pos)
         if self.punctual is not None:
@@ -433,6 +447,9 @@ class Rasterizer:
                 self.direct.accumulate(self.direct_acc, self.partial if last > 0 else None, self.gbuffer,
                                        self.shadow, self.shadow_bias, light, s.point, s.weight, cam_pos,
                                        units=len(fp.light_samples) if self.scheduler is not None else 1)
+        if self.glass is not None:  # last: it refracts the frame's whole opaque image
+            self._compose(opaque=True)
+            self.glass.run(self.gbuffer, view_proj, cam_pos, index)
 
     def _warm_up(self) -> None:
         """Run frame 0 and the first light frame once, then forget them.
@@ -533,12 +550,19 @@ class Rasterizer:
             fbo = self.compose.run(first.targets, first.direct if self._preview_valid else None,
                                    punctual_texture=first.punctual_texture, upsample=True)
             return read_rgb(self.ctx, fbo, what=what)
-        fbo = self.compose.run(self.base, self._direct_texture(), self.env_acc,
-                               self.indirect_pass.texture if self.indirect_pass is not None else None,
-                               punctual_texture=self._punctual_texture(), env_ratio=self._env_ratio(),
-                               blend_texture=self.blend.texture if self.blend is not None and self.blend.acc.count
-                               else None)
-        return read_rgb(self.ctx, fbo, what=what)
+        return read_rgb(self.ctx, self._compose(), what=what)
+
+    def _compose(self, *, opaque: bool = False):
+        """Compose the display image after the frames so far (its framebuffer); ``opaque``: the opaque scene's
+        alone, without the glass and the blended surfaces, into the glass pass's :attr:`GlassPass.opaque`."""
+        blend = self.blend is not None and self.blend.acc.count and not opaque
+        glass = self.glass is not None and self.glass.count and not opaque
+        return self.compose.run(self.base, self._direct_texture(), self.env_acc,
+                                self.indirect_pass.texture if self.indirect_pass is not None else None,
+                                punctual_texture=self._punctual_texture(), env_ratio=self._env_ratio(),
+                                blend_texture=self.blend.texture if blend else None,
+                                glass=(self.glass.texture, self.glass.count) if glass else None,
+                                target=self.glass.opaque if opaque else None)
 
     def _direct_texture(self):
         """The direct light the display shows now (a texture), or None."""
@@ -576,8 +600,8 @@ class Rasterizer:
         """
         if self.frame == 0:
             raise RuntimeError("no frame rendered yet; iterate frames() or call render_frame() first")
-        if (self.frame == 1 and self._reduced_first) or self.blend is not None:
-            return {}  # blended surfaces composite over every kind of light: the image has no such split
+        if (self.frame == 1 and self._reduced_first) or self.blend is not None or self.glass is not None:
+            return {}  # blended surfaces and glass composite over every kind of light: the image has no such split
         from compare.progressive.gl.readback import read_texture_rgb
 
         what = f"progressive render of {self.scene.path} (frame {self.frame})"

@@ -146,7 +146,7 @@ class ComposePass(RenderPass):
 
     #: The samplers of compose.glsl, at the units of its ``sources`` in this order.
     SOURCES = ("u_base", "u_direct", "u_env", "u_env_diffuse", "u_env_specular", "u_indirect", "u_punctual",
-               "u_env_ratio", "u_env_weights", "u_blend")
+               "u_env_ratio", "u_env_weights", "u_blend", "u_glass")
 
     def __init__(self, ctx, size: tuple[int, int]):
         self.ctx = ctx
@@ -155,7 +155,8 @@ class ComposePass(RenderPass):
         self.out = Target(ctx, size)
 
     def run(self, base: PingPong, direct_texture=None, env_visible=None, indirect_texture=None, *,
-            punctual_texture=None, env_ratio=None, blend_texture=None, upsample: bool = False):
+            punctual_texture=None, env_ratio=None, blend_texture=None, glass=None, upsample: bool = False,
+            target=None):
         """Compose the display image.
 
         ``base`` is the every-frame ping-pong (a second attachment holds the
@@ -169,12 +170,14 @@ class ComposePass(RenderPass):
         ``env_ratio`` the environment shadow ratios' sums and the lobes' weights, two textures
         (:mod:`.env_shadows`), which then scale the unoccluded environment light, or None;
         ``blend_texture`` the blended surfaces' running mean (:mod:`.blend`), composited over the
-        rest, or None.
+        rest, or None; ``glass`` the glass's sums and their frame count, (texture, n), composited before the
+        blended surfaces, or None; ``target``: a :class:`Target` to write instead of the display's own.
         ``upsample``: the sources are smaller than the output (a reduced first
         frame) and are sampled bilinearly.
         """
         ctx = self.ctx
-        self.out.fbo.use()
+        out = target or self.out
+        out.fbo.use()
         ctx.enable_only(ctx.NOTHING)
         has_env = len(base.textures[0]) > 1
         occluded = env_visible is not None and min(env_visible.counts) > 0
@@ -184,18 +187,20 @@ class ComposePass(RenderPass):
         sources = (base.current, direct_texture or base.current, base.current_of(1) if has_env else base.current,
                    env_visible.current(0) if occluded else base.current,
                    env_visible.current(1) if occluded else base.current, indirect_texture or base.current,
-                   punctual_texture or base.current, sums, weights, blend_texture or base.current)
+                   punctual_texture or base.current, sums, weights, blend_texture or base.current,
+                   glass[0] if glass is not None else base.current)
         for k, (name, texture) in enumerate(zip(self.SOURCES, sources, strict=True)):
             bind(self.program, name, texture, _COMPOSE["sources"], k)
         set_uniform(self.program, "u_indirect_scale", 1.0 if indirect_texture is not None else 0.0)
         set_uniform(self.program, "u_punctual_scale", 1.0 if punctual_texture is not None else 0.0)
         set_uniform(self.program, "u_blend_scale", 1.0 if blend_texture is not None else 0.0)
+        set_uniform(self.program, "u_glass_scale", 1.0 / glass[1] if glass is not None and glass[1] > 0 else 0.0)
         set_uniform(self.program, "u_direct_scale", 1.0 if direct_texture is not None else 0.0)
         set_uniform(self.program, "u_env_mode", env_mode)
-        w, h = self.out.texture.size
+        w, h = out.texture.size
         set_uniform(self.program, "u_upsample", (1.0 / w, 1.0 / h) if upsample else (0.0, 0.0))
         self.vao.render(vertices=3)
-        return self.out.fbo
+        return out.fbo
 
     def release(self) -> None:
         self.out.release()

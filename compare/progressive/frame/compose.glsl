@@ -5,8 +5,8 @@
 // then the two running means of the visible diffuse and specular light (env_occlusion.glsl), or
 // (environment shadow maps) the unoccluded mean times the shadow ratio of env_shadows.glsl,
 // plus the irradiance volume's indirect light where the renderer has one (indirect.glsl),
-// plus the punctual lights' running mean (punctual.glsl) where the scene has them; the blended
-// surfaces' running mean (blend.py) composites over all of that.
+// plus the punctual lights' running mean (punctual.glsl) where the scene has them; the glass's mean
+// (glass.py) composites over that, and the blended surfaces' running mean (blend.py) over all of it.
 // The display after a reduced frame 0 (first_frame.py) composes that frame's own, smaller
 // targets, upsampled bilinearly.
 
@@ -28,6 +28,8 @@ uniform sampler2D u_punctual;      // the punctual lights' light (running mean)
 uniform float u_punctual_scale;  // 1 to add u_punctual
 uniform sampler2D u_blend;         // blended surfaces (blend.py): premultiplied colour, a = transmittance
 uniform float u_blend_scale;     // 1 to composite u_blend over the rest
+uniform sampler2D u_glass;         // the glass (glass.py): sums of its radiance (rgb) and coverage (a)
+uniform float u_glass_scale;     // 1 / the glass frames summed, 0 for none
 uniform int u_env_mode;        // 0 no environment, 1 unoccluded, 2 occluded (both kinds have samples),
                                // 3 unoccluded times the environment shadow ratio (env_shadows.glsl)
 uniform sampler2D u_env_ratio;    // mode 3: the ratios' sums (sum V g_d, sum g_d, sum V g_s, sum g_s)
@@ -71,6 +73,10 @@ void main() {
     }
     if (u_punctual_scale > 0.0) {
         c += source(u_punctual);
+    }
+    if (u_glass_scale > 0.0) {
+        vec4 g = texelFetch(u_glass, ivec2(gl_FragCoord.xy), 0) * u_glass_scale;
+        c = g.rgb + (1.0 - g.a) * c;
     }
     if (u_blend_scale > 0.0) {
         vec4 b = texelFetch(u_blend, ivec2(gl_FragCoord.xy), 0);

@@ -65,7 +65,7 @@ class GBuffer(RenderPass):
         for key, program in self.programs.items():
             set_uniform(program, "u_view_proj", mat_bytes(view_proj))
             set_uniform(program, "u_camera_position", tuple(float(x) for x in camera_position))
-            self.scene.draw_shaded(program, map_set=key if len(self.programs) > 1 else None)
+            self.scene.draw_shaded(program, map_set=key if len(self.programs) > 1 else None, glass=False)
 
     def release(self) -> None:
         self.fbo.release()

@@ -16,6 +16,7 @@ light rectangles block light as well).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -59,6 +60,24 @@ def material_layers(mat) -> tuple:
     f0, weight = dielectric_specular(mat.ior, mat.specular, mat.specular_color)
     return (tuple(float(x) for x in np.broadcast_to(f0, 3)), float(weight), float(mat.clearcoat),
             float(mat.clearcoat_roughness), tuple(float(x) for x in mat.sheen_color), float(mat.sheen_roughness))
+
+
+#: transmission.glsl's uniforms, in the order of GpuMesh.glass.
+GLASS_UNIFORMS = ("u_transmission", "u_glass_ior", "u_thickness", "u_glass_scale", "u_attenuation")
+
+
+def glass_uniforms(mat, transform) -> tuple:
+    """``mat``'s transmission as transmission.glsl reads it (GpuMesh.glass): the transmission factor, the ior,
+    the thickness factor (the mesh's own units: 0 is a thin wall), the mesh's scale along each world axis
+    (the lengths of its transform's columns, as three.js scales the thickness) and the Beer–Lambert
+    coefficient −ln(attenuationColor) / attenuationDistance per unit of world length (0 where nothing is
+    absorbed; the reference's :func:`compare.mitsuba.scene_dict.medium_dict`)."""
+    scale = np.linalg.norm(np.asarray(transform, dtype=np.float64)[:3, :3], axis=0)
+    c = np.clip(np.asarray(mat.attenuation_color, dtype=np.float64), 1e-12, 1.0)
+    sigma = (np.maximum(-np.log(c), 0.0) / float(mat.attenuation_distance) if math.isfinite(mat.attenuation_distance)
+             and mat.thickness > 0.0 else np.zeros(3))
+    return (float(mat.transmission), float(min(mat.ior, 1e3)), float(mat.thickness),
+            tuple(float(x) for x in scale), tuple(float(x) for x in sigma))
 
 
 def mat_bytes(m: np.ndarray) -> bytes:
@@ -155,12 +174,15 @@ class GpuMesh:
     layers: tuple = ()
     """glTF's layers as layers.glsl reads them: (dielectric F0, specular weight, clearcoat, its
     roughness, sheen colour, sheen roughness); empty without LAYERS."""
+    glass: tuple = ()
+    """glTF's transmission as transmission.glsl reads it (:func:`glass_uniforms`); empty for a mesh the
+    G-buffer draws. A glass mesh is drawn by the glass pass (:mod:`compare.progressive.glass`) and frame 0."""
 
 
 class GpuScene(RenderPass):
     """All geometry of a scene on the GPU, uploaded once."""
 
-    def __init__(self, ctx, scene):
+    def __init__(self, ctx, scene, *, glass: bool = True):
         self.ctx = ctx
         self.meshes: list[GpuMesh] = []
         self.light_quads: list[GpuMesh] = []
@@ -179,6 +201,11 @@ class GpuScene(RenderPass):
         self.layered = bool(RENDERED_LAYERS & set().union(*(scene.materials[m.material].uses() for m in scene.meshes)))
         #: Whether any mesh carries glTF's COLOR_0: the VERTEX_COLORS define (material.glsl).
         self.colored = any(m.has_vertex_colors for m in scene.meshes)
+        #: Whether transmissive meshes (glTF transmission, not alphaMode BLEND) are apart from the G-buffer,
+        #: drawn by the glass pass: ``glass`` False (Lambert-only materials, as the reference's "diffuse"
+        #: mode draws glass) keeps them opaque surfaces.
+        self.glassy = glass and any(scene.materials[m.material].transmission > 0.0
+                                    and scene.materials[m.material].alpha_mode != "blend" for m in scene.meshes)
         self.sheen_table = None
         try:
             for mesh in scene.meshes:
@@ -193,6 +220,8 @@ class GpuScene(RenderPass):
                 if mat.alpha_mode == "blend":
                     gm.blend = float(mat.alpha)
                 gm.sides = 2.0 if mat.double_sided else 1.0
+                if self.glassy and mat.transmission > 0.0 and mat.alpha_mode != "blend":
+                    gm.glass = glass_uniforms(mat, mesh.transform)
                 if self.layered:
                     gm.layers = material_layers(mat)
                 if self.textured:
@@ -405,15 +434,19 @@ class GpuScene(RenderPass):
             return vao
         return vao[0]
 
-    def draw_shaded(self, program, instances: int = 1, map_set: tuple[bool, ...] | None = None) -> None:
+    def draw_shaded(self, program, instances: int = 1, map_set: tuple[bool, ...] | None = None, *,
+                    glass: bool = True) -> None:
         """Draw meshes and light quads with their material uniforms (G-buffer pass).
 
         ``instances`` > 1 draws every mesh that many times in one call (the
         irradiance volume's bake places each instance in its own cube face).
         ``map_set``: only the meshes of that :meth:`map_set` (a program specialised for it).
+        ``glass`` False leaves out the glass meshes (the G-buffer: the glass pass draws them).
         """
         for index, mesh in enumerate(self.meshes + self.light_quads):
             if mesh.blend >= 0.0 or (map_set is not None and self.map_set(mesh) != map_set):
+                continue
+            if mesh.glass and not glass:
                 continue
             self.draw_mesh(program, index, instances)
 
@@ -429,6 +462,10 @@ class GpuScene(RenderPass):
         set_uniform(program, "u_sides", mesh.sides)
         if mesh.layers:
             for name, value in zip(LAYER_UNIFORMS, mesh.layers):
+                set_uniform(program, name, value)
+        if self.glassy:  # every mesh: frame 0's forward pass draws glass and the rest with one program
+            set_uniform(program, "u_transmission", mesh.glass[0] if mesh.glass else 0.0)
+            for name, value in zip(GLASS_UNIFORMS[1:], mesh.glass[1:]):
                 set_uniform(program, name, value)
         if self.textured:
             self._bind_maps(program, mesh, all_maps=True)
@@ -451,16 +488,24 @@ class GpuScene(RenderPass):
             if tex is not None:
                 bind(program, f"u_{name}_map", tex, MAPS, k)
 
-    def draw_occluders(self, programs: dict, skip_light: int | None = None, *, casters: bool = True) -> None:
+    def draw_occluders(self, programs: dict, skip_light: int | None = None, *, casters: bool = True,
+                       glass: bool = True) -> None:
         """Draw depth only: every mesh and every light quad except ``skip_light``'s (shadow pass), each with
         the program of :meth:`occluder_programs` for it; an alpha-masked mesh leaves out its holes. A blended
         mesh casts a shadow map's shadow where its coverage is at least ½ (``casters``; a hard shadow map
-        has no partial shadow) and is left out of a depth pre-pass (``casters=False``)."""
-        for index, mesh in enumerate(self.meshes + self.light_quads):
-            if mesh.light is not None and mesh.light == skip_light:
-                continue
-            if mesh.blend >= 0.0 and not (casters and mesh.blend >= 0.5):
-                continue
+        has no partial shadow) and is left out of a depth pre-pass (``casters=False``); ``glass`` False leaves
+        out the glass meshes (a depth pre-pass of what the glass pass draws over)."""
+        self.draw_depth(programs, [index for index, mesh in enumerate(self.meshes + self.light_quads)
+                                   if not (mesh.light is not None and mesh.light == skip_light)
+                                   and not (mesh.blend >= 0.0 and not (casters and mesh.blend >= 0.5))
+                                   and not (mesh.glass and not glass)])
+
+    def draw_depth(self, programs: dict, indices) -> None:
+        """Draw depth only of the meshes ``indices`` (of meshes + light quads), each with the program of
+        :meth:`occluder_programs` for it (the glass pass's depth pre-pass)."""
+        everything = self.meshes + self.light_quads
+        for index in indices:
+            mesh = everything[index]
             masked = mesh.alpha_cutoff >= 0.0 and True in programs
             program = programs[masked]
             set_uniform(program, "u_sides", mesh.sides)  # a depth pre-pass culls as the camera's passes do

@@ -98,7 +98,7 @@ PROGRAM_UNITS: Mapping[str, Mapping[str, Units]] = MappingProxyType({
     "accumulate.glsl": _row(gbuffer=GBUFFER, previous=(4,), previous_env=(5,), environment=(6, _ENVIRONMENT),
                             layers=LAYERS),
     # the display's sources, in ComposePass.SOURCES order
-    "compose.glsl": _row(sources=(0, 10)),
+    "compose.glsl": _row(sources=(0, 11)),
     # lights/
     "shadow.glsl": _row(maps=MAPS),
     "vsm_blur.glsl": _row(source=(0,)),
@@ -116,8 +116,10 @@ PROGRAM_UNITS: Mapping[str, Mapping[str, Units]] = MappingProxyType({
     "probes_direct.glsl": _row(gbuffer=GBUFFER, shadow=(4,)),
     "probes_shade.glsl": _row(gbuffer=GBUFFER, direct=(4,), probes=(5, _PROBES), environment=(8, _ENVIRONMENT)),
     # the forward passes (frame 0, the blended meshes): the G-buffer's position only (the blend pass)
+    # the glass pass (glass.py) also reads the opaque image and the glass's back faces
     "first_frame.glsl": _row(gbuffer=GBUFFER, spec_lut=(4,), ltc=(5,), environment=(6, _ENVIRONMENT), maps=MAPS,
-                             layers=LAYERS),
+                             opaque=(16,), glass_back=(17,), layers=LAYERS),
+    "glass_back.glsl": _row(),
     "blend_fold.glsl": _row(previous=(0,), frame=(1,)),
     # gl/
     "srgb_probe.glsl": _row(codes=(0,)),
