@@ -241,3 +241,19 @@ def test_cycles_reads_each_map_as_the_file_says(card_scene):
         context.close()
     blocks = lambda a: a.reshape(4, 4, 4, 4, 3).mean(axis=(1, 3))  # noqa: E731
     np.testing.assert_allclose(blocks(image), blocks(expected_image()), atol=0.02)
+
+
+def test_inspect_says_which_renderers_leave_each_feature_out(tmp_path, capsys):
+    """``compare inspect`` on a glTF lists the features its materials use and, for each, the renderers of the
+    registry that do not draw it (their ``renders``)."""
+    from compare.cli.main import main
+    from compare.renderers.registry import Registry
+
+    write_card(tmp_path)
+    assert main(["inspect", str(tmp_path / "card.gltf")]) == 0
+    out = capsys.readouterr().out
+    registry = Registry()
+    for feature in ("uv_sets", "map_samplers"):
+        line = next(x for x in out.splitlines() if x.strip().startswith(f"feature      {feature}"))
+        leaving = sorted(n for n in registry.names() if feature not in registry.get(n).renders)
+        assert line.endswith(f"left out by {', '.join(leaving)}" if leaving else "drawn by every renderer"), line

@@ -30,8 +30,10 @@ def cmd_inspect(args: argparse.Namespace) -> int:
 
     from compare.renderers.registry import Registry
 
-    info = inspect_path(args.scene, renderers=tuple(Registry().names()) if args.scene.suffix.lower() == ".json"
-                        else ())
+    registry = Registry()
+    scenarios = args.scene.suffix.lower() == ".json"
+    info = inspect_path(args.scene, renderers=tuple(registry.names()) if scenarios else (),
+                        renders=None if scenarios else {name: registry.get(name).renders for name in registry.names()})
     from compare.util.text import terminal_text
 
     # JSON escapes control characters itself; the text names what the file says, made inert for the terminal

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import warnings
 from pathlib import Path
+from typing import Mapping
 
 import numpy as np
 
@@ -97,9 +98,20 @@ def _scenarios_info(path: Path, known: tuple[str, ...]) -> dict:
     return {"file": str(path), "scenarios": rows, "notes": [str(w.message) for w in caught]}
 
 
-def inspect_path(path: str | Path, renderers: tuple[str, ...] = ()) -> dict:
+def _features(scene, renders: Mapping[str, frozenset]) -> list[dict]:
+    """Each feature beyond the core model that the scene's materials and meshes use, with its materials and
+    the renderers (of ``renders``: name → the features it draws) that leave it out."""
+    return [{"feature": feature, "materials": len(names),
+             "left out by": sorted(name for name, drawn in renders.items() if feature not in drawn)}
+            for feature, names in sorted(scene.material_features().items())]
+
+
+def inspect_path(path: str | Path, renderers: tuple[str, ...] = (),
+                 renders: Mapping[str, frozenset] | None = None) -> dict:
     """What the scene file (TOML), glTF file or render-fidelity scenario file (``.json``) ``path`` holds, as
-    a JSON-ready dict; ``renderers``: the names a scenario's ``exclude`` may match (the registry's)."""
+    a JSON-ready dict; ``renderers``: the names a scenario's ``exclude`` may match (the registry's);
+    ``renders``: renderer name → the features it draws, to say which renderers leave out what the scene
+    uses (``features``)."""
     path = Path(path)
     if path.suffix.lower() == ".json":
         return _scenarios_info(path, tuple(renderers))
@@ -111,6 +123,12 @@ def inspect_path(path: str | Path, renderers: tuple[str, ...] = ()) -> dict:
             info = _gltf_info(path)
         except MeshFileError as exc:  # the message names the file and the JSON path
             raise SceneError(str(exc)) from None
+        if renders is not None:
+            from compare.scene.loader import load_scene
+
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # _gltf_info's notes say it all once
+                info["features"] = _features(load_scene(path), renders)
     else:
         from compare.scene.loader import load_scene
 
@@ -128,6 +146,8 @@ def inspect_path(path: str | Path, renderers: tuple[str, ...] = ()) -> dict:
                            "fov": scene.camera.fov},
                 "includes": [_gltf_info(f) for f in files],
                 "notes": [str(w.message) for w in caught]}
+        if renders is not None:
+            info["features"] = _features(scene, renders)
     return info
 
 
@@ -174,6 +194,9 @@ def format_inspection(info: dict, indent: str = "") -> str:
         lines.append(f"{indent}  extension    {name}: {fate}")
     for m in info.get("maps", []):
         lines.append(f"{indent}  map          image {m['image']}: {m['size']}, {m['used as']}")
+    for f in info.get("features", []):
+        fate = f"left out by {', '.join(f['left out by'])}" if f["left out by"] else "drawn by every renderer"
+        lines.append(f"{indent}  feature      {f['feature']} ({f['materials']} material(s)): {fate}")
     for light in info["lights"]:
         desc = ", ".join(f"{k} {fmt(v) if isinstance(v, list) else v}" for k, v in light.items() if k != "name")
         lines.append(f"{indent}  light        {light['name']}: {desc}")
