@@ -505,7 +505,8 @@ def _eevee_settings(samples: int) -> dict[str, Any]:
 
 def build_job(scene: Scene, *, engine: str, samples: int, seed: int, folder: Path,
               materials: str = "cycles", settings: Mapping[str, Any] | None = None, warmup: bool = False,
-              threads: int = 0, ladder: Sequence[int] = (), distribution: str | None = None) -> dict[str, Any]:
+              threads: int = 0, ladder: Sequence[int] = (), distribution: str | None = None,
+              gltf_import: bool = False) -> dict[str, Any]:
     """Write the job for one render into ``folder`` and return its ``job.json`` content.
 
     ``materials``: ``"cycles"`` (the mapping in the module notes) or
@@ -537,7 +538,13 @@ def build_job(scene: Scene, *, engine: str, samples: int, seed: int, folder: Pat
 
     arrays: dict[str, np.ndarray] = {}
     meshes = []
+    imports: dict[str, dict] = {}
     for k, mesh in enumerate(scene.meshes):
+        if gltf_import and mesh.shape == "gltf" and mesh.file is not None:
+            # the file as Blender's own importer reads it, placed by the include's transform
+            xf = np.asarray(mesh.params["include_matrix"], dtype=np.float64)
+            imports.setdefault(f"{mesh.file}|{xf.tobytes().hex()}", {"file": str(mesh.file), "matrix": xf.tolist()})
+            continue
         tri = mesh.triangles()
         uv = np.array(tri.uvs, dtype=np.float32, copy=True)
         uv[:, 1] = 1.0 - uv[:, 1]  # Mitsuba's v runs down the image, Blender's up
@@ -603,6 +610,9 @@ def build_job(scene: Scene, *, engine: str, samples: int, seed: int, folder: Pat
         "materials": {name: _material(m, materials, distribution) for name, m in scene.materials.items()},
         "material_model": materials,
         "meshes": meshes,
+        # glTF files to import with Blender's glTF importer (their meshes and materials; not their cameras or
+        # lights, which the scene has read into "camera", "lights" and "punctual")
+        "imports": list(imports.values()),
         "lights": lights,
         # EEVEE culls a light beyond the distance where it falls under light_threshold: as for the
         # area lights, a distance reaching every corner of the scene from the light turns that off.

@@ -113,7 +113,7 @@ def render_blender(scene: Scene, *, engine: str = "cycles", samples: int, seed: 
                    materials: str = "cycles", settings: Mapping[str, Any] | None = None,
                    ladder: Sequence[int] = (), warmup: bool | None = None, threads: int = 0,
                    timeout: float | None = None, keep: str | os.PathLike | None = None,
-                   distribution: str | None = None) -> BlenderResult:
+                   distribution: str | None = None, gltf_import: bool = False) -> BlenderResult:
     """Render ``scene`` with Blender Cycles (CPU) or EEVEE in a separate process.
 
     Parameters
@@ -149,6 +149,9 @@ def render_blender(scene: Scene, *, engine: str = "cycles", samples: int, seed: 
         The Principled BSDF's distribution for every material (``"multi_ggx"``, Blender's
         default, or ``"ggx"``); None keeps each material's own (``Material.distribution``).
         What the worker set is in the metadata (``distribution``, ``distributions``).
+    gltf_import
+        Read the scene's glTF files with Blender's own glTF importer (its meshes, UVs, tangents and
+        materials) instead of the suite's export of them; the camera, lights and environment stay the suite's.
 
     Raises
     ------
@@ -164,7 +167,7 @@ def render_blender(scene: Scene, *, engine: str = "cycles", samples: int, seed: 
         raise MissingComponentError(f"Blender renders need bpy: {why}")
     opts = dict(engine=engine, samples=int(samples), seed=int(seed), materials=materials, settings=settings,
                 ladder=tuple(ladder), warmup=(engine == "eevee") if warmup is None else bool(warmup),
-                threads=int(threads), distribution=distribution)
+                threads=int(threads), distribution=distribution, gltf_import=bool(gltf_import))
     if keep is not None:
         Path(keep).mkdir(parents=True, exist_ok=True)
         return _run(py, scene, opts, timeout, Path(keep))

@@ -27,8 +27,8 @@ def blender_ladder(samples: int) -> list[int]:
 
 
 def _blender_checkpoints(scene, *, engine: str, samples: int, seed: int, ladder: list[int],
-                         distribution: str | None = None) -> tuple[list[tuple[int, float, np.ndarray]], float, dict,
-                                                                   Any]:
+                         distribution: str | None = None,
+                         gltf_import: bool = False) -> tuple[list[tuple[int, float, np.ndarray]], float, dict, Any]:
     """Render with Blender; returns (checkpoints, start-up seconds, metadata, result).
 
     Each checkpoint is a render of its own with the same seed (Blender's
@@ -37,7 +37,7 @@ def _blender_checkpoints(scene, *, engine: str, samples: int, seed: int, ladder:
     from compare.blender import render_blender
 
     result = render_blender(scene, engine=engine, samples=samples, seed=seed, ladder=ladder,
-                            distribution=distribution)
+                            distribution=distribution, gltf_import=gltf_import)
     cps = [(int(c.step), float(c.seconds), np.asarray(c.image, dtype=np.float32)) for c in result.checkpoints]
     if not cps or cps[-1][0] != samples:
         cps.append((samples, float(result.seconds), np.asarray(result.image, dtype=np.float32)))
@@ -62,25 +62,34 @@ class BlenderRenderer(Renderer):
     # anisotropy: its Anisotropic input is not glTF's parameterisation and the export does not set it)
     renders = ((frozenset({"punctual_lights"}) | frozenset(MATERIAL_FEATURE_NAMES) | frozenset(MAP_FEATURE_NAMES))
                - {"dispersion", "anisotropy"})
-    OPTIONS = {"ggx": "GGX (single scattering) in every Principled BSDF",
-               "multi_ggx": "Multiscatter GGX in every Principled BSDF"}
+    DISTRIBUTION_OPTIONS = {"ggx": "GGX (single scattering) in every Principled BSDF",
+                            "multi_ggx": "Multiscatter GGX in every Principled BSDF"}
+    OPTIONS = {**DISTRIBUTION_OPTIONS,
+               "gltf": "the scene's glTF files read by Blender's own glTF importer (its meshes, UVs, tangents and "
+                       "materials), not the suite's export of them; camera, lights and environment the suite's"}
 
     def __init__(self, spec: str):
         engine = spec.partition(":")[0]
         if engine not in ("cycles", "eevee"):
             raise ValueError(f"unknown Blender engine {engine!r}")
-        options = parse_spec(spec, self.OPTIONS)
-        if len(options) > 1:
-            raise ValueError(f"renderer {spec!r}: one distribution at a time ({' or '.join(self.OPTIONS)})")
-        option = options[0][0] if options else ""
+        words = [word for word, _ in parse_spec(spec, self.OPTIONS)]
+        distributions = [w for w in words if w in self.DISTRIBUTION_OPTIONS]
+        if len(distributions) > 1:
+            raise ValueError(f"renderer {spec!r}: one distribution at a time "
+                             f"({' or '.join(self.DISTRIBUTION_OPTIONS)})")
+        option = distributions[0] if distributions else ""
         self.engine = engine
         self.distribution = option or None
+        self.gltf_import = "gltf" in words
         self.name = spec
         self.label = "Blender Cycles (CPU)" if engine == "cycles" else "Blender EEVEE"
-        if option:
+        if words:
             self.variant_of = engine
-            self.variant_note = self.OPTIONS[option]
+            self.variant_note = "; ".join(self.OPTIONS[w] for w in words)
+        if option:
             self.label += " GGX" if option == "ggx" else " Multiscatter GGX"
+        if self.gltf_import:
+            self.label += " (Blender's glTF import)"
 
     def available(self) -> tuple[bool, str]:
         from compare.blender import blender_available
@@ -92,15 +101,17 @@ class BlenderRenderer(Renderer):
 
     def models(self, materials: str) -> bool:
         # Cycles renders the Principled BSDFs that the reference's Principled modes model (with their distribution).
-        return self.engine == "cycles" and materials in PRINCIPLED_MODES and PRINCIPLED_MODES[materials] == self.distribution
+        return (self.engine == "cycles" and not self.gltf_import and materials in PRINCIPLED_MODES
+                and PRINCIPLED_MODES[materials] == self.distribution)
 
     def key(self, scene, settings) -> list:
-        return ["blender", self.name, "distribution", self.distribution or "per-material"]
+        return ["blender", self.name, "distribution", self.distribution or "per-material", "import", self.gltf_import]
 
     def render(self, scene, *, steps: int, checkpoints: list[int], seed: int, context: RenderContext) -> Rendering:
         cps, startup, meta, _ = _blender_checkpoints(scene, engine=self.engine, samples=steps, seed=seed,
                                                           ladder=[c for c in checkpoints if c < steps],
-                                                          distribution=self.distribution)
+                                                          distribution=self.distribution,
+                                                          gltf_import=self.gltf_import)
         return Rendering([Checkpoint(s, t, img) for s, t, img in cps], startup, meta)
 
 

@@ -333,6 +333,35 @@ def _gl_driver() -> str:
     return ", ".join(names) or "unknown"
 
 
+#: Blender's glTF importer turns glTF's +Y up into Blender's +Z up: (x, y, z) → (x, −z, y). Its inverse maps
+#: what it imported back into the suite's frame (which is glTF's).
+_FROM_IMPORTED = ((1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 1.0, 0.0), (0.0, -1.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
+
+
+def _import_gltf(bpy, sc, entry: dict) -> None:
+    """Import ``entry["file"]`` with Blender's glTF importer into ``sc``, without its cameras and lights, under
+    an empty that undoes the importer's axis change and applies ``entry["matrix"]`` (the include's)."""
+    import addon_utils
+    from mathutils import Matrix
+
+    addon_utils.enable("io_scene_gltf2", default_set=True)
+    before = set(bpy.data.objects)
+    bpy.ops.import_scene.gltf(filepath=entry["file"])
+    new = [o for o in bpy.data.objects if o not in before]
+    for o in [o for o in new if o.type in ("CAMERA", "LIGHT")]:
+        new.remove(o)
+        bpy.data.objects.remove(o, do_unlink=True)
+    root = bpy.data.objects.new("import", None)
+    sc.collection.objects.link(root)
+    root.matrix_world = Matrix(entry["matrix"]) @ Matrix(_FROM_IMPORTED)
+    for o in new:
+        if o.parent is None:
+            o.parent = root
+    for o in new:  # the importer links to the active collection: make sure they are in the scene
+        if o.name not in sc.collection.all_objects:
+            sc.collection.objects.link(o)
+
+
 def build(bpy, np, job: dict, folder: str):
     """Build the Blender scene of ``job``; returns the bpy scene."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -377,6 +406,8 @@ def build(bpy, np, job: dict, folder: str):
                     arrays[f"{k}_indices"], arrays[f"{k}_uvs1"] if f"{k}_uvs1" in arrays.files else None)
         obj.data.materials.append(mats[mesh["material"]])
         sc.collection.objects.link(obj)
+    for entry in job.get("imports", []):
+        _import_gltf(bpy, sc, entry)
 
     black = _black_material(bpy, "light backing")
     for k, light in enumerate(job["lights"]):

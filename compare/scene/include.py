@@ -184,8 +184,10 @@ def _objects(st: _Settings, doc, materials: _Materials, notes: list[str]) -> tup
         problem = geometry.reach_problem(matrix, prim.mesh)  # after the include's own transform (its units)
         if problem:  # at load, not in a renderer: one error naming the file and the part
             raise GltfError(f"{st.path}: {prim.name}: its vertices reach {problem}")
-        mesh = sm.Mesh(name=name, shape="gltf", material=mat, params={"triangles": prim.mesh}, transform=matrix,
-                       file=st.path)
+        # "include_matrix": the include's own transform (its units, placement), for a renderer that reads the file
+        # itself (Blender's glTF importer) and places it as the scene does
+        mesh = sm.Mesh(name=name, shape="gltf", material=mat, params={"triangles": prim.mesh, "include_matrix": st.xf},
+                       transform=matrix, file=st.path)
         # A light has one radiance: a quad whose emission has a map stays a mesh (its map is drawn).
         material = materials.made[mat]
         unlit = prim.material is not None and doc.materials[prim.material].unlit
