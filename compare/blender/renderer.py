@@ -59,9 +59,10 @@ class BlenderRenderer(Renderer):
     unit = "spp"
     # Principled BSDF v2 inputs; each map on its UV layer with its own transform, wraps and filter
     # (no dispersion: Blender 5.0's Principled BSDF has no such input, its Glass BSDF alone has one; no
-    # anisotropy: its Anisotropic input is not glTF's parameterisation and the export does not set it)
+    # anisotropy: its Anisotropic input is not glTF's parameterisation and the export does not set it; no
+    # iridescence: its Thin Film is another model, not set by the export)
     renders = ((frozenset({"punctual_lights"}) | frozenset(MATERIAL_FEATURE_NAMES) | frozenset(MAP_FEATURE_NAMES))
-               - {"dispersion", "anisotropy"})
+               - {"dispersion", "anisotropy", "iridescence"})
     DISTRIBUTION_OPTIONS = {"ggx": "GGX (single scattering) in every Principled BSDF",
                             "multi_ggx": "Multiscatter GGX in every Principled BSDF"}
     OPTIONS = {**DISTRIBUTION_OPTIONS,

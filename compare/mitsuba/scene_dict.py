@@ -429,6 +429,9 @@ def _surface_dict(mat: Material, mode: str, vc: bool = False) -> dict:
         if mat.anisotropy_strength > 0.0:  # in glTF's tangent frame: _normal_mapped puts it under one
             d.update(anisotropy_strength=float(mat.anisotropy_strength),
                      anisotropy_rotation=float(mat.anisotropy_rotation))
+        if mat.iridescence > 0.0:  # the thickness map is not read: the film is its maximum thickness (glTF)
+            d.update(iridescence=float(mat.iridescence), iridescence_ior=float(mat.iridescence_ior),
+                     iridescence_thickness=float(mat.iridescence_thickness_max))
         if ((mat.ior, mat.specular, mat.specular_color) != (1.5, 1.0, (1.0, 1.0, 1.0))
                 or _layer_map(mat, "specular") or _layer_map(mat, "specular_color")):
             d.update(specular_f0=_specular_f0(mat), specular_weight=_layer_value(mat, "specular"))

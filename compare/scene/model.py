@@ -140,6 +140,12 @@ LAYERS = (
     Layer("dispersion", 0.0, "KHR_materials_dispersion", "dispersion", hi=math.inf),
     Layer("anisotropy_strength", 0.0, "KHR_materials_anisotropy", "anisotropyStrength"),
     Layer("anisotropy_rotation", 0.0, "KHR_materials_anisotropy", "anisotropyRotation", lo=-math.inf, hi=math.inf),
+    Layer("iridescence", 0.0, "KHR_materials_iridescence", "iridescenceFactor"),
+    Layer("iridescence_ior", 1.3, "KHR_materials_iridescence", "iridescenceIor", lo=1.0, hi=1e4),
+    Layer("iridescence_thickness_min", 100.0, "KHR_materials_iridescence", "iridescenceThicknessMinimum",
+          hi=math.inf),
+    Layer("iridescence_thickness_max", 400.0, "KHR_materials_iridescence", "iridescenceThicknessMaximum",
+          hi=math.inf),
 )
 #: How a map wraps ("repeat", "clamp", "mirror") and is filtered when magnified ("linear", "nearest").
 TEXTURE_WRAPS = ("repeat", "clamp", "mirror")
@@ -183,7 +189,8 @@ CORE_MAPS = ("base_color_texture", "metallic_roughness_texture", "emissive_textu
 MATERIAL_FEATURES = {"KHR_materials_transmission": "transmission", "KHR_materials_volume": "volume",
                      "KHR_materials_ior": "ior", "KHR_materials_clearcoat": "clearcoat",
                      "KHR_materials_sheen": "sheen", "KHR_materials_specular": "specular",
-                     "KHR_materials_dispersion": "dispersion", "KHR_materials_anisotropy": "anisotropy"}
+                     "KHR_materials_dispersion": "dispersion", "KHR_materials_anisotropy": "anisotropy",
+                     "KHR_materials_iridescence": "iridescence"}
 #: The extensions' maps that are read: glTF key → (the field it multiplies, its channel).
 LAYER_MAPS = {"transmissionTexture": ("transmission", "r"), "clearcoatTexture": ("clearcoat", "r"),
               "clearcoatRoughnessTexture": ("clearcoat_roughness", "g"),
@@ -280,6 +287,12 @@ class Material:
     #: (radians, counter-clockwise towards the bitangent).
     anisotropy_strength: float = 0.0
     anisotropy_rotation: float = 0.0
+    #: KHR_materials_iridescence: a thin film (index ``iridescence_ior``, ``iridescence_thickness_max`` nm thick
+    #: where no thickness map is read) whose Fresnel (:mod:`compare.brdf.iridescence`) the factor mixes in.
+    iridescence: float = 0.0
+    iridescence_ior: float = 1.3
+    iridescence_thickness_min: float = 100.0
+    iridescence_thickness_max: float = 400.0
     #: The extensions' maps that are read (:data:`LAYER_MAPS`): (field, channel, linear map), each multiplying
     #: its field's factor, with the material's texture transform.
     layer_maps: tuple[tuple[str, str, Path], ...] = ()
@@ -330,6 +343,8 @@ class Material:
             out.discard("dispersion")  # glTF: dispersion spreads the IOR of a volume's refraction, nothing else
         if self.anisotropy_strength == 0.0:
             out.discard("anisotropy")  # a rotation alone stretches nothing
+        if self.iridescence == 0.0:
+            out.discard("iridescence")  # glTF: a factor of 0 leaves the material as it is
         if max(self.sheen_color) == 0.0:
             out.discard("sheen")
         if self.clearcoat_normal_texture is not None and "clearcoat" in out:
@@ -626,6 +641,7 @@ class Features:
     specular: bool = False
     dispersion: bool = False
     anisotropy: bool = False
+    iridescence: bool = False
     layer_maps: bool = False
     uv_sets: bool = False
     map_samplers: bool = False

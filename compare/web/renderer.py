@@ -58,7 +58,7 @@ class ThreeJsPathTracer(WebRenderer):
     PACKAGES = ("three", "three-gpu-pathtracer", "three-mesh-bvh")
     VERSION_KEY = "three"
     unit = "spp"
-    renders = frozenset(MATERIAL_FEATURE_NAMES) - {"dispersion", "anisotropy"}  # not in its material model
+    renders = frozenset(MATERIAL_FEATURE_NAMES) - {"dispersion", "anisotropy", "iridescence"}  # not measured here
 
     def describe(self, opts: list[str]) -> str:
         return "three.js path tracer (three-gpu-pathtracer)"

@@ -10,6 +10,7 @@ import drjit as dr
 from mitsuba import BSDFFlags, ParamFlags
 
 from compare.brdf import DIELECTRIC_F0, H_LEN2_MIN, REFERENCE_ALPHA_MIN, SPECULAR_PROB_MIN, multiscatter
+from compare.brdf.iridescence import drjit_ops, iridescence_fresnel
 from compare.mitsuba import ggx, principled
 from compare.mitsuba.plugins import base, bound_variant, for_variant
 from compare.mitsuba.principled_tables import tables
@@ -21,6 +22,7 @@ PluginBSDF = for_variant(base).PluginBSDF
 Float, UInt32, Color3f, Vector3f = mv.Float, mv.UInt32, mv.Color3f, mv.Vector3f
 DIFFUSE = BSDFFlags.DiffuseReflection | BSDFFlags.FrontSide
 GLOSSY = BSDFFlags.GlossyReflection | BSDFFlags.FrontSide
+_OPS = drjit_ops(dr)
 
 
 def schlick_weight(v_dot_h):
@@ -140,6 +142,16 @@ class GltfPbrBSDF(PluginBSDF):
         if self.anisotropy > 0.0 and self.flavour == "cycles":
             raise ValueError(f"{name}: anisotropy applies to flavour 'gltf' only")
         self.direction = (math.cos(rotation), math.sin(rotation))
+        # glTF's thin-film iridescence (KHR_materials_iridescence, compare.brdf.iridescence): its Fresnel mixed
+        # into each lobe's by the factor
+        self.iridescence = float(props.get("iridescence", 0.0))
+        self.film_ior = float(props.get("iridescence_ior", 1.3))
+        self.film_thickness = float(props.get("iridescence_thickness", 400.0))
+        if not (0.0 <= self.iridescence <= 1.0 and self.film_ior >= 1.0 and self.film_thickness >= 0.0):
+            raise ValueError(f"{name}: iridescence must be in [0, 1], iridescence_ior >= 1 and "
+                             "iridescence_thickness >= 0")
+        if self.iridescence > 0.0 and self.flavour == "cycles":
+            raise ValueError(f"{name}: iridescence applies to flavour 'gltf' only")
         self.m_components = [DIFFUSE, GLOSSY]
         self.m_flags = DIFFUSE | GLOSSY
 
@@ -189,11 +201,23 @@ class GltfPbrBSDF(PluginBSDF):
         if self.dielectric:
             f0d, sw = extra
             fr = f0d + (1.0 - f0d) * w
-            return (m * (c + (1.0 - c) * w) + (1.0 - m) * sw * fr,
+            metal = c + (1.0 - c) * w
+            if self.iridescence > 0.0:
+                metal, fr = self._iridescent(metal, c, x), self._iridescent(fr, f0d, x)
+            return (m * metal + (1.0 - m) * sw * fr,
                     (1.0 - m) * (1.0 - sw * dr.maximum(dr.maximum(fr.x, fr.y), fr.z)))
+        if self.iridescence > 0.0:  # each lobe's Fresnel mixed with its film's; the base weighted by the largest
+            metal = self._iridescent(c + (1.0 - c) * w, c, x)
+            fr = self._iridescent(Color3f(DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * w), Color3f(DIELECTRIC_F0), x)
+            return m * metal + (1.0 - m) * fr, (1.0 - m) * (1.0 - _max3(fr))
         f0 = DIELECTRIC_F0 + (c - DIELECTRIC_F0) * m
         fd = DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * w
         return f0 + (1.0 - f0) * w, (1.0 - m) * (1.0 - fd)
+
+    def _iridescent(self, fresnel, f0, x):
+        """``mix(fresnel, F_iridescence, iridescence)``: the thin film over a base of reflectance ``f0``."""
+        film = iridescence_fresnel(_OPS, x, self.film_thickness, self.film_ior, [f0[0], f0[1], f0[2]])
+        return fresnel + (Color3f(film[0], film[1], film[2]) - fresnel) * self.iridescence
 
     @staticmethod
     def _lobes_enabled(ctx):
