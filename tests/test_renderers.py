@@ -610,6 +610,46 @@ def test_sigterm_to_compare_stops_a_blender_render_and_removes_its_folder(tmp_pa
     assert not list(temp.glob("compare-blender-*"))
 
 
+@pytest.mark.bpy
+def test_a_killed_compare_takes_its_blender_worker_with_it(tmp_path):
+    """SIGKILL leaves compare no unwinding at all: the worker ends by itself (PR_SET_PDEATHSIG), where it used to
+    render on, orphaned (and SIGTERM in the instant between the worker's start and compare holding its handle
+    left it so too)."""
+    import os
+    import signal
+    import subprocess
+
+    temp = tmp_path / "temp"
+    temp.mkdir()
+    proc = subprocess.Popen([sys.executable, "-m", "compare.cli.main", "render", "--scene", str(CORNELL),
+                             "--renderer", "cycles", "--samples", "100000", "--size", "64x48",
+                             "-o", str(tmp_path / "x.exr")], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            env={**os.environ, "TMPDIR": str(temp)})
+
+    def workers():
+        return [p for p in Path("/proc").iterdir() if p.name.isdigit() and (p / "cmdline").is_file()
+                and b"worker.py" in (p / "cmdline").read_bytes() and str(temp).encode() in (p / "cmdline").read_bytes()]
+
+    for _ in range(600):
+        if workers():
+            break
+        time.sleep(0.05)
+    else:
+        proc.kill()
+        pytest.fail(f"Blender did not start: {proc.communicate()[1].decode()[-500:]}")
+    time.sleep(0.5)  # past the worker's own start (its prctl)
+    proc.kill()
+    proc.communicate(timeout=60)
+    for _ in range(40):  # the kernel kills it at once (without it, it rendered on: measured 3.5 s and more)
+        left = workers()
+        if not left:
+            break
+        time.sleep(0.05)
+    for p in left:
+        os.kill(int(p.name), signal.SIGKILL)
+    assert not left, "Blender's worker outlived a killed compare"
+
+
 @pytest.mark.web
 def test_sigterm_to_compare_stops_a_web_render_and_its_browser(tmp_path):
     """The same for a web engine: Chromium and Playwright's driver end with `compare`, nothing of theirs

@@ -531,15 +531,17 @@ def test_same_figures_as_the_golden(tmp_path, gl_ctx, update_golden):
                            renderers=["mitsuba", "progressive", "progressive:paper", "progressive:ltc"])
     now = run_mod.run([CORNELL], tmp_path / "now", settings, progress=False, cache_dir=tmp_path / "cache",
                       gl_ctx=gl_ctx, report=False)
-    # The ground truth's bits identify the host's floating point (Dr.Jit compiles for the CPU's vector width):
-    # on a host that renders the golden's ground truth bit for bit, every figure must be equal bit for bit;
-    # elsewhere they may differ in float32 rounding only.
+    # The host's floating point: the ground truth's bits (Dr.Jit compiles for the CPU's vector width) and the
+    # vector code NumPy dispatches to (its float32 sums, in the metrics, follow the CPU's vector width too: a
+    # host that renders the truth bit for bit can still differ in the metrics' last bits). On the golden's host
+    # every figure must be equal bit for bit; elsewhere they may differ in float32 rounding only.
     truth = hashlib.sha256(read_exr(tmp_path / "now" / now.scenes[0].reference.image)[0].tobytes()).hexdigest()
+    identity = f"{truth}\n{_numpy_dispatch()}\n"
     if update_golden:
         now.save(golden)
-        host.write_text(truth + "\n", encoding="utf-8")
+        host.write_text(identity, encoding="utf-8")
         pytest.skip(f"--update-golden: rewrote {golden.name}")
-    same_host = host.read_text(encoding="utf-8").strip() == truth
+    same_host = host.read_text(encoding="utf-8") == identity
     close = (lambda x, y: x == y) if same_host else _close_figures
     before = Results.load(golden)
     (a,), (b,) = before.scenes, now.scenes
@@ -564,11 +566,22 @@ def test_same_figures_as_the_golden(tmp_path, gl_ctx, update_golden):
     assert verdicts[0][0]  # the rules above cross some bounds: the messages compared carry the values
 
 
+def _numpy_dispatch() -> str:
+    """NumPy's version and the CPU features its vector code is dispatched for on this host."""
+    import numpy as np
+    from numpy._core import _multiarray_umath as umath
+
+    return f"numpy {np.__version__}: " + " ".join(sorted(k for k, on in umath.__cpu_features__.items() if on))
+
+
 def _close_figures(a: dict, b: dict) -> bool:
-    """Figures equal up to float32 rounding (a relative 1e-6): what another host's vector width changes."""
+    """Figures equal up to float32 rounding: what another host's vector width changes. A relative 1e-5: the
+    FLIP map's 95th percentile moved by 1.4e-6 between two AVX-512 hosts whose ground truths were bit-identical
+    (FLIP's library and NumPy's sums vectorise for the CPU; a percentile picks one pixel's value); every other
+    figure by less than 1.1e-7."""
     if a.keys() != b.keys():
         return False
-    return all((x is None and y is None) or (x is not None and y is not None and math.isclose(x, y, rel_tol=1e-6,
+    return all((x is None and y is None) or (x is not None and y is not None and math.isclose(x, y, rel_tol=1e-5,
                                                                                             abs_tol=1e-9))
                for x, y in ((a[k], b[k]) for k in a))
 

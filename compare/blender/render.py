@@ -183,8 +183,10 @@ def _run(py: str, scene: Scene, opts: dict, timeout: float | None, folder: Path)
     t0 = time.perf_counter()
     with open(log_path, "wb") as log:
         try:
+            # (the worker ends with this process: compare.blender.worker._die_with_parent)
             proc = subprocess.run([py, str(WORKER), str(folder), repr(t_spawn)], stdout=log, stderr=subprocess.STDOUT,
-                                  cwd=folder, timeout=timeout, check=False)
+                                  cwd=folder, timeout=timeout, check=False,
+                                  env={**os.environ, "COMPARE_PARENT_PID": str(os.getpid())})
         except subprocess.TimeoutExpired:
             raise BlenderError(f"Blender {engine} render timed out after {timeout:g} s; "
                                f"log:\n{_tail(log_path)}") from None

@@ -483,7 +483,25 @@ def build(bpy, np, job: dict, folder: str):
     return sc
 
 
+def _die_with_parent(parent: int) -> None:
+    """On Linux, end with the process that started this one (PR_SET_PDEATHSIG): a ``compare`` that is killed,
+    or that unwinds from SIGTERM while this process is still starting (before it holds this process's
+    handle), never leaves a render running. ``parent``: its pid, to catch a parent gone before the call."""
+    import ctypes
+    import signal
+
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        if libc.prctl(1, int(signal.SIGKILL), 0, 0, 0) != 0:  # 1: PR_SET_PDEATHSIG
+            return
+    except (OSError, AttributeError):  # not Linux: the caller's own clean-up is all there is
+        return
+    if parent and os.getppid() != parent:
+        os._exit(1)
+
+
 def main(folder: str, spawn_time: float) -> int:
+    _die_with_parent(int(os.environ.get("COMPARE_PARENT_PID", "0") or 0))
     t_start = time.time()
     result: dict = {"interpreter_seconds": max(0.0, t_start - spawn_time)}
     t0 = time.perf_counter()
