@@ -166,10 +166,11 @@ def test_bad_files_are_one_error(assets):
 
 
 def test_excluded_renderers_map_to_the_suites():
-    known = ["mitsuba", "progressive", "threejs", "threejs-pathtracer", "babylon", "cycles", "model-viewer"]
+    known = ["mitsuba", "progressive", "threejs", "threejs-pathtracer", "babylon", "cycles", "model-viewer",
+             "gltf-sample-viewer"]
     assert suite_renderers(["model-viewer", "filament", "babylon", "three-gpu-pathtracer", "stellar",
-                            "blender-cycles", "dspbr-pt"], known) == ("model-viewer", "babylon",
-                                                                       "threejs-pathtracer", "cycles")
+                            "blender-cycles", "dspbr-pt", "gltf-sample-viewer"], known) == (
+        "model-viewer", "babylon", "threejs-pathtracer", "cycles", "gltf-sample-viewer")
     assert suite_renderers(["progressive", "nonesuch"], known) == ("progressive",)  # the suite's own names too
     assert set(RENDERER_NAMES.values()) <= set(known)
 

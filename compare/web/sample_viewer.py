@@ -61,14 +61,16 @@ class SampleViewerRenderer(WebRenderer):
 
     def write_files(self, scene, folder: Path, context) -> None:
         """``environment.hdr`` (the scene's environment laid out for the viewer's panorama lookup, turned and
-        scaled) and ``lut_sheen_E.png`` (:func:`sheen_lut_image`)."""
+        scaled; black where it has none) and ``lut_sheen_E.png`` (:func:`sheen_lut_image`)."""
         import imageio.v3 as iio
 
         from compare.image.hdr import write_hdr
         from compare.scene.environments import environment_image
 
         env = scene.environment
-        if env is not None:
+        if env is None:  # the viewer lights every draw with an environment: a black one
+            image = np.zeros((2, 4, 3), dtype=np.float32)
+        else:
             image = three_panorama(environment_image(env, context.cache_dir or None), env.rotation, env.intensity)
-            write_hdr(folder / "environment.hdr", image)
+        write_hdr(folder / "environment.hdr", image)
         iio.imwrite(folder / "lut_sheen_E.png", sheen_lut_image())

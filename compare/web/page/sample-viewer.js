@@ -100,15 +100,14 @@ window.compareSetup = async ({ job: jobUrl, options }) => {
   const loader = new ResourceLoader(view, LIBS);
   state.gltf = await loader.loadGltf(base + 'scene.gltf');
   state.sceneIndex = state.gltf.scene ?? 0;
+  // environment.hdr: the job's map with its rotation and intensity baked in, laid out for the viewer's
+  // panorama lookup (u = atan2(z, x) / 2π + ½), black where the scene has none (the viewer binds an
+  // environment for every draw; black prefilters to black at any setting, so the coarse one). Its sheen
+  // albedo table (lut_sheen_E.png, not in the npm package) is the suite's (compare/brdf/sheen.py)
   const env = job.scene.environment;
-  if (env) {
-    // environment.hdr: the job's map with its rotation and intensity baked in, laid out for the viewer's
-    // panorama lookup (u = atan2(z, x) / 2π + ½); the viewer's prefiltering reads nothing else. Its
-    // sheen albedo table (lut_sheen_E.png, not in the npm package) is the suite's (compare/brdf/sheen.py)
-    const load = () => loader.loadEnvironment(base + 'environment.hdr', { lut_sheen_E_file: base + 'lut_sheen_E.png' });
-    state.environment = await (options && options.coarse ? withIblSettings(COARSE_IBL, load) : load());
-    if (!state.environment) throw new Error('the viewer could not read environment.hdr');
-  }
+  const load = () => loader.loadEnvironment(base + 'environment.hdr', { lut_sheen_E_file: base + 'lut_sheen_E.png' });
+  state.environment = await ((options && options.coarse) || !env ? withIblSettings(COARSE_IBL, load) : load());
+  if (!state.environment) throw new Error('the viewer could not read environment.hdr');
   const p = state.renderingParameters;
   p.toneMap = GltfState.ToneMaps.NONE;
   p.exposure = 1.0;
