@@ -91,6 +91,7 @@ RENDERER_NAMES = {
     "babylon": "babylon",
     "blender-cycles": "cycles",
     "gltf-sample-viewer": "gltf-sample-viewer",  # the Khronos glTF Sample Viewer (compare.web.sample_viewer)
+    "filament": "filament",  # Filament's web build (compare.web.filament)
 }
 
 #: Fields of a scenario (common.ts ``ScenarioConfig``); ``pt`` (path-tracer samples) and ``clearColor``
