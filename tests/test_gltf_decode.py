@@ -200,8 +200,10 @@ def _builtins():
 
     # The browser path tracer's set-up (its shaders on SwiftShader, a BVH of five cars) is about a minute.
     # EEVEE's renders are slow (about a second a sample, whatever the size), as in tests/test_blender.py.
-    return [pytest.param(name, marks=pytest.mark.slow) if name in ("threejs-pathtracer", "eevee") else name
-            for name in Registry().builtins()]
+    # The glTF Sample Viewer's own IBL prefiltering takes minutes on SwiftShader: its coarse settings.
+    quick = {"gltf-sample-viewer": "gltf-sample-viewer:coarse"}
+    return [pytest.param(name, marks=pytest.mark.slow) if name in ("threejs-pathtracer", "eevee")
+            else quick.get(name, name) for name in Registry().builtins()]
 
 
 @pytest.mark.parametrize("spec", _builtins())

@@ -166,10 +166,11 @@ def test_bad_files_are_one_error(assets):
 
 
 def test_excluded_renderers_map_to_the_suites():
-    known = ["mitsuba", "progressive", "threejs", "threejs-pathtracer", "babylon", "cycles", "model-viewer"]
+    known = ["mitsuba", "progressive", "threejs", "threejs-pathtracer", "babylon", "cycles", "model-viewer",
+             "gltf-sample-viewer", "filament"]
     assert suite_renderers(["model-viewer", "filament", "babylon", "three-gpu-pathtracer", "stellar",
-                            "blender-cycles", "dspbr-pt"], known) == ("model-viewer", "babylon",
-                                                                       "threejs-pathtracer", "cycles")
+                            "blender-cycles", "dspbr-pt", "gltf-sample-viewer"], known) == (
+        "model-viewer", "filament", "babylon", "threejs-pathtracer", "cycles", "gltf-sample-viewer")
     assert suite_renderers(["progressive", "nonesuch"], known) == ("progressive",)  # the suite's own names too
     assert set(RENDERER_NAMES.values()) <= set(known)
 
@@ -181,7 +182,7 @@ def test_run_scenarios_is_one_run_with_one_report(assets, capsys, monkeypatch):
     monkeypatch.setenv("COMPARE_CACHE", str(assets / "cache"))
     path = _config(assets, [{"name": "front", "model": MODEL, "orbit": {"radius": 4}},
                             {"name": "side", "model": MODEL, "orbit": {"theta": 40, "phi": 70, "radius": 4},
-                             "exclude": ["progressive", "filament", "dspbr-pt"]}])
+                             "exclude": ["progressive", "stellar", "dspbr-pt"]}])
     out = assets / "out"
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

@@ -84,12 +84,14 @@ DEFAULTS: dict[str, Any] = {
 }
 
 #: Renderer names of model-viewer's fidelity page → the suite's renderer of the same engine. The page's
-#: others (filament, gltf-sample-viewer, dspbr-pt, stellar, rhodonite, vray, ...) have none here.
+#: others (dspbr-pt, stellar, rhodonite, vray, ...) have none here.
 RENDERER_NAMES = {
     "model-viewer": "model-viewer",  # the <model-viewer> element itself (compare.web.model_viewer)
     "three-gpu-pathtracer": "threejs-pathtracer",
     "babylon": "babylon",
     "blender-cycles": "cycles",
+    "gltf-sample-viewer": "gltf-sample-viewer",  # the Khronos glTF Sample Viewer (compare.web.sample_viewer)
+    "filament": "filament",  # Filament's web build (compare.web.filament)
 }
 
 #: Fields of a scenario (common.ts ``ScenarioConfig``); ``pt`` (path-tracer samples) and ``clearColor``

@@ -23,13 +23,13 @@ shadows, converted to the suite's units.
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np
 
 from compare.scene.model import MAP_FEATURE_NAMES, MATERIAL_FEATURE_NAMES
 from compare.web.host import WebRenderer
+from compare.web.panorama import three_panorama
 
 __all__ = ["ModelViewerRenderer", "model_viewer_environment"]
 
@@ -42,23 +42,9 @@ MIN_MAP_WIDTH = 256
 
 
 def model_viewer_environment(image: np.ndarray, rotation_deg: float, intensity: float) -> np.ndarray:
-    """The suite's equirectangular map (Mitsuba's u, :mod:`compare.scene.equirect`) as three.js looks it up
-    (``u = atan2(z, x) / 2π + ½``, the suite's u + ¼) with the scene's rotation about +Y and intensity baked
-    in: column i of the result is the map at u + rotation/360 − ¼, a whole-pixel roll where that shift is
-    whole, else linear between the two nearest rolls. A map narrower than :data:`MIN_MAP_WIDTH` is repeated
-    pixel by pixel first."""
-    img = np.asarray(image, dtype=np.float64) * float(intensity)
-    if img.shape[1] < MIN_MAP_WIDTH:
-        k = -(-MIN_MAP_WIDTH // img.shape[1])
-        img = np.repeat(np.repeat(img, k, axis=0), k, axis=1)
-    w = img.shape[1]
-    shift = (w * (float(rotation_deg) / 360.0 - 0.25)) % w
-    lo = math.floor(shift)
-    t = shift - lo
-    out = np.roll(img, -lo, axis=1)
-    if t > 1e-9:
-        out = (1.0 - t) * out + t * np.roll(img, -(lo + 1), axis=1)
-    return out.astype(np.float32)
+    """The suite's map as the element reads it (:func:`compare.web.panorama.three_panorama`), repeated up to
+    :data:`MIN_MAP_WIDTH`: three.js sizes the prefiltered environment by the map's own size."""
+    return three_panorama(image, rotation_deg, intensity, MIN_MAP_WIDTH)
 
 
 class ModelViewerRenderer(WebRenderer):
