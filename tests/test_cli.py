@@ -233,7 +233,7 @@ def test_option_defaults_are_the_settings_defaults():
     run = _parsed_defaults("run")
     run_fields = {f.name: f for f in dataclasses.fields(RunSettings)}
     for name in ("frames", "spp", "seed", "exposure", "materials", "likeness", "seeds", "ground_truth",
-                 "baseline", "renderer_config"):
+                 "baseline", "renderer_config", "spp_target", "spp_cap"):
         assert run[name] == getattr(RunSettings(), name), name
         assert run_fields[name].metadata["help"], name
     assert RunSettings.__doc__.count(" : ") == len(run_fields)  # every field documented once

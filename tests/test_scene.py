@@ -306,21 +306,13 @@ def test_textures_are_checked_when_the_scene_loads(tmp_path):
         assert str(exc.value).startswith(f"{scene}: materials.white.base_color_texture: {message}"), exc.value
 
 
-def test_reference_spp_is_the_scenes_choice_under_spp_auto(tmp_path, make_scene):
-    from compare.renderers.registry import Registry
-    from compare.renderers.base import RenderContext
-    from compare.report.results import RunSettings
-    from compare.run.scene_job import SceneJob
-
-    scene = load_scene(make_scene(GOOD + "\n[render]\nreference_spp = 4096\n"))
-    assert scene.reference_spp == 4096 and load_scene(make_scene(GOOD)).reference_spp is None
-    job = SceneJob(RunSettings(spp=64), tmp_path / "o", registry=Registry(), context=RenderContext(RunSettings()))
-    assert job.settings_for(scene).spp == 64  # a given --spp holds
-    job = SceneJob(RunSettings(spp=64, scene_spp=True), tmp_path / "o", registry=Registry(),
-                   context=RenderContext(RunSettings()))
-    assert job.settings_for(scene).spp == 4096 and job.settings_for(load_scene(make_scene(GOOD))).spp == 64
-    with pytest.raises(SceneError, match=r"render.reference_spp: expected a positive integer, got 0"):
-        load_scene(make_scene(GOOD + "\n[render]\nreference_spp = 0\n"))
+def test_a_scenes_reference_spp_is_no_longer_read(make_scene):
+    """``--spp auto`` measures the spp a ground truth needs (tests/test_spp_auto.py); a scene file that still
+    names its own constant loads, with a warning saying so."""
+    with pytest.warns(UserWarning, match=r"render.reference_spp is no longer read: `compare run --spp auto` "
+                                         r"measures"):
+        scene = load_scene(make_scene(GOOD + "\n[render]\nreference_spp = 4096\n"))
+    assert not hasattr(scene, "reference_spp")
 
 
 @pytest.mark.parametrize("field, value, message", [

@@ -58,8 +58,9 @@ def add_run_parser(subparsers) -> argparse.ArgumentParser:
     opt = functools.partial(setting, RunSettings)
     p.add_argument("--frames", type=positive_int, **opt("frames"))
     p.add_argument("--spp", type=_spp_arg, default=DEFAULT_SPP,
-                   help=opt("spp")["help"] + ", or auto: each scene's [render] reference_spp (what its ground truth "
-                        f"needs to judge the built-in renderers), else {DEFAULT_SPP}")
+                   help=opt("spp")["help"] + ", or auto: " + opt("spp_auto")["help"].removeprefix("--spp auto: "))
+    p.add_argument("--spp-target", type=positive_float, metavar="RSE", **opt("spp_target"))
+    p.add_argument("--spp-cap", type=positive_int, metavar="SPP", **opt("spp_cap"))
     registry = Registry()
     p.add_argument("--renderers", type=_renderer_list, default="mitsuba,progressive",
                    metavar="LIST", help="comma-separated renderer specs, NAME[:OPTION[+OPTION]]: "
@@ -118,7 +119,8 @@ def cmd_run(args: argparse.Namespace) -> int:
             raise
         raise _UsageError(f"--renderers: {e}") from None
     auto = args.spp == "auto"
-    settings = RunSettings(frames=args.frames, spp=DEFAULT_SPP if auto else args.spp, scene_spp=auto,
+    settings = RunSettings(frames=args.frames, spp=DEFAULT_SPP if auto else args.spp, spp_auto=auto,
+                           spp_target=args.spp_target, spp_cap=args.spp_cap,
                            seed=args.seed, renderers=renderers,
                            sizes=[list(s) for s in (args.size or [])], exposure=args.exposure, tonemap="aces",
                            materials=args.materials,

@@ -235,13 +235,18 @@ class ReferenceRenderer:
         """Yield a :class:`Checkpoint` after each doubling pass (1, 2, 4, …, spp samples)."""
         yield from self.iter_checkpoints(list(np.cumsum(ladder_passes(int(spp)))), seed)
 
-    def iter_checkpoints(self, checkpoints: list[int], seed: int = 0) -> Iterator[Checkpoint]:
+    def iter_checkpoints(self, checkpoints: list[int], seed: int = 0, *, until=None) -> Iterator[Checkpoint]:
         """Yield a :class:`Checkpoint` at each of the ascending spp counts ``checkpoints``.
 
         Samples are rendered in passes whose running sums are the checkpoints and, between them,
         the doubling ladder up to the last one (:func:`pass_plan`), so every ladder shares its passes
         (and the cache) with the others: a ground truth rendered with one checkpoint is bit for bit
         the end of the doubling ladder of the same seed.
+
+        ``until`` (e.g. :class:`compare.metrics.convergence.Stopping`) ends the render early: its
+        ``add(image, spp)`` sees every independent chunk, and its ``met(spp)`` is asked after each pass;
+        the first running sum it accepts is the last checkpoint. The passes are the same as without it,
+        so a render that stopped at N spp is bit for bit the render of N spp.
         """
         wanted = {int(c) for c in checkpoints}
         acc = np.zeros((self.scene.camera.height, self.scene.camera.width, 3), dtype=np.float64)
@@ -258,10 +263,13 @@ class ReferenceRenderer:
                     acc += x * n
                     acc2 += x * x * n
                     chunks += 1
+                    if until is not None:
+                        until.add(image, n)
                     total_s += seconds
                     bar.update(n)
                 total_spp = upto
-                if total_spp in wanted:
+                stop = until is not None and until.met(total_spp)
+                if total_spp in wanted or stop:
                     mean = acc / total_spp
                     if chunks >= 2:
                         # Each chunk mean x_i of n_i samples has variance s^2 / n_i, so
@@ -269,6 +277,8 @@ class ReferenceRenderer:
                         spread = np.maximum(acc2 - total_spp * mean * mean, 0.0)
                         self.variance = ((spread / ((chunks - 1) * total_spp)).astype(np.float32), chunks - 1)
                     yield Checkpoint(total_spp, total_s, mean.astype(np.float32))
+                if stop:
+                    return
 
     def ladder(self, spp: int, seed: int = 0) -> list[Checkpoint]:
         """All checkpoints of :meth:`iter_ladder` as a list."""

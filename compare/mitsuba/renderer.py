@@ -109,6 +109,18 @@ class MitsubaRenderer(Renderer):
         meta = {"variant": rr.variant, "seed": seed, **rr.settings()}
         return Rendering(out, float(rr.load_seconds), meta, variance=rr.variance)
 
+    def render_until(self, scene, *, rule, seed: int, context: RenderContext) -> Rendering:
+        """The doubling ladder's passes until the spread of their luminance meets ``rule``
+        (:mod:`compare.metrics.convergence`); the passes, and so the pixels, are those of a fixed budget of
+        the spp it stopped at."""
+        from compare.metrics.convergence import Stopping
+
+        rr = self._reference(scene, context)
+        stopping = Stopping(rule)
+        last = list(rr.iter_checkpoints([rule.cap], seed, until=stopping))[-1:]
+        meta = {"variant": rr.variant, "seed": seed, **rr.settings()}
+        return Rendering(last, float(rr.load_seconds), meta, variance=rr.variance, convergence=stopping.record())
+
     def render_layers(self, scene, *, steps: int, seed: int, context: RenderContext) -> dict:
         """The per-effect ground truths (compare.mitsuba.layers) at the ground truth's spp."""
         if scene.features().volume:

@@ -106,6 +106,9 @@ class Rendering:
     #: Per-pixel variance of the last checkpoint's image (H×W×3) and its degrees of freedom, where
     #: the renderer can estimate it (the Mitsuba reference: from its independent passes); else None.
     variance: tuple[np.ndarray, int] | None = None
+    #: How a render of :meth:`Renderer.render_until` decided it had enough steps (JSON data: the criterion,
+    #: its target, the estimate and steps reached, whether the target was met); None for a fixed budget.
+    convergence: dict[str, Any] | None = None
 
 
 #: Seconds a renderer without a limit of its own may take for one render (set-up and every checkpoint).
@@ -280,6 +283,15 @@ class Renderer(abc.ABC):
     def render(self, scene, *, steps: int, checkpoints: list[int], seed: int, context: RenderContext) -> Rendering:
         """Render ``scene`` with ``seed``; a checkpoint at every step of ``checkpoints`` (the last is ``steps``)."""
 
+    def render_until(self, scene, *, rule, seed: int, context: RenderContext) -> Rendering:
+        """Render ``scene`` with ``seed`` until its own noise meets ``rule`` (a
+        :class:`compare.metrics.convergence.StopRule`: at most ``rule.cap`` steps), for a ground truth of
+        ``compare run --spp auto``: one checkpoint, the steps it stopped at, and :attr:`Rendering.convergence`
+        saying how. Default: a :class:`RendererError`, since only a renderer made of independent passes can
+        measure its own noise."""
+        raise RendererError(f"renderer {self.name!r} cannot measure its own noise: --spp auto needs a ground "
+                            "truth that renders independent passes (mitsuba), or give --spp a number")
+
     def render_layers(self, scene, *, steps: int, seed: int, context: RenderContext) -> dict[str, np.ndarray]:
         """Per-effect layers of a ``steps`` render made for them alone (for a ground truth whose
         :meth:`render` gives none); default: none."""
@@ -387,7 +399,8 @@ def check_rendering(renderer: Renderer, rendering: Any, *, scene, checkpoints: l
             raise RendererError(f"renderer {name!r}: the variance's degrees of freedom must be >= 1, got {dof!r}")
         variance = (np.ascontiguousarray(var[..., :3], dtype=np.float32), int(dof))
     return Rendering(out, float(rendering.setup_seconds), dict(rendering.metadata or {}),
-                     check_layers(name, rendering.layers, scene), variance)
+                     check_layers(name, rendering.layers, scene), variance,
+                     None if rendering.convergence is None else dict(rendering.convergence))
 
 
 def check_layers(name: str, layers: Any, scene) -> dict[str, np.ndarray]:

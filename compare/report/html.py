@@ -233,6 +233,7 @@ def _scene_view(scene: SceneResult, plots: dict[str, Path], out: Path, exposure:
         "layers": _layers(scene),
         "left_out": _left_out(scene),
         "noise_check": _noise_check(scene),
+        "convergence": _convergence(scene.reference.convergence),
         "bias": _bias(scene),
         "plots": {k: rel(v) for k, v in plots.items()},
         "viewer": viewer,
@@ -317,6 +318,16 @@ def _noise_check(scene: SceneResult) -> dict | None:
             "ok": fraction <= NOISE_FRACTION, "target": f"{100 * NOISE_FRACTION:.0f} %",
             "smallest": smallest.label, "smallest_relmse": fmt_num(err, 3), "floor": fmt_num(floor, 3),
             "need_spp": need, "within": within}
+
+
+def _convergence(c: dict | None) -> dict | None:
+    """How a ground truth of ``--spp auto`` decided it had enough samples, for the report; None for a fixed
+    budget."""
+    if not c:
+        return None
+    return {"spp": c["spp"], "cap": c["cap"], "met": bool(c["met"]), "criterion": c["criterion"],
+            "target": fmt_num(c["target"], 3), "estimate": fmt_num(c.get("estimate"), 3),
+            "history": [{"spp": int(n), "estimate": fmt_num(e, 3)} for n, e in c.get("history") or []]}
 
 
 def _bias(scene: SceneResult) -> list[dict]:

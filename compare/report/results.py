@@ -44,7 +44,7 @@ from typing import Any
 
 from compare.util.errors import CompareError
 from compare.util.files import write_text_atomic
-from compare.util.settings import DEFAULT_FRAMES, DEFAULT_SPP, documented, option
+from compare.util.settings import DEFAULT_FRAMES, DEFAULT_SPP, DEFAULT_SPP_CAP, DEFAULT_SPP_TARGET, documented, option
 
 __all__ = [
     "SCHEMA",
@@ -230,7 +230,14 @@ class RunSettings:
     seeds: int = option(1, "independent runs of every renderer (different seeds); 2 or more split each "
                            "checkpoint's error into squared bias and variance (compare/metrics/bias.py), at that "
                            "many times the cost")
-    scene_spp: bool = option(False, "--spp auto: each scene's [render] reference_spp where it sets one, else spp")
+    spp_auto: bool = option(False, "--spp auto: the ground truth renders doubling passes until the 95th percentile "
+                                   "over pixels of luminance's relative standard error, measured from the spread of "
+                                   "its own passes, is at most the target (spp_target), or the cap (spp_cap) is "
+                                   "reached; the run's other spp budgets (the noise floor's) are the spp it reached "
+                                   "(compare/metrics/convergence.py)")
+    spp_target: float = option(DEFAULT_SPP_TARGET, "with --spp auto: the relative standard error the 95th "
+                                                   "percentile of the ground truth's pixels must reach")
+    spp_cap: int = option(DEFAULT_SPP_CAP, "with --spp auto: the most samples per pixel the ground truth renders")
     ground_truth: str = option("mitsuba", "the renderer every run is measured against (at its full budget, seed "
                                           "--seed); its own run, if listed, uses seed+1 and gives the noise floor")
     baseline: str = option("progressive", "the run the report's ablation table compares the variants of its "
@@ -241,6 +248,14 @@ class RunSettings:
     def to_json(self) -> dict:
         """JSON-ready dict."""
         return asdict(self)
+
+    def stop_rule(self):
+        """The ground truth's :class:`~compare.metrics.convergence.StopRule` under ``--spp auto``; else None."""
+        if not self.spp_auto:
+            return None
+        from compare.metrics.convergence import StopRule
+
+        return StopRule(target=float(self.spp_target), cap=int(self.spp_cap))
 
     def budget(self, renderer) -> int:
         """The steps of ``renderer`` in this run: :attr:`budgets` for its spec or name, else the renderer's
@@ -603,6 +618,9 @@ class Reference:
     #: and its degrees of freedom, for ``compare diff --ztest``; None where the renderer gives none.
     variance: str | None = None
     variance_dof: int | None = None
+    #: Under ``--spp auto``, how it decided it had enough samples (:meth:`compare.metrics.convergence.Stopping.record`:
+    #: the criterion, its target, the estimate and spp reached, whether the target was met); None for a fixed budget.
+    convergence: dict[str, Any] | None = None
 
     def to_json(self) -> dict:
         """JSON-ready dict."""
@@ -628,6 +646,7 @@ class Reference:
                                else [float(x) for x in d["flip_hdr_exposure"]]),
             variance=d.get("variance"),
             variance_dof=None if d.get("variance_dof") is None else int(d["variance_dof"]),
+            convergence=None if d.get("convergence") is None else dict(d["convergence"]),
         )
 
 

@@ -270,20 +270,26 @@ class SceneJob:
         return _Unit(self.out, self.out / "runs" / sid / unit_folder(name))
 
     def settings_for(self, scene: Scene) -> RunSettings:
-        """The run's settings for ``scene``: with ``scene_spp`` (``--spp auto``), its ``reference_spp``."""
+        """The run's settings for ``scene``: under ``spp_auto`` (``--spp auto``), ``spp`` is what its ground
+        truth reached (rendered first if need be), so that the ground-truth renderer's own run, the noise
+        floor, has the ground truth's budget."""
         s = self.settings
-        if s.scene_spp and scene.reference_spp is not None:
-            return dataclasses.replace(s, spp=int(scene.reference_spp))
+        if s.spp_auto:
+            _, truth = self._render_unit(scene, scene_id(scene), s.ground_truth, truth=True)
+            return dataclasses.replace(s, spp=int(truth["steps"]))
         return s
 
     def _plan(self, scene: Scene, spec: str, *, truth: bool, replica: int = 0) -> tuple[Renderer, int, list[int], int]:
         """(renderer, steps, checkpoints, seed) of the ground truth or of a run (``replica`` k >= 1:
-        the k-th further independent run, for the bias/variance split)."""
-        s = self.settings_for(scene)
+        the k-th further independent run, for the bias/variance split). Under ``--spp auto`` the ground
+        truth's steps are its cap (it stops where its noise is low enough)."""
         r = self.registry.get(spec)
-        steps = int(r.steps(s))
         if truth:
-            return r, steps, [steps], s.seed
+            rule = self.settings.stop_rule()
+            steps = rule.cap if rule is not None else int(r.steps(self.settings))
+            return r, steps, [steps], self.settings.seed
+        s = self.settings_for(scene)
+        steps = int(r.steps(s))
         # the ground-truth renderer's own run is independent of the ground truth (noise floor)
         seed = s.seed + (1 if spec == s.ground_truth else 0) + REPLICA_SEED_STRIDE * replica
         return r, steps, list(r.checkpoints(steps)), seed
@@ -308,10 +314,13 @@ class SceneJob:
                 cache[scene.hash] = None
         return cache[scene.hash]
 
-    def _render_key(self, scene: Scene, r: Renderer, steps: int, checkpoints: list[int], seed: int) -> str:
+    def _render_key(self, scene: Scene, r: Renderer, steps: int, checkpoints: list[int], seed: int,
+                    rule=None) -> str:
         s = self.settings
+        # a stopping rule (--spp auto) is part of the ground truth's key; a fixed budget's key stays as it was
+        stop = [rule.to_json()] if rule is not None else []
         return _key("render", r.name, r.key(scene, s), r.code_key(), scene.hash, steps, checkpoints, seed, s.exposure,
-                    s.tonemap, self.machine, __version__)
+                    s.tonemap, self.machine, __version__, *stop)
 
     # -- stage 1: render ------------------------------------------------------------------------
 
@@ -327,21 +336,30 @@ class SceneJob:
                         replica: int = 0) -> tuple[str, dict]:
         r, steps, cps, seed = self._plan(scene, spec, truth=truth, replica=replica)
         unit = self._unit(sid, unit_name(spec, truth=truth, replica=replica))
-        key = self._render_key(scene, r, steps, cps, seed)
+        rule = self.settings.stop_rule() if truth else None
+        key = self._render_key(scene, r, steps, cps, seed, rule)
         if not self.fresh:
             stored = unit.rendered(key)
             if stored is not None:
                 self._note_facts(r, stored.get("metadata") or {})
                 if truth and "layers" not in stored:  # a ground truth from before per-effect layers
-                    stored["layers"] = self._save_layers(unit, r.name, self._truth_layers(r, scene, steps, seed))
+                    stored["layers"] = self._save_layers(unit, r.name, self._truth_layers(r, scene, int(stored["steps"]),
+                                                                                          seed))
                     unit.save_render(key, stored)
                 return key, stored
         if bar is not None:
             what = "ground truth" if truth else spec
             bar.set_postfix_str(f"{scene.name[:30]} {what} {steps} {r.unit}")
         given, changed = r.prepare(scene, self._coverage(scene))
-        rendering = check_rendering(r, r.render(given, steps=steps, checkpoints=cps, seed=seed,
-                                                context=self.context), scene=scene, checkpoints=cps)
+        if rule is not None:  # --spp auto: the ground truth stops where its own noise is low enough
+            raw = r.render_until(given, rule=rule, seed=seed, context=self.context)
+            cps = [int(c.step) for c in raw.checkpoints[-1:]] or [steps]
+            if cps[0] > rule.cap or raw.convergence is None:
+                raise RendererError(f"renderer {r.name!r}: render_until() went past its cap of {rule.cap} or did "
+                                    "not say how it stopped (Rendering.convergence)")
+        else:
+            raw = r.render(given, steps=steps, checkpoints=cps, seed=seed, context=self.context)
+        rendering = check_rendering(r, raw, scene=scene, checkpoints=cps)
         meta = flat_metadata({**rendering.metadata, **({"scene_changed": "; ".join(changed)} if changed else {})})
         self._note_facts(r, meta)
         points = []
@@ -354,8 +372,8 @@ class SceneJob:
             points.append({"step": c.step, "seconds": c.seconds, "image": unit.rel(path),
                            "preview": unit.rel(path.with_suffix(".png"))})
         layers = rendering.layers
-        if truth and not layers:  # the per-effect ground truths, a render of their own
-            layers = self._truth_layers(r, scene, steps, seed)
+        if truth and not layers:  # the per-effect ground truths, a render of their own, at the spp it reached
+            layers = self._truth_layers(r, scene, int(points[-1]["step"]), seed)
         record = {"renderer": r.name, "label": r.label, "unit": r.unit, "steps": int(points[-1]["step"]),
                   "seed": seed, "setup_seconds": rendering.setup_seconds, "metadata": meta,
                   "variant_of": r.variant_of, "variant_note": r.variant_note, "notes": notes(r, meta), "points": points,
@@ -366,6 +384,8 @@ class SceneJob:
             write_exr(path, var, metadata={"renderer": r.name, "what": "per-pixel variance of final.exr's mean",
                                            "dof": int(dof)})
             record.update(variance=unit.rel(path), variance_dof=int(dof))
+        if rendering.convergence is not None:
+            record["convergence"] = rendering.convergence
         unit.save_render(key, record)
         return key, record
 
@@ -439,7 +459,8 @@ class SceneJob:
                         variant=str(gt["metadata"].get("variant", "")), load_seconds=float(gt["setup_seconds"]),
                         renderer=gt["renderer"], label=gt["label"], unit=gt["unit"], key=gt_key,
                         image=final["image"], preview=final["preview"], metadata=dict(gt["metadata"]),
-                        variance=gt.get("variance"), variance_dof=gt.get("variance_dof"))
+                        variance=gt.get("variance"), variance_dof=gt.get("variance_dof"),
+                        convergence=gt.get("convergence"))
         cached: dict[str, np.ndarray] = {}
 
         def truth() -> np.ndarray:  # read the ground truth at most once per scene

@@ -445,10 +445,9 @@ def parse_scene(data: dict[str, Any], path: Path) -> Scene:
     env = _environment(ctx, data["environment"]) if "environment" in data else None
     render = _table(ctx, "render", data.get("render", {}), {"max_depth", "indirect", "probe_grid", "probe_bounces",
                                                             "reference_spp"})
-    reference_spp = render.get("reference_spp")
-    if reference_spp is not None and not (isinstance(reference_spp, int) and not isinstance(reference_spp, bool)
-                                          and reference_spp >= 1):
-        raise ctx.err("render.reference_spp", f"expected a positive integer, got {_fmt(reference_spp)}")
+    if "reference_spp" in render:  # a scene's own constant, from before --spp auto measured the spp
+        warnings.warn(f"{ctx.path}: render.reference_spp is no longer read: `compare run --spp auto` measures the "
+                      "samples per pixel the ground truth needs (--spp-target, --spp-cap)", stacklevel=3)
     max_depth = render.get("max_depth", 16)
     if not (isinstance(max_depth, int) and not isinstance(max_depth, bool) and (max_depth == -1 or max_depth >= 1)):
         raise ctx.err("render.max_depth", f"expected -1 (unbounded) or an integer >= 1, got {_fmt(max_depth)}")
@@ -463,7 +462,7 @@ def parse_scene(data: dict[str, Any], path: Path) -> Scene:
     indirect, probe_grid, probe_bounces = _indirect(ctx, render)
     return Scene(ctx.path, name, camera, materials, meshes, lights, env, max_depth, files,
                  file_hash=_content_hash(ctx.path, files, data), indirect=indirect, probe_grid=probe_grid,
-                 probe_bounces=probe_bounces, reference_spp=reference_spp, punctual=punctual)
+                 probe_bounces=probe_bounces, punctual=punctual)
 
 
 def _indirect(ctx: _Ctx, render: dict[str, Any]) -> tuple[str, tuple[int, int, int], int]:

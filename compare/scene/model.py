@@ -693,9 +693,6 @@ class Scene:
     """Probes along x, y, z of the irradiance volume (each >= 2)."""
     probe_bounces: int = DEFAULT_PROBE_BOUNCES
     """Diffuse bounces baked into the irradiance volume (>= 1)."""
-    reference_spp: int | None = None
-    """Samples per pixel this scene's ground truth needs (``compare run --spp auto``), chosen so that its
-    noise floor stays below a fraction of the errors it judges; None: the run's ``--spp``."""
     punctual: tuple[PunctualLight, ...] = ()
     """Point, spot and directional lights (KHR_lights_punctual), beside the area lights."""
 
