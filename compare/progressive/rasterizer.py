@@ -93,7 +93,7 @@ from compare.progressive.indirect.probes import ProbeVolume, indirect_options
 from compare.progressive.gl.readback import read_rgb
 from compare.progressive.blend import BlendPass
 from compare.progressive.glass import GlassPass
-from compare.progressive.environment.env_shadows import EnvShadows
+from compare.progressive.environment.env_shadows import EnvShadows, default_directions as default_env_directions
 from compare.progressive.lights.punctual import PunctualLights
 from compare.progressive.lights.shadow import ShadowAtlas
 
@@ -168,9 +168,12 @@ class Rasterizer:
         self.occlusion_bias = float(o.occlusion_bias)
         if direct_fraction is None:
             direct_fraction = LTC_DIRECT_FRACTION if area_model == "ltc" else DEFAULT_DIRECT_FRACTION
+        env_samples = o.env_samples
+        if has_env and o.env_occlusion == "shadows" and env_samples is None:
+            env_samples = default_env_directions(frames)  # several shadow maps per frame (env_shadows.py)
         self.plan = plan(scene, frames, seed=seed, direct_fraction=direct_fraction,
                          samples_per_light=o.samples_per_light,
-                         env_samples=o.env_samples if (self.d_occ > 0 or (has_env and o.env_occlusion == "shadows"))
+                         env_samples=env_samples if (self.d_occ > 0 or (has_env and o.env_occlusion == "shadows"))
                          else 0)
         self.notes: list[str] = sun_notes + list(self.plan.notes)
         self.scheduler = None

@@ -1,11 +1,13 @@
-// One environment shadow sample (env_shadows.py), full screen over the G-buffer: the terms of the
-// shadow ratios of the direct environment light, one per lobe, added to their running sums (additive
-// blending):
+// A batch of environment shadow samples (env_shadows.py), full screen over the G-buffer: the terms of
+// the shadow ratios of the direct environment light, one per lobe, summed over the batch's u_count
+// directions and added to their running sums (additive blending):
 //
-//   out_terms   = (V g_d, g_d, V g_s, g_s),   g = luminance(f_lobe(v, w) cos) at the sample's direction w
-//   out_weights = (E_d, E_s, g_s^2)            the split sum's unshadowed diffuse and specular luminance
+//   out_terms   = sum_k (V g_d, g_d, V g_s, g_s),  g = luminance(f_lobe(v, w_k) cos) at direction w_k
+//   out_weights = sum_k (E_d, E_s, g_s^2)           E: the split sum's unshadowed diffuse and specular
+//                                                   luminance (one per sample, as if run one by one)
 //
-// with V the visibility of w through the sample's orthographic shadow map (punctual_shadow.glsl)
+// with V the visibility of w_k through its orthographic shadow map, a tile of one atlas (BATCH tiles,
+// punctual_shadow.glsl's u_pface_rect); the split sum does not depend on w, so a batch evaluates it once
 // and f the shared BRDF's lobes (Lambert only with MATERIALS_DIFFUSE). The directions are drawn in
 // proportion to the map's luminance (per solid angle), so luminance / pdf is one constant for every
 // sample and cancels from each ratio sum V g / sum g, which converges to the shadowed over the
@@ -25,13 +27,16 @@
 #include "ibl.glsl"
 #include "layers.glsl"
 #include "gbuffer_layers.glsl"
-#define BATCH 1
+#ifndef BATCH
+#error BATCH comes from env_shadows.py (the directions of one pass) as a define
+#endif
 #include "punctual_shadow.glsl"
 #include "gbuffer_inputs.glsl"
 
 uniform sampler2D u_pshadow_map;
 uniform vec3 u_camera_position;
-uniform vec3 u_direction;      // towards the environment (unit)
+uniform vec3 u_directions[BATCH];  // towards the environment (unit), one per tile
+uniform int u_count;                // directions of this batch (1 ... BATCH)
 
 layout(location = 0) out vec4 out_terms;
 layout(location = 1) out vec4 out_weights;
@@ -56,22 +61,26 @@ void main() {
     vec3 env_d;
     vec3 env_s;
     env_split_sum_material(n, v, gm.rgb, gm.a, gn.w, env_d, env_s);
-    out_weights = vec4(dot(env_d, LUM), dot(env_s, LUM), 0.0, 0.0);
-    float cos_s = dot(n, u_direction);
-    if (cos_s <= 0.0) {
-        return;
-    }
-    vec3 spec = vec3(0.0);
-    vec3 diff = gm.rgb * (1.0 / BRDF_PI);
+    out_weights = vec4(float(u_count) * vec2(dot(env_d, LUM), dot(env_s, LUM)), 0.0, 0.0);
+    vec3 diff_lambert = gm.rgb * (1.0 / BRDF_PI);
+    for (int i = 0; i < u_count; ++i) {
+        vec3 w = u_directions[i];
+        float cos_s = dot(n, w);
+        if (cos_s <= 0.0) {
+            continue;
+        }
+        vec3 spec = vec3(0.0);
+        vec3 diff = diff_lambert;
 #if !MATERIALS_DIFFUSE
-    material_lobes(n, v, u_direction, gm.rgb, gm.a, gn.w, spec, diff);
+        material_lobes(n, v, w, gm.rgb, gm.a, gn.w, spec, diff);
 #endif
-    // + 1e-6: a black lobe's ratio stays the geometric visibility
-    float g_d = (dot(diff, LUM) + 1e-6) * cos_s;
-    float g_s = (dot(spec, LUM) + 1e-6) * cos_s;
-    float vis = punctual_visibility(u_pshadow_map, 0, gp.xyz, n, u_direction);
-    out_terms = vec4(vis * g_d, g_d, vis * g_s, g_s);
-    out_weights.z = g_s * g_s;  // Kish's effective sample count of the specular ratio: (sum g)^2 / sum g^2
+        // + 1e-6: a black lobe's ratio stays the geometric visibility
+        float g_d = (dot(diff, LUM) + 1e-6) * cos_s;
+        float g_s = (dot(spec, LUM) + 1e-6) * cos_s;
+        float vis = punctual_visibility(u_pshadow_map, i, gp.xyz, n, w);
+        out_terms += vec4(vis * g_d, g_d, vis * g_s, g_s);
+        out_weights.z += g_s * g_s;  // Kish's effective sample count of the specular ratio: (sum g)^2 / sum g^2
+    }
 }
 
 #endif
