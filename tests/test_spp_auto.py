@@ -1,5 +1,5 @@
 """``--spp auto``: a ground truth that renders passes until its own noise, measured from their spread, is low
-enough (compare/metrics/convergence.py), with a cap."""
+enough (compare/image/convergence.py), with a cap."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from compare.metrics.convergence import EPS, PassSpread, StopRule, Stopping
+from compare.image.convergence import EPS, PassSpread, StopRule, Stopping
 from compare.mitsuba.reference import ReferenceRenderer
 from compare.report.results import Results, RunSettings
 from compare.run import runner as run_mod

@@ -243,7 +243,7 @@ class ReferenceRenderer:
         (and the cache) with the others: a ground truth rendered with one checkpoint is bit for bit
         the end of the doubling ladder of the same seed.
 
-        ``until`` (e.g. :class:`compare.metrics.convergence.Stopping`) ends the render early: its
+        ``until`` (e.g. :class:`compare.image.convergence.Stopping`) ends the render early: its
         ``add(image, spp)`` sees every independent chunk, and its ``met(spp)`` is asked after each pass;
         the first running sum it accepts is the last checkpoint. The passes are the same as without it,
         so a render that stopped at N spp is bit for bit the render of N spp.

@@ -111,9 +111,9 @@ class MitsubaRenderer(Renderer):
 
     def render_until(self, scene, *, rule, seed: int, context: RenderContext) -> Rendering:
         """The doubling ladder's passes until the spread of their luminance meets ``rule``
-        (:mod:`compare.metrics.convergence`); the passes, and so the pixels, are those of a fixed budget of
+        (:mod:`compare.image.convergence`); the passes, and so the pixels, are those of a fixed budget of
         the spp it stopped at."""
-        from compare.metrics.convergence import Stopping
+        from compare.image.convergence import Stopping
 
         rr = self._reference(scene, context)
         stopping = Stopping(rule)

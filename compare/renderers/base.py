@@ -285,7 +285,7 @@ class Renderer(abc.ABC):
 
     def render_until(self, scene, *, rule, seed: int, context: RenderContext) -> Rendering:
         """Render ``scene`` with ``seed`` until its own noise meets ``rule`` (a
-        :class:`compare.metrics.convergence.StopRule`: at most ``rule.cap`` steps), for a ground truth of
+        :class:`compare.image.convergence.StopRule`: at most ``rule.cap`` steps), for a ground truth of
         ``compare run --spp auto``: one checkpoint, the steps it stopped at, and :attr:`Rendering.convergence`
         saying how. Default: a :class:`RendererError`, since only a renderer made of independent passes can
         measure its own noise."""

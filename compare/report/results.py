@@ -234,7 +234,7 @@ class RunSettings:
                                    "over pixels of luminance's relative standard error, measured from the spread of "
                                    "its own passes, is at most the target (spp_target), or the cap (spp_cap) is "
                                    "reached; the run's other spp budgets (the noise floor's) are the spp it reached "
-                                   "(compare/metrics/convergence.py)")
+                                   "(compare/image/convergence.py)")
     spp_target: float = option(DEFAULT_SPP_TARGET, "with --spp auto: the relative standard error the 95th "
                                                    "percentile of the ground truth's pixels must reach")
     spp_cap: int = option(DEFAULT_SPP_CAP, "with --spp auto: the most samples per pixel the ground truth renders")
@@ -250,10 +250,10 @@ class RunSettings:
         return asdict(self)
 
     def stop_rule(self):
-        """The ground truth's :class:`~compare.metrics.convergence.StopRule` under ``--spp auto``; else None."""
+        """The ground truth's :class:`~compare.image.convergence.StopRule` under ``--spp auto``; else None."""
         if not self.spp_auto:
             return None
-        from compare.metrics.convergence import StopRule
+        from compare.image.convergence import StopRule
 
         return StopRule(target=float(self.spp_target), cap=int(self.spp_cap))
 
@@ -618,7 +618,7 @@ class Reference:
     #: and its degrees of freedom, for ``compare diff --ztest``; None where the renderer gives none.
     variance: str | None = None
     variance_dof: int | None = None
-    #: Under ``--spp auto``, how it decided it had enough samples (:meth:`compare.metrics.convergence.Stopping.record`:
+    #: Under ``--spp auto``, how it decided it had enough samples (:meth:`compare.image.convergence.Stopping.record`:
     #: the criterion, its target, the estimate and spp reached, whether the target was met); None for a fixed budget.
     convergence: dict[str, Any] | None = None
 

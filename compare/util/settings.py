@@ -16,7 +16,7 @@ DEFAULT_FRAMES = 128
 #: The ground truth's samples per pixel unless told (``--spp auto`` measures them instead).
 DEFAULT_SPP = 1024
 #: ``--spp auto``'s target: the relative standard error of luminance that 95 % of a ground truth's pixels
-#: must reach (:mod:`compare.metrics.convergence`). At 5 % the root mean square over pixels is about half
+#: must reach (:mod:`compare.image.convergence`). At 5 % the root mean square over pixels is about half
 #: that on the built-in scenes, so the noise floor (relMSE of two such renders, about twice its square)
 #: stays under a tenth of the smallest error the rasterizers make there, the report's aim.
 DEFAULT_SPP_TARGET = 0.05
