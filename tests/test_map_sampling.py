@@ -200,6 +200,28 @@ def test_the_jobs_gltf_carries_each_maps_reading(card_scene, tmp_path):
     assert again.primitives[0].mesh.uvs1 is not None
 
 
+def test_the_jobs_gltf_with_every_new_reading_passes_the_validator(card_scene, tmp_path):
+    """The card's job glTF (TEXCOORD_1, a sampler per map with minFilter, transforms) with the extensions of
+    anisotropy, iridescence and dispersion written beside: the Khronos glTF-Validator finds no error."""
+    import dataclasses
+
+    from compare.renderers.job import export_gltf
+    from tests.helpers import require, validate_gltf
+
+    require("npm", "gltf-validator")
+    name, mat = next(iter(card_scene.materials.items()))
+    rich = dataclasses.replace(mat, anisotropy_strength=0.5, anisotropy_rotation=0.3, iridescence=1.0,
+                               iridescence_thickness_max=500.0, transmission=0.5, thickness=0.1, dispersion=0.5)
+    scene = dataclasses.replace(card_scene, materials={name: rich})
+    (tmp_path / "job").mkdir()
+    out = export_gltf(scene, tmp_path / "job" / "scene.gltf")
+    text = out.read_text(encoding="utf-8")
+    for ext in ("KHR_materials_anisotropy", "KHR_materials_iridescence", "KHR_materials_dispersion", "TEXCOORD_1"):
+        assert ext in text, ext
+    (report,) = validate_gltf([out]).values()
+    assert [x["code"] for x in report["issues"]["messages"] if x["severity"] == 0] == []
+
+
 WEB_ENGINES = [e if e == "threejs" else pytest.param(e, marks=pytest.mark.slow)
                for e in ("threejs", "babylon", "playcanvas", "model-viewer:linear")]
 
