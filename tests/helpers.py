@@ -627,7 +627,7 @@ def fake_progressive(scene, *, frames, seed, options, checkpoints, ctx):
                        "first_frame_scale": options.get("first_frame_scale", 0.5)}, layers
 
 
-def fake_blender(scene, *, engine, samples, seed, ladder, distribution=None):
+def fake_blender(scene, *, engine, samples, seed, ladder, distribution=None, gltf_import=False):
     """Synthetic Blender renders: Cycles close to the truth, EEVEE biased; one render per ladder step."""
     w, h = scene.camera.resolution
     truth = synthetic_truth(w, h) * (1.0 if engine == "cycles" else 0.85)

@@ -148,7 +148,9 @@ def test_each_extension_reads_writes_and_is_declared(tmp_path, make_scene):
     values = {"transmission": 0.9, "ior": 1.7, "thickness": 0.5, "attenuation_distance": 2.0,
               "attenuation_color": [0.9, 0.5, 0.2], "clearcoat": 0.8, "clearcoat_roughness": 0.2,
               "sheen_color": [0.3, 0.2, 0.1], "sheen_roughness": 0.4, "specular": 0.6,
-              "specular_color": [1.5, 1.0, 0.5]}
+              "specular_color": [1.5, 1.0, 0.5], "dispersion": 0.4, "anisotropy_strength": 0.7,
+              "anisotropy_rotation": -0.5, "iridescence": 0.8, "iridescence_ior": 1.4,
+              "iridescence_thickness_min": 120.0, "iridescence_thickness_max": 520.0}
     assert set(values) == {layer.field for layer in LAYERS}
     body = "\n".join(f"{k} = {json.dumps(v)}" for k, v in values.items())
     path = make_scene(f"""
@@ -187,7 +189,7 @@ def test_each_extension_reads_writes_and_is_declared(tmp_path, make_scene):
     # what each renderer leaves out, said with the share of the pixels
     reg = Registry()
     _, notes = reg.get("progressive").prepare(scene, {"fancy": 0.25})
-    assert "transmission not rendered (1 material(s), 25 % of the pixels)" in notes
+    assert "dispersion not rendered (1 material(s), 25 % of the pixels)" in notes
     assert not any(n.startswith("alpha blend") for n in notes)  # its sorted forward pass
     _, notes = reg.get("mitsuba").prepare(scene)
     assert not any(n.startswith(("transmission", "alpha blend")) for n in notes)

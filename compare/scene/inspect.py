@@ -124,11 +124,14 @@ def inspect_path(path: str | Path, renderers: tuple[str, ...] = (),
         except MeshFileError as exc:  # the message names the file and the JSON path
             raise SceneError(str(exc)) from None
         if renders is not None:
-            from compare.scene.loader import load_scene
+            from compare.scene.loader import parse_scene
 
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")  # _gltf_info's notes say it all once
-                info["features"] = _features(load_scene(path), renders)
+                # the file as a scene; a sky of its own, as the features do not depend on the light (a file
+                # without lights is inspected all the same)
+                scene = parse_scene({"include": path.name, "environment": {"constant": [1.0, 1.0, 1.0]}}, path)
+                info["features"] = _features(scene, renders)
     else:
         from compare.scene.loader import load_scene
 
