@@ -201,9 +201,14 @@ def _builtins():
     # The browser path tracer's set-up (its shaders on SwiftShader, a BVH of five cars) is about a minute.
     # EEVEE's renders are slow (about a second a sample, whatever the size), as in tests/test_blender.py.
     # The glTF Sample Viewer's own IBL prefiltering takes minutes on SwiftShader: its coarse settings.
+    # The other page engines read the same job glTF as three.js, each in a page of its own (seconds to load):
+    # three.js in the default run, the others among the slow tests.
     quick = {"gltf-sample-viewer": "gltf-sample-viewer:coarse"}
-    return [pytest.param(name, marks=pytest.mark.slow) if name in ("threejs-pathtracer", "eevee")
-            else quick.get(name, name) for name in Registry().builtins()]
+    groups = Registry.groups()
+    pages = {n.partition(":")[0] for n in groups["web"] + groups["viewers"]} - {"threejs"}
+    return [pytest.param(quick.get(name, name), marks=pytest.mark.slow)
+            if name in ("threejs-pathtracer", "eevee") or name in pages
+            else name for name in Registry().builtins()]
 
 
 @pytest.mark.parametrize("spec", _builtins())
