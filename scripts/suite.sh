@@ -168,7 +168,8 @@ case "$job" in
         # (a web renderer that is asked for without them says so, with that command)
         setup_system; setup_python
         out="reports/cornell"
-        "$VENV/bin/compare" run --scenes scenes/cornell.toml --size 320x240 --frames 128 --spp 1024 \
+        # the ground truth renders until its own noise is below the stated target (--spp auto: 512 spp here)
+        "$VENV/bin/compare" run --scenes scenes/cornell.toml --size 320x240 --frames 128 --spp auto \
             --renderer-config examples/renderers.toml \
             --renderers mitsuba,progressive,progressive:paper,progressive:ltc,numpy-raycaster -o "$out" "$@"
         log "report: $ROOT/$out/index.html"
