@@ -13,39 +13,13 @@ from compare.mitsuba.reference import ReferenceRenderer
 from compare.scene.loader import load_scene
 from compare.scene.model import LAYERS, MATERIAL_FEATURE_NAMES
 from compare.util.errors import SceneError
-from tests.helpers import EFFECTS, ROOT
+from tests.helpers import EFFECTS, ROOT, material_round_trip, sphere_scene
 
 ENV = 0.5
 
 
 def _render(scene, spp: int = 64):
     return ReferenceRenderer(scene, cache_dir=False, progress=False).render(spp).image
-
-
-def _sphere_scene(make_scene, material: str, *, depth: int = 64):
-    return load_scene(make_scene(f"""
-        [camera]
-        position = [0.0, 0.0, 3.0]
-        target = [0.0, 0.0, 0.0]
-        fov = 30.0
-        resolution = [24, 24]
-
-        [render]
-        max_depth = {depth}
-
-        [materials.glass]
-        {material}
-
-        [[meshes]]
-        shape = "sphere"
-        radius = 0.5
-        segments = 96
-        rings = 48
-        material = "glass"
-
-        [environment]
-        constant = [{ENV}, {ENV}, {ENV}]
-        """))
 
 
 @pytest.mark.parametrize("material", [
@@ -56,7 +30,7 @@ def _sphere_scene(make_scene, material: str, *, depth: int = 64):
 def test_clear_glass_in_a_furnace_looks_like_the_furnace(make_scene, material):
     """A non-absorbing dielectric in a uniform environment scatters all it receives: every pixel is the
     environment's radiance (glass drawn as plastic, the old reference, is darker and coloured)."""
-    scene = _sphere_scene(make_scene, material)
+    scene = sphere_scene(make_scene, material)
     assert scene.features().transmission
     image = _render(scene, spp=64)
     assert float(image.mean()) == pytest.approx(ENV, rel=0.02)
@@ -142,45 +116,20 @@ def test_each_extension_reads_writes_and_is_declared(tmp_path, make_scene):
     """Every parameter of LAYERS: from TOML, into the job's glTF, back from that glTF; the features the
     materials use; and each renderer's note for what it leaves out."""
     from compare.renderers.registry import Registry
-    from compare.renderers.job import export_gltf
-    from compare.scene.gltf_read import load_gltf
 
     values = {"transmission": 0.9, "ior": 1.7, "thickness": 0.5, "attenuation_distance": 2.0,
               "attenuation_color": [0.9, 0.5, 0.2], "clearcoat": 0.8, "clearcoat_roughness": 0.2,
               "sheen_color": [0.3, 0.2, 0.1], "sheen_roughness": 0.4, "specular": 0.6,
               "specular_color": [1.5, 1.0, 0.5]}
     assert set(values) == {layer.field for layer in LAYERS}
-    body = "\n".join(f"{k} = {json.dumps(v)}" for k, v in values.items())
-    path = make_scene(f"""
-        [camera]
-        position = [0.0, 0.0, 3.0]
-        target = [0.0, 0.0, 0.0]
-        resolution = [16, 12]
-
-        [materials.fancy]
-        base_color = [0.5, 0.5, 0.5]
-        alpha_mode = "blend"
-        alpha = 0.5
-        {body}
-
-        [[meshes]]
-        shape = "sphere"
-        radius = 0.5
-        material = "fancy"
-
-        [environment]
-        constant = [0.5, 0.5, 0.5]
-        """)
-    scene = load_scene(path)
+    scene, back = material_round_trip(make_scene, "fancy", base_color=[0.5, 0.5, 0.5], alpha_mode="blend", alpha=0.5,
+                                      **values)
     m = scene.materials["fancy"]
     for k, v in values.items():
         assert getattr(m, k) == pytest.approx(tuple(v) if isinstance(v, list) else v)
     assert scene.material_features() == {name: ["fancy"] for name in MATERIAL_FEATURE_NAMES if name != "layer_maps"}
-    (tmp_path / "job").mkdir()
-    gltf = export_gltf(scene, tmp_path / "job" / "scene.gltf")
-    doc = json.loads(gltf.read_text())
+    doc = json.loads((tmp_path / "job" / "scene.gltf").read_text())
     assert doc["materials"][0]["alphaMode"] == "BLEND"
-    back = load_gltf(gltf).materials[0]
     assert back.alpha_mode == "blend" and back.alpha == pytest.approx(0.5)
     for k, v in values.items():
         assert back.layers[k] == pytest.approx(tuple(v) if isinstance(v, list) else v)
@@ -226,7 +175,7 @@ def test_bad_extension_values_name_the_field(make_scene, field, value, message):
 def test_material_coverage_counts_first_hits(make_scene):
     from compare.mitsuba.coverage import material_coverage
 
-    scene = _sphere_scene(make_scene, "transmission = 1.0")
+    scene = sphere_scene(make_scene, "transmission = 1.0")
     share = material_coverage(scene)["glass"]
     # a sphere of radius 0.5 at distance 3 in a 30° view: its disc's share of the square image
     r = math.tan(math.asin(0.5 / 3.0)) / math.tan(math.radians(15))
@@ -437,9 +386,9 @@ def test_sheen_conserves_energy_in_a_furnace(make_scene):
     """A white Lambert ball with a full white sheen in a uniform environment reflects no more than it
     receives (the albedo scaling takes from the base what the sheen adds), and the sheen shows: more
     than a Lambert ball without it at the rim, less at the centre."""
-    sheen = _render(_sphere_scene(make_scene, "base_color = [0.9, 0.9, 0.9]\nroughness = 1.0\nmetallic = 0.0\n"
-                                               "sheen_color = [1.0, 1.0, 1.0]\nsheen_roughness = 0.5"), spp=128)
-    plain = _render(_sphere_scene(make_scene, "base_color = [0.9, 0.9, 0.9]\nroughness = 1.0\nmetallic = 0.0"),
+    sheen = _render(sphere_scene(make_scene, "base_color = [0.9, 0.9, 0.9]\nroughness = 1.0\nmetallic = 0.0\n"
+                                              "sheen_color = [1.0, 1.0, 1.0]\nsheen_roughness = 0.5"), spp=128)
+    plain = _render(sphere_scene(make_scene, "base_color = [0.9, 0.9, 0.9]\nroughness = 1.0\nmetallic = 0.0"),
                     spp=128)
     ball = plain[..., 0] < 0.999 * ENV  # pixels on the ball
     assert sheen[ball].mean() <= ENV * 1.01
@@ -917,7 +866,7 @@ def test_a_thickness_map_is_read_and_passed_on(make_scene, tmp_path):
 
     Image = pytest.importorskip("PIL.Image")
     Image.new("RGB", (4, 4), (0, 128, 0)).save(tmp_path / "thickness.png")
-    scene = _sphere_scene(make_scene, "base_color = [1.0, 1.0, 1.0]\nroughness = 0.0\ntransmission = 1.0\n"
+    scene = sphere_scene(make_scene, "base_color = [1.0, 1.0, 1.0]\nroughness = 0.0\ntransmission = 1.0\n"
                                       "thickness = 0.5\nattenuation_distance = 1.0\nattenuation_color = [0.5, 0.5, 1.0]")
     (name, mat), = scene.materials.items()
     mat = dataclasses.replace(mat, layer_maps=(("thickness", "g", tmp_path / "thickness.png"),))

@@ -15,6 +15,7 @@ from compare.brdf.multiscatter import lookup_2d
 from compare.mitsuba import principled
 from compare.mitsuba.reference import ReferenceRenderer
 from compare.scene.loader import load_scene
+from tests.helpers import sphere_scene
 
 Z = np.array([0.0, 0.0, 1.0])
 
@@ -25,31 +26,9 @@ def _hemisphere(rng, k):
     return d / np.linalg.norm(d, axis=1, keepdims=True)
 
 
-def _sphere(make_scene, name: str, material: str, *, fov: float = 24.0, size: int = 24, depth: int = 16):
+def _sphere(make_scene, name: str, material: str):
     """A sphere of ``material`` (TOML lines) in a white environment, filling most of a small square image."""
-    return load_scene(make_scene(f"""
-        [camera]
-        position = [0.0, 0.0, 3.0]
-        target = [0.0, 0.0, 0.0]
-        fov = {fov}
-        resolution = [{size}, {size}]
-
-        [render]
-        max_depth = {depth}
-
-        [materials.m]
-        {material}
-
-        [[meshes]]
-        shape = "sphere"
-        radius = 0.5
-        segments = 96
-        rings = 48
-        material = "m"
-
-        [environment]
-        constant = [1.0, 1.0, 1.0]
-        """, name=f"{name}.toml"))
+    return sphere_scene(make_scene, material, name="m", fov=24.0, sky=1.0, depth=16, file=f"{name}.toml")
 
 
 def _mean(image):
