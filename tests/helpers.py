@@ -476,18 +476,18 @@ def centre_mean(image):
 # ----------------------------------------------------------------------------- one sphere of one material
 
 
-def sphere_scene(make_scene, material: str, *, name: str = "glass", fov: float = 30.0, sky: float = 0.5,
-                 depth: int = 64, extra: str = "", file: str = "scene.toml"):
+def sphere_scene(make_scene, material: str, *, name: str = "glass", fov: float = 30.0, size: int = 24,
+                 sky: float = 0.5, depth: int = 64, extra: str = "", file: str = "scene.toml"):
     """A smooth sphere of radius 0.5 at the origin, of the material ``name`` (its TOML fields ``material``),
-    seen from 3 m along +z in a ``fov``-degree view of 24 × 24 pixels under a constant sky of radiance ``sky``,
-    paths of at most ``depth`` bounces; ``extra`` (TOML: more materials and meshes) goes with it into
-    ``file``."""
+    seen from 3 m along +z in a ``fov``-degree view of ``size`` × ``size`` pixels under a constant sky of
+    radiance ``sky``, paths of at most ``depth`` bounces; ``extra`` (TOML: more materials and meshes) goes
+    with it into ``file``."""
     return load_scene(make_scene(f"""
         [camera]
         position = [0.0, 0.0, 3.0]
         target = [0.0, 0.0, 0.0]
         fov = {fov}
-        resolution = [24, 24]
+        resolution = [{size}, {size}]
 
         [render]
         max_depth = {depth}

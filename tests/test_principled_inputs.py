@@ -26,9 +26,10 @@ def _hemisphere(rng, k):
     return d / np.linalg.norm(d, axis=1, keepdims=True)
 
 
-def _sphere(make_scene, name: str, material: str):
+def _sphere(make_scene, name: str, material: str, *, fov: float = 24.0, size: int = 24, depth: int = 16):
     """A sphere of ``material`` (TOML lines) in a white environment, filling most of a small square image."""
-    return sphere_scene(make_scene, material, name="m", fov=24.0, sky=1.0, depth=16, file=f"{name}.toml")
+    return sphere_scene(make_scene, material, name="m", fov=fov, size=size, sky=1.0, depth=depth,
+                        file=f"{name}.toml")
 
 
 def _mean(image):
