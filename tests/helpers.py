@@ -401,11 +401,11 @@ RED_CORNERS = [[1, 0, 0]] * 4
 
 # ----------------------------------------------------------------------------- a model beside its own maps
 
-def png_bytes(rgb: np.ndarray) -> bytes:
+def png_bytes(rgb: np.ndarray, mode: str = "RGB") -> bytes:
     from PIL import Image
 
     buf = io.BytesIO()
-    Image.fromarray(rgb, "RGB").save(buf, format="PNG")
+    Image.fromarray(rgb, mode).save(buf, format="PNG")
     return buf.getvalue()
 
 
@@ -519,6 +519,44 @@ def material_round_trip(make_scene, name: str, **fields):
     job = scene.path.parent / "job"
     job.mkdir()
     return scene, load_gltf(export_gltf(scene, job / "scene.gltf")).materials[0]
+
+
+def hemisphere_directions(rng, k: int) -> np.ndarray:
+    """``k`` random unit directions (k, 3) of the upper hemisphere, none closer to the surface than a
+    z of about 0.05 before normalizing (grazing pairs test little but float noise)."""
+    d = rng.normal(size=(k, 3))
+    d[:, 2] = np.abs(d[:, 2]) + 0.05
+    return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+def mirror_scene(make_scene, name: str, material: str):
+    """A 4 m square of the material ``name`` (its TOML fields ``material``) facing a camera 2 m away (an 8°
+    view of 16 × 16 pixels), a white emitter of radiance 1 behind the camera facing it, paths of at most 4
+    bounces: the camera sees the emitter reflected at normal incidence."""
+    return load_scene(make_scene(f"""
+        [camera]
+        position = [0.0, 0.0, 2.0]
+        target = [0.0, 0.0, 0.0]
+        fov = 8.0
+        resolution = [16, 16]
+
+        [render]
+        max_depth = 4
+
+        [materials.{name}]
+        {material}
+
+        [[meshes]]
+        shape = "quad"
+        corners = [[-2, -2, 0], [2, -2, 0], [2, 2, 0], [-2, 2, 0]]
+        material = "{name}"
+
+        [[lights]]
+        center = [0.0, 0.0, 3.0]
+        size = [4.0, 4.0]
+        normal = [0.0, 0.0, -1.0]
+        radiance = [1.0, 1.0, 1.0]
+        """))
 
 
 # ----------------------------------------------------------------------------- web engines against three.js

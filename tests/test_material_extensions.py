@@ -13,7 +13,8 @@ from compare.mitsuba.reference import ReferenceRenderer
 from compare.scene.loader import load_scene
 from compare.scene.model import LAYERS, MATERIAL_FEATURE_NAMES
 from compare.util.errors import SceneError
-from tests.helpers import EFFECTS, ROOT, material_round_trip, sphere_scene
+from tests.helpers import (EFFECTS, ROOT, hemisphere_directions, material_round_trip, mirror_scene, png_bytes,
+                           sphere_scene)
 
 ENV = 0.5
 
@@ -41,34 +42,8 @@ def test_clear_glass_in_a_furnace_looks_like_the_furnace(make_scene, material):
 def _mirror_scene(make_scene, ior: float):
     """A glass interface facing the camera, an emitter behind the camera facing it: the camera sees the
     emitter reflected at normal incidence (the transmitted light never comes back)."""
-    return load_scene(make_scene(f"""
-        [camera]
-        position = [0.0, 0.0, 2.0]
-        target = [0.0, 0.0, 0.0]
-        fov = 8.0
-        resolution = [16, 16]
-
-        [render]
-        max_depth = 4
-
-        [materials.glass]
-        base_color = [1, 1, 1]
-        roughness = 0.0
-        transmission = 1.0
-        thickness = 1.0
-        ior = {ior}
-
-        [[meshes]]
-        shape = "quad"
-        corners = [[-2, -2, 0], [2, -2, 0], [2, 2, 0], [-2, 2, 0]]
-        material = "glass"
-
-        [[lights]]
-        center = [0.0, 0.0, 3.0]
-        size = [4.0, 4.0]
-        normal = [0.0, 0.0, -1.0]
-        radiance = [1.0, 1.0, 1.0]
-        """))
+    return mirror_scene(make_scene, "glass", f"base_color = [1, 1, 1]\nroughness = 0.0\ntransmission = 1.0\n"
+                                             f"thickness = 1.0\nior = {ior}")
 
 
 @pytest.mark.parametrize("ior", [1.5, 2.0])
@@ -244,12 +219,7 @@ def test_coat_plugin_evaluates_the_shared_coat_formula():
     rng = np.random.default_rng(7)
     n = 2000
 
-    def hemisphere(k):
-        d = rng.normal(size=(k, 3))
-        d[:, 2] = np.abs(d[:, 2]) + 0.05
-        return d / np.linalg.norm(d, axis=1, keepdims=True)
-
-    wi, wo = hemisphere(n), hemisphere(n)
+    wi, wo = hemisphere_directions(rng, n), hemisphere_directions(rng, n)
     rho = 0.6
     for weight, rough in ((1.0, 0.3), (0.5, 0.05), (0.8, 1.0)):
         bsdf = mi.load_dict({"type": "gltf_coat", "clearcoat": weight, "roughness": rough,
@@ -265,34 +235,12 @@ def test_coat_plugin_evaluates_the_shared_coat_formula():
 
 
 def _coated_mirror_scene(make_scene):
-    return load_scene(make_scene("""
-        [camera]
-        position = [0.0, 0.0, 2.0]
-        target = [0.0, 0.0, 0.0]
-        fov = 8.0
-        resolution = [16, 16]
-
-        [render]
-        max_depth = 4
-
-        [materials.paint]
+    return mirror_scene(make_scene, "paint", """
         base_color = [0.0, 0.0, 0.0]
         metallic = 1.0  # a black metal reflects nothing near normal incidence: the coat alone does
         roughness = 1.0
         clearcoat = 1.0
-        clearcoat_roughness = 0.0
-
-        [[meshes]]
-        shape = "quad"
-        corners = [[-2, -2, 0], [2, -2, 0], [2, 2, 0], [-2, 2, 0]]
-        material = "paint"
-
-        [[lights]]
-        center = [0.0, 0.0, 3.0]
-        size = [4.0, 4.0]
-        normal = [0.0, 0.0, -1.0]
-        radiance = [1.0, 1.0, 1.0]
-        """))
+        clearcoat_roughness = 0.0""")
 
 
 def test_a_clear_coat_over_black_reflects_four_percent_at_normal_incidence(make_scene):
@@ -318,12 +266,7 @@ def test_plugin_evaluates_the_shared_ior_and_specular_model(ior, specular, color
     rng = np.random.default_rng(3)
     n = 3000
 
-    def hemisphere(k):
-        d = rng.normal(size=(k, 3))
-        d[:, 2] = np.abs(d[:, 2]) + 0.05
-        return d / np.linalg.norm(d, axis=1, keepdims=True)
-
-    wi, wo = hemisphere(n), hemisphere(n)
+    wi, wo = hemisphere_directions(rng, n), hemisphere_directions(rng, n)
     base = rng.random((n, 3))
     metallic = rng.choice([0.0, 0.3, 1.0], n)
     rough = rng.uniform(0.1, 1.0, n)
@@ -361,12 +304,7 @@ def test_sheen_plugin_evaluates_the_shared_sheen_model():
     rng = np.random.default_rng(11)
     n = 2000
 
-    def hemisphere(k):
-        d = rng.normal(size=(k, 3))
-        d[:, 2] = np.abs(d[:, 2]) + 0.05
-        return d / np.linalg.norm(d, axis=1, keepdims=True)
-
-    wi, wo = hemisphere(n), hemisphere(n)
+    wi, wo = hemisphere_directions(rng, n), hemisphere_directions(rng, n)
     rho = 0.5
     for color, rough in (((1.0, 0.5, 0.2), 0.3), ((0.4, 0.4, 0.4), 0.8), ((0.9, 0.1, 0.5), 0.05)):
         bsdf = mi.load_dict({"type": "gltf_sheen", "roughness": rough,
@@ -508,35 +446,24 @@ def test_the_report_has_a_layer_grid_for_every_count_of_layers():
         assert f".layer-maps.cols-{n} {{ grid-template-columns: 12rem repeat({n}," in css
 
 
-def test_a_transmission_map_makes_glass_where_it_says(tmp_path, make_scene):
-    """A glTF card whose transmissionTexture is 0 on one half and 1 on the other, lit from behind: light
-    comes through the glass half only (thin-walled: (1 − R)² / (1 − R²) of it, R = 0.04), and the job's
-    glTF writes the map back."""
-    from compare.renderers.job import export_gltf
+def _mapped_card(tmp_path, make_scene, base, extensions, *, depth: int, light: tuple[float, float]):
+    """A glTF card (card.glb) facing a camera 3 m away in a 20° view of 32 × 16 pixels, its material of colour
+    ``base`` with the extensions ``extensions(w)`` gives ({name: fields}; ``w`` the GltfWriter, which makes
+    their textures), lit by a square white emitter of radiance 1 on the axis, at z and of side ``light``,
+    facing the card; paths of at most ``depth`` bounces."""
     from compare.scene import geometry
-    from compare.scene.gltf_read import load_gltf
     from compare.scene.gltf_write import GltfWriter
 
-    def png(rgb) -> bytes:
-        import io
-
-        from PIL import Image
-
-        buf = io.BytesIO()
-        Image.fromarray(rgb, "RGB").save(buf, format="PNG")
-        return buf.getvalue()
-
     w = GltfWriter()
-    mat = w.material("card", (1.0, 1.0, 1.0), 0.0, 0.0)
-    texel = np.zeros((4, 8, 3), dtype=np.uint8)
-    texel[:, 4:] = 255  # u >= 0.5: transmission 1
-    w.doc["materials"][mat]["extensions"] = {"KHR_materials_transmission": {
-        "transmissionFactor": 1.0, "transmissionTexture": w.texture(png(texel))}}
-    w._use("KHR_materials_transmission")  # noqa: SLF001
+    mat = w.material("card", base, 0.0, 0.0)
+    w.doc["materials"][mat]["extensions"] = extensions(w)
+    for name in w.doc["materials"][mat]["extensions"]:
+        w._use(name)  # noqa: SLF001
     w.node("card", mesh=w.mesh("card", [(geometry.quad((2.0, 2.0)), mat)], uvs=True),
            rotation=[np.sin(np.pi / 4), 0.0, 0.0, np.cos(np.pi / 4)])  # +Y normal turned to +Z
     w.write(tmp_path / "card.glb")
-    scene = load_scene(make_scene("""
+    z, side = light
+    return load_scene(make_scene(f"""
         include = "card.glb"
 
         [camera]
@@ -546,14 +473,27 @@ def test_a_transmission_map_makes_glass_where_it_says(tmp_path, make_scene):
         resolution = [32, 16]
 
         [render]
-        max_depth = 6
+        max_depth = {depth}
 
         [[lights]]
-        center = [0.0, 0.0, -2.0]
-        size = [6.0, 6.0]
-        normal = [0.0, 0.0, 1.0]
+        center = [0.0, 0.0, {z}]
+        size = [{side}, {side}]
+        normal = [0.0, 0.0, {-1.0 if z > 0 else 1.0}]
         radiance = [1.0, 1.0, 1.0]
         """))
+
+
+def test_a_transmission_map_makes_glass_where_it_says(tmp_path, make_scene):
+    """A glTF card whose transmissionTexture is 0 on one half and 1 on the other, lit from behind: light
+    comes through the glass half only (thin-walled: (1 − R)² / (1 − R²) of it, R = 0.04), and the job's
+    glTF writes the map back."""
+    from compare.renderers.job import export_gltf
+    from compare.scene.gltf_read import load_gltf
+
+    texel = np.zeros((4, 8, 3), dtype=np.uint8)
+    texel[:, 4:] = 255  # u >= 0.5: transmission 1
+    scene = _mapped_card(tmp_path, make_scene, (1.0, 1.0, 1.0), lambda w: {"KHR_materials_transmission": {
+        "transmissionFactor": 1.0, "transmissionTexture": w.texture(png_bytes(texel))}}, depth=6, light=(-2.0, 6.0))
     (m,) = scene.materials.values()
     assert [(f, c) for f, c, _ in m.layer_maps] == [("transmission", "r")]
     from compare.scene.inspect import inspect_path
@@ -577,52 +517,15 @@ def test_a_specular_map_weights_the_reflection_where_it_says(tmp_path, make_scen
     """A black smooth card whose specularTexture (alpha) is 0 on one half and 1 on the other, IOR 2, and a
     specularColorTexture tinting it orange: the emitter facing it is reflected by the second half only,
     F0 × colour = (1/9) × (1, 0.5, 0.25)."""
-    import io
-
-    from PIL import Image
-
-    from compare.scene import geometry
-    from compare.scene.gltf_write import GltfWriter
-
-    def png(pixels, mode) -> bytes:
-        buf = io.BytesIO()
-        Image.fromarray(pixels, mode).save(buf, format="PNG")
-        return buf.getvalue()
-
-    w = GltfWriter()
-    mat = w.material("card", (0.0, 0.0, 0.0), 0.0, 0.0)
     weight = np.zeros((4, 8, 4), dtype=np.uint8)
     weight[:, 4:, 3] = 255
     orange = np.zeros((4, 8, 3), dtype=np.uint8)
     orange[:] = (255, 188, 137)  # sRGB of linear (1, 0.5, 0.25)
-    w.doc["materials"][mat]["extensions"] = {
-        "KHR_materials_specular": {"specularFactor": 1.0, "specularTexture": w.texture(png(weight, "RGBA")),
+    scene = _mapped_card(tmp_path, make_scene, (0.0, 0.0, 0.0), lambda w: {
+        "KHR_materials_specular": {"specularFactor": 1.0, "specularTexture": w.texture(png_bytes(weight, "RGBA")),
                                    "specularColorFactor": [1.0, 1.0, 1.0],
-                                   "specularColorTexture": w.texture(png(orange, "RGB"))},
-        "KHR_materials_ior": {"ior": 2.0}}
-    w._use("KHR_materials_specular")  # noqa: SLF001
-    w._use("KHR_materials_ior")  # noqa: SLF001
-    w.node("card", mesh=w.mesh("card", [(geometry.quad((2.0, 2.0)), mat)], uvs=True),
-           rotation=[np.sin(np.pi / 4), 0.0, 0.0, np.cos(np.pi / 4)])  # +Y normal turned to +Z
-    w.write(tmp_path / "card.glb")
-    scene = load_scene(make_scene("""
-        include = "card.glb"
-
-        [camera]
-        position = [0.0, 0.0, 3.0]
-        target = [0.0, 0.0, 0.0]
-        fov = 20.0
-        resolution = [32, 16]
-
-        [render]
-        max_depth = 4
-
-        [[lights]]
-        center = [0.0, 0.0, 5.0]
-        size = [8.0, 8.0]
-        normal = [0.0, 0.0, -1.0]
-        radiance = [1.0, 1.0, 1.0]
-        """))
+                                   "specularColorTexture": w.texture(png_bytes(orange))},
+        "KHR_materials_ior": {"ior": 2.0}}, depth=4, light=(5.0, 8.0))
     (m,) = scene.materials.values()
     assert sorted(f for f, _, _ in m.layer_maps) == ["specular", "specular_color"]
     if renderer == "reference":
