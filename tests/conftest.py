@@ -8,6 +8,7 @@
   checks after each test for GL errors and GL objects not released. Every test that uses it,
   directly or through another fixture, is marked ``gl``.
 * ``make_scene`` writes a scene TOML file into the test's temporary folder.
+* ``web_pages`` is one Chromium for the web renders of a test module, ended after its last test.
 * Optional components are markers: a test marked ``bpy`` (Blender's Python module), ``web`` (the web
   engines: Chromium, Playwright, their npm packages) or ``npm("package", ...)`` (Node.js and those packages
   in web/node_modules) is skipped with the component's own reason where it is missing (the checks are
@@ -34,7 +35,7 @@ import pytest
 import tomli_w
 from hypothesis import HealthCheck, is_hypothesis_test, settings
 
-from tests.helpers import CAPABILITIES
+from tests.helpers import CAPABILITIES, WebPages
 
 # ----------------------------------------------------------------------------- the cache folder
 
@@ -362,6 +363,15 @@ def make_scene(tmp_path):
         return path
 
     return make
+
+
+@pytest.fixture(scope="module")
+def web_pages():
+    """One Chromium for the web renders of a test module (:class:`tests.helpers.WebPages`): it starts at the
+    first render, each engine's page is a new tab, and it ends after the module's last test."""
+    pages = WebPages()
+    yield pages
+    pages.close()
 
 
 # ----------------------------------------------------------------------------- Mitsuba variants

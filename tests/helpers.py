@@ -401,11 +401,11 @@ RED_CORNERS = [[1, 0, 0]] * 4
 
 # ----------------------------------------------------------------------------- a model beside its own maps
 
-def png_bytes(rgb: np.ndarray) -> bytes:
+def png_bytes(rgb: np.ndarray, mode: str = "RGB") -> bytes:
     from PIL import Image
 
     buf = io.BytesIO()
-    Image.fromarray(rgb, "RGB").save(buf, format="PNG")
+    Image.fromarray(rgb, mode).save(buf, format="PNG")
     return buf.getvalue()
 
 
@@ -472,6 +472,232 @@ def sided_card(make_scene, tmp_path, *, double_sided, from_behind: bool):
 def centre_mean(image):
     """The mean of the 16 × 16 image's centre, where the card is."""
     return float(image[6:10, 6:10].mean())
+
+# ----------------------------------------------------------------------------- one sphere of one material
+
+
+def sphere_scene(make_scene, material: str, *, name: str = "glass", fov: float = 30.0, size: int = 24,
+                 sky: float = 0.5, depth: int = 64, extra: str = "", file: str = "scene.toml"):
+    """A smooth sphere of radius 0.5 at the origin, of the material ``name`` (its TOML fields ``material``),
+    seen from 3 m along +z in a ``fov``-degree view of ``size`` × ``size`` pixels under a constant sky of
+    radiance ``sky``, paths of at most ``depth`` bounces; ``extra`` (TOML: more materials and meshes) goes
+    with it into ``file``."""
+    return load_scene(make_scene(f"""
+        [camera]
+        position = [0.0, 0.0, 3.0]
+        target = [0.0, 0.0, 0.0]
+        fov = {fov}
+        resolution = [{size}, {size}]
+
+        [render]
+        max_depth = {depth}
+
+        [materials.{name}]
+        {material}
+
+        [[meshes]]
+        shape = "sphere"
+        radius = 0.5
+        segments = 96
+        rings = 48
+        material = "{name}"
+
+        [environment]
+        constant = [{sky}, {sky}, {sky}]
+        """, extra, name=file))
+
+
+def material_round_trip(make_scene, name: str, **fields):
+    """``(scene, again)``: the :func:`sphere_scene` of the material ``name`` with ``fields`` (TOML keys and
+    their values) under a white sky, and that material as the job's glTF (``job/scene.gltf`` beside the
+    scene file) reads back."""
+    from compare.renderers.job import export_gltf
+    from compare.scene.gltf_read import load_gltf
+
+    material = "\n".join(f"{key} = {json.dumps(value)}" for key, value in fields.items())
+    scene = sphere_scene(make_scene, material, name=name, sky=1.0)
+    job = scene.path.parent / "job"
+    job.mkdir()
+    return scene, load_gltf(export_gltf(scene, job / "scene.gltf")).materials[0]
+
+
+def hemisphere_directions(rng, k: int) -> np.ndarray:
+    """``k`` random unit directions (k, 3) of the upper hemisphere, none closer to the surface than a
+    z of about 0.05 before normalizing (grazing pairs test little but float noise)."""
+    d = rng.normal(size=(k, 3))
+    d[:, 2] = np.abs(d[:, 2]) + 0.05
+    return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+def mirror_scene(make_scene, name: str, material: str):
+    """A 4 m square of the material ``name`` (its TOML fields ``material``) facing a camera 2 m away (an 8°
+    view of 16 × 16 pixels), a white emitter of radiance 1 behind the camera facing it, paths of at most 4
+    bounces: the camera sees the emitter reflected at normal incidence."""
+    return load_scene(make_scene(f"""
+        [camera]
+        position = [0.0, 0.0, 2.0]
+        target = [0.0, 0.0, 0.0]
+        fov = 8.0
+        resolution = [16, 16]
+
+        [render]
+        max_depth = 4
+
+        [materials.{name}]
+        {material}
+
+        [[meshes]]
+        shape = "quad"
+        corners = [[-2, -2, 0], [2, -2, 0], [2, 2, 0], [-2, 2, 0]]
+        material = "{name}"
+
+        [[lights]]
+        center = [0.0, 0.0, 3.0]
+        size = [4.0, 4.0]
+        normal = [0.0, 0.0, -1.0]
+        radiance = [1.0, 1.0, 1.0]
+        """))
+
+
+# ----------------------------------------------------------------------------- web engines against three.js
+
+#: A dark, asymmetric card off the image centre under a bright sky, seen at an angle by a camera whose
+#: target is not the origin, in a 4:3 image (an engine that fits its field of view to the model's aspect
+#: must still frame it as the suite does); a small area light that the engines without area lights leave out.
+FRAMING = """
+    name = "framing"
+    [camera]
+    position = [1.2, 0.8, 3.0]
+    target = [0.3, 0.1, 0.0]
+    fov = 40.0
+    resolution = [64, 48]
+    [environment]
+    constant = [1.0, 1.0, 1.0]
+    [materials.dark]
+    base_color = [0.0, 0.0, 0.0]
+    roughness = 1.0
+    [[meshes]]
+    name = "card"
+    shape = "quad"
+    material = "dark"
+    corners = [[-0.2, -0.5, 0.0], [0.9, -0.4, 0.0], [0.7, 0.6, 0.0], [-0.1, 0.3, 0.0]]
+    [[lights]]
+    name = "small"
+    center = [0.0, 2.0, 1.0]
+    size = [0.1, 0.1]
+    normal = [0.0, -1.0, 0.0]
+    radiance = [1.0, 1.0, 1.0]
+"""
+
+#: The axes test map turned 30 degrees around a camera at the origin, with a speck of a mesh far behind the
+#: camera (a scene needs one): the image is the background alone, which shows the map's orientation.
+AXES_ENVIRONMENT = """
+    name = "axes environment"
+    [camera]
+    position = [0.0, 0.0, 0.0]
+    target = [1.0, 0.3, 0.2]
+    fov = 70.0
+    resolution = [48, 36]
+    [environment]
+    procedural = "axes"
+    rotation = 30.0
+    [materials.m]
+    base_color = [0.5, 0.5, 0.5]
+    [[meshes]]
+    name = "speck behind the camera"
+    shape = "quad"
+    material = "m"
+    corners = [[-50.0, -50.0, -50.0], [-50.0, -50.01, -50.0], [-50.01, -50.01, -50.0], [-50.01, -50.0, -50.0]]
+"""
+
+
+class WebPages:
+    """One Chromium for the renders of a test module: each engine's page is a new tab of it.
+
+    A module keeps one and closes it in a module-scoped fixture; a test that starts its own
+    :class:`~compare.renderers.RenderContext` closes it first, since Playwright's sync API runs one driver
+    per thread at a time."""
+
+    def __init__(self):
+        self._contexts = []
+
+    def render(self, renderer, scene, steps: int = 2, checkpoints=None):
+        """``renderer``'s :class:`~compare.renderers.Rendering` of ``scene`` as given, with a checkpoint at
+        each of ``checkpoints`` (``steps`` alone by default)."""
+        from compare.renderers import RenderContext
+
+        if not self._contexts:
+            self._contexts.append(RenderContext(RunSettings(frames=steps)))
+        return renderer.render(scene, steps=steps, checkpoints=list(checkpoints or [steps]), seed=0,
+                               context=self._contexts[0])
+
+    def prepared(self, renderer, scene, steps: int = 2):
+        """``(rendering, changed)``: ``scene`` rendered as a run gives it to ``renderer`` (its ``prepare``),
+        and what that changed or left out."""
+        given, changed = renderer.prepare(scene)
+        return self.render(renderer, given, steps), changed
+
+    def close(self) -> None:
+        """End the shared Chromium (the next render starts another)."""
+        while self._contexts:
+            self._contexts.pop().close()
+
+
+def threejs_and(pages: WebPages, renderer, scene, steps: int = 2) -> tuple[np.ndarray, np.ndarray]:
+    """The final images of three.js and of ``renderer`` (finite) for ``scene`` as a run gives it to each."""
+    from compare.web.renderer import ThreeJsRenderer
+
+    three = pages.prepared(ThreeJsRenderer("threejs"), scene, steps)[0].checkpoints[-1].image
+    ours = pages.prepared(renderer, scene, steps)[0].checkpoints[-1].image
+    assert np.isfinite(ours).all()
+    return three, ours
+
+
+def assert_frames_as_threejs(pages: WebPages, scene, *renderers) -> tuple[list, np.ndarray]:
+    """The :data:`FRAMING` ``scene`` by three.js and by each of ``renderers``: each leaves the area light
+    out with a note, its card's silhouette lands on three.js's pixels (a pixel or two along its edges), and
+    where it reads back linear radiance (no ``output`` in its metadata) the sky is radiance 1. Returns the
+    renderings and three.js's card mask."""
+    from compare.image.tonemap import luminance
+    from compare.web.renderer import ThreeJsRenderer
+
+    three = pages.prepared(ThreeJsRenderer("threejs"), scene)[0].checkpoints[-1].image
+    mask = luminance(three) < 0.5
+    assert 300 < mask.sum() < 1500  # the card covers a good part of the image, off its centre
+    renderings = []
+    for renderer in renderers:
+        rendering, changed = pages.prepared(renderer, scene)
+        assert changed == ["1 area light(s) not rendered (neither their light nor their face)"]
+        image = rendering.checkpoints[-1].image
+        assert image.shape == (48, 64, 3) and np.isfinite(image).all()
+        differ = int(((luminance(image) < 0.5) != mask).sum())
+        assert differ <= 12, (renderer.name, differ)  # measured: 0 (Filament, the Sample Viewer)
+        if "output" not in rendering.metadata:
+            np.testing.assert_allclose(image[~mask].mean(), 1.0, rtol=0.02)
+        renderings.append(rendering)
+    return renderings, mask
+
+
+def assert_point_light_as_threejs(pages: WebPages, make_scene, renderer) -> None:
+    """The effect scene of a point light over a white rough plane, no environment, at 32 × 24: ``renderer``
+    gives the plane the radiance three.js gives it (both glTF's inverse square of candela)."""
+    text = (EFFECTS / "point_light.toml").read_text().replace("resolution = [96, 72]", "resolution = [32, 24]")
+    three, ours = threejs_and(pages, renderer, load_scene(make_scene(text)))
+    assert ours.mean() > 0.05
+    np.testing.assert_allclose(ours.mean(), three.mean(), rtol=0.05)
+
+
+def npm_availability(monkeypatch, web_root: Path, renderer, *present: str) -> tuple[bool, str]:
+    """``renderer.available()`` where Chromium is found and web/ is ``web_root``, whose node_modules holds
+    only the npm packages ``present`` (each an empty package.json)."""
+    from compare.web import host
+
+    monkeypatch.setattr(host, "chromium_path", lambda: "/bin/sh")
+    monkeypatch.setattr(host, "web_root", lambda: web_root)
+    for package in present:
+        (web_root / "node_modules" / package).mkdir(parents=True, exist_ok=True)
+        (web_root / "node_modules" / package / "package.json").write_text("{}")
+    return renderer.available()
 
 
 # ----------------------------------------------------------------------------- punctual lights over a plane

@@ -10,6 +10,8 @@ import math
 import numpy as np
 import pytest
 
+from tests.helpers import material_round_trip
+
 BASE = (0.9, 0.6, 0.3)
 
 
@@ -82,34 +84,8 @@ def test_sampling_matches_the_pdf(mi_llvm, roughness, cos_i):
     assert test.run(significance_level=0.01, test_count=2, quiet=True), test.messages
 
 
-def test_the_files_anisotropy_is_read_and_written(tmp_path):
-    from compare.renderers.job import export_gltf
-    from compare.scene.gltf_read import load_gltf
-    from compare.scene.loader import load_scene
-
-    (tmp_path / "s.toml").write_text("""
-        [camera]
-        position = [0.0, 0.0, 3.0]
-        target = [0.0, 0.0, 0.0]
-        resolution = [8, 8]
-
-        [materials.brushed]
-        base_color = [0.9, 0.9, 0.9]
-        metallic = 1.0
-        roughness = 0.4
-        anisotropy_strength = 0.6
-        anisotropy_rotation = 0.5
-
-        [[meshes]]
-        shape = "sphere"
-        radius = 0.5
-        material = "brushed"
-
-        [environment]
-        constant = [1.0, 1.0, 1.0]
-        """.replace("\n        ", "\n"))
-    scene = load_scene(tmp_path / "s.toml")
+def test_the_files_anisotropy_is_read_and_written(make_scene):
+    scene, again = material_round_trip(make_scene, "brushed", base_color=[0.9, 0.9, 0.9], metallic=1.0, roughness=0.4,
+                                       anisotropy_strength=0.6, anisotropy_rotation=0.5)
     assert scene.features().anisotropy and scene.materials["brushed"].normal_mapped  # its frame is glTF's
-    (tmp_path / "job").mkdir()
-    again = load_gltf(export_gltf(scene, tmp_path / "job" / "scene.gltf")).materials[0]
     assert again.layers == {"anisotropy_strength": 0.6, "anisotropy_rotation": 0.5}

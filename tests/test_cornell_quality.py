@@ -47,21 +47,18 @@ def progressive(cornell, gl_session_ctx):
     return render_progressive(cornell, frames=128, seed=0, checkpoints=CHECKPOINTS, ctx=gl_session_ctx)
 
 
-def test_against_full_reference(references, progressive):
-    full, _ = references
-    m = compare_images(full, progressive.image, flip_hdr=False)
-    print(f"vs full GI: SSIM {m['ssim']:.4f}, FLIP {m['flip']:.4f}, relMSE {m['relmse']:.4f}")
-    assert m["ssim"] >= 0.70
-    assert m["flip"] <= 0.25
-
-
-def test_against_direct_light_reference(references, progressive):
-    _, direct = references
-    m = compare_images(direct, progressive.image, flip_hdr=False)
-    print(f"vs direct only: SSIM {m['ssim']:.4f}, FLIP {m['flip']:.4f}, relMSE {m['relmse']:.5f}")
-    assert m["ssim"] >= 0.985
-    assert m["flip"] <= 0.03
-    assert m["relmse"] <= 1e-3
+@pytest.mark.parametrize("which, min_ssim, max_flip, max_relmse", [
+    (0, 0.70, 0.25, None),
+    (1, 0.985, 0.03, 1e-3),
+], ids=["full", "direct"])
+def test_against_reference(references, progressive, which, min_ssim, max_flip, max_relmse):
+    m = compare_images(references[which], progressive.image, flip_hdr=False)
+    print(f"vs {('full GI', 'direct only')[which]}: SSIM {m['ssim']:.4f}, FLIP {m['flip']:.4f}, "
+          f"relMSE {m['relmse']:.5f}")
+    assert m["ssim"] >= min_ssim
+    assert m["flip"] <= max_flip
+    if max_relmse is not None:
+        assert m["relmse"] <= max_relmse
 
 
 def test_error_falls_as_frames_rise(references, progressive):

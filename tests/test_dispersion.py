@@ -8,54 +8,31 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from compare.scene.loader import load_scene
 from compare.scene.model import channel_iors
+from tests.helpers import sphere_scene
 
-SIZE = 24
+#: A checker card 1 m behind the sphere, filling its view.
+CHECKER_BEHIND = """
+    [materials.checker]
+    base_color_texture = "checker.png"
+    texture_filter = "nearest"
+
+    [[meshes]]
+    shape = "quad"
+    size = [2.0, 2.0]
+    rotate = [90.0, 0.0, 0.0]
+    translate = [0.0, 0.0, -1.0]
+    material = "checker"
+    """
 
 
 def _scene(make_scene, tmp_path, *, ior: float, dispersion: float, roughness: float = 0.0):
     checker = np.kron((np.indices((8, 8)).sum(0) % 2).astype(np.uint8) * 230 + 20, np.ones((4, 4), np.uint8))
     Image.fromarray(np.repeat(checker[..., None], 3, axis=2)).save(tmp_path / "checker.png")
-    return load_scene(make_scene(f"""
-        [camera]
-        position = [0.0, 0.0, 3.0]
-        target = [0.0, 0.0, 0.0]
-        fov = 30.0
-        resolution = [{SIZE}, {SIZE}]
-
-        [render]
-        max_depth = 16
-
-        [materials.glass]
-        base_color = [1, 1, 1]
-        roughness = {roughness}
-        transmission = 1.0
-        thickness = 1.0
-        ior = {ior}
-        dispersion = {dispersion}
-
-        [materials.checker]
-        base_color_texture = "checker.png"
-        texture_filter = "nearest"
-
-        [[meshes]]
-        shape = "sphere"
-        radius = 0.5
-        segments = 96
-        rings = 48
-        material = "glass"
-
-        [[meshes]]
-        shape = "quad"
-        size = [2.0, 2.0]
-        rotate = [90.0, 0.0, 0.0]
-        translate = [0.0, 0.0, -1.0]
-        material = "checker"
-
-        [environment]
-        constant = [1.0, 1.0, 1.0]
-        """, name=f"s-{ior}-{dispersion}-{roughness}.toml"))
+    material = f"base_color = [1, 1, 1]\nroughness = {roughness}\ntransmission = 1.0\nthickness = 1.0\nior = {ior}\n" \
+               f"dispersion = {dispersion}"
+    return sphere_scene(make_scene, material, sky=1.0, depth=16, extra=CHECKER_BEHIND,
+                        file=f"s-{ior}-{dispersion}-{roughness}.toml")
 
 
 def _render(scene, spp):

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from compare.brdf.iridescence import NUMPY, iridescence_fresnel
+from tests.helpers import material_round_trip
 
 
 def _schlick(f0, c):
@@ -80,34 +81,8 @@ def test_the_reference_mixes_the_films_fresnel_into_each_lobe(mi_llvm, metallic,
     assert np.abs(plain - expected).max() > 10 * np.abs(value - expected).max()  # the film does show
 
 
-def test_the_files_iridescence_is_read_and_written(tmp_path):
-    from compare.renderers.job import export_gltf
-    from compare.scene.gltf_read import load_gltf
-    from compare.scene.loader import load_scene
-
-    (tmp_path / "s.toml").write_text("""
-[camera]
-position = [0.0, 0.0, 3.0]
-target = [0.0, 0.0, 0.0]
-resolution = [8, 8]
-
-[materials.soap]
-base_color = [0.1, 0.1, 0.1]
-roughness = 0.2
-iridescence = 1.0
-iridescence_ior = 1.33
-iridescence_thickness_max = 550.0
-
-[[meshes]]
-shape = "sphere"
-radius = 0.5
-material = "soap"
-
-[environment]
-constant = [1.0, 1.0, 1.0]
-""")
-    scene = load_scene(tmp_path / "s.toml")
+def test_the_files_iridescence_is_read_and_written(make_scene):
+    scene, again = material_round_trip(make_scene, "soap", base_color=[0.1, 0.1, 0.1], roughness=0.2, iridescence=1.0,
+                                       iridescence_ior=1.33, iridescence_thickness_max=550.0)
     assert scene.features().iridescence
-    (tmp_path / "job").mkdir()
-    again = load_gltf(export_gltf(scene, tmp_path / "job" / "scene.gltf")).materials[0]
     assert again.layers == {"iridescence": 1.0, "iridescence_ior": 1.33, "iridescence_thickness_max": 550.0}

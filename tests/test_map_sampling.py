@@ -174,8 +174,7 @@ def test_the_reference_reads_each_map_as_the_file_says(card_scene, mi_llvm):
     # each 4 × 4 block sees one texel of each map; its mean is within the path tracer's noise of the closed
     # form (measured: 0.0037–0.0044 over seeds 1–3 at 512 spp), and no pixel is another combination of texels
     # (those differ by 0.5 or more; a pixel deviates by 0.03 at most)
-    blocks = lambda a: a.reshape(4, 4, 4, 4, 3).mean(axis=(1, 3))  # noqa: E731
-    np.testing.assert_allclose(blocks(image), blocks(expected_image()), atol=0.01)
+    np.testing.assert_allclose(_blocks(image), _blocks(expected_image()), atol=0.01)
     np.testing.assert_allclose(image, expected_image(), atol=0.1)
 
 
@@ -222,6 +221,27 @@ def test_the_jobs_gltf_with_every_new_reading_passes_the_validator(card_scene, t
     assert [x["code"] for x in report["issues"]["messages"] if x["severity"] == 0] == []
 
 
+def _blocks(image: np.ndarray) -> np.ndarray:
+    """The means of the card image's 4 × 4 blocks of 4 × 4 pixels."""
+    return image.reshape(4, 4, 4, 4, 3).mean(axis=(1, 3))
+
+
+def _rendered_blocks(scene, engine: str, settings, steps: int) -> np.ndarray:
+    """:func:`_blocks` of ``engine``'s image of ``scene`` after ``steps`` steps; the engine declares that it
+    reads each map's UV set and sampler."""
+    from compare.renderers import RenderContext
+    from compare.renderers.registry import Registry
+
+    r = Registry().get(engine)
+    assert {"uv_sets", "map_samplers"} <= r.renders
+    context = RenderContext(settings)
+    try:
+        image = r.render(scene, steps=steps, checkpoints=[steps], seed=0, context=context).checkpoints[-1].image
+    finally:
+        context.close()
+    return _blocks(image)
+
+
 WEB_ENGINES = [e if e == "threejs" else pytest.param(e, marks=pytest.mark.slow)
                for e in ("threejs", "babylon", "playcanvas", "model-viewer:linear")]
 
@@ -231,19 +251,10 @@ WEB_ENGINES = [e if e == "threejs" else pytest.param(e, marks=pytest.mark.slow)
 def test_web_engines_read_each_map_from_the_jobs_gltf(card_scene, engine):
     """The web engines read the job's glTF with their own loaders, which take texCoord, the sampler and the
     transform per map: each 4 × 4 block shows its texels (they declare both features)."""
-    from compare.renderers import RenderContext
-    from compare.renderers.registry import Registry
     from compare.report.results import RunSettings
 
-    r = Registry().get(engine)
-    assert {"uv_sets", "map_samplers"} <= r.renders
-    context = RenderContext(RunSettings(frames=2))
-    try:
-        image = r.render(card_scene, steps=2, checkpoints=[2], seed=0, context=context).checkpoints[-1].image
-    finally:
-        context.close()
-    blocks = lambda a: a.reshape(4, 4, 4, 4, 3).mean(axis=(1, 3))  # noqa: E731
-    np.testing.assert_allclose(blocks(image), blocks(expected_image()), atol=0.05)
+    np.testing.assert_allclose(_rendered_blocks(card_scene, engine, RunSettings(frames=2), 2),
+                               _blocks(expected_image()), atol=0.05)
 
 
 @pytest.mark.bpy
@@ -252,19 +263,10 @@ def test_cycles_reads_each_map_as_the_file_says(card_scene, engine):
     """Blender gets both UV layers and an image node per map with its own layer, transform and wraps (per axis
     by math nodes): Cycles' blocks hold the closed form within its noise (measured 7e-7), as they do when
     Blender's own glTF importer reads the file (``cycles:gltf``)."""
-    from compare.renderers import RenderContext
-    from compare.renderers.registry import Registry
     from compare.report.results import RunSettings
 
-    r = Registry().get(engine)
-    assert {"uv_sets", "map_samplers"} <= r.renders
-    context = RenderContext(RunSettings(spp=256))
-    try:
-        image = r.render(card_scene, steps=256, checkpoints=[256], seed=0, context=context).checkpoints[-1].image
-    finally:
-        context.close()
-    blocks = lambda a: a.reshape(4, 4, 4, 4, 3).mean(axis=(1, 3))  # noqa: E731
-    np.testing.assert_allclose(blocks(image), blocks(expected_image()), atol=0.02)
+    np.testing.assert_allclose(_rendered_blocks(card_scene, engine, RunSettings(spp=256), 256),
+                               _blocks(expected_image()), atol=0.02)
 
 
 def test_inspect_says_which_renderers_leave_each_feature_out(tmp_path, capsys):

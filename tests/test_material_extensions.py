@@ -13,39 +13,14 @@ from compare.mitsuba.reference import ReferenceRenderer
 from compare.scene.loader import load_scene
 from compare.scene.model import LAYERS, MATERIAL_FEATURE_NAMES
 from compare.util.errors import SceneError
-from tests.helpers import EFFECTS, ROOT
+from tests.helpers import (EFFECTS, ROOT, hemisphere_directions, material_round_trip, mirror_scene, png_bytes,
+                           sphere_scene)
 
 ENV = 0.5
 
 
 def _render(scene, spp: int = 64):
     return ReferenceRenderer(scene, cache_dir=False, progress=False).render(spp).image
-
-
-def _sphere_scene(make_scene, material: str, *, depth: int = 64):
-    return load_scene(make_scene(f"""
-        [camera]
-        position = [0.0, 0.0, 3.0]
-        target = [0.0, 0.0, 0.0]
-        fov = 30.0
-        resolution = [24, 24]
-
-        [render]
-        max_depth = {depth}
-
-        [materials.glass]
-        {material}
-
-        [[meshes]]
-        shape = "sphere"
-        radius = 0.5
-        segments = 96
-        rings = 48
-        material = "glass"
-
-        [environment]
-        constant = [{ENV}, {ENV}, {ENV}]
-        """))
 
 
 @pytest.mark.parametrize("material", [
@@ -56,7 +31,7 @@ def _sphere_scene(make_scene, material: str, *, depth: int = 64):
 def test_clear_glass_in_a_furnace_looks_like_the_furnace(make_scene, material):
     """A non-absorbing dielectric in a uniform environment scatters all it receives: every pixel is the
     environment's radiance (glass drawn as plastic, the old reference, is darker and coloured)."""
-    scene = _sphere_scene(make_scene, material)
+    scene = sphere_scene(make_scene, material)
     assert scene.features().transmission
     image = _render(scene, spp=64)
     assert float(image.mean()) == pytest.approx(ENV, rel=0.02)
@@ -67,34 +42,8 @@ def test_clear_glass_in_a_furnace_looks_like_the_furnace(make_scene, material):
 def _mirror_scene(make_scene, ior: float):
     """A glass interface facing the camera, an emitter behind the camera facing it: the camera sees the
     emitter reflected at normal incidence (the transmitted light never comes back)."""
-    return load_scene(make_scene(f"""
-        [camera]
-        position = [0.0, 0.0, 2.0]
-        target = [0.0, 0.0, 0.0]
-        fov = 8.0
-        resolution = [16, 16]
-
-        [render]
-        max_depth = 4
-
-        [materials.glass]
-        base_color = [1, 1, 1]
-        roughness = 0.0
-        transmission = 1.0
-        thickness = 1.0
-        ior = {ior}
-
-        [[meshes]]
-        shape = "quad"
-        corners = [[-2, -2, 0], [2, -2, 0], [2, 2, 0], [-2, 2, 0]]
-        material = "glass"
-
-        [[lights]]
-        center = [0.0, 0.0, 3.0]
-        size = [4.0, 4.0]
-        normal = [0.0, 0.0, -1.0]
-        radiance = [1.0, 1.0, 1.0]
-        """))
+    return mirror_scene(make_scene, "glass", f"base_color = [1, 1, 1]\nroughness = 0.0\ntransmission = 1.0\n"
+                                             f"thickness = 1.0\nior = {ior}")
 
 
 @pytest.mark.parametrize("ior", [1.5, 2.0])
@@ -142,8 +91,6 @@ def test_each_extension_reads_writes_and_is_declared(tmp_path, make_scene):
     """Every parameter of LAYERS: from TOML, into the job's glTF, back from that glTF; the features the
     materials use; and each renderer's note for what it leaves out."""
     from compare.renderers.registry import Registry
-    from compare.renderers.job import export_gltf
-    from compare.scene.gltf_read import load_gltf
 
     values = {"transmission": 0.9, "ior": 1.7, "thickness": 0.5, "attenuation_distance": 2.0,
               "attenuation_color": [0.9, 0.5, 0.2], "clearcoat": 0.8, "clearcoat_roughness": 0.2,
@@ -152,37 +99,14 @@ def test_each_extension_reads_writes_and_is_declared(tmp_path, make_scene):
               "anisotropy_rotation": -0.5, "iridescence": 0.8, "iridescence_ior": 1.4,
               "iridescence_thickness_min": 120.0, "iridescence_thickness_max": 520.0}
     assert set(values) == {layer.field for layer in LAYERS}
-    body = "\n".join(f"{k} = {json.dumps(v)}" for k, v in values.items())
-    path = make_scene(f"""
-        [camera]
-        position = [0.0, 0.0, 3.0]
-        target = [0.0, 0.0, 0.0]
-        resolution = [16, 12]
-
-        [materials.fancy]
-        base_color = [0.5, 0.5, 0.5]
-        alpha_mode = "blend"
-        alpha = 0.5
-        {body}
-
-        [[meshes]]
-        shape = "sphere"
-        radius = 0.5
-        material = "fancy"
-
-        [environment]
-        constant = [0.5, 0.5, 0.5]
-        """)
-    scene = load_scene(path)
+    scene, back = material_round_trip(make_scene, "fancy", base_color=[0.5, 0.5, 0.5], alpha_mode="blend", alpha=0.5,
+                                      **values)
     m = scene.materials["fancy"]
     for k, v in values.items():
         assert getattr(m, k) == pytest.approx(tuple(v) if isinstance(v, list) else v)
     assert scene.material_features() == {name: ["fancy"] for name in MATERIAL_FEATURE_NAMES if name != "layer_maps"}
-    (tmp_path / "job").mkdir()
-    gltf = export_gltf(scene, tmp_path / "job" / "scene.gltf")
-    doc = json.loads(gltf.read_text())
+    doc = json.loads((tmp_path / "job" / "scene.gltf").read_text())
     assert doc["materials"][0]["alphaMode"] == "BLEND"
-    back = load_gltf(gltf).materials[0]
     assert back.alpha_mode == "blend" and back.alpha == pytest.approx(0.5)
     for k, v in values.items():
         assert back.layers[k] == pytest.approx(tuple(v) if isinstance(v, list) else v)
@@ -228,7 +152,7 @@ def test_bad_extension_values_name_the_field(make_scene, field, value, message):
 def test_material_coverage_counts_first_hits(make_scene):
     from compare.mitsuba.coverage import material_coverage
 
-    scene = _sphere_scene(make_scene, "transmission = 1.0")
+    scene = sphere_scene(make_scene, "transmission = 1.0")
     share = material_coverage(scene)["glass"]
     # a sphere of radius 0.5 at distance 3 in a 30° view: its disc's share of the square image
     r = math.tan(math.asin(0.5 / 3.0)) / math.tan(math.radians(15))
@@ -297,12 +221,7 @@ def test_coat_plugin_evaluates_the_shared_coat_formula():
     rng = np.random.default_rng(7)
     n = 2000
 
-    def hemisphere(k):
-        d = rng.normal(size=(k, 3))
-        d[:, 2] = np.abs(d[:, 2]) + 0.05
-        return d / np.linalg.norm(d, axis=1, keepdims=True)
-
-    wi, wo = hemisphere(n), hemisphere(n)
+    wi, wo = hemisphere_directions(rng, n), hemisphere_directions(rng, n)
     rho = 0.6
     for weight, rough in ((1.0, 0.3), (0.5, 0.05), (0.8, 1.0)):
         bsdf = mi.load_dict({"type": "gltf_coat", "clearcoat": weight, "roughness": rough,
@@ -318,34 +237,12 @@ def test_coat_plugin_evaluates_the_shared_coat_formula():
 
 
 def _coated_mirror_scene(make_scene):
-    return load_scene(make_scene("""
-        [camera]
-        position = [0.0, 0.0, 2.0]
-        target = [0.0, 0.0, 0.0]
-        fov = 8.0
-        resolution = [16, 16]
-
-        [render]
-        max_depth = 4
-
-        [materials.paint]
+    return mirror_scene(make_scene, "paint", """
         base_color = [0.0, 0.0, 0.0]
         metallic = 1.0  # a black metal reflects nothing near normal incidence: the coat alone does
         roughness = 1.0
         clearcoat = 1.0
-        clearcoat_roughness = 0.0
-
-        [[meshes]]
-        shape = "quad"
-        corners = [[-2, -2, 0], [2, -2, 0], [2, 2, 0], [-2, 2, 0]]
-        material = "paint"
-
-        [[lights]]
-        center = [0.0, 0.0, 3.0]
-        size = [4.0, 4.0]
-        normal = [0.0, 0.0, -1.0]
-        radiance = [1.0, 1.0, 1.0]
-        """))
+        clearcoat_roughness = 0.0""")
 
 
 def test_a_clear_coat_over_black_reflects_four_percent_at_normal_incidence(make_scene):
@@ -371,12 +268,7 @@ def test_plugin_evaluates_the_shared_ior_and_specular_model(ior, specular, color
     rng = np.random.default_rng(3)
     n = 3000
 
-    def hemisphere(k):
-        d = rng.normal(size=(k, 3))
-        d[:, 2] = np.abs(d[:, 2]) + 0.05
-        return d / np.linalg.norm(d, axis=1, keepdims=True)
-
-    wi, wo = hemisphere(n), hemisphere(n)
+    wi, wo = hemisphere_directions(rng, n), hemisphere_directions(rng, n)
     base = rng.random((n, 3))
     metallic = rng.choice([0.0, 0.3, 1.0], n)
     rough = rng.uniform(0.1, 1.0, n)
@@ -414,12 +306,7 @@ def test_sheen_plugin_evaluates_the_shared_sheen_model():
     rng = np.random.default_rng(11)
     n = 2000
 
-    def hemisphere(k):
-        d = rng.normal(size=(k, 3))
-        d[:, 2] = np.abs(d[:, 2]) + 0.05
-        return d / np.linalg.norm(d, axis=1, keepdims=True)
-
-    wi, wo = hemisphere(n), hemisphere(n)
+    wi, wo = hemisphere_directions(rng, n), hemisphere_directions(rng, n)
     rho = 0.5
     for color, rough in (((1.0, 0.5, 0.2), 0.3), ((0.4, 0.4, 0.4), 0.8), ((0.9, 0.1, 0.5), 0.05)):
         bsdf = mi.load_dict({"type": "gltf_sheen", "roughness": rough,
@@ -439,9 +326,9 @@ def test_sheen_conserves_energy_in_a_furnace(make_scene):
     """A white Lambert ball with a full white sheen in a uniform environment reflects no more than it
     receives (the albedo scaling takes from the base what the sheen adds), and the sheen shows: more
     than a Lambert ball without it at the rim, less at the centre."""
-    sheen = _render(_sphere_scene(make_scene, "base_color = [0.9, 0.9, 0.9]\nroughness = 1.0\nmetallic = 0.0\n"
-                                               "sheen_color = [1.0, 1.0, 1.0]\nsheen_roughness = 0.5"), spp=128)
-    plain = _render(_sphere_scene(make_scene, "base_color = [0.9, 0.9, 0.9]\nroughness = 1.0\nmetallic = 0.0"),
+    sheen = _render(sphere_scene(make_scene, "base_color = [0.9, 0.9, 0.9]\nroughness = 1.0\nmetallic = 0.0\n"
+                                              "sheen_color = [1.0, 1.0, 1.0]\nsheen_roughness = 0.5"), spp=128)
+    plain = _render(sphere_scene(make_scene, "base_color = [0.9, 0.9, 0.9]\nroughness = 1.0\nmetallic = 0.0"),
                     spp=128)
     ball = plain[..., 0] < 0.999 * ENV  # pixels on the ball
     assert sheen[ball].mean() <= ENV * 1.01
@@ -561,35 +448,24 @@ def test_the_report_has_a_layer_grid_for_every_count_of_layers():
         assert f".layer-maps.cols-{n} {{ grid-template-columns: 12rem repeat({n}," in css
 
 
-def test_a_transmission_map_makes_glass_where_it_says(tmp_path, make_scene):
-    """A glTF card whose transmissionTexture is 0 on one half and 1 on the other, lit from behind: light
-    comes through the glass half only (thin-walled: (1 − R)² / (1 − R²) of it, R = 0.04), and the job's
-    glTF writes the map back."""
-    from compare.renderers.job import export_gltf
+def _mapped_card(tmp_path, make_scene, base, extensions, *, depth: int, light: tuple[float, float]):
+    """A glTF card (card.glb) facing a camera 3 m away in a 20° view of 32 × 16 pixels, its material of colour
+    ``base`` with the extensions ``extensions(w)`` gives ({name: fields}; ``w`` the GltfWriter, which makes
+    their textures), lit by a square white emitter of radiance 1 on the axis, at z and of side ``light``,
+    facing the card; paths of at most ``depth`` bounces."""
     from compare.scene import geometry
-    from compare.scene.gltf_read import load_gltf
     from compare.scene.gltf_write import GltfWriter
 
-    def png(rgb) -> bytes:
-        import io
-
-        from PIL import Image
-
-        buf = io.BytesIO()
-        Image.fromarray(rgb, "RGB").save(buf, format="PNG")
-        return buf.getvalue()
-
     w = GltfWriter()
-    mat = w.material("card", (1.0, 1.0, 1.0), 0.0, 0.0)
-    texel = np.zeros((4, 8, 3), dtype=np.uint8)
-    texel[:, 4:] = 255  # u >= 0.5: transmission 1
-    w.doc["materials"][mat]["extensions"] = {"KHR_materials_transmission": {
-        "transmissionFactor": 1.0, "transmissionTexture": w.texture(png(texel))}}
-    w._use("KHR_materials_transmission")  # noqa: SLF001
+    mat = w.material("card", base, 0.0, 0.0)
+    w.doc["materials"][mat]["extensions"] = extensions(w)
+    for name in w.doc["materials"][mat]["extensions"]:
+        w._use(name)  # noqa: SLF001
     w.node("card", mesh=w.mesh("card", [(geometry.quad((2.0, 2.0)), mat)], uvs=True),
            rotation=[np.sin(np.pi / 4), 0.0, 0.0, np.cos(np.pi / 4)])  # +Y normal turned to +Z
     w.write(tmp_path / "card.glb")
-    scene = load_scene(make_scene("""
+    z, side = light
+    return load_scene(make_scene(f"""
         include = "card.glb"
 
         [camera]
@@ -599,14 +475,27 @@ def test_a_transmission_map_makes_glass_where_it_says(tmp_path, make_scene):
         resolution = [32, 16]
 
         [render]
-        max_depth = 6
+        max_depth = {depth}
 
         [[lights]]
-        center = [0.0, 0.0, -2.0]
-        size = [6.0, 6.0]
-        normal = [0.0, 0.0, 1.0]
+        center = [0.0, 0.0, {z}]
+        size = [{side}, {side}]
+        normal = [0.0, 0.0, {-1.0 if z > 0 else 1.0}]
         radiance = [1.0, 1.0, 1.0]
         """))
+
+
+def test_a_transmission_map_makes_glass_where_it_says(tmp_path, make_scene):
+    """A glTF card whose transmissionTexture is 0 on one half and 1 on the other, lit from behind: light
+    comes through the glass half only (thin-walled: (1 − R)² / (1 − R²) of it, R = 0.04), and the job's
+    glTF writes the map back."""
+    from compare.renderers.job import export_gltf
+    from compare.scene.gltf_read import load_gltf
+
+    texel = np.zeros((4, 8, 3), dtype=np.uint8)
+    texel[:, 4:] = 255  # u >= 0.5: transmission 1
+    scene = _mapped_card(tmp_path, make_scene, (1.0, 1.0, 1.0), lambda w: {"KHR_materials_transmission": {
+        "transmissionFactor": 1.0, "transmissionTexture": w.texture(png_bytes(texel))}}, depth=6, light=(-2.0, 6.0))
     (m,) = scene.materials.values()
     assert [(f, c) for f, c, _ in m.layer_maps] == [("transmission", "r")]
     from compare.scene.inspect import inspect_path
@@ -630,52 +519,15 @@ def test_a_specular_map_weights_the_reflection_where_it_says(tmp_path, make_scen
     """A black smooth card whose specularTexture (alpha) is 0 on one half and 1 on the other, IOR 2, and a
     specularColorTexture tinting it orange: the emitter facing it is reflected by the second half only,
     F0 × colour = (1/9) × (1, 0.5, 0.25)."""
-    import io
-
-    from PIL import Image
-
-    from compare.scene import geometry
-    from compare.scene.gltf_write import GltfWriter
-
-    def png(pixels, mode) -> bytes:
-        buf = io.BytesIO()
-        Image.fromarray(pixels, mode).save(buf, format="PNG")
-        return buf.getvalue()
-
-    w = GltfWriter()
-    mat = w.material("card", (0.0, 0.0, 0.0), 0.0, 0.0)
     weight = np.zeros((4, 8, 4), dtype=np.uint8)
     weight[:, 4:, 3] = 255
     orange = np.zeros((4, 8, 3), dtype=np.uint8)
     orange[:] = (255, 188, 137)  # sRGB of linear (1, 0.5, 0.25)
-    w.doc["materials"][mat]["extensions"] = {
-        "KHR_materials_specular": {"specularFactor": 1.0, "specularTexture": w.texture(png(weight, "RGBA")),
+    scene = _mapped_card(tmp_path, make_scene, (0.0, 0.0, 0.0), lambda w: {
+        "KHR_materials_specular": {"specularFactor": 1.0, "specularTexture": w.texture(png_bytes(weight, "RGBA")),
                                    "specularColorFactor": [1.0, 1.0, 1.0],
-                                   "specularColorTexture": w.texture(png(orange, "RGB"))},
-        "KHR_materials_ior": {"ior": 2.0}}
-    w._use("KHR_materials_specular")  # noqa: SLF001
-    w._use("KHR_materials_ior")  # noqa: SLF001
-    w.node("card", mesh=w.mesh("card", [(geometry.quad((2.0, 2.0)), mat)], uvs=True),
-           rotation=[np.sin(np.pi / 4), 0.0, 0.0, np.cos(np.pi / 4)])  # +Y normal turned to +Z
-    w.write(tmp_path / "card.glb")
-    scene = load_scene(make_scene("""
-        include = "card.glb"
-
-        [camera]
-        position = [0.0, 0.0, 3.0]
-        target = [0.0, 0.0, 0.0]
-        fov = 20.0
-        resolution = [32, 16]
-
-        [render]
-        max_depth = 4
-
-        [[lights]]
-        center = [0.0, 0.0, 5.0]
-        size = [8.0, 8.0]
-        normal = [0.0, 0.0, -1.0]
-        radiance = [1.0, 1.0, 1.0]
-        """))
+                                   "specularColorTexture": w.texture(png_bytes(orange))},
+        "KHR_materials_ior": {"ior": 2.0}}, depth=4, light=(5.0, 8.0))
     (m,) = scene.materials.values()
     assert sorted(f for f, _, _ in m.layer_maps) == ["specular", "specular_color"]
     if renderer == "reference":
@@ -919,7 +771,7 @@ def test_a_thickness_map_is_read_and_passed_on(make_scene, tmp_path):
 
     Image = pytest.importorskip("PIL.Image")
     Image.new("RGB", (4, 4), (0, 128, 0)).save(tmp_path / "thickness.png")
-    scene = _sphere_scene(make_scene, "base_color = [1.0, 1.0, 1.0]\nroughness = 0.0\ntransmission = 1.0\n"
+    scene = sphere_scene(make_scene, "base_color = [1.0, 1.0, 1.0]\nroughness = 0.0\ntransmission = 1.0\n"
                                       "thickness = 0.5\nattenuation_distance = 1.0\nattenuation_color = [0.5, 0.5, 1.0]")
     (name, mat), = scene.materials.items()
     mat = dataclasses.replace(mat, layer_maps=(("thickness", "g", tmp_path / "thickness.png"),))

@@ -14,42 +14,15 @@ import pytest
 from compare.brdf.multiscatter import lookup_2d
 from compare.mitsuba import principled
 from compare.mitsuba.reference import ReferenceRenderer
-from compare.scene.loader import load_scene
+from tests.helpers import hemisphere_directions, mirror_scene, sphere_scene
 
 Z = np.array([0.0, 0.0, 1.0])
 
 
-def _hemisphere(rng, k):
-    d = rng.normal(size=(k, 3))
-    d[:, 2] = np.abs(d[:, 2]) + 0.05
-    return d / np.linalg.norm(d, axis=1, keepdims=True)
-
-
 def _sphere(make_scene, name: str, material: str, *, fov: float = 24.0, size: int = 24, depth: int = 16):
     """A sphere of ``material`` (TOML lines) in a white environment, filling most of a small square image."""
-    return load_scene(make_scene(f"""
-        [camera]
-        position = [0.0, 0.0, 3.0]
-        target = [0.0, 0.0, 0.0]
-        fov = {fov}
-        resolution = [{size}, {size}]
-
-        [render]
-        max_depth = {depth}
-
-        [materials.m]
-        {material}
-
-        [[meshes]]
-        shape = "sphere"
-        radius = 0.5
-        segments = 96
-        rings = 48
-        material = "m"
-
-        [environment]
-        constant = [1.0, 1.0, 1.0]
-        """, name=f"{name}.toml"))
+    return sphere_scene(make_scene, material, name="m", fov=fov, size=size, sky=1.0, depth=depth,
+                        file=f"{name}.toml")
 
 
 def _mean(image):
@@ -111,7 +84,7 @@ def test_specular_ior_level_scales_f0_and_sets_the_ior(ior, level):
 def test_level_zero_removes_the_specular_layer():
     """Specular IOR Level 0: F0 = 0, IOR 1, no layer: a dielectric is Lambert, whatever the roughness."""
     rng = np.random.default_rng(5)
-    wi, wo = _hemisphere(rng, 200), _hemisphere(rng, 200)
+    wi, wo = hemisphere_directions(rng, 200), hemisphere_directions(rng, 200)
     base = rng.random((200, 3))
     for dist in principled.DISTRIBUTIONS:
         f = principled.eval_principled(Z, wi, wo, base, 0.0, rng.random(200), dist, ior=1.7, specular_ior_level=0.0)
@@ -132,7 +105,7 @@ def test_f82_tint_is_schlick_times_the_tint_at_82_degrees():
 
 def test_neutral_inputs_are_the_default_model():
     rng = np.random.default_rng(6)
-    wi, wo = _hemisphere(rng, 300), _hemisphere(rng, 300)
+    wi, wo = hemisphere_directions(rng, 300), hemisphere_directions(rng, 300)
     base, m, r = rng.random((300, 3)), rng.choice([0.0, 0.4, 1.0], 300), rng.random(300)
     for dist in principled.DISTRIBUTIONS:
         plain = principled.eval_principled(Z, wi, wo, base, m, r, dist)
@@ -144,7 +117,7 @@ def test_neutral_inputs_are_the_default_model():
 def test_ior_changes_the_dielectric_reflection_and_the_diffuse_under_it():
     """A higher IOR reflects more at every angle and leaves less to the diffuse (energy stays below 1)."""
     rng = np.random.default_rng(7)
-    wi, wo = _hemisphere(rng, 400), _hemisphere(rng, 400)
+    wi, wo = hemisphere_directions(rng, 400), hemisphere_directions(rng, 400)
     lo_s, lo_d = principled.eval_principled_lobes(Z, wi, wo, np.full(3, 0.8), 0.0, 0.3, ior=1.3)
     hi_s, hi_d = principled.eval_principled_lobes(Z, wi, wo, np.full(3, 0.8), 0.0, 0.3, ior=2.4)
     assert np.all(hi_s >= lo_s) and np.all(hi_d <= lo_d)
@@ -171,7 +144,7 @@ def test_plugin_evaluates_the_principled_inputs_as_the_numpy_model():
 
     rng = np.random.default_rng(9)
     n = 3000
-    wi, wo = _hemisphere(rng, n), _hemisphere(rng, n)
+    wi, wo = hemisphere_directions(rng, n), hemisphere_directions(rng, n)
     base, m = rng.random((n, 3)), rng.choice([0.0, 0.3, 1.0], n)
     r = rng.uniform(0.05, 1.0, n)
     level = rng.choice([0.0, 0.25, 0.5, 0.8, 1.0], n)
@@ -204,35 +177,8 @@ def test_plugin_names_inputs_of_the_other_flavour(props, message):
 def _tinted_mirror(make_scene, color=(1.0, 0.5, 0.25)):
     """A black dielectric mirror facing the camera under a white emitter behind the camera: the camera sees
     the emitter reflected at normal incidence, the layer's F0 × 2 × level × tint."""
-    return load_scene(make_scene(f"""
-        [camera]
-        position = [0.0, 0.0, 2.0]
-        target = [0.0, 0.0, 0.0]
-        fov = 8.0
-        resolution = [16, 16]
-
-        [render]
-        max_depth = 4
-
-        [materials.mirror]
-        base_color = [0.0, 0.0, 0.0]
-        metallic = 0.0
-        roughness = 0.0
-        ior = 2.0
-        specular = 0.5
-        specular_color = {list(color)}
-
-        [[meshes]]
-        shape = "quad"
-        corners = [[-2, -2, 0], [2, -2, 0], [2, 2, 0], [-2, 2, 0]]
-        material = "mirror"
-
-        [[lights]]
-        center = [0.0, 0.0, 3.0]
-        size = [4.0, 4.0]
-        normal = [0.0, 0.0, -1.0]
-        radiance = [1.0, 1.0, 1.0]
-        """))
+    return mirror_scene(make_scene, "mirror", f"base_color = [0.0, 0.0, 0.0]\nmetallic = 0.0\nroughness = 0.0\n"
+                                              f"ior = 2.0\nspecular = 0.5\nspecular_color = {list(color)}")
 
 
 def _mirror_f0(color):
@@ -274,22 +220,7 @@ def test_scene_dict_passes_the_principled_inputs(make_scene):
     assert d["specular_ior_level"] == pytest.approx(0.25)
     assert d["specular_tint"] == {"type": "srgb", "color": [1.0, 0.5, 0.25], "unbounded": True}
     # a material without the extensions keeps the neutral model's code
-    plain = load_scene(make_scene("""
-        [camera]
-        position = [0.0, 0.0, 2.0]
-        target = [0.0, 0.0, 0.0]
-
-        [materials.grey]
-        base_color = [0.5, 0.5, 0.5]
-
-        [[meshes]]
-        shape = "sphere"
-        radius = 0.5
-        material = "grey"
-
-        [environment]
-        constant = [0.5, 0.5, 0.5]
-        """, name="plain.toml"))
+    plain = sphere_scene(make_scene, "base_color = [0.5, 0.5, 0.5]", name="grey", file="plain.toml")
     d = material_dict(plain.materials["grey"], "cycles")
     assert not {"ior", "specular_ior_level", "specular_tint"} & set(d)
 
@@ -300,7 +231,7 @@ def test_cycles_coat_plugin_evaluates_the_numpy_model():
     """The coat plugin's ``cycles`` flavour against principled.coat_lobe_cycles over a Lambert base."""
     rng = np.random.default_rng(11)
     n = 2000
-    wi, wo = _hemisphere(rng, n), _hemisphere(rng, n)
+    wi, wo = hemisphere_directions(rng, n), hemisphere_directions(rng, n)
     rho = 0.6
     for weight, rough in ((1.0, 0.3), (0.5, 0.05), (0.8, 1.0), (1.0, 0.0)):
         value, pdf = _eval_over_lambert({"type": "gltf_coat", "flavour": "cycles", "clearcoat": weight,
@@ -405,7 +336,7 @@ def test_cycles_sheen_lobe_integrates_to_its_albedo(rough, mu):
 def test_cycles_sheen_plugin_evaluates_the_numpy_model():
     rng = np.random.default_rng(13)
     n = 2000
-    wi, wo = _hemisphere(rng, n), _hemisphere(rng, n)
+    wi, wo = hemisphere_directions(rng, n), hemisphere_directions(rng, n)
     rho, color = 0.6, np.array([1.0, 0.8, 0.5])
     for rough in (0.3, 0.7, 1.0):
         got, pdf = _eval_over_lambert({"type": "gltf_sheen", "flavour": "cycles", "roughness": rough,
@@ -433,23 +364,8 @@ def test_cycles_flavour_sheens_as_cycles_does(make_scene):
 def test_principled_modes_put_the_sheen_over_the_coat(make_scene):
     from compare.mitsuba.scene_dict import material_dict
 
-    scene = load_scene(make_scene("""
-        [camera]
-        position = [0.0, 0.0, 3.0]
-        target = [0.0, 0.0, 0.0]
-
-        [materials.m]
-        clearcoat = 1.0
-        sheen_color = [1.0, 1.0, 1.0]
-
-        [[meshes]]
-        shape = "sphere"
-        radius = 0.5
-        material = "m"
-
-        [environment]
-        constant = [1.0, 1.0, 1.0]
-        """, name="both.toml"))
+    scene = sphere_scene(make_scene, "clearcoat = 1.0\nsheen_color = [1.0, 1.0, 1.0]", name="m", sky=1.0,
+                         file="both.toml")
     mat = scene.materials["m"]
     # double-sided (a scene file's default): the stack under Mitsuba's twosided
     stack = {mode: material_dict(mat, mode) for mode in ("cycles", "shared")}
@@ -526,7 +442,7 @@ def test_glass_plugin_masks_and_scales_the_rough_dielectric_as_numpy_says():
     mi = register()
     rng = np.random.default_rng(14)
     n = 500
-    wi, wo = _hemisphere(rng, n), _hemisphere(rng, n)
+    wi, wo = hemisphere_directions(rng, n), hemisphere_directions(rng, n)
     wi[::2] *= -1.0  # half of them from inside
     wo[:, 2] *= np.where(rng.random(n) < 0.5, -1.0, 1.0)  # reflection and transmission
     tint = [0.9, 0.5, 0.2]

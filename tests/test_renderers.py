@@ -575,31 +575,45 @@ def test_a_job_folder_that_a_killed_run_left_is_swept_at_the_next_run(tmp_path, 
     assert not left.exists() and mine.exists()
 
 
+def _long_render_started(tmp_path: Path, temp: Path, args: list[str], what: str, marker: bytes = b""):
+    """``(proc, children)``: a long `compare render` of the Cornell box (``args``: its renderer, budget and
+    size) with the temporary folder ``temp``, once ``what`` runs; ``children()`` lists the processes besides
+    compare whose command line names ``temp`` (and holds ``marker``) still alive (their /proc entries)."""
+    import os
+    import subprocess
+
+    temp.mkdir()
+    proc = subprocess.Popen([sys.executable, "-m", "compare.cli.main", "render", "--scene", str(CORNELL), *args,
+                             "-o", str(tmp_path / "x.exr")], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            env={**os.environ, "TMPDIR": str(temp)})
+
+    def children():
+        return [p for p in Path("/proc").iterdir() if p.name.isdigit() and (p / "cmdline").is_file()
+                and marker in (p / "cmdline").read_bytes() and str(temp).encode() in (p / "cmdline").read_bytes()
+                and p.name != str(proc.pid)]
+
+    for _ in range(600):  # until it runs
+        if children():
+            break
+        time.sleep(0.05)
+    else:
+        proc.kill()
+        pytest.fail(f"{what} did not start: {proc.communicate()[1].decode()[-500:]}")
+    return proc, children
+
+
+#: A Cycles render that runs far longer than the tests wait, and the name of its worker's script.
+CYCLES_RENDER = (["--renderer", "cycles", "--samples", "100000", "--size", "64x48"], "Blender", b"worker.py")
+
+
 @pytest.mark.bpy
 def test_sigterm_to_compare_stops_a_blender_render_and_removes_its_folder(tmp_path):
     """The same for a Blender render: its worker process ends with `compare`, and its folder goes."""
     import os
     import signal
-    import subprocess
 
     temp = tmp_path / "temp"
-    temp.mkdir()
-    proc = subprocess.Popen([sys.executable, "-m", "compare.cli.main", "render", "--scene", str(CORNELL),
-                             "--renderer", "cycles", "--samples", "100000", "--size", "64x48",
-                             "-o", str(tmp_path / "x.exr")], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            env={**os.environ, "TMPDIR": str(temp)})
-
-    def workers():
-        return [p for p in Path("/proc").iterdir() if p.name.isdigit() and (p / "cmdline").is_file()
-                and b"worker.py" in (p / "cmdline").read_bytes() and str(temp).encode() in (p / "cmdline").read_bytes()]
-
-    for _ in range(600):  # until Blender's worker runs
-        if workers():
-            break
-        time.sleep(0.05)
-    else:
-        proc.kill()
-        pytest.fail(f"Blender did not start: {proc.communicate()[1].decode()[-500:]}")
+    proc, workers = _long_render_started(tmp_path, temp, *CYCLES_RENDER)
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode != 0 and b"Traceback" not in err
@@ -617,26 +631,9 @@ def test_a_killed_compare_takes_its_blender_worker_with_it(tmp_path):
     left it so too)."""
     import os
     import signal
-    import subprocess
 
     temp = tmp_path / "temp"
-    temp.mkdir()
-    proc = subprocess.Popen([sys.executable, "-m", "compare.cli.main", "render", "--scene", str(CORNELL),
-                             "--renderer", "cycles", "--samples", "100000", "--size", "64x48",
-                             "-o", str(tmp_path / "x.exr")], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            env={**os.environ, "TMPDIR": str(temp)})
-
-    def workers():
-        return [p for p in Path("/proc").iterdir() if p.name.isdigit() and (p / "cmdline").is_file()
-                and b"worker.py" in (p / "cmdline").read_bytes() and str(temp).encode() in (p / "cmdline").read_bytes()]
-
-    for _ in range(600):
-        if workers():
-            break
-        time.sleep(0.05)
-    else:
-        proc.kill()
-        pytest.fail(f"Blender did not start: {proc.communicate()[1].decode()[-500:]}")
+    proc, workers = _long_render_started(tmp_path, temp, *CYCLES_RENDER)
     time.sleep(0.5)  # past the worker's own start (its prctl)
     proc.kill()
     proc.communicate(timeout=60)
@@ -656,26 +653,10 @@ def test_sigterm_to_compare_stops_a_web_render_and_its_browser(tmp_path):
     is left in the temporary folder."""
     import os
     import signal
-    import subprocess
 
     temp = tmp_path / "temp"
-    temp.mkdir()
-    proc = subprocess.Popen([sys.executable, "-m", "compare.cli.main", "render", "--scene", str(CORNELL),
-                             "--renderer", "threejs", "--frames", "100000", "--size", "32x24",
-                             "-o", str(tmp_path / "x.exr")], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            env={**os.environ, "TMPDIR": str(temp)})
-
-    def browsers():
-        return [p for p in Path("/proc").iterdir() if p.name.isdigit() and (p / "cmdline").is_file()
-                and str(temp).encode() in (p / "cmdline").read_bytes() and p.name != str(proc.pid)]
-
-    for _ in range(600):  # until the browser runs
-        if browsers():
-            break
-        time.sleep(0.05)
-    else:
-        proc.kill()
-        pytest.fail(f"the browser did not start: {proc.communicate()[1].decode()[-500:]}")
+    args = ["--renderer", "threejs", "--frames", "100000", "--size", "32x24"]
+    proc, browsers = _long_render_started(tmp_path, temp, args, "the browser")
     time.sleep(0.5)
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=60)

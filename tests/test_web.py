@@ -22,36 +22,19 @@ from compare.renderers import RenderContext, RendererError
 from compare.renderers.registry import Registry
 from compare.report.results import RunSettings
 from compare.scene.loader import load_scene
-from tests.helpers import (CARD_GEOMETRY, CARD_MASKED, COATED_SCENE, COLORED_CARD_SCENE, CORNELL, QUADRANTS,
-                           QUADRANT_MAPS, RED_CORNERS, card_regions, card_scene, centre_mean, coated_model,
-                           colored_card, quadrant_regions, quadrant_scene, sided_card, synthetic_report)
+from tests.helpers import (AXES_ENVIRONMENT, CARD_GEOMETRY, CARD_MASKED, COATED_SCENE, COLORED_CARD_SCENE, CORNELL,
+                           QUADRANTS, QUADRANT_MAPS, RED_CORNERS, card_regions, card_scene, centre_mean,
+                           coated_model, colored_card, npm_availability, quadrant_regions, quadrant_scene, sided_card,
+                           synthetic_report)
 
 _REGISTRY = Registry()
 #: The web engines that rasterize (counted in frames), from the registry's ``web`` group.
 RASTER = [n for n in _REGISTRY.groups()["web"] if _REGISTRY.get(n).unit == "frame"]
 #: The same, three.js in the default run and the others among the slow tests (each page load costs seconds).
 RASTER_THREE_FIRST = [e if e == "threejs" else pytest.param(e, marks=pytest.mark.slow) for e in RASTER]
-_CONTEXT: list[RenderContext] = []
 
-
-@pytest.fixture(scope="module", autouse=True)
-def _one_browser():
-    """One Chromium for every render of this module (it starts once, the engines' pages are new tabs)."""
-    yield
-    _close_shared()
-
-
-def _close_shared() -> None:
-    """End the shared Chromium (Playwright's sync API runs one driver per thread at a time)."""
-    while _CONTEXT:
-        _CONTEXT.pop().close()
-
-
-def _render(engine: str, scene, steps: int, checkpoints=None):
-    if not _CONTEXT:
-        _CONTEXT.append(RenderContext(RunSettings(frames=steps)))
-    r = Registry().get(engine)
-    return r.render(scene, steps=steps, checkpoints=list(checkpoints or [steps]), seed=0, context=_CONTEXT[0])
+def _render(pages, engine: str, scene, steps: int, checkpoints=None):
+    return pages.render(Registry().get(engine), scene, steps, checkpoints)
 
 
 @pytest.mark.web
@@ -72,7 +55,7 @@ def test_threejs_beside_mitsuba_and_the_rasterizer(tmp_path, gl_ctx):
 
 @pytest.mark.web
 @pytest.mark.parametrize("engine", RASTER)
-def test_web_engine_lands_on_the_same_pixels(tmp_path, engine):
+def test_web_engine_lands_on_the_same_pixels(tmp_path, engine, web_pages):
     """A small light facing the camera off the image centre: its pixels are where the camera's own
     ray directions (compare.scene.loader.Camera) put it, as in Mitsuba, and its emitter face shows the
     light's radiance."""
@@ -99,7 +82,7 @@ def test_web_engine_lands_on_the_same_pixels(tmp_path, engine):
         radiance = [10.0, 10.0, 10.0]
     """))
     scene = load_scene(path)
-    image = _render(engine, scene, 1).checkpoints[-1].image
+    image = _render(web_pages, engine, scene, 1).checkpoints[-1].image
     cam = scene.camera
     # the marker's centre on the film (pixels, x right, y down, row 0 at the top), by the camera's basis
     r, u, f = cam.basis()
@@ -119,31 +102,12 @@ def test_web_engine_lands_on_the_same_pixels(tmp_path, engine):
 #: wrong way or mirrored measures 0.18 to 0.5.
 @pytest.mark.web
 @pytest.mark.parametrize("engine", RASTER_THREE_FIRST)
-def test_web_environment_has_the_suites_orientation(tmp_path, engine):
+def test_web_environment_has_the_suites_orientation(tmp_path, make_scene, engine, web_pages):
     """The axes test map, turned 30 degrees: each engine's background against Mitsuba's."""
-    path = tmp_path / "env.toml"
-    path.write_text(textwrap.dedent("""
-        name = "axes environment"
-        [camera]
-        position = [0.0, 0.0, 0.0]
-        target = [1.0, 0.3, 0.2]
-        fov = 70.0
-        resolution = [48, 36]
-        [environment]
-        procedural = "axes"
-        rotation = 30.0
-        [materials.m]
-        base_color = [0.5, 0.5, 0.5]
-        [[meshes]]
-        name = "speck behind the camera"
-        shape = "quad"
-        material = "m"
-        corners = [[-50.0, -50.0, -50.0], [-50.0, -50.01, -50.0], [-50.01, -50.01, -50.0], [-50.01, -50.0, -50.0]]
-    """))
     from compare.mitsuba.reference import ReferenceRenderer
 
-    scene = load_scene(path)
-    ours = _render(engine, scene, 4).checkpoints[-1].image
+    scene = load_scene(make_scene(AXES_ENVIRONMENT))
+    ours = _render(web_pages, engine, scene, 4).checkpoints[-1].image
     truth = ReferenceRenderer(scene, cache_dir=tmp_path / "cache", progress=False).render(64).image
     assert compare_images(truth, ours)["flip"] < 0.1
     np.testing.assert_allclose(ours.mean((0, 1)), truth.mean((0, 1)), rtol=0.05)
@@ -151,9 +115,9 @@ def test_web_environment_has_the_suites_orientation(tmp_path, engine):
 
 @pytest.mark.web
 @pytest.mark.slow  # about 60 s of SwiftShader path tracing on two CPU cores
-def test_browser_path_tracer_converges_towards_mitsuba(tmp_path):
+def test_browser_path_tracer_converges_towards_mitsuba(tmp_path, web_pages):
     scene = load_scene(CORNELL).with_resolution(32, 24)
-    res = _render("threejs-pathtracer", scene, 8, [1, 2, 4, 8])
+    res = _render(web_pages, "threejs-pathtracer", scene, 8, [1, 2, 4, 8])
     assert [c.step for c in res.checkpoints] == [1, 2, 4, 8] and res.setup_seconds > res.checkpoints[-1].seconds
     from compare.mitsuba.reference import ReferenceRenderer
 
@@ -165,22 +129,16 @@ def test_browser_path_tracer_converges_towards_mitsuba(tmp_path):
 
 
 def test_missing_pieces_are_named(monkeypatch, tmp_path):
-    from compare.web import host
-
     monkeypatch.setenv("COMPARE_CHROMIUM", str(tmp_path / "no-chromium"))
     ok, why = Registry().get("threejs").available()
     assert not ok and why.startswith(f"Chromium {tmp_path / 'no-chromium'} ($COMPARE_CHROMIUM) is not an "
                                      "executable file; scripts/suite.sh setup installs all of it")
     monkeypatch.delenv("COMPARE_CHROMIUM")
-    monkeypatch.setattr(host, "chromium_path", lambda: "/bin/sh")
-    monkeypatch.setattr(host, "web_root", lambda: tmp_path)
-    ok, why = Registry().get("threejs-pathtracer").available()
+    ok, why = npm_availability(monkeypatch, tmp_path, Registry().get("threejs-pathtracer"))
     assert not ok and why.startswith(f"the npm package three is not in {tmp_path / 'node_modules'}; ")
     # each engine names the first of its own packages that is missing
-    (tmp_path / "node_modules" / "three").mkdir(parents=True)
-    (tmp_path / "node_modules" / "three" / "package.json").write_text("{}")
     for engine, package in (("babylon", "@babylonjs/core"), ("playcanvas", "playcanvas")):
-        ok, why = Registry().get(engine).available()
+        ok, why = npm_availability(monkeypatch, tmp_path, Registry().get(engine), "three")
         assert not ok and why.startswith(f"the npm package {package} is not in {tmp_path / 'node_modules'}; "
                                          "scripts/suite.sh setup installs"), why
         with RenderContext(RunSettings(frames=1)) as context, \
@@ -190,9 +148,9 @@ def test_missing_pieces_are_named(monkeypatch, tmp_path):
 
 @pytest.mark.web
 @pytest.mark.parametrize("engine", RASTER)
-def test_no_webgl_is_one_clear_error(monkeypatch, engine):
+def test_no_webgl_is_one_clear_error(monkeypatch, engine, web_pages):
     """Without WebGL 2 each engine's page fails with one line naming it, before any engine code runs."""
-    _close_shared()
+    web_pages.close()
     monkeypatch.setenv("COMPARE_CHROMIUM_ARGS", "--disable-webgl --disable-gpu")
     scene = load_scene(CORNELL).with_resolution(8, 6)
     with RenderContext(RunSettings(frames=1)) as context, \
@@ -202,7 +160,7 @@ def test_no_webgl_is_one_clear_error(monkeypatch, engine):
 
 @pytest.mark.web
 @pytest.mark.parametrize("engine", RASTER)
-def test_no_float_render_targets_is_one_clear_error(monkeypatch, engine):
+def test_no_float_render_targets_is_one_clear_error(monkeypatch, engine, web_pages):
     """A WebGL 2 without EXT_color_buffer_float (a page that hides it): one line naming the extension."""
     from compare.web import host
 
@@ -213,7 +171,7 @@ def test_no_float_render_targets_is_one_clear_error(monkeypatch, engine):
               return name === 'EXT_color_buffer_float' ? null : get.call(this, name); };""")
         return page
 
-    _close_shared()
+    web_pages.close()
     monkeypatch.setattr(host._Browser, "new_page", new_page)
     scene = load_scene(CORNELL).with_resolution(8, 6)
     with RenderContext(RunSettings(frames=1)) as context, \
@@ -223,16 +181,16 @@ def test_no_float_render_targets_is_one_clear_error(monkeypatch, engine):
 
 
 @pytest.mark.web
-def test_threejs_variants(tmp_path):
+def test_threejs_variants(tmp_path, web_pages):
     """threejs:shadows puts shadow-mapped spot lights where RectAreaLight casts none: the pixels the
     direct-light ground truth has in shadow get darker; threejs:msaa renders; bad options are named."""
     from compare.mitsuba.reference import ReferenceRenderer
 
     scene = load_scene(CORNELL).with_resolution(32, 24)
-    plain = _render("threejs", scene, 4).checkpoints[-1].image
-    shadows = _render("threejs:shadows", scene, 4).checkpoints[-1].image
+    plain = _render(web_pages, "threejs", scene, 4).checkpoints[-1].image
+    shadows = _render(web_pages, "threejs:shadows", scene, 4).checkpoints[-1].image
     # both average the pixel's area: MSAA per frame, jittered frames over time (16 of them here)
-    smooth, msaa = (_render(s, scene, 16).checkpoints[-1].image for s in ("threejs", "threejs:msaa"))
+    smooth, msaa = (_render(web_pages, s, scene, 16).checkpoints[-1].image for s in ("threejs", "threejs:msaa"))
     direct = ReferenceRenderer(scene, max_depth=2, cache_dir=tmp_path / "cache", progress=False).render(64).image
     shadowed = (direct.mean(-1) < 0.3 * plain.mean(-1)) & (plain.mean(-1) > 0.01)
     assert shadowed.sum() >= 10
@@ -246,7 +204,7 @@ def test_threejs_variants(tmp_path):
 
 @pytest.mark.web
 @pytest.mark.parametrize("engine", RASTER)
-def test_web_engine_reads_the_maps_of_the_exported_gltf(tmp_path, engine):
+def test_web_engine_reads_the_maps_of_the_exported_gltf(tmp_path, engine, web_pages):
     """An emission map under a texture transform reaches each engine through the exported glTF (textures,
     KHR_texture_transform, sampler): each region shows the quadrant the transform says (an emission map
     shows as emission x texel, in linear light)."""
@@ -255,7 +213,7 @@ def test_web_engine_reads_the_maps_of_the_exported_gltf(tmp_path, engine):
     settings, source = QUADRANT_MAPS[1]  # a 90 degree turn
     scene = quadrant_scene(tmp_path, 'base_color = [0.0, 0.0, 0.0]\nemission = [1.0, 1.0, 1.0]\n'
                                      f'emissive_texture = "quadrants.png"\n{settings}', light=False)
-    image = _render(engine, scene, 2).checkpoints[-1].image
+    image = _render(web_pages, engine, scene, 2).checkpoints[-1].image
     regions = quadrant_regions(scene)
     for (r, c) in QUADRANTS:
         want = srgb_decode(np.array(QUADRANTS[source(r, c)]) / 255.0)
@@ -269,14 +227,14 @@ def test_web_engine_reads_the_maps_of_the_exported_gltf(tmp_path, engine):
     "another material has a base-colour map: the floor measures 0.0596 with and without specular in the scene "
     "without maps, 0.0687 in the one with (three.js 0.0635, PlayCanvas 0.0611 in both); the holes are cut")])
     if e == "babylon" else e for e in RASTER])
-def test_web_engine_cuts_the_holes_of_an_alpha_mask(tmp_path, engine):
+def test_web_engine_cuts_the_holes_of_an_alpha_mask(tmp_path, engine, web_pages):
     """alphaMode MASK reaches each engine through the exported glTF: the masked card renders as its solid
     quadrants as real quads (the card, and the floor seen through its holes) within 3 %."""
     masked = card_scene(tmp_path, CARD_MASKED)
     (tmp_path / "geometry").mkdir()
     geometry = card_scene(tmp_path / "geometry", CARD_GEOMETRY)
-    a = _render(engine, masked, 4).checkpoints[-1].image
-    b = _render(engine, geometry, 4).checkpoints[-1].image
+    a = _render(web_pages, engine, masked, 4).checkpoints[-1].image
+    b = _render(web_pages, engine, geometry, 4).checkpoints[-1].image
     for name, m in card_regions(masked).items():
         np.testing.assert_allclose(a[m].mean(0), b[m].mean(0), rtol=0.03, atol=0.003, err_msg=name)
     card = a[card_regions(masked)["card"]].mean(0)
@@ -284,12 +242,12 @@ def test_web_engine_cuts_the_holes_of_an_alpha_mask(tmp_path, engine):
 
 
 @pytest.mark.web
-def test_the_feature_table_is_measured():
+def test_the_feature_table_is_measured(web_pages):
     """The engine x feature table comes from renders: three.js' RectAreaLight casts no shadow, its shadows
     variant does, and the table says so with the measured ratios."""
     from compare.bench.features import feature_table, measure_features
 
-    _close_shared()
+    web_pages.close()
     measured = measure_features(["threejs", "threejs:shadows"], frames=2, features=["area_light_shadows"])
     plain, shadows = measured["threejs"]["area_light_shadows"], measured["threejs:shadows"]["area_light_shadows"]
     assert not plain["drawn"] and plain["value"] > 0.9, plain
@@ -325,7 +283,7 @@ def test_run_features_land_in_the_reports_machine_section(tmp_path, monkeypatch)
 
 @pytest.mark.web
 @pytest.mark.parametrize("engine", RASTER_THREE_FIRST)
-def test_web_engines_that_declare_vertex_colours_draw_them(tmp_path, make_scene, engine):
+def test_web_engines_that_declare_vertex_colours_draw_them(tmp_path, make_scene, engine, web_pages):
     """A rasterizing web engine reads COLOR_0 from the job's glTF: the tinted grey card renders as the red
     one (each engine's own shading on both sides)."""
     assert "vertex_colors" in Registry().get(engine).renders
@@ -335,31 +293,31 @@ def test_web_engines_that_declare_vertex_colours_draw_them(tmp_path, make_scene,
     colored_card(tmp_path / "plain", base=(0.8, 0.0, 0.0, 1.0))
     (tmp_path / "plain" / "scene.toml").write_text(COLORED_CARD_SCENE)
     plain = load_scene(tmp_path / "plain" / "scene.toml")
-    a, b = (_render(engine, s, 2).checkpoints[-1].image for s in (tinted, plain))
+    a, b = (_render(web_pages, engine, s, 2).checkpoints[-1].image for s in (tinted, plain))
     np.testing.assert_allclose(a[4:12, 4:12].mean((0, 1)), b[4:12, 4:12].mean((0, 1)), rtol=0.02, atol=0.005)
     assert a[4:12, 4:12, 0].mean() > 5 * a[4:12, 4:12, 1].mean()
 
 
 @pytest.mark.web
-def test_threejs_renders_a_model_with_extension_maps(tmp_path, make_scene):
+def test_threejs_renders_a_model_with_extension_maps(tmp_path, make_scene, web_pages):
     """The case that lost a user's map: a web engine renders a scene whose material has clearcoat maps
     (it read the job's glTF, not a 404)."""
     (tmp_path / "model").mkdir()
     coated_model(tmp_path / "model")
-    image = _render("threejs", load_scene(make_scene(COATED_SCENE)), 2).checkpoints[-1].image
+    image = _render(web_pages, "threejs", load_scene(make_scene(COATED_SCENE)), 2).checkpoints[-1].image
     assert image.shape == (16, 24, 3) and np.isfinite(image).all() and float(image.mean()) > 0.0
 
 
 @pytest.mark.web
 @pytest.mark.parametrize("engine", RASTER_THREE_FIRST)
-def test_web_engines_cull_single_sided_back_faces(tmp_path, make_scene, engine):
+def test_web_engines_cull_single_sided_back_faces(tmp_path, make_scene, engine, web_pages):
     """The job's glTF carries doubleSided: from behind, a single-sided card is the background around it, a
     double-sided one its front's grey."""
     assert "single_sided" in Registry().get(engine).renders
     images = {}
     for sided, behind in ((False, False), (False, True), (True, True)):
         scene = sided_card(make_scene, tmp_path, double_sided=sided, from_behind=behind)
-        images[sided, behind] = _render(engine, scene, 2).checkpoints[-1].image
+        images[sided, behind] = _render(web_pages, engine, scene, 2).checkpoints[-1].image
     culled = images[False, True]
     assert centre_mean(culled) == pytest.approx(float(culled[0:2, 0:2].mean()), rel=0.02)  # the background
     assert centre_mean(images[True, True]) == pytest.approx(centre_mean(images[False, False]), rel=0.1)
@@ -367,10 +325,10 @@ def test_web_engines_cull_single_sided_back_faces(tmp_path, make_scene, engine):
 
 
 @pytest.mark.web
-def test_a_page_that_does_not_answer_in_time_is_stopped_with_one_message(make_scene):
+def test_a_page_that_does_not_answer_in_time_is_stopped_with_one_message(make_scene, web_pages):
     """A page that waits forever (an image that never decodes) used to hang the run: each call into the
     page is bounded by the render's deadline; past it the tab is closed and the error says where it was."""
-    _close_shared()  # one Playwright driver per thread: this test's own context starts its own
+    web_pages.close()  # one Playwright driver per thread: this test's own context starts its own
     scene = sided_card(make_scene, make_scene("").parent, double_sided=True, from_behind=False)
     with RenderContext(RunSettings(frames=2), timeout=0.05) as context:
         with pytest.raises(RendererError, match=r"no answer from the page within 0.05 s \(--timeout\) while"):

@@ -4,24 +4,15 @@ of the diffuse SH, Filament's SH convention), a punctual light in the suite's un
 
 from __future__ import annotations
 
-import textwrap
-from pathlib import Path
-
 import numpy as np
 import pytest
 
-from compare.image.tonemap import luminance
 from compare.metrics.images import compare_images
-from compare.renderers import RenderContext
-from compare.report.results import RunSettings
 from compare.scene.loader import load_scene
 from compare.web.filament import FilamentRenderer
 from compare.web.filament_ibl import level_roughness, sh_coefficients
-from compare.web.renderer import ThreeJsRenderer
-from test_web_model_viewer import FRAMING
-
-EFFECTS = Path(__file__).resolve().parents[1] / "scenes" / "effects"
-_CONTEXT: list[RenderContext] = []
+from tests.helpers import (FRAMING, assert_frames_as_threejs, assert_point_light_as_threejs,
+                           npm_availability, threejs_and)
 
 #: A white rough card facing +X and one facing −Z, seen from the side, under the axes map turned 30°: its
 #: lobes make the two cards' irradiance differ in colour, so a turned or mirrored SH shows.
@@ -51,68 +42,29 @@ CARDS = """
 """
 
 
-@pytest.fixture(scope="module", autouse=True)
-def _one_browser():
-    """One Chromium for every render of this module."""
-    yield
-    while _CONTEXT:
-        _CONTEXT.pop().close()
-
-
-def _render(renderer, scene, steps: int = 2):
-    if not _CONTEXT:
-        _CONTEXT.append(RenderContext(RunSettings(frames=steps)))
-    given, changed = renderer.prepare(scene)
-    return renderer.render(given, steps=steps, checkpoints=[steps], seed=0, context=_CONTEXT[0]), changed
-
-
-def _scene(tmp_path, text: str, name: str = "s.toml"):
-    path = tmp_path / name
-    path.write_text(textwrap.dedent(text))
-    return load_scene(path)
-
-
 @pytest.mark.web
-def test_filament_frames_the_suites_camera_as_threejs_does(tmp_path):
+def test_filament_frames_the_suites_camera_as_threejs_does(make_scene, web_pages):
     """The card's silhouette lands on three.js's pixels; the sky is linear radiance 1 (exposure 1, no post
     processing); the area light is left out, with a note."""
-    scene = _scene(tmp_path, FRAMING)
-    three = _render(ThreeJsRenderer("threejs"), scene)[0].checkpoints[-1].image
-    ours, changed = _render(FilamentRenderer("filament"), scene)
-    assert changed == ["1 area light(s) not rendered (neither their light nor their face)"]
+    (ours,), _ = assert_frames_as_threejs(web_pages, load_scene(make_scene(FRAMING)), FilamentRenderer("filament"))
     assert ours.metadata["filament"] == "1.53.4" and "output" not in ours.metadata
-    image = ours.checkpoints[-1].image
-    assert image.shape == (48, 64, 3) and np.isfinite(image).all()
-    mask = luminance(three) < 0.5
-    assert 300 < mask.sum() < 1500
-    differ = int(((luminance(image) < 0.5) != mask).sum())
-    assert differ <= 12, differ  # measured: 0
-    np.testing.assert_allclose(image[~mask].mean(), 1.0, rtol=0.02)
 
 
 @pytest.mark.web
-def test_filament_environment_has_the_suites_orientation(tmp_path):
+def test_filament_environment_has_the_suites_orientation(make_scene, web_pages):
     """Two white cards under the axes map turned 30°: the sky behind them and the light on them (the SH
     irradiance) against three.js's (PMREM's irradiance, not SH: the cards' light agrees to a few per cent)."""
-    scene = _scene(tmp_path, CARDS)
-    three = _render(ThreeJsRenderer("threejs"), scene, 4)[0].checkpoints[-1].image
-    ours = _render(FilamentRenderer("filament"), scene, 4)[0].checkpoints[-1].image
-    assert np.isfinite(ours).all()
+    three, ours = threejs_and(web_pages, FilamentRenderer("filament"), load_scene(make_scene(CARDS)), 4)
     flip = compare_images(three, ours)["flip"]
     assert flip < 0.08, flip
     np.testing.assert_allclose(ours.mean((0, 1)), three.mean((0, 1)), rtol=0.05)
 
 
 @pytest.mark.web
-def test_filament_point_light_in_the_suites_units(tmp_path):
+def test_filament_point_light_in_the_suites_units(make_scene, web_pages):
     """The effect scene of a point light over a white rough plane, no environment: Filament's light, set
     from the job's W/sr, gives the plane the radiance three.js gives it."""
-    text = (EFFECTS / "point_light.toml").read_text().replace("resolution = [96, 72]", "resolution = [32, 24]")
-    scene = _scene(tmp_path, text)
-    three = _render(ThreeJsRenderer("threejs"), scene)[0].checkpoints[-1].image
-    ours = _render(FilamentRenderer("filament"), scene)[0].checkpoints[-1].image
-    assert np.isfinite(ours).all() and ours.mean() > 0.05
-    np.testing.assert_allclose(ours.mean(), three.mean(), rtol=0.05)
+    assert_point_light_as_threejs(web_pages, make_scene, FilamentRenderer("filament"))
 
 
 def test_filament_sh_of_a_constant_sky_is_its_radiance():
@@ -136,9 +88,5 @@ def test_filament_sh_of_a_constant_sky_is_its_radiance():
 
 
 def test_a_missing_package_is_named(monkeypatch, tmp_path):
-    from compare.web import host
-
-    monkeypatch.setattr(host, "chromium_path", lambda: "/bin/sh")
-    monkeypatch.setattr(host, "web_root", lambda: tmp_path)
-    ok, why = FilamentRenderer("filament").available()
+    ok, why = npm_availability(monkeypatch, tmp_path, FilamentRenderer("filament"))
     assert not ok and why.startswith(f"the npm package filament is not in {tmp_path / 'node_modules'}; "), why

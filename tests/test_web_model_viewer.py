@@ -4,142 +4,55 @@ the suite's camera; the environment turned as the suite turns it; the missing pa
 
 from __future__ import annotations
 
-import textwrap
-
 import numpy as np
 import pytest
 
-from compare.image.tonemap import luminance
 from compare.metrics.images import compare_images
-from compare.renderers import RenderContext, RendererError
+from compare.renderers import RendererError
 from compare.report.results import RunSettings
 from compare.scene.loader import load_scene
 from compare.web.model_viewer import ModelViewerRenderer, model_viewer_environment
-from compare.web.renderer import ThreeJsRenderer
-
-_CONTEXT: list[RenderContext] = []
-
-#: A dark, asymmetric card off the image centre under a bright sky, seen at an angle by a camera whose
-#: target is not the origin, in a 4:3 image (the element fits its field of view to the model's aspect); a
-#: small area light that the element leaves out.
-FRAMING = """
-    name = "framing"
-    [camera]
-    position = [1.2, 0.8, 3.0]
-    target = [0.3, 0.1, 0.0]
-    fov = 40.0
-    resolution = [64, 48]
-    [environment]
-    constant = [1.0, 1.0, 1.0]
-    [materials.dark]
-    base_color = [0.0, 0.0, 0.0]
-    roughness = 1.0
-    [[meshes]]
-    name = "card"
-    shape = "quad"
-    material = "dark"
-    corners = [[-0.2, -0.5, 0.0], [0.9, -0.4, 0.0], [0.7, 0.6, 0.0], [-0.1, 0.3, 0.0]]
-    [[lights]]
-    name = "small"
-    center = [0.0, 2.0, 1.0]
-    size = [0.1, 0.1]
-    normal = [0.0, -1.0, 0.0]
-    radiance = [1.0, 1.0, 1.0]
-"""
-
-
-@pytest.fixture(scope="module", autouse=True)
-def _one_browser():
-    """One Chromium for every render of this module."""
-    yield
-    _close_shared()
-
-
-def _close_shared() -> None:
-    """End the shared Chromium (Playwright's sync API runs one driver per thread at a time)."""
-    while _CONTEXT:
-        _CONTEXT.pop().close()
-
-
-def _render(renderer, scene, steps: int = 2):
-    if not _CONTEXT:
-        _CONTEXT.append(RenderContext(RunSettings(frames=steps)))
-    given, changed = renderer.prepare(scene)
-    return renderer.render(given, steps=steps, checkpoints=[steps], seed=0, context=_CONTEXT[0]), changed
-
-
-def _scene(tmp_path, text: str, name: str = "s.toml"):
-    path = tmp_path / name
-    path.write_text(textwrap.dedent(text))
-    return load_scene(path)
+from tests.helpers import (AXES_ENVIRONMENT, FRAMING, assert_frames_as_threejs, npm_availability,
+                           threejs_and)
 
 
 @pytest.mark.web
-def test_model_viewer_frames_the_suites_camera_as_threejs_does(tmp_path):
+def test_model_viewer_frames_the_suites_camera_as_threejs_does(make_scene, web_pages):
     """The card's silhouette in both variants lands on three.js's pixels (a pixel or two along its edges);
     the element's own view is display-encoded and says so; the area light is left out, with a note."""
-    scene = _scene(tmp_path, FRAMING)
-    three = _render(ThreeJsRenderer("threejs"), scene)[0].checkpoints[-1].image
-    linear, changed = _render(ModelViewerRenderer("model-viewer:linear"), scene)
-    shown, _ = _render(ModelViewerRenderer("model-viewer"), scene)
-    assert changed == ["1 area light(s) not rendered (neither their light nor their face)"]
+    (linear, shown), mask = assert_frames_as_threejs(web_pages, load_scene(make_scene(FRAMING)),
+                                                     ModelViewerRenderer("model-viewer:linear"),
+                                                     ModelViewerRenderer("model-viewer"))
     assert shown.metadata["output"] == "display" and "output" not in linear.metadata
     assert shown.metadata["model_viewer"] == "4.4.0"
-    mask = luminance(three) < 0.5
-    assert 300 < mask.sum() < 1500  # the card covers a good part of the image, off its centre
-    for rendering in (linear, shown):
-        image = rendering.checkpoints[-1].image
-        assert image.shape == (48, 64, 3) and np.isfinite(image).all()
-        differ = int(((luminance(image) < 0.5) != mask).sum())
-        assert differ <= 12, (rendering.metadata["options"], differ)
-    # the sky: linear radiance 1 in the float readback; the element's neutral tone mapping shows it below 1
-    sky = ~mask
-    np.testing.assert_allclose(linear.checkpoints[-1].image[sky].mean(), 1.0, rtol=0.02)
-    assert 0.5 < shown.checkpoints[-1].image[sky].mean() < 1.0
+    # the sky: linear radiance 1 in the float readback (checked above); the element's neutral tone mapping
+    # shows it below 1
+    assert 0.5 < shown.checkpoints[-1].image[~mask].mean() < 1.0
 
 
 @pytest.mark.web
-def test_model_viewer_environment_has_the_suites_orientation(tmp_path):
+def test_model_viewer_environment_has_the_suites_orientation(make_scene, web_pages):
     """The axes test map, turned 30 degrees: the float readback's background against three.js's."""
-    scene = _scene(tmp_path, """
-        name = "axes environment"
-        [camera]
-        position = [0.0, 0.0, 0.0]
-        target = [1.0, 0.3, 0.2]
-        fov = 70.0
-        resolution = [48, 36]
-        [environment]
-        procedural = "axes"
-        rotation = 30.0
-        [materials.m]
-        base_color = [0.5, 0.5, 0.5]
-        [[meshes]]
-        name = "speck behind the camera"
-        shape = "quad"
-        material = "m"
-        corners = [[-50.0, -50.0, -50.0], [-50.0, -50.01, -50.0], [-50.01, -50.01, -50.0], [-50.01, -50.0, -50.0]]
-    """)
-    three = _render(ThreeJsRenderer("threejs"), scene, 4)[0].checkpoints[-1].image
-    ours = _render(ModelViewerRenderer("model-viewer:linear"), scene, 4)[0].checkpoints[-1].image
+    three, ours = threejs_and(web_pages, ModelViewerRenderer("model-viewer:linear"),
+                              load_scene(make_scene(AXES_ENVIRONMENT)), 4)
     # measured: 0.023 (the HDR's 8-bit mantissa, the element's PMREM-free skybox against three's)
     assert compare_images(three, ours)["flip"] < 0.06
     np.testing.assert_allclose(ours.mean((0, 1)), three.mean((0, 1)), rtol=0.03)
 
 
 @pytest.mark.web
-def test_a_rolled_camera_is_one_clear_error(tmp_path):
-    scene = _scene(tmp_path, FRAMING.replace('fov = 40.0', 'fov = 40.0\n    up = [1.0, 1.0, 0.0]'))
+def test_a_rolled_camera_is_one_clear_error(make_scene, web_pages):
+    scene = load_scene(make_scene(FRAMING.replace('fov = 40.0', 'fov = 40.0\n    up = [1.0, 1.0, 0.0]')))
     with pytest.raises(RendererError, match=r"^renderer 'model-viewer': the page failed: .*the camera is rolled"):
-        _render(ModelViewerRenderer("model-viewer"), scene, 1)
+        web_pages.prepared(ModelViewerRenderer("model-viewer"), scene, 1)
 
 
 @pytest.mark.web
-def test_the_elements_own_view_is_measured_with_ldr_metrics_only(tmp_path, gl_ctx):
+def test_the_elements_own_view_is_measured_with_ldr_metrics_only(tmp_path, make_scene, gl_ctx, web_pages):
     from compare.run import runner as run_mod
 
-    _close_shared()  # the run starts its own
-    path = tmp_path / "framing.toml"
-    path.write_text(textwrap.dedent(FRAMING))
+    web_pages.close()  # the run starts its own
+    path = make_scene(FRAMING, name="framing.toml")
     settings = RunSettings(frames=2, spp=16, renderers=["mitsuba", "model-viewer"])
     res = run_mod.run([path], tmp_path / "out", settings, progress=False, gl_ctx=gl_ctx,
                       renderers=[ModelViewerRenderer("model-viewer")], cache_dir=tmp_path / "cache")
@@ -175,13 +88,7 @@ def test_display_output_enters_the_ldr_metrics_as_it_is():
 
 
 def test_a_missing_package_is_named(monkeypatch, tmp_path):
-    from compare.web import host
-
-    monkeypatch.setattr(host, "chromium_path", lambda: "/bin/sh")
-    monkeypatch.setattr(host, "web_root", lambda: tmp_path)
-    ok, why = ModelViewerRenderer("model-viewer").available()
+    ok, why = npm_availability(monkeypatch, tmp_path, ModelViewerRenderer("model-viewer"))
     assert not ok and why.startswith(f"the npm package @google/model-viewer is not in {tmp_path / 'node_modules'}; ")
-    (tmp_path / "node_modules" / "@google" / "model-viewer").mkdir(parents=True)
-    (tmp_path / "node_modules" / "@google" / "model-viewer" / "package.json").write_text("{}")
-    ok, why = ModelViewerRenderer("model-viewer:linear").available()
+    ok, why = npm_availability(monkeypatch, tmp_path, ModelViewerRenderer("model-viewer:linear"), "@google/model-viewer")
     assert not ok and why.startswith("the npm package three-r183 is not in"), why

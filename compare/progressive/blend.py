@@ -26,44 +26,31 @@ from __future__ import annotations
 import numpy as np
 
 from compare.progressive.frame.accumulate import PingPong
-from compare.progressive.first_frame import bind_gbuffer_position, bind_tables, first_frame_defines, set_light_uniforms
+from compare.progressive.first_frame import MeshesForwardPass, first_frame_defines
 from compare.progressive.frame.gpu_scene import mat_bytes
-from compare.progressive.gl.passes import RenderPass
 from compare.progressive.gl.shaders import load_program, set_uniform
 from compare.progressive.gl.units import bind, units_of
 
 _FOLD = units_of("blend_fold.glsl")
 
 
-class BlendPass(RenderPass):
+class BlendPass(MeshesForwardPass):
     """The forward pass of the blended meshes and the running mean of what it composites."""
 
     def __init__(self, ctx, gpu_scene, size, lights, *, environment=None, punctual=None, area_model="radiometric",
                  materials="shared", lut_texture=None, ltc_table=None):
-        self.ctx = ctx
-        self.scene = gpu_scene
-        self.environment = environment
-        self.lut_texture = lut_texture
-        self.ltc_table = ltc_table
-        self.indices = [k for k, m in enumerate(gpu_scene.meshes) if m.blend >= 0.0]
-        defines = first_frame_defines(gpu_scene, lights, punctual, environment, area_model, materials, blend=True)
-        self._objects: list = []
-        try:
-            self.program = self._keep(load_program(ctx, "first_frame.glsl", defines))
-            self.frame = self._keep(ctx.texture(size, 4, dtype="f4"))
-            self.frame.filter = (ctx.NEAREST, ctx.NEAREST)
-            self.fbo = self._keep(ctx.framebuffer([self.frame]))
-            self.fold = self._keep(load_program(ctx, "blend_fold.glsl"))
-            self.fold_vao = self._keep(ctx.vertex_array(self.fold, []))
-            self.acc = self._keep(PingPong(ctx, size))
-        except BaseException:
-            self.release()
-            raise
-        set_light_uniforms(self.program, lights, punctual)
+        super().__init__(ctx, gpu_scene, size, lights, [k for k, m in enumerate(gpu_scene.meshes) if m.blend >= 0.0],
+                         first_frame_defines(gpu_scene, lights, punctual, environment, area_model, materials,
+                                             blend=True),
+                         environment=environment, punctual=punctual, lut_texture=lut_texture, ltc_table=ltc_table)
 
-    def _keep(self, obj):
-        self._objects.append(obj)
-        return obj
+    def _make_targets(self, ctx, size) -> None:
+        self.frame = self._keep(ctx.texture(size, 4, dtype="f4"))
+        self.frame.filter = (ctx.NEAREST, ctx.NEAREST)
+        self.fbo = self._keep(ctx.framebuffer([self.frame]))
+        self.fold = self._keep(load_program(ctx, "blend_fold.glsl"))
+        self.fold_vao = self._keep(ctx.vertex_array(self.fold, []))
+        self.acc = self._keep(PingPong(ctx, size))
 
     def run(self, gbuffer, view_proj, camera_position) -> None:
         """Draw the blended meshes over the G-buffer's frame and fold the result into the mean."""
@@ -73,13 +60,8 @@ class BlendPass(RenderPass):
         ctx.enable_only(ctx.BLEND)
         ctx.blend_equation = ctx.FUNC_ADD
         ctx.blend_func = ctx.ONE, ctx.ONE_MINUS_SRC_ALPHA, ctx.ZERO, ctx.ONE_MINUS_SRC_ALPHA
-        bind_tables(p, self.scene, lut_texture=self.lut_texture, ltc_table=self.ltc_table,
-                    environment=self.environment)
-        bind_gbuffer_position(p, gbuffer)
-        set_uniform(p, "u_view_proj", mat_bytes(view_proj))
         cam = np.asarray(camera_position, dtype=np.float64)
-        set_uniform(p, "u_camera_position", tuple(float(x) for x in cam))
-        set_uniform(p, "u_background_pass", 0.0)
+        self.set_shading(gbuffer, mat_bytes(view_proj), tuple(float(x) for x in cam))
         far_first = sorted(self.indices, key=lambda k: -float(np.linalg.norm(
             np.asarray(self.scene.meshes[k].centre) - cam)))
         for k in far_first:
@@ -100,10 +82,3 @@ class BlendPass(RenderPass):
     def reset(self) -> None:
         """Start the mean again."""
         self.acc.reset()
-
-    def release(self) -> None:
-        if getattr(self, "program", None) is not None:
-            self.scene.forget(self.program)
-        for obj in reversed(self._objects):
-            obj.release()
-        self._objects = []

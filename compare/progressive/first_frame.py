@@ -25,6 +25,9 @@ On a CPU rasterizer frame 0 is per-pixel work (clearing the targets, the
 preview's light evaluation) plus per-frame overhead, so a half-size preview (a
 quarter of the pixels) is what keeps frame 0 cheap; the full-size preview's cost
 moves to frame 1. Measurements: ``docs/performance-notes.md``.
+
+The blend and the glass passes draw their meshes over the deferred frames with the same shader, each a
+:class:`MeshesForwardPass`.
 """
 
 from __future__ import annotations
@@ -119,6 +122,62 @@ def set_light_uniforms(program, lights, punctual=None) -> None:
     set_uniform(program, "u_lights_half", arr([(lt.size[0] / 2, lt.size[1] / 2) for lt in lights]))
     set_uniform(program, "u_lights_radiance", arr([lt.radiance for lt in lights]))
     set_uniform(program, "u_lights_area", arr([lt.area for lt in lights]))
+
+
+class MeshesForwardPass(RenderPass):
+    """A forward pass of the scene's meshes ``indices`` over the deferred frames, shaded by
+    ``first_frame.glsl`` with ``defines`` (the blend and the glass passes): its program with the lights set,
+    the tables it samples, and the GL objects it makes (:meth:`_keep`), freed in reverse order. A subclass
+    makes its own programs and targets in :meth:`_make_targets`."""
+
+    def __init__(self, ctx, gpu_scene, size, lights, indices: list[int], defines: dict, *, environment=None,
+                 punctual=None, lut_texture=None, ltc_table=None):
+        self.ctx = ctx
+        self.scene = gpu_scene
+        self.environment = environment
+        self.lut_texture = lut_texture
+        self.ltc_table = ltc_table
+        self.indices = indices
+        self._objects: list = []
+        try:
+            self.program = self._keep(load_program(ctx, "first_frame.glsl", defines))
+            self._make_targets(ctx, size)
+        except BaseException:
+            self.release()
+            raise
+        set_light_uniforms(self.program, lights, punctual)
+
+    def _make_targets(self, ctx, size) -> None:
+        """Make (and :meth:`_keep`) what the pass draws into besides its program."""
+        raise NotImplementedError
+
+    def _keep(self, obj):
+        self._objects.append(obj)
+        return obj
+
+    def _programs(self) -> list:
+        """The programs the scene keeps state for (its maps' bindings), forgotten on release."""
+        return [getattr(self, "program", None)]
+
+    def set_shading(self, gbuffer, view_proj: bytes, camera_position: tuple) -> None:
+        """Bind the tables and, where there is a G-buffer, its positions (the meshes are hidden where the
+        opaque surface is nearer); set the camera's uniforms."""
+        p = self.program
+        bind_tables(p, self.scene, lut_texture=self.lut_texture, ltc_table=self.ltc_table,
+                    environment=self.environment)
+        if gbuffer is not None:
+            bind_gbuffer_position(p, gbuffer)
+        set_uniform(p, "u_view_proj", view_proj)
+        set_uniform(p, "u_camera_position", camera_position)
+        set_uniform(p, "u_background_pass", 0.0)
+
+    def release(self) -> None:
+        for program in self._programs():
+            if program is not None:
+                self.scene.forget(program)
+        for obj in reversed(self._objects):
+            obj.release()
+        self._objects = []
 
 
 class FirstFramePass(RenderPass):

@@ -31,62 +31,52 @@ from __future__ import annotations
 
 import numpy as np
 
-from compare.progressive.first_frame import bind_gbuffer_position, bind_tables, first_frame_defines, set_light_uniforms
+from compare.progressive.first_frame import MeshesForwardPass, first_frame_defines
 from compare.progressive.frame.accumulate import Target
 from compare.progressive.frame.gpu_scene import mat_bytes
-from compare.progressive.gl.passes import RenderPass
 from compare.progressive.gl.shaders import load_program, set_uniform
 from compare.progressive.gl.units import bind, units_of
 
 _UNITS = units_of("first_frame.glsl")
 
 
-class GlassPass(RenderPass):
+class GlassPass(MeshesForwardPass):
     """The glass meshes' forward pass and the sum of its frames (:attr:`texture`, :attr:`count`)."""
 
     def __init__(self, ctx, gpu_scene, size, lights, *, environment=None, punctual=None, area_model="radiometric",
                  materials="shared", lut_texture=None, ltc_table=None):
-        self.ctx = ctx
-        self.scene = gpu_scene
-        self.environment = environment
-        self.lut_texture = lut_texture
-        self.ltc_table = ltc_table
-        self.indices = [k for k, m in enumerate(gpu_scene.meshes) if m.glass]
-        defines = {**first_frame_defines(gpu_scene, lights, punctual, environment, area_model, materials,
-                                         blend=False, transmission=True), "GLASS": 1}
         self.count = 0
         """Glass frames summed in :attr:`texture`."""
         self.preview = False
         """The sum holds frame 0's preview (:meth:`run` with ``first_depth``), which the next frame replaces."""
-        self._objects: list = []
         self._first: dict = {}
-        try:
-            self.program = self._keep(load_program(ctx, "first_frame.glsl", defines))
-            self.back_program = self._keep(load_program(ctx, "glass_back.glsl"))
-            self.depth_programs = gpu_scene.occluder_programs(ctx, "depth_only.glsl")
-            for program in self.depth_programs.values():
-                self._keep(program)
-            #: The opaque scene's display image of the frame, read bilinearly where the glass refracts.
-            self.opaque = self._keep(Target(ctx, size))
-            self.opaque.texture.filter = (ctx.LINEAR, ctx.LINEAR)
-            self.opaque.texture.repeat_x = self.opaque.texture.repeat_y = False
-            self.sum = self._keep(ctx.texture(size, 4, dtype="f4"))
-            self.sum.filter = (ctx.NEAREST, ctx.NEAREST)
-            self.depth = self._keep(ctx.depth_renderbuffer(size))
-            self.fbo = self._keep(ctx.framebuffer([self.sum], self.depth))
-            self.depth_fbo = self._keep(ctx.framebuffer(depth_attachment=self.depth))
-            self.back = self._keep(ctx.texture(size, 4, dtype="f4"))
-            self.back.filter = (ctx.NEAREST, ctx.NEAREST)
-            self.back_depth = self._keep(ctx.depth_renderbuffer(size))
-            self.back_fbo = self._keep(ctx.framebuffer([self.back], self.back_depth))
-        except BaseException:
-            self.release()
-            raise
-        set_light_uniforms(self.program, lights, punctual)
+        defines = {**first_frame_defines(gpu_scene, lights, punctual, environment, area_model, materials,
+                                         blend=False, transmission=True), "GLASS": 1}
+        super().__init__(ctx, gpu_scene, size, lights, [k for k, m in enumerate(gpu_scene.meshes) if m.glass], defines,
+                         environment=environment, punctual=punctual, lut_texture=lut_texture, ltc_table=ltc_table)
 
-    def _keep(self, obj):
-        self._objects.append(obj)
-        return obj
+    def _make_targets(self, ctx, size) -> None:
+        self.back_program = self._keep(load_program(ctx, "glass_back.glsl"))
+        self.depth_programs = self.scene.occluder_programs(ctx, "depth_only.glsl")
+        for program in self.depth_programs.values():
+            self._keep(program)
+        #: The opaque scene's display image of the frame, read bilinearly where the glass refracts.
+        self.opaque = self._keep(Target(ctx, size))
+        self.opaque.texture.filter = (ctx.LINEAR, ctx.LINEAR)
+        self.opaque.texture.repeat_x = self.opaque.texture.repeat_y = False
+        self.sum = self._keep(ctx.texture(size, 4, dtype="f4"))
+        self.sum.filter = (ctx.NEAREST, ctx.NEAREST)
+        self.depth = self._keep(ctx.depth_renderbuffer(size))
+        self.fbo = self._keep(ctx.framebuffer([self.sum], self.depth))
+        self.depth_fbo = self._keep(ctx.framebuffer(depth_attachment=self.depth))
+        self.back = self._keep(ctx.texture(size, 4, dtype="f4"))
+        self.back.filter = (ctx.NEAREST, ctx.NEAREST)
+        self.back_depth = self._keep(ctx.depth_renderbuffer(size))
+        self.back_fbo = self._keep(ctx.framebuffer([self.back], self.back_depth))
+
+    def _programs(self) -> list:
+        return [*super()._programs(), getattr(self, "back_program", None),
+                *getattr(self, "depth_programs", {}).values()]
 
     def run(self, gbuffer, view_proj, camera_position, frame: int, *, first_depth=None) -> None:
         """Draw the glass over :attr:`opaque` (composed by the caller for this frame) and add it to the sum;
@@ -130,15 +120,10 @@ class GlassPass(RenderPass):
         ctx.blend_equation = ctx.FUNC_ADD
         ctx.blend_func = ctx.ONE, ctx.ONE
         p = self.program
-        bind_tables(p, scene, lut_texture=self.lut_texture, ltc_table=self.ltc_table, environment=self.environment)
-        if gbuffer is not None:
-            bind_gbuffer_position(p, gbuffer)
+        self.set_shading(gbuffer, vp, cam)
         set_uniform(p, "u_glass_preview", float(first_depth is not None))
         bind(p, "u_opaque", self.opaque.texture, _UNITS["opaque"])
         bind(p, "u_glass_back", self.back, _UNITS["glass_back"])
-        set_uniform(p, "u_view_proj", vp)
-        set_uniform(p, "u_camera_position", cam)
-        set_uniform(p, "u_background_pass", 0.0)
         set_uniform(p, "u_glass_seed", float(frame % (1 << 23)))
         for k in self.indices:
             scene.draw_mesh(p, k)
@@ -158,12 +143,3 @@ class GlassPass(RenderPass):
     def describe(self) -> dict:
         """The glass pass's frames."""
         return {"glass_frames": int(self.count)}
-
-    def release(self) -> None:
-        for program in [getattr(self, "program", None), getattr(self, "back_program", None),
-                        *getattr(self, "depth_programs", {}).values()]:
-            if program is not None:
-                self.scene.forget(program)
-        for obj in reversed(self._objects):
-            obj.release()
-        self._objects = []

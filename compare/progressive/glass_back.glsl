@@ -5,17 +5,10 @@
 
 #if defined VERTEX_SHADER
 
-in vec3 in_position;
-in vec3 in_normal;
-uniform mat4 u_view_proj;
-
-out vec3 v_position;
-out vec3 v_normal;
+#include "world_vertex.glsl"
 
 void main() {
-    v_position = in_position;
-    v_normal = in_normal;
-    gl_Position = u_view_proj * vec4(in_position, 1.0);
+    world_vertex();
 }
 
 #elif defined FRAGMENT_SHADER

@@ -49,8 +49,8 @@ INSTALL = ("scripts/suite.sh setup installs all of it: Debian's chromium (apt-ge
            "the npm packages (npm ci --prefix web) and Playwright (pip install playwright)")
 #: The page (``index.html`` and each engine's script): package data beside this module.
 PAGE = Path(__file__).resolve().with_name("page")
-#: Page scripts every engine loads beside its own.
-SHARED_SCRIPTS = ("index.html", "common.js")
+#: The page files the engines share (its own script aside): a change to one is a change to every engine's key.
+SHARED_SCRIPTS = ("index.html", "page-script.js", "common.js", "three-mean.js")
 
 
 def web_root() -> Path:

@@ -7,20 +7,12 @@
 
 #if defined VERTEX_SHADER
 
-in vec3 in_position;
-in vec3 in_normal;
+#include "world_vertex.glsl"
 #include "material_vertex.glsl"
 
-uniform mat4 u_view_proj;
-
-out vec3 v_position;
-out vec3 v_normal;
-
 void main() {
-    v_position = in_position;
-    v_normal = in_normal;
+    world_vertex();
     material_vertex();
-    gl_Position = u_view_proj * vec4(in_position, 1.0);
 }
 
 #elif defined FRAGMENT_SHADER

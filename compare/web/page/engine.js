@@ -10,7 +10,7 @@ import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { EXRLoader } from 'three/addons/loaders/EXRLoader.js';
 import { RectAreaLightUniformsLib } from 'three/addons/lights/RectAreaLightUniformsLib.js';
-import { FullScreenQuad } from 'three/addons/postprocessing/Pass.js';
+import { FrameMean } from './three-mean.js';
 
 let S = null;
 
@@ -23,19 +23,6 @@ function linear(rgb) {
 function basis(x, y, z) {
   const m = new THREE.Matrix4().makeBasis(new THREE.Vector3(...x), new THREE.Vector3(...y), new THREE.Vector3(...z));
   return new THREE.Quaternion().setFromRotationMatrix(m);
-}
-
-function floatTarget(w, h, samples = 0) {
-  return new THREE.WebGLRenderTarget(w, h, {
-    type: THREE.FloatType, format: THREE.RGBAFormat, colorSpace: THREE.LinearSRGBColorSpace,
-    minFilter: THREE.NearestFilter, magFilter: THREE.NearestFilter, depthBuffer: true, samples,
-  });
-}
-
-function halton(i, b) {
-  let f = 1, r = 0;
-  for (; i > 0; i = Math.floor(i / b)) { f /= b; r += f * (i % b); }
-  return r;
 }
 
 async function buildScene(renderer, job, base, options) {
@@ -191,19 +178,11 @@ window.compareSetup = async ({ job: jobUrl, engine, options }) => {
   const camera = makeCamera(job, scene);
   S = { job, renderer, scene, camera, w, h, engine, options, steps: 0, ms: 0 };
   if (engine === 'threejs') {
-    S.frame = floatTarget(w, h, options.msaa ? 4 : 0);
-    S.acc = [floatTarget(w, h), floatTarget(w, h)];
-    S.blend = new FullScreenQuad(new THREE.ShaderMaterial({
-      uniforms: { prev: { value: null }, frame: { value: null }, weight: { value: 1 } },
-      vertexShader: 'varying vec2 vUv; void main() { vUv = uv; gl_Position = vec4(position.xy, 0.0, 1.0); }',
-      fragmentShader: 'uniform sampler2D prev, frame; uniform float weight; varying vec2 vUv;'
-        + 'void main() { gl_FragColor = mix(texture2D(prev, vUv), texture2D(frame, vUv), weight); }',
-      depthTest: false, depthWrite: false, toneMapped: false,
-    }));
+    S.mean = new FrameMean(w, h, options.msaa ? 4 : 0);
     renderer.compile(scene, camera);
-    renderer.setRenderTarget(S.frame);
+    renderer.setRenderTarget(S.mean.frame);
     renderer.render(scene, camera); // shader compilation and uploads belong to set-up
-    sync(renderer, S.frame);
+    sync(renderer, S.mean.frame);
   } else {
     const { WebGLPathTracer } = await import('three-gpu-pathtracer');
     const pt = new WebGLPathTracer(renderer);
@@ -236,23 +215,12 @@ window.compareSetup = async ({ job: jobUrl, engine, options }) => {
 };
 
 window.compareStep = async (n) => {
-  const { renderer, scene, camera, w, h } = S;
+  const { renderer, scene, camera } = S;
   while (S.steps < n) {
     const t0 = performance.now();
     if (S.engine === 'threejs') {
-      const k = S.steps; // frame k: jittered by Halton (2, 3), the first one at the pixel centres
-      const jx = k === 0 ? 0 : halton(k, 2) - 0.5, jy = k === 0 ? 0 : halton(k, 3) - 0.5;
-      camera.setViewOffset(w, h, jx, jy, w, h);
-      renderer.setRenderTarget(S.frame);
-      renderer.render(scene, camera);
-      const [prev, next] = S.acc;
-      S.blend.material.uniforms.prev.value = prev.texture;
-      S.blend.material.uniforms.frame.value = S.frame.texture;
-      S.blend.material.uniforms.weight.value = 1 / (k + 1);
-      renderer.setRenderTarget(next);
-      S.blend.render(renderer);
-      S.acc = [next, prev];
-      sync(renderer, next);
+      // frame k: jittered by Halton (2, 3), the first one at the pixel centres
+      sync(renderer, S.mean.step(renderer, scene, camera, S.steps));
     } else {
       S.pt.renderSample();
       sync(renderer, S.pt.target);
@@ -264,7 +232,7 @@ window.compareStep = async (n) => {
 };
 
 window.compareImage = () => {
-  const target = S.engine === 'threejs' ? S.acc[0] : S.pt.target;
+  const target = S.engine === 'threejs' ? S.mean.target : S.pt.target;
   const px = new Float32Array(S.w * S.h * 4);
   S.renderer.readRenderTargetPixels(target, 0, 0, S.w, S.h, px);
   const bytes = new Uint8Array(px.buffer);

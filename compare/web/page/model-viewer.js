@@ -7,8 +7,9 @@
 //     WebGLRenderer into a float render target, jittered frames averaged in float, linear radiance.
 // Python drives it through Playwright with the three functions every engine page defines (host.py).
 import * as THREE from 'three';
-import { FullScreenQuad } from 'three/addons/postprocessing/Pass.js';
 import '@google/model-viewer';
+import { base64 } from './common.js';
+import { FrameMean } from './three-mean.js';
 
 let S = null;
 
@@ -22,12 +23,6 @@ function internal(el, description) {
     o = Object.getPrototypeOf(o);
   }
   throw new Error(`<model-viewer> has no internal '${description}' (a model-viewer release this page does not know)`);
-}
-
-function halton(i, b) {
-  let f = 1, r = 0;
-  for (; i > 0; i = Math.floor(i / b)) { f /= b; r += f * (i % b); }
-  return r;
 }
 
 const sub = (a, b) => a.map((x, i) => x - b[i]);
@@ -62,13 +57,6 @@ function waitFor(test, what, ms = 600000) {
       else setTimeout(poll, 10);
     };
     poll();
-  });
-}
-
-function floatTarget(w, h) {
-  return new THREE.WebGLRenderTarget(w, h, {
-    type: THREE.FloatType, format: THREE.RGBAFormat, colorSpace: THREE.LinearSRGBColorSpace,
-    minFilter: THREE.NearestFilter, magFilter: THREE.NearestFilter, depthBuffer: true,
   });
 }
 
@@ -148,16 +136,8 @@ window.compareSetup = async ({ job: jobUrl, options }) => {
   }
   if (linear) {
     S.camera = cam.clone();
-    S.frame = floatTarget(w, h);
-    S.acc = [floatTarget(w, h), floatTarget(w, h)];
-    S.blend = new FullScreenQuad(new THREE.ShaderMaterial({
-      uniforms: { prev: { value: null }, frame: { value: null }, weight: { value: 1 } },
-      vertexShader: 'varying vec2 vUv; void main() { vUv = uv; gl_Position = vec4(position.xy, 0.0, 1.0); }',
-      fragmentShader: 'uniform sampler2D prev, frame; uniform float weight; varying vec2 vUv;'
-        + 'void main() { gl_FragColor = mix(texture2D(prev, vUv), texture2D(frame, vUv), weight); }',
-      depthTest: false, depthWrite: false, toneMapped: false,
-    }));
-    three.setRenderTarget(S.frame);
+    S.mean = new FrameMean(w, h);
+    three.setRenderTarget(S.mean.frame);
     three.render(scene, S.camera); // shader compilation and uploads belong to set-up
     three.setRenderTarget(null);
   }
@@ -171,23 +151,12 @@ window.compareSetup = async ({ job: jobUrl, options }) => {
 };
 
 window.compareStep = async (n) => {
-  const { three, scene, w, h } = S;
+  const { three, scene } = S;
   while (S.steps < n) {
     const t0 = performance.now();
     if (S.linear) {
       // frame k: the element's scene and camera, jittered by Halton (2, 3), the first at the pixel centres
-      const k = S.steps;
-      const jx = k === 0 ? 0 : halton(k, 2) - 0.5, jy = k === 0 ? 0 : halton(k, 3) - 0.5;
-      S.camera.setViewOffset(w, h, jx, jy, w, h);
-      three.setRenderTarget(S.frame);
-      three.render(scene, S.camera);
-      const [prev, next] = S.acc;
-      S.blend.material.uniforms.prev.value = prev.texture;
-      S.blend.material.uniforms.frame.value = S.frame.texture;
-      S.blend.material.uniforms.weight.value = 1 / (k + 1);
-      three.setRenderTarget(next);
-      S.blend.render(three);
-      S.acc = [next, prev];
+      const next = S.mean.step(three, scene, S.camera, S.steps);
       three.readRenderTargetPixels(next, 0, 0, 1, 1, new Float32Array(4));
       three.setRenderTarget(null);
     } else {
@@ -199,19 +168,12 @@ window.compareStep = async (n) => {
   return { ms: S.ms, steps: S.steps };
 };
 
-function encode(floats) {
-  const bytes = new Uint8Array(floats.buffer);
-  let s = '';
-  for (let i = 0; i < bytes.length; i += 0x8000) s += String.fromCharCode.apply(null, bytes.subarray(i, i + 0x8000));
-  return btoa(s);
-}
-
 window.compareImage = () => {
   const { w, h } = S;
   const px = new Float32Array(w * h * 4);
   if (S.linear) {
-    S.three.readRenderTargetPixels(S.acc[0], 0, 0, w, h, px);
-    return encode(px);
+    S.three.readRenderTargetPixels(S.mean.target, 0, 0, w, h, px);
+    return base64(px);
   }
   // what the element shows: its canvas (the top-left w×h of the shared WebGL canvas), 8-bit sRGB
   const canvas = document.createElement('canvas');
@@ -223,7 +185,7 @@ window.compareImage = () => {
   for (let y = 0; y < h; y++) { // bottom row first, as the float pages answer
     for (let i = 0; i < w * 4; i++) px[(h - 1 - y) * w * 4 + i] = rgba[y * w * 4 + i] / 255;
   }
-  return encode(px);
+  return base64(px);
 };
 
 window.compareReady = true;
