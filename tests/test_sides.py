@@ -1,5 +1,5 @@
 """glTF's doubleSided: a single-sided surface's back faces are culled, a double-sided one's shaded as its
-front, in the ground truth, the rasterizer and the web engines; the others say they leave it out."""
+front, in the ground truth, the rasterizer, Cycles and the web engines; the others say they leave it out."""
 
 from __future__ import annotations
 
@@ -33,11 +33,17 @@ def _rasterized(scene, gl_ctx):
     return render_progressive(scene, frames=4, seed=1, ctx=gl_ctx).image
 
 
-@pytest.mark.parametrize("renderer", ["reference", "progressive"])
+def _cycles(scene):
+    from compare.blender import render_blender
+
+    return render_blender(scene, samples=64, seed=1).image
+
+
+@pytest.mark.parametrize("renderer", ["reference", "progressive", pytest.param("cycles", marks=pytest.mark.bpy)])
 def test_a_single_sided_card_seen_from_behind_is_not_there(tmp_path, make_scene, gl_ctx, renderer):
     """From behind, a single-sided card shows the environment behind it (culled); a double-sided one the
     same grey as its front (its normal turned to the viewer); from the front both are the grey card."""
-    render = _reference if renderer == "reference" else (lambda s: _rasterized(s, gl_ctx))
+    render = {"reference": _reference, "progressive": lambda s: _rasterized(s, gl_ctx), "cycles": _cycles}[renderer]
     front = centre_mean(render(sided_card(make_scene, tmp_path, double_sided=False, from_behind=False)))
     culled = centre_mean(render(sided_card(make_scene, tmp_path, double_sided=False, from_behind=True)))
     back = centre_mean(render(sided_card(make_scene, tmp_path, double_sided=True, from_behind=True)))

@@ -100,6 +100,27 @@ def test_the_rasterizer_multiplies_the_base_colour_by_the_vertex_colour(tmp_path
     assert left[0] > 3 * left[2] and right[2] > 3 * right[0]
 
 
+@pytest.mark.bpy
+def test_cycles_multiplies_the_base_colour_by_the_vertex_colour(tmp_path, make_scene):
+    """Blender gets COLOR_0 as a colour attribute that multiplies the base colour: the grey card with red
+    corners renders as the red card, and a red-to-blue blend parts left from right."""
+    from compare.blender import render_blender
+
+    def cycles(scene):
+        return render_blender(scene, samples=64, seed=2).image
+
+    colored_card(tmp_path, base=(0.8, 0.8, 0.8, 1.0), colors=RED_CORNERS)
+    tinted = cycles(load_scene(make_scene(COLORED_CARD_SCENE)))
+    colored_card(tmp_path, base=(0.8, 0.0, 0.0, 1.0))
+    plain = cycles(load_scene(make_scene(COLORED_CARD_SCENE)))
+    np.testing.assert_allclose(tinted[4:12, 4:12].mean((0, 1)), plain[4:12, 4:12].mean((0, 1)), rtol=0.03, atol=0.003)
+    assert tinted[4:12, 4:12, 0].mean() > 5 * tinted[4:12, 4:12, 1].mean()
+    colored_card(tmp_path, base=(1.0, 1.0, 1.0, 1.0), colors=[[1, 0, 0], [0, 0, 1], [0, 0, 1], [1, 0, 0]])
+    image = cycles(load_scene(make_scene(COLORED_CARD_SCENE)))
+    left, right = image[6:10, 1:3].mean((0, 1)), image[6:10, 13:15].mean((0, 1))
+    assert left[0] > 3 * left[2] and right[2] > 3 * right[0]
+
+
 def test_a_blended_cards_vertex_alpha_is_its_coverage(tmp_path, make_scene, gl_ctx):
     """alphaMode BLEND with a vertex alpha of 0.25: a quarter of the card's colour over the background in
     the reference and the rasterizer alike (glTF multiplies the alpha by the vertex colour's)."""

@@ -446,6 +446,9 @@ def _material(mat, mode: str, distribution: str | None = None) -> dict[str, Any]
                         for f, c, p in mat.layer_maps if f in BLENDER_INPUTS] if mode == "cycles" else []),
         # alphaMode BLEND: the coverage on Alpha (Cycles: stochastic transparency; EEVEE: dithered)
         "alpha_blend": float(mat.alpha) if mat.alpha_mode == "blend" else None,
+        # glTF's doubleSided false, culled as the reference culls: not a transmissive solid (its inside is
+        # its back)
+        "single_sided": not mat.double_sided and mat.transmission == 0.0,
         "volume_absorption": volume_absorption(mat) if mode == "cycles" else None,
         "emissive_texture_colorspace": (None if not mat.emissive_texture else "Linear Rec.709"
                                         if Path(mat.emissive_texture).suffix.lower() == ".exr" else "sRGB"),
@@ -539,6 +542,8 @@ def build_job(scene: Scene, *, engine: str, samples: int, seed: int, folder: Pat
     arrays: dict[str, np.ndarray] = {}
     meshes = []
     imports: dict[str, dict] = {}
+    # COLOR_0 on every mesh once one has it (white where a mesh has none): every material multiplies by it
+    colored = any(m.has_vertex_colors for m in scene.meshes)
     for k, mesh in enumerate(scene.meshes):
         if gltf_import and mesh.shape == "gltf" and mesh.file is not None:
             # the file as Blender's own importer reads it, placed by the include's transform
@@ -554,6 +559,9 @@ def build_job(scene: Scene, *, engine: str, samples: int, seed: int, folder: Pat
         if tri.uvs1 is not None:  # TEXCOORD_1, flipped alike
             arrays[f"m{k}_uvs1"] = np.column_stack([tri.uvs1[:, 0], 1.0 - tri.uvs1[:, 1]]).astype(np.float32)
         arrays[f"m{k}_indices"] = np.asarray(tri.indices, dtype=np.int32)
+        if colored:
+            arrays[f"m{k}_colors"] = (np.asarray(tri.colors, dtype=np.float32) if tri.colors is not None
+                                      else np.ones((len(tri.positions), 4), dtype=np.float32))
         meshes.append({"name": mesh.name, "material": mesh.material, "key": f"m{k}"})
     np.savez(folder / "meshes.npz", **arrays)
 
@@ -607,7 +615,8 @@ def build_job(scene: Scene, *, engine: str, samples: int, seed: int, folder: Pat
         "camera": {"matrix": camera_matrix(cam).tolist(), "lens": camera_lens_mm(cam),
                    "sensor_height": SENSOR_HEIGHT_MM, "clip_start": near, "clip_end": far},
         "eevee_filter_size": EEVEE_FILTER_SIZE,
-        "materials": {name: _material(m, materials, distribution) for name, m in scene.materials.items()},
+        "materials": {name: {**_material(m, materials, distribution), "vertex_colors": colored}
+                      for name, m in scene.materials.items()},
         "material_model": materials,
         "meshes": meshes,
         # glTF files to import with Blender's glTF importer (their meshes and materials; not their cameras or

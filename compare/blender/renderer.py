@@ -61,8 +61,8 @@ class BlenderRenderer(Renderer):
     # (no dispersion: Blender 5.0's Principled BSDF has no such input, its Glass BSDF alone has one; no
     # anisotropy: its Anisotropic input is not glTF's parameterisation and the export does not set it; no
     # iridescence: its Thin Film is another model, not set by the export)
-    renders = ((frozenset({"punctual_lights"}) | frozenset(MATERIAL_FEATURE_NAMES) | frozenset(MAP_FEATURE_NAMES))
-               - {"dispersion", "anisotropy", "iridescence"})
+    renders = ((frozenset({"punctual_lights", "vertex_colors", "single_sided"}) | frozenset(MATERIAL_FEATURE_NAMES)
+                | frozenset(MAP_FEATURE_NAMES)) - {"dispersion", "anisotropy", "iridescence"})
     DISTRIBUTION_OPTIONS = {"ggx": "GGX (single scattering) in every Principled BSDF",
                             "multi_ggx": "Multiscatter GGX in every Principled BSDF"}
     OPTIONS = {**DISTRIBUTION_OPTIONS,

@@ -26,6 +26,10 @@ def _matrix(rows):
     return Matrix([list(r) for r in rows])
 
 
+#: The colour attribute of glTF's COLOR_0 on the meshes Blender gets.
+VERTEX_COLORS = "COLOR_0"
+
+
 def _principled(bpy, name: str, mat: dict):
     """A material with one Principled BSDF set from the glTF parameters (see export.py)."""
     m = bpy.data.materials.new(name)
@@ -52,6 +56,19 @@ def _principled(bpy, name: str, mat: dict):
         tex = base_tex = _image_node(bpy, nodes, links, mat, "base_color_texture", mat["base_color_texture"],
                                      mat["base_color_texture_colorspace"])
         links.new(tex.outputs["Color"], inp["Base Color"])
+    if mat.get("vertex_colors"):  # glTF's COLOR_0 multiplies the base colour (white on meshes without it)
+        vc = nodes.new("ShaderNodeVertexColor")
+        vc.layer_name = VERTEX_COLORS
+        product = nodes.new("ShaderNodeMix")
+        product.data_type = "RGBA"
+        product.blend_type = "MULTIPLY"
+        product.inputs["Factor"].default_value = 1.0
+        if base_tex is not None:
+            links.new(base_tex.outputs["Color"], product.inputs["A"])
+        else:
+            product.inputs["A"].default_value = (*mat["base_color"], 1.0)
+        links.new(vc.outputs["Color"], product.inputs["B"])
+        links.new(product.outputs["Result"], inp["Base Color"])
     for key, value in mat.get("principled_inputs", {}).items():
         inp[key].default_value = tuple(value) if isinstance(value, list) else value
     for m_in in mat.get("input_maps", []):
@@ -125,7 +142,19 @@ def _principled(bpy, name: str, mat: dict):
         inp["Emission Strength"].default_value = 1.0
         if hasattr(m, "cycles") and hasattr(m.cycles, "emission_sampling"):
             m.cycles.emission_sampling = "FRONT"
-    links.new(bsdf.outputs["BSDF"], out.inputs["Surface"])
+    surface = bsdf.outputs["BSDF"]
+    if mat.get("single_sided"):
+        # glTF's doubleSided false: nothing behind the geometric normal, for every ray (as the reference
+        # culls), by a transparent BSDF on back faces; EEVEE's own culling besides
+        geo, clear, mix = (nodes.new("ShaderNodeNewGeometry"), nodes.new("ShaderNodeBsdfTransparent"),
+                           nodes.new("ShaderNodeMixShader"))
+        links.new(geo.outputs["Backfacing"], mix.inputs["Fac"])
+        links.new(surface, mix.inputs[1])
+        links.new(clear.outputs["BSDF"], mix.inputs[2])
+        surface = mix.outputs["Shader"]
+        if hasattr(m, "use_backface_culling"):
+            m.use_backface_culling = True
+    links.new(surface, out.inputs["Surface"])
     return m
 
 
@@ -244,9 +273,9 @@ def _black_material(bpy, name: str):
     return m
 
 
-def _mesh(bpy, np, name: str, positions, normals, uvs, indices, uvs1=None):
+def _mesh(bpy, np, name: str, positions, normals, uvs, indices, uvs1=None, colors=None):
     """A mesh object from world-space triangles with per-vertex normals and UVs (``uvs1``: a second layer,
-    glTF's TEXCOORD_1)."""
+    glTF's TEXCOORD_1; ``colors``: glTF's COLOR_0, linear RGBA per vertex)."""
     me = bpy.data.meshes.new(name)
     nv, nt = len(positions), len(indices)
     me.vertices.add(nv)
@@ -263,6 +292,9 @@ def _mesh(bpy, np, name: str, positions, normals, uvs, indices, uvs1=None):
     if uvs1 is not None:
         second = me.uv_layers.new(name="UVMap.001")
         second.data.foreach_set("uv", np.ascontiguousarray(uvs1[indices.ravel()], dtype=np.float32).ravel())
+    if colors is not None:
+        attribute = me.color_attributes.new(name=VERTEX_COLORS, type="FLOAT_COLOR", domain="POINT")
+        attribute.data.foreach_set("color", np.ascontiguousarray(colors, dtype=np.float32).ravel())
     me.shade_smooth()
     me.normals_split_custom_set_from_vertices(np.asarray(normals, dtype=np.float32))
     obj = bpy.data.objects.new(name, me)
@@ -403,7 +435,8 @@ def build(bpy, np, job: dict, folder: str):
     for mesh in job["meshes"]:
         k = mesh["key"]
         obj = _mesh(bpy, np, mesh["name"], arrays[f"{k}_positions"], arrays[f"{k}_normals"], arrays[f"{k}_uvs"],
-                    arrays[f"{k}_indices"], arrays[f"{k}_uvs1"] if f"{k}_uvs1" in arrays.files else None)
+                    arrays[f"{k}_indices"], arrays[f"{k}_uvs1"] if f"{k}_uvs1" in arrays.files else None,
+                    arrays[f"{k}_colors"] if f"{k}_colors" in arrays.files else None)
         obj.data.materials.append(mats[mesh["material"]])
         sc.collection.objects.link(obj)
     for entry in job.get("imports", []):
