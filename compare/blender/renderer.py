@@ -122,7 +122,7 @@ class CyclesRenderer(BlenderRenderer):
     default_budget = CYCLES_PAPER_SAMPLES
     budget_flag = "--cycles-spp"
     render_flag = "--spp"
-    VARIANTS = ("cycles:ggx",)
+    VARIANTS = ("cycles:ggx", "cycles:gltf")
 
 
 class EeveeRenderer(BlenderRenderer):
