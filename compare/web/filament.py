@@ -62,9 +62,10 @@ class FilamentRenderer(WebRenderer):
     PACKAGES = ("filament",)
     VERSION_KEY = "filament"
     # gltfio's ubershaders read the core material and clearcoat, sheen, transmission, volume, ior, specular,
-    # BLEND, COLOR_0, doubleSided, KHR_texture_transform and TEXCOORD_1
-    renders = (frozenset(MATERIAL_FEATURE_NAMES) | frozenset(MAP_FEATURE_NAMES)
-               | {"punctual_lights", "vertex_colors", "single_sided"})
+    # BLEND, COLOR_0, doubleSided, KHR_texture_transform and TEXCOORD_1; not anisotropy, iridescence or
+    # dispersion (its loader parses them, its ubershaders have no input for them)
+    renders = ((frozenset(MATERIAL_FEATURE_NAMES) - {"anisotropy", "iridescence", "dispersion"})
+               | frozenset(MAP_FEATURE_NAMES) | {"punctual_lights", "vertex_colors", "single_sided"})
     area_lights = False
 
     def describe(self, opts: list[str]) -> str:
