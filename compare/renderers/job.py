@@ -91,7 +91,10 @@ def export_gltf(scene, out: Path) -> Path:
         return textures[key]
 
     samplers: dict[tuple, int] = {}
-    gl_wraps = {"repeat": 10497, "clamp": 33071, "mirror": 33648}
+    from compare.scene.gltf_read import GL_FILTERS, GL_WRAPS
+
+    # glTF's sampler codes, the reader's tables turned around
+    gl_wraps, gl_filters = ({v: k for k, v in table.items()} for table in (GL_WRAPS, GL_FILTERS))
 
     def info(m, which: str, src, srgb: bool = False) -> dict:
         """A texture info of map ``src`` (a colour map if ``srgb``), material ``m``'s map ``which``
@@ -99,9 +102,9 @@ def export_gltf(scene, out: Path) -> Path:
         s = m.sampling(which)
         key = (s.wrap, s.filter, s.mipmaps)
         if key not in samplers:
-            mag = 9728 if s.filter == "nearest" else 9729
-            # minification as the renderers read it: mip levels unless the file said otherwise
-            minify = {(9728, True): 9986, (9729, True): 9987}.get((mag, s.mipmaps), mag)
+            mag = gl_filters[s.filter]
+            # minification as the renderers read it: mip levels (*_MIPMAP_LINEAR) unless the file said otherwise
+            minify = {9728: 9986, 9729: 9987}[mag] if s.mipmaps else mag
             samplers[key] = w._add("samplers", {"wrapS": gl_wraps[s.wrap[0]], "wrapT": gl_wraps[s.wrap[1]],  # noqa: SLF001
                                                 "magFilter": mag, "minFilter": minify})
         tex = w._add("textures", {"source": texture(Path(src), srgb), "sampler": samplers[key]})  # noqa: SLF001
