@@ -358,10 +358,6 @@ class Material:
             out.add("map_samplers")
         return out
 
-    def uv_transform(self) -> np.ndarray:
-        """The 3 × 3 texture transform of the maps read with the material-wide settings."""
-        return self.default_sampling.uv_transform()
-
     @property
     def normal_mapped(self) -> bool:
         """Whether the material reads glTF's tangent frame: a map in tangent space (normalTexture,
@@ -369,10 +365,6 @@ class Material:
         (:meth:`Mesh.triangles` with ``tangents``)."""
         return (self.normal_texture is not None or self.clearcoat_normal_texture is not None
                 or self.anisotropy_strength > 0.0)  # an anisotropy direction is given in that frame too
-
-    @property
-    def has_uv_transform(self) -> bool:
-        return self.default_sampling.has_uv_transform
 
     @property
     def tangent_uv(self) -> int:
