@@ -86,3 +86,57 @@ def test_the_files_iridescence_is_read_and_written(make_scene):
                                        iridescence_ior=1.33, iridescence_thickness_max=550.0)
     assert scene.features().iridescence
     assert again.layers == {"iridescence": 1.0, "iridescence_ior": 1.33, "iridescence_thickness_max": 550.0}
+
+
+def test_the_films_maps_set_its_factor_and_thickness_per_point(mi_llvm):
+    """``iridescenceTexture`` (R) times the factor, and ``iridescenceThicknessTexture`` (G) as
+    mix(minimum, maximum, G), per point, as the NumPy BRDF with those values per row; a point of thickness 0
+    has no film at all."""
+    from compare.mitsuba.bsdf import evaluate
+
+    rng = np.random.default_rng(11)
+    n = 128
+    wi, wo = (v / np.linalg.norm(v, axis=1, keepdims=True)
+              for v in (rng.normal(size=(n, 3)) * [1, 1, 0] + [0, 0, 1.2], rng.normal(size=(n, 3)) * [1, 1, 0] + [0, 0, 1.1]))
+    base, metallic, roughness, film_ior, factor, lo, hi = (0.8, 0.5, 0.2), 0.3, 0.5, 1.4, 0.9, 0.0, 800.0
+    r, g = rng.uniform(0.0, 1.0, n), rng.uniform(0.0, 1.0, n)
+    g[:8] = 0.0  # the minimum, 0 nm
+    value, _ = evaluate(wi, wo, base, metallic, roughness,
+                        extra={"iridescence": factor * r, "iridescence_ior": film_ior, "iridescence_thickness": hi,
+                               "iridescence_thickness_min": lo, "iridescence_thickness_map": g})
+    thickness = lo + (hi - lo) * g
+    expected = _gltf_value(wi, wo, base, metallic, roughness, (factor * r)[:, None], film_ior, thickness)
+    expected[:8] = _gltf_value(wi[:8], wo[:8], base, metallic, roughness, 0.0, film_ior, 400.0)
+    np.testing.assert_allclose(value, expected, rtol=5e-3, atol=1e-5)
+    # able to fail: the film at its maximum everywhere differs by far more
+    flat = _gltf_value(wi, wo, base, metallic, roughness, factor, film_ior, hi)
+    assert np.abs(flat - expected).max() > 10 * np.abs(value - expected).max()
+
+
+def test_the_films_maps_are_read_and_written(tmp_path, make_scene):
+    """The file's iridescence maps are read into the material's layer maps, make the feature "layer_maps", and
+    go back into the job's glTF under the extension's keys."""
+    import dataclasses
+    import json
+
+    from compare.renderers.job import export_gltf
+    from compare.scene.gltf_read import load_gltf
+    from compare.mitsuba.scene_dict import _surface_dict
+    from tests.helpers import sphere_scene
+
+    Image = pytest.importorskip("PIL.Image")
+    Image.new("RGB", (4, 4), (200, 100, 0)).save(tmp_path / "film.png")
+    scene = sphere_scene(make_scene, "roughness = 0.3\niridescence = 1.0\niridescence_thickness_min = 50.0")
+    (name, mat), = scene.materials.items()
+    mat = dataclasses.replace(mat, layer_maps=(("iridescence", "r", tmp_path / "film.png"),
+                                               ("iridescence_thickness_max", "g", tmp_path / "film.png")))
+    assert mat.uses() == {"iridescence", "layer_maps"}
+    d = _surface_dict(mat, "shared")
+    assert d["iridescence"]["type"] == "bitmap" and d["iridescence_thickness_min"] == 50.0
+    assert "iridescence_thickness_map" in d
+    (tmp_path / "job").mkdir()
+    written = export_gltf(dataclasses.replace(scene, materials={name: mat}), tmp_path / "job" / "scene.gltf")
+    film = json.loads(written.read_text())["materials"][0]["extensions"]["KHR_materials_iridescence"]
+    assert {"iridescenceTexture", "iridescenceThicknessTexture"} <= set(film)
+    back = load_gltf(written).materials[0]
+    assert sorted((f, c) for f, c, _ in back.layer_images) == [("iridescence", "r"), ("iridescence_thickness_max", "g")]

@@ -8,7 +8,7 @@ In the material (the extension's implementation section): the specular Fresnel i
 ``mix(F_schlick, F_iridescence, iridescence)``, per lobe of glTF's mix (the metal's F0 its base colour, the
 dielectric's 0.04 or the specular extension's), the diffuse base weighted by one minus the dielectric's
 mixed Fresnel at its largest channel (the Khronos sample renderer's ``BRDF_lambertianIridescence``). The
-thin film's thickness is ``iridescenceThicknessMaximum`` where no thickness map is read.
+thin film's thickness is ``iridescenceThicknessMaximum``, or mix(minimum, maximum, G) of the thickness map.
 """
 
 from __future__ import annotations

@@ -112,7 +112,8 @@ def register(variant: str | None = None):
 
 
 def evaluate(wi, wo, base_color, metallic, roughness, *, variant: str | None = None, flavour: str = "gltf",
-             distribution: str | None = None, dielectric=None, principled_inputs: dict | None = None):
+             distribution: str | None = None, dielectric=None, principled_inputs: dict | None = None,
+             extra: dict | None = None):
     """Evaluate the plugin's ``eval_pdf`` for per-direction materials; numpy in, numpy out.
 
     The materials vary per row: they are passed as N x 1 ``bitmap`` textures
@@ -137,6 +138,9 @@ def evaluate(wi, wo, base_color, metallic, roughness, *, variant: str | None = N
     principled_inputs : dict, optional
         Flavour ``cycles``: ``ior`` (float), ``specular_ior_level`` (per row, shape (N,)) and
         ``specular_tint`` (per row, shape (N, 3)), :data:`CYCLES_INPUTS`.
+    extra : dict, optional
+        Other properties of the plugin: a number as it is, an array of N rows (shape (N,) or (N, k)) as a
+        per-row texture (e.g. ``anisotropy_map``, ``iridescence``).
 
     Returns
     -------
@@ -151,6 +155,9 @@ def evaluate(wi, wo, base_color, metallic, roughness, *, variant: str | None = N
     wo = np.asarray(wo, dtype=np.float32).reshape(-1, 3)
     props = _row_material(mi, len(wi), base_color, metallic, roughness, flavour=flavour, distribution=distribution,
                           dielectric=dielectric, principled_inputs=principled_inputs)
+    for key, value in (extra or {}).items():
+        rows = np.asarray(value, dtype=np.float32)
+        props[key] = float(value) if rows.ndim == 0 else _row_bitmap(mi, rows.reshape(len(wi), -1))
     return _eval_pdf_rows(mi, mi.load_dict(props), wi, wo)
 
 
@@ -165,8 +172,7 @@ def _row_material(mi, count, base_color, metallic, roughness, *, flavour, distri
     rough = np.broadcast_to(np.asarray(roughness, dtype=np.float32), (count,))
 
     def bitmap(data):
-        return {"type": "bitmap", "data": mi.TensorXf(np.ascontiguousarray(data.reshape(1, count, -1))),
-                "raw": True, "filter_type": "nearest", "wrap_mode": "clamp"}
+        return _row_bitmap(mi, data.reshape(count, -1))
 
     props = {"type": PLUGIN_NAME, "base_color": bitmap(base), "flavour": flavour,
              "metallic": bitmap(met), "roughness": bitmap(rough)}
@@ -182,6 +188,14 @@ def _row_material(mi, count, base_color, metallic, roughness, *, flavour, distri
             props[key] = bitmap(np.broadcast_to(np.asarray(value, dtype=np.float32),
                                                 (count, 3) if key == "specular_tint" else (count,)))
     return props
+
+
+def _row_bitmap(mi, rows) -> dict:
+    """An N x 1 ``bitmap`` of N rows of values (nearest, raw): row i at u = (i + 0.5) / N."""
+    import numpy as np  # noqa: PLC0415
+
+    return {"type": "bitmap", "data": mi.TensorXf(np.ascontiguousarray(rows.reshape(1, len(rows), -1))),
+            "raw": True, "filter_type": "nearest", "wrap_mode": "clamp"}
 
 
 def _eval_pdf_rows(mi, bsdf, wi, wo):

@@ -429,9 +429,19 @@ def _surface_dict(mat: Material, mode: str, vc: bool = False) -> dict:
         if mat.anisotropy_strength > 0.0:  # in glTF's tangent frame: _normal_mapped puts it under one
             d.update(anisotropy_strength=float(mat.anisotropy_strength),
                      anisotropy_rotation=float(mat.anisotropy_rotation))
-        if mat.iridescence > 0.0:  # the thickness map is not read: the film is its maximum thickness (glTF)
-            d.update(iridescence=float(mat.iridescence), iridescence_ior=float(mat.iridescence_ior),
+            found = _layer_map(mat, "anisotropy_strength")
+            if found is not None:  # its encoded direction and strength, interpolated as stored
+                d["anisotropy_map"] = bitmap_dict(mat, "anisotropy_strength", found[2], raw=True)
+        if mat.iridescence > 0.0:
+            d.update(iridescence=_layer_value(mat, "iridescence"), iridescence_ior=float(mat.iridescence_ior),
                      iridescence_thickness=float(mat.iridescence_thickness_max))
+            found = _layer_map(mat, "iridescence_thickness_max")
+            if found is not None:  # glTF: mix(minimum, maximum, the map's G)
+                from compare.scene.textures import channel_map
+
+                d.update(iridescence_thickness_min=float(mat.iridescence_thickness_min),
+                         iridescence_thickness_map=bitmap_dict(mat, "iridescence_thickness_max",
+                                                               channel_map(found[2], found[1], 1.0), raw=True))
         if ((mat.ior, mat.specular, mat.specular_color) != (1.5, 1.0, (1.0, 1.0, 1.0))
                 or _layer_map(mat, "specular") or _layer_map(mat, "specular_color")):
             d.update(specular_f0=_specular_f0(mat), specular_weight=_layer_value(mat, "specular"))

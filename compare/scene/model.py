@@ -197,8 +197,14 @@ LAYER_MAPS = {"transmissionTexture": ("transmission", "r"), "clearcoatTexture": 
               "sheenColorTexture": ("sheen_color", "rgb"), "sheenRoughnessTexture": ("sheen_roughness", "a"),
               "specularTexture": ("specular", "a"), "specularColorTexture": ("specular_color", "rgb"),
               # read and passed on (the job's glTF); the path tracers take the thickness from the geometry
-              "thicknessTexture": ("thickness", "g")}
-#: (Channel "rgb": an sRGB colour map; the others: one channel of a linear map.)
+              "thicknessTexture": ("thickness", "g"),
+              # the direction in the tangent frame (RG, [0, 1] → [−1, 1]) and the strength's multiplier (B)
+              "anisotropyTexture": ("anisotropy_strength", "xyz"),
+              "iridescenceTexture": ("iridescence", "r"),
+              # not a multiplier: the film's thickness is mix(minimum, maximum, G)
+              "iridescenceThicknessTexture": ("iridescence_thickness_max", "g")}
+#: (Channel "rgb": an sRGB colour map; "xyz": a linear map's three channels, a vector; the others: one
+#: channel of a linear map.)
 def channel_iors(ior: float, dispersion: float) -> tuple[float, float, float]:
     """The red, green and blue IORs of a dispersive volume (KHR_materials_dispersion's rule for RGB renderers:
     green at the material's ior, red and blue half the spread n_F − n_C = (ior − 1) / V_d below and above it,

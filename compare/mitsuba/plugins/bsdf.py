@@ -134,7 +134,7 @@ class GltfPbrBSDF(PluginBSDF):
         if self.flavour == "cycles":
             tables(mv)  # built at load time, never while a kernel is traced
         # glTF's anisotropy (KHR_materials_anisotropy): the specular lobe stretched along the local frame's x
-        # axis (glTF's tangent, under gltf_normalmap) turned by the rotation
+        # axis (glTF's tangent, under gltf_normalmap) turned by the rotation, and by the map's direction
         self.anisotropy = float(props.get("anisotropy_strength", 0.0))
         rotation = float(props.get("anisotropy_rotation", 0.0))
         if not (0.0 <= self.anisotropy <= 1.0 and math.isfinite(rotation)):
@@ -142,15 +142,23 @@ class GltfPbrBSDF(PluginBSDF):
         if self.anisotropy > 0.0 and self.flavour == "cycles":
             raise ValueError(f"{name}: anisotropy applies to flavour 'gltf' only")
         self.direction = (math.cos(rotation), math.sin(rotation))
+        self.anisotropy_map = props.get_texture("anisotropy_map") if "anisotropy_map" in props else None
         # glTF's thin-film iridescence (KHR_materials_iridescence, compare.brdf.iridescence): its Fresnel mixed
-        # into each lobe's by the factor
-        self.iridescence = float(props.get("iridescence", 0.0))
+        # into each lobe's by the factor (a number or a map times it); the film's thickness a number or
+        # mix(minimum, maximum, map)
+        factor = props.get("iridescence", 0.0)
+        self.has_film = not isinstance(factor, (int, float)) or factor != 0.0
+        self.iridescence = props.get_texture("iridescence", 0.0)
         self.film_ior = float(props.get("iridescence_ior", 1.3))
         self.film_thickness = float(props.get("iridescence_thickness", 400.0))
-        if not (0.0 <= self.iridescence <= 1.0 and self.film_ior >= 1.0 and self.film_thickness >= 0.0):
+        self.film_thickness_min = float(props.get("iridescence_thickness_min", 0.0))
+        self.film_map = (props.get_texture("iridescence_thickness_map")
+                         if "iridescence_thickness_map" in props else None)
+        if not ((not isinstance(factor, (int, float)) or 0.0 <= factor <= 1.0) and self.film_ior >= 1.0
+                and self.film_thickness >= 0.0 and self.film_thickness_min >= 0.0):
             raise ValueError(f"{name}: iridescence must be in [0, 1], iridescence_ior >= 1 and "
-                             "iridescence_thickness >= 0")
-        if self.iridescence > 0.0 and self.flavour == "cycles":
+                             "iridescence_thickness(_min) >= 0")
+        if self.has_film and self.flavour == "cycles":
             raise ValueError(f"{name}: iridescence applies to flavour 'gltf' only")
         self.m_components = [DIFFUSE, GLOSSY]
         self.m_flags = DIFFUSE | GLOSSY
@@ -177,6 +185,33 @@ class GltfPbrBSDF(PluginBSDF):
             return self._cycles_params(si, c, active)
         return self._dielectric_params(si, active) if self.dielectric else None
 
+    def _film(self, si, active):
+        """(the iridescence factor, the film's thickness in nm) at the surface point; None without a film."""
+        if not self.has_film:
+            return None
+        k = dr.clip(self.iridescence.eval_1(si, active), 0.0, 1.0)
+        if self.film_map is None:
+            return k, self.film_thickness
+        g = dr.clip(self.film_map.eval_1(si, active), 0.0, 1.0)
+        return k, dr.lerp(self.film_thickness_min, self.film_thickness, g)
+
+    def _anisotropy(self, si, active):
+        """(strength, cos, sin of the direction from the tangent) at the surface point; None when isotropic.
+        The map's RG is the direction in the tangent frame ([0, 1] → [−1, 1]), turned by the rotation; its B
+        multiplies the strength (the extension's text)."""
+        if self.anisotropy == 0.0:
+            return None
+        cr, sr = self.direction
+        if self.anisotropy_map is None:
+            return self.anisotropy, cr, sr
+        t = self.anisotropy_map.eval(si, active)
+        x, y = 2.0 * t[0] - 1.0, 2.0 * t[1] - 1.0
+        length = dr.sqrt(x * x + y * y)
+        ok = length > 1e-6  # a zero direction has no axis: the tangent's, as the rotation turns it
+        inv = dr.select(ok, dr.rcp(dr.select(ok, length, 1.0)), 0.0)
+        x, y = dr.select(ok, x * inv, 1.0), dr.select(ok, y * inv, 0.0)
+        return dr.clip(self.anisotropy * t[2], 0.0, 1.0), cr * x - sr * y, sr * x + cr * y
+
     def _dielectric_params(self, si, active):
         """(F0, weight) of glTF's ior and specular extensions at the surface point."""
         return self.specular_f0.eval(si, active), dr.clip(self.specular_weight.eval_1(si, active), 0.0, 1.0)
@@ -192,9 +227,10 @@ class GltfPbrBSDF(PluginBSDF):
             f_m, f_d, e_s = f_m * k_m, f_d * k_d, e_s * l_d
         return f_m * m + f_d * (1.0 - m), (1.0 - m) * dr.clip(1.0 - _max3(e_s), 0.0, 1.0)
 
-    def _lobes(self, extra, c, m, r, cos_i, x):
+    def _lobes(self, extra, c, m, r, cos_i, x, film=None):
         """(the specular lobe's Fresnel at x = v.h, per channel; the diffuse weight) of the flavour, the
-        view at cosine ``cos_i``: the one definition that the value and the lobe probabilities share."""
+        view at cosine ``cos_i``, under the thin ``film`` (:meth:`_film`): the one definition that the value
+        and the lobe probabilities share."""
         if self.flavour == "cycles":
             return self._cycles_lobes(extra, m, r, cos_i, x)
         w = schlick_weight(x)
@@ -202,29 +238,35 @@ class GltfPbrBSDF(PluginBSDF):
             f0d, sw = extra
             fr = f0d + (1.0 - f0d) * w
             metal = c + (1.0 - c) * w
-            if self.iridescence > 0.0:
-                metal, fr = self._iridescent(metal, c, x), self._iridescent(fr, f0d, x)
+            if film is not None:
+                metal, fr = self._iridescent(metal, c, x, film), self._iridescent(fr, f0d, x, film)
             return (m * metal + (1.0 - m) * sw * fr,
                     (1.0 - m) * (1.0 - sw * dr.maximum(dr.maximum(fr.x, fr.y), fr.z)))
-        if self.iridescence > 0.0:  # each lobe's Fresnel mixed with its film's; the base weighted by the largest
-            metal = self._iridescent(c + (1.0 - c) * w, c, x)
-            fr = self._iridescent(Color3f(DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * w), Color3f(DIELECTRIC_F0), x)
+        if film is not None:  # each lobe's Fresnel mixed with its film's; the base weighted by the largest
+            metal = self._iridescent(c + (1.0 - c) * w, c, x, film)
+            fr = self._iridescent(Color3f(DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * w), Color3f(DIELECTRIC_F0), x,
+                                  film)
             return m * metal + (1.0 - m) * fr, (1.0 - m) * (1.0 - _max3(fr))
         f0 = DIELECTRIC_F0 + (c - DIELECTRIC_F0) * m
         fd = DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * w
         return f0 + (1.0 - f0) * w, (1.0 - m) * (1.0 - fd)
 
-    def _iridescent(self, fresnel, f0, x):
-        """``mix(fresnel, F_iridescence, iridescence)``: the thin film over a base of reflectance ``f0``."""
-        film = iridescence_fresnel(_OPS, x, self.film_thickness, self.film_ior, [f0[0], f0[1], f0[2]])
-        return fresnel + (Color3f(film[0], film[1], film[2]) - fresnel) * self.iridescence
+    def _iridescent(self, fresnel, f0, x, film):
+        """``mix(fresnel, F_iridescence, iridescence)``: the thin film over a base of reflectance ``f0``. A film
+        of thickness 0 is no film (its index goes to the outside's: the extension's sample renderer)."""
+        k, thickness = film
+        f = iridescence_fresnel(_OPS, x, thickness, self.film_ior, [f0[0], f0[1], f0[2]])
+        f = Color3f(f[0], f[1], f[2])
+        if self.film_map is not None:
+            f = dr.select(thickness > 0.0, f, fresnel)
+        return fresnel + (f - fresnel) * k
 
     @staticmethod
     def _lobes_enabled(ctx):
         return (ctx.is_enabled(BSDFFlags.DiffuseReflection, 0),
                 ctx.is_enabled(BSDFFlags.GlossyReflection, 1))
 
-    def _lobe_probabilities(self, cos_i, c, m, r, has_diffuse, has_specular, extra=None):
+    def _lobe_probabilities(self, cos_i, c, m, r, has_diffuse, has_specular, extra=None, film=None):
         """(p_spec, p_diff) of compare.brdf.specular_sampling_probability (flavour ``cycles``:
         compare.mitsuba.principled.specular_sampling_probability); p_diff is computed directly
         (not as 1 - p_spec), which keeps it accurate in float32."""
@@ -233,7 +275,7 @@ class GltfPbrBSDF(PluginBSDF):
         if not has_diffuse:
             return Float(1.0), Float(0.0)
         ci = dr.clip(cos_i, 0.0, 1.0)
-        f, w_diff = self._lobes(extra, c, m, r, ci, ci)
+        f, w_diff = self._lobes(extra, c, m, r, ci, ci, film)
         w_s = _mean3(f)
         w_d = w_diff * _mean3(c)
         inv_total = 1.0 / dr.select(w_s + w_d > 0.0, w_s + w_d, 1.0)
@@ -243,35 +285,40 @@ class GltfPbrBSDF(PluginBSDF):
         return p_spec, p_diff
 
     # -- anisotropy -----------------------------------------------------------------
-    def _to_aniso(self, v):
-        """``v`` in the frame whose x axis is the anisotropy direction."""
-        c, s = self.direction
+    @staticmethod
+    def _to_aniso(v, aniso):
+        """``v`` in the frame whose x axis is the anisotropy direction (:meth:`_anisotropy`)."""
+        _, c, s = aniso
         return Vector3f(c * v.x + s * v.y, c * v.y - s * v.x, v.z)
 
-    def _from_aniso(self, v):
-        c, s = self.direction
+    @staticmethod
+    def _from_aniso(v, aniso):
+        _, c, s = aniso
         return Vector3f(c * v.x - s * v.y, s * v.x + c * v.y, v.z)
 
-    def _alphas(self, alpha):
+    @staticmethod
+    def _alphas(alpha, aniso):
         """(α along the direction, α across it): glTF's mix(α, 1, strength²) and α."""
-        k = self.anisotropy * self.anisotropy
+        k = aniso[0] * aniso[0]
         return dr.fma(1.0 - alpha, k, alpha), alpha
 
-    def _specular_terms(self, wi, wo, h, alpha):
+    def _specular_terms(self, wi, wo, h, alpha, aniso):
         """(D, V, the visible-normal pdf of ``wo``) of the specular lobe, isotropic or anisotropic."""
-        if self.anisotropy == 0.0:
+        if aniso is None:
             d = ggx.ggx_d(dr, h, alpha)
             return d, ggx.smith_vis(dr, wi.z, wo.z, alpha), ggx.vndf_pdf(dr, d, wi.z, alpha)
-        ax, ay = self._alphas(alpha)
-        wi_a = self._to_aniso(wi)
-        d = ggx.ggx_d_aniso(dr, self._to_aniso(h), ax, ay)
-        return (d, ggx.smith_vis_aniso(dr, wi_a, self._to_aniso(wo), ax, ay), ggx.vndf_pdf_aniso(dr, d, wi_a, ax, ay))
+        ax, ay = self._alphas(alpha, aniso)
+        wi_a = self._to_aniso(wi, aniso)
+        d = ggx.ggx_d_aniso(dr, self._to_aniso(h, aniso), ax, ay)
+        return (d, ggx.smith_vis_aniso(dr, wi_a, self._to_aniso(wo, aniso), ax, ay),
+                ggx.vndf_pdf_aniso(dr, d, wi_a, ax, ay))
 
-    def _sample_specular(self, wi, alpha, sample2):
-        if self.anisotropy == 0.0:
+    def _sample_specular(self, wi, alpha, sample2, aniso):
+        if aniso is None:
             return ggx.sample_visible_reflection(dr, Vector3f, wi, alpha, sample2)
-        ax, ay = self._alphas(alpha)
-        return self._from_aniso(ggx.sample_visible_reflection_aniso(dr, Vector3f, self._to_aniso(wi), ax, ay, sample2))
+        ax, ay = self._alphas(alpha, aniso)
+        return self._from_aniso(ggx.sample_visible_reflection_aniso(dr, Vector3f, self._to_aniso(wi, aniso), ax, ay,
+                                                                    sample2), aniso)
 
     # -- the model: value (times cos_o) and pdf of one direction ------------------
     def eval_pdf(self, ctx, si, wo, active=True):
@@ -284,9 +331,9 @@ class GltfPbrBSDF(PluginBSDF):
         c, m, alpha, r = self._params(si, valid)
 
         vh = dr.clip(dr.dot(wi, h), 0.0, 1.0)
-        d, vis, pdf_spec = self._specular_terms(wi, wo, h, alpha)
-        extra = self._extra_params(si, c, valid)
-        f, w_diff = self._lobes(extra, c, m, r, cos_i, vh)
+        d, vis, pdf_spec = self._specular_terms(wi, wo, h, alpha, self._anisotropy(si, valid))
+        extra, film = self._extra_params(si, c, valid), self._film(si, valid)
+        f, w_diff = self._lobes(extra, c, m, r, cos_i, vh, film)
 
         value = Color3f(0.0)
         if has_s:
@@ -296,7 +343,7 @@ class GltfPbrBSDF(PluginBSDF):
         value = value * dr.maximum(cos_o, 0.0)
 
         pdf_diff = dr.maximum(cos_o, 0.0) * (1.0 / dr.pi)
-        p_spec, p_diff = self._lobe_probabilities(cos_i, c, m, r, has_d, has_s, extra)
+        p_spec, p_diff = self._lobe_probabilities(cos_i, c, m, r, has_d, has_s, extra, film)
         pdf = p_spec * pdf_spec + p_diff * pdf_diff
 
         value = dr.select(valid, value, Color3f(0.0))
@@ -312,11 +359,12 @@ class GltfPbrBSDF(PluginBSDF):
         if not (has_d or has_s):
             return bs, Color3f(0.0)
         c, m, alpha, r = self._params(si, active)
-        p_spec, _ = self._lobe_probabilities(cos_i, c, m, r, has_d, has_s, self._extra_params(si, c, active))
+        p_spec, _ = self._lobe_probabilities(cos_i, c, m, r, has_d, has_s, self._extra_params(si, c, active),
+                                             self._film(si, active))
         pick_spec = sample1 < p_spec
 
         # specular: reflect wi about a GGX visible normal (spherical caps)
-        wo_spec = self._sample_specular(wi, alpha, sample2)
+        wo_spec = self._sample_specular(wi, alpha, sample2, self._anisotropy(si, active))
         # diffuse: cosine-weighted hemisphere
         wo_diff = mv.warp.square_to_cosine_hemisphere(sample2)
 
