@@ -411,6 +411,37 @@ def volume_absorption(mat) -> dict[str, Any] | None:
     return {"color": color, "density": 1.0 / float(mat.attenuation_distance)}
 
 
+def anisotropy_inputs(mat) -> dict[str, Any] | None:
+    """``KHR_materials_anisotropy`` as the worker sets it on the Principled BSDF, or None.
+
+    Cycles stretches the lobe as α_x = r²/a along the tangent and α_y = r²·a across it, a = √(1 − 0.9 A)
+    (A its Anisotropic input); glTF as α_t = mix(α, 1, s²) and α_b = α. The two agree where r² = √(α_t α_b)
+    and A = (1 − α_b/α_t) / 0.9, which the worker computes per point from the roughness (a map's too) and
+    the strength (times the map's B); Blender's A ≤ 1 holds to α_b/α_t ≥ 0.1 (past it the stretch is
+    Blender's most). The direction, the tangent of the UV map turned by the rotation and the map's RG angle,
+    is the Anisotropic Rotation (turns) about the normal: glTF's bitangent is n × t where the UVs are not
+    mirrored (w = +1), where the turn goes the same way.
+    """
+    if mat.anisotropy_strength == 0.0:
+        return None
+    found = next((m for m in mat.layer_maps if m[0] == "anisotropy_strength"), None)
+    return {"strength": float(mat.anisotropy_strength), "rotation": float(mat.anisotropy_rotation),
+            "map": str(found[2]) if found else None, "uv_map": UV_LAYERS[mat.tangent_uv]}
+
+
+def thin_film_inputs(mat) -> dict[str, Any] | None:
+    """``KHR_materials_iridescence`` as the Principled BSDF's Thin Film (thickness in nm, its IOR), or None.
+    glTF mixes the film's Fresnel in by the factor; the worker mixes a Principled BSDF with the film and one
+    without by it (a map's R times it), and the thickness is mix(minimum, maximum, G) where a map gives it."""
+    if mat.iridescence == 0.0:
+        return None
+    maps = {f: str(p) for f, _, p in mat.layer_maps if f in ("iridescence", "iridescence_thickness_max")}
+    return {"factor": float(mat.iridescence), "ior": float(mat.iridescence_ior),
+            "thickness_min": float(mat.iridescence_thickness_min),
+            "thickness_max": float(mat.iridescence_thickness_max),
+            "factor_map": maps.get("iridescence"), "thickness_map": maps.get("iridescence_thickness_max")}
+
+
 def _material(mat, mode: str, distribution: str | None = None) -> dict[str, Any]:
     tex = mat.base_color_texture
     return {
@@ -450,6 +481,8 @@ def _material(mat, mode: str, distribution: str | None = None) -> dict[str, Any]
         # its back)
         "single_sided": not mat.double_sided and mat.transmission == 0.0,
         "volume_absorption": volume_absorption(mat) if mode == "cycles" else None,
+        "anisotropy": anisotropy_inputs(mat) if mode == "cycles" else None,
+        "thin_film": thin_film_inputs(mat) if mode == "cycles" else None,
         "emissive_texture_colorspace": (None if not mat.emissive_texture else "Linear Rec.709"
                                         if Path(mat.emissive_texture).suffix.lower() == ".exr" else "sRGB"),
         # 8-bit images hold sRGB-encoded colour; EXR holds linear values.

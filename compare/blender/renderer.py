@@ -57,12 +57,15 @@ class BlenderRenderer(Renderer):
     """
 
     unit = "spp"
-    # Principled BSDF v2 inputs; each map on its UV layer with its own transform, wraps and filter
-    # (no dispersion: Blender 5.0's Principled BSDF has no such input, its Glass BSDF alone has one; no
-    # anisotropy: its Anisotropic input is not glTF's parameterisation and the export does not set it; no
-    # iridescence: its Thin Film is another model, not set by the export)
+    # Principled BSDF v2 inputs; each map on its UV layer with its own transform, wraps and filter; glTF's
+    # anisotropy through its Anisotropic inputs and iridescence as its Thin Film (export.anisotropy_inputs,
+    # export.thin_film_inputs). No dispersion: Blender 5.0's Principled BSDF has no such input (its Glass BSDF
+    # alone has one).
     renders = ((frozenset({"punctual_lights", "vertex_colors", "single_sided"}) | frozenset(MATERIAL_FEATURE_NAMES)
-                | frozenset(MAP_FEATURE_NAMES)) - {"dispersion", "anisotropy", "iridescence"})
+                | frozenset(MAP_FEATURE_NAMES)) - {"dispersion"})
+    #: What EEVEE draws of Principled's inputs less than Cycles: measured, its image does not change with the
+    #: Anisotropic inputs or the Thin Film (Blender 5.0).
+    EEVEE_LEAVES_OUT = frozenset({"anisotropy", "iridescence"})
     DISTRIBUTION_OPTIONS = {"ggx": "GGX (single scattering) in every Principled BSDF",
                             "multi_ggx": "Multiscatter GGX in every Principled BSDF"}
     OPTIONS = {**DISTRIBUTION_OPTIONS,
@@ -80,6 +83,8 @@ class BlenderRenderer(Renderer):
                              f"({' or '.join(self.DISTRIBUTION_OPTIONS)})")
         option = distributions[0] if distributions else ""
         self.engine = engine
+        if engine == "eevee":
+            self.renders = type(self).renders - self.EEVEE_LEAVES_OUT
         self.distribution = option or None
         self.gltf_import = "gltf" in words
         self.name = spec

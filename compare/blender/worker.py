@@ -14,6 +14,7 @@ copies numbers into Blender.
 from __future__ import annotations
 
 import json
+import math
 import os
 import sys
 import time
@@ -125,6 +126,8 @@ def _principled(bpy, name: str, mat: dict):
             nmap.inputs["Strength"].default_value = float(mat[scale])
             links.new(tex.outputs["Color"], nmap.inputs["Color"])
             links.new(nmap.outputs["Normal"], inp[target])
+    if mat.get("anisotropy"):
+        _anisotropy(bpy, nodes, links, mat, inp)
     if max(mat["emission"]) > 0:
         emitted = None
         if mat.get("emissive_texture"):
@@ -142,7 +145,7 @@ def _principled(bpy, name: str, mat: dict):
         inp["Emission Strength"].default_value = 1.0
         if hasattr(m, "cycles") and hasattr(m.cycles, "emission_sampling"):
             m.cycles.emission_sampling = "FRONT"
-    surface = bsdf.outputs["BSDF"]
+    surface = bsdf.outputs["BSDF"] if not mat.get("thin_film") else _thin_film(bpy, nodes, links, mat, bsdf)
     if mat.get("single_sided"):
         # glTF's doubleSided false: nothing behind the geometric normal, for every ray (as the reference
         # culls), by a transparent BSDF on back faces; EEVEE's own culling besides
@@ -190,6 +193,90 @@ def _alpha_mask(m, nodes, links, socket, mask: dict, base_tex) -> None:
         links.new(test.outputs["Value"], socket)
     if hasattr(m, "use_transparent_shadow"):
         m.use_transparent_shadow = True  # EEVEE: shadows see the holes
+
+
+def _math(nodes, links, operation: str, *args):
+    """The output of a Math node of ``operation`` on ``args`` (numbers or sockets)."""
+    node = nodes.new("ShaderNodeMath")
+    node.operation = operation
+    for i, arg in enumerate(args):
+        if isinstance(arg, (int, float)):
+            node.inputs[i].default_value = float(arg)
+        else:
+            links.new(arg, node.inputs[i])
+    return node.outputs["Value"]
+
+
+def _channels(bpy, nodes, links, mat: dict, name: str, path: str):
+    """The R, G, B outputs of a linear map ``name`` of the material."""
+    tex = _image_node(bpy, nodes, links, mat, name, path, "Non-Color")
+    split = nodes.new("ShaderNodeSeparateColor")
+    links.new(tex.outputs["Color"], split.inputs["Color"])
+    return split.outputs["Red"], split.outputs["Green"], split.outputs["Blue"]
+
+
+def _anisotropy(bpy, nodes, links, mat: dict, inp) -> None:
+    """glTF's anisotropy on the Principled BSDF (export.anisotropy_inputs): Roughness (α_t α_b)^¼, Anisotropic
+    (1 − α_b/α_t)/0.9, the rotation in turns, and the UV map's tangent, per point."""
+    a = mat["anisotropy"]
+    m = lambda op, *args: _math(nodes, links, op, *args)  # noqa: E731
+    rough = inp["Roughness"]
+    r = rough.links[0].from_socket if rough.is_linked else float(rough.default_value)
+    strength, angle = a["strength"], a["rotation"]
+    if a["map"]:
+        red, green, blue = _channels(bpy, nodes, links, mat, "anisotropy_strength", a["map"])
+        # the direction's angle in the tangent frame (a zero direction: atan2 gives 0, the tangent's)
+        angle = m("ADD", m("ARCTAN2", m("MULTIPLY_ADD", green, 2.0, -1.0), m("MULTIPLY_ADD", red, 2.0, -1.0)),
+                  a["rotation"])
+        strength = m("MULTIPLY", blue, a["strength"])
+    alpha = m("MULTIPLY", r, r)
+    stretched = m("MULTIPLY_ADD", m("MULTIPLY", strength, strength), m("SUBTRACT", 1.0, alpha), alpha)
+    links.new(m("SQRT", m("SQRT", m("MULTIPLY", stretched, alpha))), rough)
+    ratio = m("DIVIDE", m("ADD", alpha, 1e-7), m("ADD", stretched, 1e-7))
+    aniso = nodes.new("ShaderNodeMath")
+    aniso.operation, aniso.use_clamp = "DIVIDE", True  # Blender's most: A = 1, α_b/α_t = 0.1
+    links.new(m("SUBTRACT", 1.0, ratio), aniso.inputs[0])
+    aniso.inputs[1].default_value = 0.9
+    links.new(aniso.outputs["Value"], inp["Anisotropic"])
+    if isinstance(angle, float):
+        inp["Anisotropic Rotation"].default_value = angle / (2.0 * math.pi)
+    else:
+        links.new(m("DIVIDE", angle, 2.0 * math.pi), inp["Anisotropic Rotation"])
+    tangent = nodes.new("ShaderNodeTangent")
+    tangent.direction_type, tangent.uv_map = "UV_MAP", a["uv_map"]
+    links.new(tangent.outputs["Tangent"], inp["Tangent"])
+
+
+def _thin_film(bpy, nodes, links, mat: dict, bsdf):
+    """glTF's iridescence (export.thin_film_inputs): the Principled BSDF's Thin Film, mixed by the factor with
+    the BSDF without it (a copy: its inputs, values and links); returns the surface's shader output."""
+    f = mat["thin_film"]
+    film = bsdf
+    if f["factor"] != 1.0 or f["factor_map"]:
+        film = nodes.new("ShaderNodeBsdfPrincipled")
+        film.distribution = bsdf.distribution
+        for src, dst in zip(bsdf.inputs, film.inputs):
+            if hasattr(src, "default_value"):
+                dst.default_value = src.default_value
+            for link in src.links:
+                links.new(link.from_socket, dst)
+    film.inputs["Thin Film IOR"].default_value = f["ior"]
+    thickness = film.inputs["Thin Film Thickness"]
+    thickness.default_value = f["thickness_max"]
+    if f["thickness_map"]:
+        _, green, _ = _channels(bpy, nodes, links, mat, "iridescence_thickness_max", f["thickness_map"])
+        links.new(_math(nodes, links, "MULTIPLY_ADD", green, f["thickness_max"] - f["thickness_min"],
+                        f["thickness_min"]), thickness)
+    if film is bsdf:
+        return bsdf.outputs["BSDF"]
+    mix = nodes.new("ShaderNodeMixShader")
+    mix.inputs["Fac"].default_value = f["factor"]
+    if f["factor_map"]:
+        red, _, _ = _channels(bpy, nodes, links, mat, "iridescence", f["factor_map"])
+        links.new(_math(nodes, links, "MULTIPLY", red, f["factor"]), mix.inputs["Fac"])
+    links.new(bsdf.outputs["BSDF"], mix.inputs[1])
+    links.new(film.outputs["BSDF"], mix.inputs[2])
+    return mix.outputs["Shader"]
 
 
 def _image_node(bpy, nodes, links, mat: dict, name: str, path: str, colorspace: str):
