@@ -66,3 +66,23 @@ def test_each_channel_is_the_sphere_at_that_channels_ior(make_scene, tmp_path, m
     assert np.abs(fringe(expected)).max() > 0.1  # the channels do part
     assert np.corrcoef(fringe(spread), fringe(expected))[0, 1] > 0.8
     np.testing.assert_allclose(spread.mean(axis=(0, 1)), expected.mean(axis=(0, 1)), rtol=0.01)
+
+
+@pytest.mark.bpy
+def test_cycles_parts_the_channels_as_the_reference_does(make_scene, tmp_path, mi_llvm):
+    """Cycles draws dispersion as three glasses of the channels' IORs (compare.blender.export.dispersion_inputs):
+    its colour fringes correlate with those of the reference's three spheres at the channels' IORs, as the
+    reference's own do (measured 0.80 to 0.94 over seeds at 1024 and 2048 samples; the reference 0.89; none
+    where it draws one glass, where red equals blue), and its channel means are theirs within 5 %."""
+    from compare.blender.render import render_blender
+
+    ior, dispersion = 1.5, 8.0
+    cycles = render_blender(_scene(make_scene, tmp_path, ior=ior, dispersion=dispersion), engine="cycles",
+                            samples=2048).image
+    expected = np.stack([_render(_scene(make_scene, tmp_path, ior=n, dispersion=0.0), 512)[..., k]
+                         for k, n in enumerate(channel_iors(ior, dispersion))], axis=-1)
+    blocks = lambda a: a.reshape(12, 2, 12, 2, 3).mean(axis=(1, 3))  # noqa: E731
+    fringe = lambda a: (blocks(a)[..., 0] - blocks(a)[..., 2]).ravel()  # noqa: E731
+    assert np.abs(fringe(cycles)).max() > 0.1
+    assert np.corrcoef(fringe(cycles), fringe(expected))[0, 1] > 0.75
+    np.testing.assert_allclose(cycles.mean(axis=(0, 1)), expected.mean(axis=(0, 1)), rtol=0.05)

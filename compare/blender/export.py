@@ -442,6 +442,19 @@ def thin_film_inputs(mat) -> dict[str, Any] | None:
             "factor_map": maps.get("iridescence"), "thickness_map": maps.get("iridescence_thickness_max")}
 
 
+def dispersion_inputs(mat) -> dict[str, Any] | None:
+    """``KHR_materials_dispersion`` for Cycles, or None: Blender 5.0's Principled and Glass BSDFs have no
+    dispersion input, so the worker draws the transmission as the reference does (compare.mitsuba.dispersion):
+    three Glass BSDFs of the channels' IORs (:func:`compare.scene.model.channel_iors`), each tinted by its
+    channel alone and added, a path picking one by its weight and carrying that channel; mixed with the
+    Principled BSDF without transmission by the transmission weight."""
+    if "dispersion" not in mat.uses():
+        return None
+    from compare.scene.model import channel_iors
+
+    return {"iors": [float(n) for n in channel_iors(mat.ior, mat.dispersion)]}
+
+
 def _material(mat, mode: str, distribution: str | None = None) -> dict[str, Any]:
     tex = mat.base_color_texture
     return {
@@ -648,7 +661,9 @@ def build_job(scene: Scene, *, engine: str, samples: int, seed: int, folder: Pat
         "camera": {"matrix": camera_matrix(cam).tolist(), "lens": camera_lens_mm(cam),
                    "sensor_height": SENSOR_HEIGHT_MM, "clip_start": near, "clip_end": far},
         "eevee_filter_size": EEVEE_FILTER_SIZE,
-        "materials": {name: {**_material(m, materials, distribution), "vertex_colors": colored}
+        "materials": {name: {**_material(m, materials, distribution), "vertex_colors": colored,
+                             "dispersion": dispersion_inputs(m) if engine == "cycles" and materials == "cycles"
+                             else None}
                       for name, m in scene.materials.items()},
         "material_model": materials,
         "meshes": meshes,

@@ -58,14 +58,14 @@ class BlenderRenderer(Renderer):
 
     unit = "spp"
     # Principled BSDF v2 inputs; each map on its UV layer with its own transform, wraps and filter; glTF's
-    # anisotropy through its Anisotropic inputs and iridescence as its Thin Film (export.anisotropy_inputs,
-    # export.thin_film_inputs). No dispersion: Blender 5.0's Principled BSDF has no such input (its Glass BSDF
-    # alone has one).
-    renders = ((frozenset({"punctual_lights", "vertex_colors", "single_sided"}) | frozenset(MATERIAL_FEATURE_NAMES)
-                | frozenset(MAP_FEATURE_NAMES)) - {"dispersion"})
-    #: What EEVEE draws of Principled's inputs less than Cycles: measured, its image does not change with the
-    #: Anisotropic inputs or the Thin Film (Blender 5.0).
-    EEVEE_LEAVES_OUT = frozenset({"anisotropy", "iridescence"})
+    # anisotropy through its Anisotropic inputs, iridescence as its Thin Film, dispersion (which no BSDF of
+    # Blender 5.0 has) as three glasses of the channels' IORs (export.anisotropy_inputs, thin_film_inputs,
+    # dispersion_inputs).
+    renders = (frozenset({"punctual_lights", "vertex_colors", "single_sided"}) | frozenset(MATERIAL_FEATURE_NAMES)
+               | frozenset(MAP_FEATURE_NAMES))
+    #: What EEVEE draws less than Cycles: measured, its image does not change with the Anisotropic inputs or
+    #: the Thin Film (Blender 5.0); its screen-space refraction has no use for three glasses (not given them).
+    EEVEE_LEAVES_OUT = frozenset({"anisotropy", "iridescence", "dispersion"})
     DISTRIBUTION_OPTIONS = {"ggx": "GGX (single scattering) in every Principled BSDF",
                             "multi_ggx": "Multiscatter GGX in every Principled BSDF"}
     OPTIONS = {**DISTRIBUTION_OPTIONS,

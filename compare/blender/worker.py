@@ -145,7 +145,18 @@ def _principled(bpy, name: str, mat: dict):
         inp["Emission Strength"].default_value = 1.0
         if hasattr(m, "cycles") and hasattr(m.cycles, "emission_sampling"):
             m.cycles.emission_sampling = "FRONT"
+    glass = _dispersive(nodes, links, mat, inp) if mat.get("dispersion") else None
     surface = bsdf.outputs["BSDF"] if not mat.get("thin_film") else _thin_film(bpy, nodes, links, mat, bsdf)
+    if glass is not None:
+        weight, shader = glass
+        mix = nodes.new("ShaderNodeMixShader")
+        if isinstance(weight, float):
+            mix.inputs["Fac"].default_value = weight
+        else:
+            links.new(weight, mix.inputs["Fac"])
+        links.new(surface, mix.inputs[1])
+        links.new(shader, mix.inputs[2])
+        surface = mix.outputs["Shader"]
     if mat.get("single_sided"):
         # glTF's doubleSided false: nothing behind the geometric normal, for every ray (as the reference
         # culls), by a transparent BSDF on back faces; EEVEE's own culling besides
@@ -245,6 +256,57 @@ def _anisotropy(bpy, nodes, links, mat: dict, inp) -> None:
     tangent = nodes.new("ShaderNodeTangent")
     tangent.direction_type, tangent.uv_map = "UV_MAP", a["uv_map"]
     links.new(tangent.outputs["Tangent"], inp["Tangent"])
+
+
+def _source(socket):
+    """What drives an input: the socket linked to it, or its value."""
+    if socket.is_linked:
+        return socket.links[0].from_socket
+    value = socket.default_value
+    return float(value) if isinstance(value, float) else tuple(value)
+
+
+def _dispersive(nodes, links, mat: dict, inp):
+    """glTF's dispersion (export.dispersion_inputs): the Principled BSDF's transmission taken out and returned
+    as (its weight, three Glass BSDFs of the channels' IORs added), each glass of the BSDF's roughness and
+    normal, tinted by its channel times √(base colour) (Cycles' tint per interface of its Principled glass)."""
+    weight = _source(inp["Transmission Weight"])
+    for link in list(inp["Transmission Weight"].links):
+        links.remove(link)
+    inp["Transmission Weight"].default_value = 0.0
+    base, rough, normal = _source(inp["Base Color"]), _source(inp["Roughness"]), inp["Normal"]
+    root = nodes.new("ShaderNodeGamma")  # c^0.5
+    root.inputs["Gamma"].default_value = 0.5
+    if isinstance(base, tuple):
+        root.inputs["Color"].default_value = base
+    else:
+        links.new(base, root.inputs["Color"])
+    total = None
+    for channel, ior in zip(((1.0, 0.0, 0.0, 1.0), (0.0, 1.0, 0.0, 1.0), (0.0, 0.0, 1.0, 1.0)),
+                            mat["dispersion"]["iors"]):
+        glass = nodes.new("ShaderNodeBsdfGlass")
+        glass.distribution = "GGX"
+        glass.inputs["IOR"].default_value = ior
+        if isinstance(rough, float):
+            glass.inputs["Roughness"].default_value = rough
+        else:
+            links.new(rough, glass.inputs["Roughness"])
+        if normal.is_linked:
+            links.new(normal.links[0].from_socket, glass.inputs["Normal"])
+        tint = nodes.new("ShaderNodeMix")
+        tint.data_type, tint.blend_type = "RGBA", "MULTIPLY"
+        tint.inputs["Factor"].default_value = 1.0
+        links.new(root.outputs["Color"], tint.inputs["A"])
+        tint.inputs["B"].default_value = channel
+        links.new(tint.outputs["Result"], glass.inputs["Color"])
+        if total is None:
+            total = glass.outputs["BSDF"]
+            continue
+        add = nodes.new("ShaderNodeAddShader")
+        links.new(total, add.inputs[0])
+        links.new(glass.outputs["BSDF"], add.inputs[1])
+        total = add.outputs["Shader"]
+    return weight, total
 
 
 def _thin_film(bpy, nodes, links, mat: dict, bsdf):
