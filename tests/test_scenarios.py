@@ -136,8 +136,21 @@ def test_a_missing_model_is_one_error_naming_scenario_and_path(assets, capsys):
         assert main(["run", "--scenarios", str(path), "--size", "16x12", "--renderers", "mitsuba", "--spp", "2",
                      "-o", str(assets / "never"), "--quiet"]) == 2
     err = capsys.readouterr().err
-    assert err.strip() == f"compare: error: {expected}" and "Traceback" not in err
+    assert err.strip() == f"compare: error: {expected}; --skip-unavailable renders the 1 that can"
+    assert "Traceback" not in err
     assert not (assets / "never").exists()
+
+
+def test_an_ldr_lighting_is_one_scenarios_error_not_the_files(assets):
+    """A scenario lit by an image the suite does not read (model-viewer's pages take LDR JPEGs): the file
+    reads, that scenario says why it cannot be rendered, and the others are unaffected."""
+    path = _config(assets, [{"name": "ldr", "model": MODEL, "lighting": "../../../shared-assets/environments/sky.jpg"},
+                            {"name": "fine", "model": MODEL}])
+    ldr, fine = _load(path)
+    assert ldr.unavailable() == "lighting '../../../shared-assets/environments/sky.jpg' is not an .exr or .hdr file"
+    with pytest.raises(SceneError, match=r"scenarios\[0\] \(ldr\): lighting: .*sky\.jpg.*\.exr or \.hdr files"):
+        ldr.scene()
+    assert fine.unavailable() is None and fine.scene().name == "fine"
 
 
 @pytest.mark.parametrize("change, message", [
@@ -145,7 +158,6 @@ def test_a_missing_model_is_one_error_naming_scenario_and_path(assets, capsys):
     ({"orbit": {"radius": -1}}, r"orbit\.radius: expected metres >= 0"),
     ({"verticalFoV": 180}, r"verticalFoV: expected degrees in \(0, 180\)"),
     ({"dimensions": {"width": 0}}, r"dimensions\.width: expected a positive integer"),
-    ({"lighting": "../../../shared-assets/environments/sky.jpg"}, r"lighting: .*sky\.jpg.*\.exr or \.hdr"),
     ({"exclude": "babylon"}, r"exclude: expected an array of renderer names"),
     ({"orbit": {"rho": 1}}, r"orbit\.rho: unknown field"),
 ])

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import functools
 import sys
+import warnings
 from pathlib import Path
 
 from compare.brdf import CLOSED_FORM_MODES, MATERIAL_MODES
@@ -13,7 +14,7 @@ from compare.renderers.registry import Registry
 from compare.report.results import RunSettings
 from compare.run.runner import run
 from compare.util.settings import DEFAULT_SPP
-from compare.util.errors import CompareError
+from compare.util.errors import CompareError, SceneError
 
 
 def _sizes_arg(text: str) -> list[tuple[int, int]]:
@@ -53,6 +54,10 @@ def add_run_parser(subparsers) -> argparse.ArgumentParser:
     which.add_argument("--scenarios", type=Path, default=None, metavar="CONFIG",
                        help="a render-fidelity config.json (google/model-viewer's format): every scenario a scene "
                             "of this run, each skipping the renderers of its 'exclude' (docs/scenarios.md)")
+    p.add_argument("--skip-unavailable", action="store_true",
+                   help="with --scenarios: leave out the scenarios whose model or lighting file is not there or "
+                        "whose lighting the suite does not read (an LDR image), naming them in one note, and "
+                        "render the rest (default: such a scenario is an error before any rendering)")
     p.add_argument("--size", type=_sizes_arg, default=None, metavar="WxH[,WxH...]",
                    help="resolutions, comma-separated; default: each scene's own")
     opt = functools.partial(setting, RunSettings)
@@ -129,8 +134,10 @@ def cmd_run(args: argparse.Namespace) -> int:
                            baseline=args.baseline,
                            renderer_config=config)
     exclude = None
+    if args.skip_unavailable and args.scenarios is None:
+        raise _UsageError("--skip-unavailable: applies to the scenarios of --scenarios only")
     if args.scenarios is not None:
-        scenes, exclude = _scenario_scenes(args.scenarios, config)
+        scenes, exclude = _scenario_scenes(args.scenarios, config, skip_unavailable=args.skip_unavailable)
         out = args.output or Path("reports") / args.scenarios.stem
     else:
         scenes = args.scenes if isinstance(args.scenes, list) else [args.scenes]  # the default is one Path
@@ -160,15 +167,38 @@ def cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _scenario_scenes(path: Path, renderer_config: str | None) -> tuple[list, dict[str, tuple[str, ...]]]:
+def _scenario_scenes(path: Path, renderer_config: str | None, *,
+                     skip_unavailable: bool = False) -> tuple[list, dict[str, tuple[str, ...]]]:
     """The scenes of a render-fidelity config's scenarios, and scene name → the suite's renderer names each
-    excludes (model-viewer's names mapped; names the suite lacks dropped)."""
+    excludes (model-viewer's names mapped; names the suite lacks dropped). A scenario that cannot be
+    rendered here (``Scenario.unavailable``: a file not there, LDR lighting) is one error naming it and how
+    many others share its fate, or, with ``skip_unavailable``, left out with one note naming each."""
     from compare.scene.scenarios import load_scenarios
 
     scenarios = load_scenarios(path)
+    reasons = [sc.unavailable() for sc in scenarios]
+    lacking = [(sc, why) for sc, why in zip(scenarios, reasons) if why is not None]
+    usable = [sc for sc, why in zip(scenarios, reasons) if why is None]
+    if lacking and (not skip_unavailable or not usable):
+        first, why = lacking[0]
+        message = f"{first.where}: {why}"
+        try:
+            first.check_files()
+        except SceneError as exc:  # its one message, with the path it looked for
+            message = str(exc)
+        if len(lacking) > 1:
+            message += (f"; {len(lacking) - 1} other scenario(s) cannot be rendered here either "
+                        f"(`compare inspect {path}` lists them)")
+        if usable:
+            message += f"; --skip-unavailable renders the {len(usable)} that can"
+        raise SceneError(message)
+    if lacking:
+        warnings.warn(f"{path}: {len(lacking)} of {len(scenarios)} scenario(s) left out (--skip-unavailable; "
+                      f"paths relative to {path.parent.resolve()}):\n"
+                      + "\n".join(f"  - {sc.name}: {why}" for sc, why in lacking), stacklevel=2)
     known = Registry(renderer_config).names()
-    scenes = [sc.scene() for sc in scenarios]  # every model read before any rendering
-    return scenes, {sc.name: sc.suite_excluded(known) for sc in scenarios if sc.suite_excluded(known)}
+    scenes = [sc.scene() for sc in usable]  # every model read before any rendering
+    return scenes, {sc.name: sc.suite_excluded(known) for sc in usable if sc.suite_excluded(known)}
 
 
 def _measure_features(res, renderers: list[str], out: Path, *, report: bool, progress: bool) -> None:

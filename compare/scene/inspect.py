@@ -89,12 +89,13 @@ def _scenarios_info(path: Path, known: tuple[str, ...]) -> dict:
         theta, phi, radius = sc.orbit
         rows.append({
             "name": sc.name, "model": sc.given[0], "model_found": sc.model.is_file(),
-            "lighting": sc.given[1], "lighting_found": sc.lighting.is_file(), "size": [sc.width, sc.height],
+            "lighting": sc.given[1], "lighting_found": sc.lighting.is_file(),
+            "lighting_readable": sc.lighting_readable, "size": [sc.width, sc.height],
             "target": list(sc.target), "orbit": {"theta": theta, "phi": phi, "radius": radius},
             "camera": {"position": list(cam.position), "forward": list(cam.forward), "up": list(cam.up),
                        "fov": cam.fov},
             "render_skybox": sc.render_skybox, "exclude": list(sc.exclude),
-            "excluded_renderers": list(sc.suite_excluded(known))})
+            "excluded_renderers": list(sc.suite_excluded(known)), "unavailable": sc.unavailable()})
     return {"file": str(path), "scenarios": rows, "notes": [str(w.message) for w in caught]}
 
 
@@ -107,13 +108,14 @@ def _features(scene, renders: Mapping[str, frozenset]) -> list[dict]:
 
 
 def inspect_path(path: str | Path, renderers: tuple[str, ...] = (),
-                 renders: Mapping[str, frozenset] | None = None) -> dict:
+                 renders: Mapping[str, frozenset] | None = None, *, scenarios: bool | None = None) -> dict:
     """What the scene file (TOML), glTF file or render-fidelity scenario file (``.json``) ``path`` holds, as
     a JSON-ready dict; ``renderers``: the names a scenario's ``exclude`` may match (the registry's);
     ``renders``: renderer name → the features it draws, to say which renderers leave out what the scene
-    uses (``features``)."""
+    uses (``features``); ``scenarios``: read ``path`` as a scenario file (True) or not (False) whatever its
+    name ends with (None: by its suffix)."""
     path = Path(path)
-    if path.suffix.lower() == ".json":
+    if scenarios if scenarios is not None else path.suffix.lower() == ".json":
         return _scenarios_info(path, tuple(renderers))
     if path.suffix.lower() in (".gltf", ".glb"):
         from compare.scene.geometry import MeshFileError
@@ -166,12 +168,19 @@ def _format_scenarios(info: dict) -> str:
         lines += [f"  {row['name']}",
                   f"    model        {row['model']}{missing('model')}",
                   f"    lighting     {row['lighting']}{missing('lighting')}"
+                  + ("" if row["lighting_readable"] else " (not .exr or .hdr: the suite cannot light with it)")
                   + ("" if row["render_skybox"] else " (renderSkybox false)"),
                   f"    size         {row['size'][0]}×{row['size'][1]}",
                   f"    camera       orbit theta {o['theta']:g}°, phi {o['phi']:g}°, radius {o['radius']:g} m about "
                   f"{fmt(row['target'])}: at {fmt(c['position'])} looking along {fmt(c['forward'])}, "
                   f"fov {c['fov']:g}°",
                   f"    exclude      {excluded} (the suite's: {', '.join(row['excluded_renderers']) or 'none'})"]
+    total, lacking = len(info["scenarios"]), sum(1 for row in info["scenarios"] if row["unavailable"])
+    if lacking:
+        why = "a file not found, or lighting the suite does not read"
+        lines.append(f"  unavailable  none of the {total} scenario(s) can be rendered here ({why})" if lacking == total
+                     else f"  unavailable  {lacking} of {total} scenario(s) cannot be rendered here ({why}); "
+                          f"`compare run --skip-unavailable` renders the other {total - lacking}")
     lines += [f"  note         {note}" for note in info.get("notes", [])]
     return "\n".join(lines)
 

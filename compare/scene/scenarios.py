@@ -5,8 +5,10 @@ test images by a *scenario* in ``test/config.json``: ``scenarios[]`` with ``name
 glTF file), ``lighting`` (an equirectangular HDR), ``dimensions`` {width, height}, ``target``
 {x, y, z}, ``orbit`` {theta, phi, radius}, ``verticalFoV``, ``renderSkybox`` and ``exclude``
 (the names of renderers that skip it). :func:`load_scenarios` reads such a file as published
-(paths relative to the file; the published ones leave its folder, ``../../../shared-assets/…``)
-and :meth:`Scenario.scene` builds the suite's :class:`~compare.scene.model.Scene` of one.
+(paths relative to the file; the published ones leave its folder, ``../../../shared-assets/…``),
+:meth:`Scenario.unavailable` says, without reading them, whether a scenario's files can be rendered here
+(there, and lighting the suite reads), and :meth:`Scenario.scene` builds the suite's
+:class:`~compare.scene.model.Scene` of one.
 
 What each field means, from model-viewer's source (paths in google/model-viewer):
 
@@ -193,14 +195,12 @@ class Scenario:
         Raises
         ------
         SceneError
-            One message naming the scenario and what is wrong (a missing file, a model the reader
-            refuses).
+            One message naming the scenario and what is wrong (a missing file, lighting in a format the
+            suite does not read, a model the reader refuses).
         """
         from compare.scene.loader import parse_scene
 
-        for what, path, given in (("model", self.model, self.given[0]), ("lighting", self.lighting, self.given[1])):
-            if not path.is_file():
-                raise SceneError(f"{self.where}: {what}: file {given!r} not found (looked for {path})")
+        self.check_files()
         cam = self.camera()
         look_at = np.add(cam.position, cam.forward) if self.orbit[2] == 0 else self.target
         folder = self.source.parent.resolve()
@@ -220,6 +220,54 @@ class Scenario:
         for w in caught:  # the notes of reading the model, named by scenario
             warnings.warn(self._rename(str(w.message)), stacklevel=2)
         return scene
+
+    @property
+    def lighting_readable(self) -> bool:
+        """Whether the lighting is a file the suite reads as an environment (linear radiance: .exr, .hdr), by
+        its name; model-viewer's pages also take LDR images."""
+        return self.lighting.suffix.lower() in _env_suffixes()
+
+    def unavailable(self) -> str | None:
+        """Why this scenario cannot be rendered here, known without reading its files, in a few words
+        (``model file '…' not found``; ``lighting '…' is not an .exr or .hdr file``), or None. A file that
+        is there but that the reader refuses is :meth:`scene`'s error, not this."""
+        problem = self._problem()
+        if problem is None:
+            return None
+        field, given, _, kind = problem
+        if kind == "format":
+            return f"{field} {given!r} is not an {' or '.join(_env_suffixes())} file"
+        return f"{field} file {given!r} not found"
+
+    def check_files(self) -> None:
+        """Raise :meth:`unavailable`'s reason as one :class:`SceneError` naming the scenario, the field and the
+        path (as given, and where it was looked for); return where the files are there.
+
+        Raises
+        ------
+        SceneError
+            The model or lighting file not found, or lighting in a format the suite does not read.
+        """
+        problem = self._problem()
+        if problem is None:
+            return
+        field, given, path, kind = problem
+        if kind == "format":
+            raise SceneError(f"{self.where}: {field}: {given!r}: the suite reads environments from "
+                             f"{' or '.join(_env_suffixes())} files (linear radiance); convert the map or leave "
+                             "the scenario out")
+        raise SceneError(f"{self.where}: {field}: file {given!r} not found (looked for {path})")
+
+    def _problem(self) -> tuple[str, str, Path, str] | None:
+        """(field, path as given, path resolved, ``format`` or ``missing``) of the first of: lighting in a
+        format the suite does not read (no download fixes that), the model not found, the lighting not
+        found."""
+        if not self.lighting_readable:
+            return "lighting", self.given[1], self.lighting, "format"
+        for field, path, given in (("model", self.model, self.given[0]), ("lighting", self.lighting, self.given[1])):
+            if not path.is_file():
+                return field, given, path, "missing"
+        return None
 
     def _rename(self, message: str) -> str:
         """A message of the scene loader about this scenario's synthesized scene, in the file's terms."""
@@ -320,13 +368,9 @@ def _scenario(path: Path, k: int, raw: Any, ignored: set[str]) -> Scenario:
         raise SceneError(f"{where}: model: missing required field")
     folder = path.parent.resolve()
     given_model, model = _file(where, "model", raw["model"], folder)
+    # a lighting image the suite does not read (model-viewer's pages also take LDR JPEGs) is this scenario's
+    # Scenario.unavailable(), not the file's error: the other scenarios stay readable
     given_light, lighting = _file(where, "lighting", raw.get("lighting", DEFAULTS["lighting"]), folder)
-    from compare.scene.model import ENV_FILE_SUFFIXES
-
-    if lighting.suffix.lower() not in ENV_FILE_SUFFIXES:
-        raise SceneError(f"{where}: lighting: {given_light!r}: the suite reads environments from "
-                         f"{' or '.join(ENV_FILE_SUFFIXES)} files (linear radiance); convert the map or leave "
-                         "the scenario out")
     dims = _merged(where, "dimensions", raw, ("width", "height"))
     size = []
     for key in ("width", "height"):
@@ -378,6 +422,13 @@ def _merged(where: str, field: str, raw: dict, keys: tuple[str, ...] | str) -> d
     if unknown:
         raise SceneError(f"{where}: {field}.{unknown[0]}: unknown field (allowed: {', '.join(keys)})")
     return {**DEFAULTS[field], **given}
+
+
+def _env_suffixes() -> tuple[str, ...]:
+    """The environment files the suite reads (the scene model's list)."""
+    from compare.scene.model import ENV_FILE_SUFFIXES
+
+    return tuple(ENV_FILE_SUFFIXES)
 
 
 def _finite(v: Any) -> bool:
