@@ -173,18 +173,19 @@ void main() {
         float metallic = material_metallic();
         float roughness = material_roughness();
 #if LAYERS
-        g_layers = MaterialLayers(u_layer_f0, u_layer_weight, u_clearcoat, u_clearcoat_roughness, u_sheen_color,
-                                  u_sheen_roughness);
+        g_layers = MaterialLayers(material_layer_f0(), material_layer_weight(), material_clearcoat(),
+                                  material_clearcoat_roughness(), material_sheen_color(), material_sheen_roughness());
 #endif
 #if TRANSMISSION
         // glTF's mix of the diffuse base and the transmission: the dielectric part's share that is glass
-        float glass = u_transmission * (1.0 - clamp(metallic, 0.0, 1.0));
+        float transmission = material_transmission(u_transmission);
+        float glass = transmission * (1.0 - clamp(metallic, 0.0, 1.0));
         vec3 tint = base_color;
         if (glass > 0.0) {
             env += glass * glass_transmitted(v_position, n, v, tint, roughness);
             // the lights below light the diffuse lobe's remaining share (exact for a dielectric; a metal's
             // Fresnel reads the lowered base colour too)
-            base_color *= 1.0 - u_transmission;
+            base_color *= 1.0 - transmission;
         }
 #endif
 #if ENVIRONMENT

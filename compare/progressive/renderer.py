@@ -58,7 +58,7 @@ class ProgressiveRenderer(Renderer):
     #: Transmission and the volume's absorption by the glass pass (compare.progressive.glass, which says what
     #: it leaves out: glass casts an opaque shadow, glass behind glass is not seen).
     renders = (frozenset({"punctual_lights", "alpha_blend", "vertex_colors", "single_sided", "transmission",
-                          "volume"}) | RENDERED_LAYERS | frozenset(MAP_FEATURE_NAMES))
+                          "volume", "layer_maps"}) | RENDERED_LAYERS | frozenset(MAP_FEATURE_NAMES))
     #: A frame budget decides the frame count itself: its last checkpoint is the frames it rendered.
     open_ended = False
     OPTIONS = OPTIONS

@@ -391,7 +391,7 @@ class Material:
     def has_maps(self) -> bool:
         """Whether the material samples any texture (an alpha mask reads texture coordinates too)."""
         return bool(self.base_color_texture or self.metallic_roughness_texture or self.emissive_texture
-                    or self.occlusion_texture or self.normal_texture or self.is_masked)
+                    or self.occlusion_texture or self.normal_texture or self.is_masked or self.layer_maps)
 
     @property
     def is_emissive(self) -> bool:

@@ -46,9 +46,9 @@ void main() {
     out_material = vec4(material_base_color(), material_metallic());
     out_emission = vec4(front ? material_emission() : vec3(0.0), material_occlusion());
 #if LAYERS
-    out_layer_f0 = vec4(u_layer_f0, u_layer_weight);
-    out_layer_coat = vec4(u_clearcoat, u_clearcoat_roughness, 0.0, 0.0);
-    out_layer_sheen = vec4(u_sheen_color, u_sheen_roughness);
+    out_layer_f0 = vec4(material_layer_f0(), material_layer_weight());
+    out_layer_coat = vec4(material_clearcoat(), material_clearcoat_roughness(), 0.0, 0.0);
+    out_layer_sheen = vec4(material_sheen_color(), material_sheen_roughness());
 #endif
 }
 

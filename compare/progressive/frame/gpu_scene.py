@@ -17,7 +17,7 @@ light rectangles block light as well).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -26,10 +26,16 @@ from compare.progressive.gl.shaders import set_uniform
 from compare.progressive.gl.units import LAYERS, MAPS, bind
 from compare.scene.model import TEXTURE_WRAPS
 
+#: The extensions' maps the rasterizer reads (the fields of compare.scene.model.LAYER_MAPS they multiply;
+#: material.glsl's material_layer_*() and material_transmission()); a mesh keeps them in GpuMesh.layer_maps.
+LAYER_MAP_SLOTS = ("transmission", "clearcoat", "clearcoat_roughness", "sheen_color", "sheen_roughness",
+                   "specular", "specular_color")
 #: The maps a mesh binds, in the order of material.glsl's slots (its u_map_transform and u_map_read) and of
 #: the texture units of MAPS.
 MAP_SLOTS = ("base_color_texture", "metallic_roughness_texture", "emissive_texture", "occlusion_texture",
-             "normal_texture")
+             "normal_texture", *LAYER_MAP_SLOTS)
+#: material.glsl's name of each map (u_<name>_map, u_has_<name>_map, HAS_<NAME>_MAP), in MAP_SLOTS order.
+MAP_NAMES = ("base_color", "metallic_roughness", "emission", "occlusion", "normal", *LAYER_MAP_SLOTS)
 
 
 def _set_array(program, name: str, data: bytes, count: int) -> None:
@@ -157,6 +163,8 @@ class GpuMesh:
     occlusion_strength: float = 1.0
     normal_map: object = None
     normal_scale: float = 1.0
+    layer_maps: dict = field(default_factory=dict)
+    """The extensions' maps it has, by the field they multiply (:data:`LAYER_MAP_SLOTS`)."""
     map_transforms: bytes = b""
     """Each map's texture transform (:data:`MAP_SLOTS` order; GLSL mat3, column-major)."""
     map_read: bytes = b""
@@ -241,6 +249,10 @@ class GpuScene(RenderPass):
                     if mat.occlusion_texture is not None:
                         gm.occlusion_map = self._map(mat.occlusion_texture, mat, "occlusion_texture", srgb=False)
                         gm.occlusion_strength = float(mat.occlusion_strength)
+                    for fld, channel, path in mat.layer_maps:  # an sRGB colour, or one linear channel
+                        if fld in LAYER_MAP_SLOTS:
+                            gm.layer_maps[fld] = self._map(path, mat, fld, srgb=channel == "rgb",
+                                                           alpha=channel == "a", coverage=False)
                     samplings = [mat.sampling(name) for name in MAP_SLOTS]
                     # GLSL mat3 is column-major: the bytes of the transpose of each row-major matrix
                     gm.map_transforms = np.ascontiguousarray([x.uv_transform().T for x in samplings],
@@ -294,7 +306,7 @@ class GpuScene(RenderPass):
         whether it is alpha-masked: the key of a program specialised for it (:meth:`map_set_defines`)."""
         return (mesh.base_color_map is not None, mesh.metallic_roughness_map is not None,
                 mesh.emission_map is not None, mesh.occlusion_map is not None, mesh.normal_map is not None,
-                mesh.alpha_cutoff >= 0.0)
+                *(f in mesh.layer_maps for f in LAYER_MAP_SLOTS), mesh.alpha_cutoff >= 0.0)
 
     def map_sets(self) -> list[tuple[bool, ...]]:
         """The distinct :meth:`map_set` of the scene's meshes and light quads, in draw order."""
@@ -303,8 +315,7 @@ class GpuScene(RenderPass):
     def map_set_defines(self, key: tuple[bool, ...]) -> dict[str, object]:
         """:meth:`defines` for a program that draws only meshes of map set ``key``: whether each map is
         there is a constant, so the program samples only the maps those meshes have."""
-        names = ("HAS_BASE_COLOR_MAP", "HAS_METALLIC_ROUGHNESS_MAP", "HAS_EMISSION_MAP", "HAS_OCCLUSION_MAP",
-                 "HAS_NORMAL_MAP", "IS_MASKED")
+        names = (*(f"HAS_{name.upper()}_MAP" for name in MAP_NAMES), "IS_MASKED")
         out: dict[str, object] = dict(self.defines())
         if self.textured:
             out.update({n: "true" if v else "false" for n, v in zip(names, key)})
@@ -344,30 +355,31 @@ class GpuScene(RenderPass):
             texels[..., 3] = np.rint(a.reshape(lh, lw) * 255.0) if eight else a.reshape(lh, lw)
             tex.write(texels.tobytes(), level=level, alignment=1)
 
-    def _map(self, path, mat, which: str, *, srgb: bool, alpha: bool = False):
+    def _map(self, path, mat, which: str, *, srgb: bool, alpha: bool = False, coverage: bool = True):
         """One map file as a texture, sampled as ``mat``'s map ``which`` is (its wrap per axis, its filters:
         mipmapped by the GPU unless its minification reads level 0 only; uploaded once per file, kind and
         sampler settings); ``alpha``: with the file's alpha channel (an
-        alpha mask's), else without. An 8-bit file stays 8 bits per channel, an sRGB texture for colour
+        alpha mask's, its mip levels keeping the mask's coverage; with ``coverage`` False, a factor's, plain
+        mip levels), else without. An 8-bit file stays 8 bits per channel, an sRGB texture for colour
         (decoded to linear by the sampler, before filtering) and a linear one for factors and normals;
         only float files (EXR, 16-bit PNG) are uploaded as RGBA16F."""
         from compare.scene.textures import load_alpha, load_texels8, load_texture
 
         s = mat.sampling(which)
-        key = (str(path), srgb, tuple(w == "repeat" for w in s.wrap), s.filter, s.mipmaps,
-               (mat.alpha_cutoff / max(mat.alpha, 1e-9)) if alpha else None)
+        key = (str(path), srgb, tuple(w == "repeat" for w in s.wrap), s.filter, s.mipmaps, alpha,
+               (mat.alpha_cutoff / max(mat.alpha, 1e-9)) if alpha and coverage else None)
         if key not in self._maps:
             texels = load_texels8(path, alpha=alpha)
             if texels is not None:
                 h, w, n = texels.shape
                 internal = (GL_SRGB8_ALPHA8 if n == 4 else GL_SRGB8) if srgb else (GL_RGBA8 if n == 4 else GL_RGB8)
-                coverage = texels[..., 3].astype(np.float32) / np.float32(255.0) if alpha else None
+                kept = texels[..., 3].astype(np.float32) / np.float32(255.0) if alpha else None
             else:
                 rgb = load_texture(path, srgb=srgb)
                 h, w = rgb.shape[:2]
                 a = load_alpha(path)[..., None] if alpha else np.ones((h, w, 1), dtype=np.float32)
                 texels = np.ascontiguousarray(np.concatenate([rgb, a], axis=2), dtype=np.float16)
-                coverage = a[..., 0] if alpha else None
+                kept = a[..., 0] if alpha else None
                 n = 4
             largest = int(self.ctx.info.get("GL_MAX_TEXTURE_SIZE", 16384))
             if max(h, w) > largest:
@@ -391,8 +403,8 @@ class GpuScene(RenderPass):
                 tex.build_mipmaps()
                 tex.filter = (self.ctx.NEAREST_MIPMAP_LINEAR if s.filter == "nearest" else self.ctx.LINEAR_MIPMAP_LINEAR,
                               mag)
-                if alpha and mat.alpha > 0:
-                    self._preserve_coverage(tex, coverage, mat.alpha_cutoff / mat.alpha)
+                if alpha and coverage and mat.alpha > 0:
+                    self._preserve_coverage(tex, kept, mat.alpha_cutoff / mat.alpha)
             self._maps[key] = tex
         return self._maps[key]
 
@@ -481,9 +493,9 @@ class GpuScene(RenderPass):
             set_uniform(program, "u_normal_scale", mesh.normal_scale)
         set_uniform(program, "u_alpha", mesh.alpha)
         set_uniform(program, "u_alpha_cutoff", mesh.alpha_cutoff)
-        maps = (("base_color", mesh.base_color_map), ("metallic_roughness", mesh.metallic_roughness_map),
-                ("emission", mesh.emission_map), ("occlusion", mesh.occlusion_map), ("normal", mesh.normal_map))
-        for k, (name, tex) in enumerate(maps if all_maps else maps[:1]):
+        maps = (mesh.base_color_map, mesh.metallic_roughness_map, mesh.emission_map, mesh.occlusion_map,
+                mesh.normal_map, *(mesh.layer_maps.get(f) for f in LAYER_MAP_SLOTS))
+        for k, (name, tex) in enumerate(zip(MAP_NAMES, maps if all_maps else maps[:1])):
             set_uniform(program, f"u_has_{name}_map", 0.0 if tex is None else 1.0)
             if tex is not None:
                 bind(program, f"u_{name}_map", tex, MAPS, k)

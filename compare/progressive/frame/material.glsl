@@ -48,7 +48,8 @@ uniform vec3 u_emission;   // radiance leaving the front side (the side the norm
 #define LAYERS 0
 #endif
 #if LAYERS
-// glTF's layers (layers.glsl), factors only: the extensions' maps are not read by the rasterizer.
+// glTF's layers (layers.glsl): the factors, times the extensions' maps where the mesh has them (with
+// TEXTURES; material_layer_*() below).
 uniform vec3 u_layer_f0;
 uniform float u_layer_weight;
 uniform float u_clearcoat;
@@ -79,6 +80,44 @@ uniform float u_sheen_roughness;
 #ifndef IS_MASKED
 #define IS_MASKED (u_alpha_cutoff >= 0.0)
 #endif
+// The extensions' maps (MAP_SLOTS 5 to 11), each multiplying its factor: transmission (R), clearcoat (R),
+// clearcoat roughness (G), sheen colour (RGB, sRGB), sheen roughness (A), specular (A), specular colour (RGB,
+// sRGB; it multiplies the F0 of the ior and the colour factor, clamped at 1 as the reference's).
+#ifndef HAS_TRANSMISSION_MAP
+#define HAS_TRANSMISSION_MAP (u_has_transmission_map > 0.5)
+#endif
+#ifndef HAS_CLEARCOAT_MAP
+#define HAS_CLEARCOAT_MAP (u_has_clearcoat_map > 0.5)
+#endif
+#ifndef HAS_CLEARCOAT_ROUGHNESS_MAP
+#define HAS_CLEARCOAT_ROUGHNESS_MAP (u_has_clearcoat_roughness_map > 0.5)
+#endif
+#ifndef HAS_SHEEN_COLOR_MAP
+#define HAS_SHEEN_COLOR_MAP (u_has_sheen_color_map > 0.5)
+#endif
+#ifndef HAS_SHEEN_ROUGHNESS_MAP
+#define HAS_SHEEN_ROUGHNESS_MAP (u_has_sheen_roughness_map > 0.5)
+#endif
+#ifndef HAS_SPECULAR_MAP
+#define HAS_SPECULAR_MAP (u_has_specular_map > 0.5)
+#endif
+#ifndef HAS_SPECULAR_COLOR_MAP
+#define HAS_SPECULAR_COLOR_MAP (u_has_specular_color_map > 0.5)
+#endif
+uniform sampler2D u_transmission_map;
+uniform sampler2D u_clearcoat_map;
+uniform sampler2D u_clearcoat_roughness_map;
+uniform sampler2D u_sheen_color_map;
+uniform sampler2D u_sheen_roughness_map;
+uniform sampler2D u_specular_map;
+uniform sampler2D u_specular_color_map;
+uniform float u_has_transmission_map;
+uniform float u_has_clearcoat_map;
+uniform float u_has_clearcoat_roughness_map;
+uniform float u_has_sheen_color_map;
+uniform float u_has_sheen_roughness_map;
+uniform float u_has_specular_map;
+uniform float u_has_specular_color_map;
 in vec4 v_uv;                                // xy: TEXCOORD_0, zw: TEXCOORD_1
 in vec4 v_tangent;                           // glTF tangent: xyz along +u, w: sign of the bitangent
 // Per map (the slots of MAP_SLOTS: base colour, metallic-roughness, emission, occlusion, normal): its
@@ -155,8 +194,42 @@ void alpha_test() {
 #else
 void alpha_test() {}
 #endif
+// The layers' values at the fragment (the G-buffer's layer targets, frame 0's g_layers).
+#if LAYERS
+vec3 material_layer_f0() {
+    return HAS_SPECULAR_COLOR_MAP ? min(u_layer_f0 * sample_map(u_specular_color_map, 11).rgb, vec3(1.0))
+                                  : u_layer_f0;
+}
+float material_layer_weight() {
+    return HAS_SPECULAR_MAP ? u_layer_weight * sample_map(u_specular_map, 10).a : u_layer_weight;
+}
+float material_clearcoat() {
+    return HAS_CLEARCOAT_MAP ? u_clearcoat * sample_map(u_clearcoat_map, 6).r : u_clearcoat;
+}
+float material_clearcoat_roughness() {
+    return HAS_CLEARCOAT_ROUGHNESS_MAP ? u_clearcoat_roughness * sample_map(u_clearcoat_roughness_map, 7).g
+                                       : u_clearcoat_roughness;
+}
+vec3 material_sheen_color() {
+    return HAS_SHEEN_COLOR_MAP ? u_sheen_color * sample_map(u_sheen_color_map, 8).rgb : u_sheen_color;
+}
+float material_sheen_roughness() {
+    return HAS_SHEEN_ROUGHNESS_MAP ? u_sheen_roughness * sample_map(u_sheen_roughness_map, 9).a : u_sheen_roughness;
+}
+#endif
+// glTF's transmission factor times its map (R); ``factor`` the mesh's (transmission.glsl's u_transmission).
+float material_transmission(float factor) {
+    return HAS_TRANSMISSION_MAP ? factor * sample_map(u_transmission_map, 5).r : factor;
+}
 #else
 void alpha_test() {}
+#define material_transmission(factor) (factor)
+#define material_layer_f0() u_layer_f0
+#define material_layer_weight() u_layer_weight
+#define material_clearcoat() u_clearcoat
+#define material_clearcoat_roughness() u_clearcoat_roughness
+#define material_sheen_color() u_sheen_color
+#define material_sheen_roughness() u_sheen_roughness
 #define material_normal(n) (n)
 #define material_emission() u_emission
 #define material_occlusion() 1.0

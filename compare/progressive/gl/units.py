@@ -68,8 +68,9 @@ class Units:
 #: The G-buffer's four targets in GBuffer.NAMES order: position, normal, material, emission (the probe
 #: bake's cube-face G-buffer has the same four; ``gbuffer_inputs.glsl`` declares their samplers).
 GBUFFER = Units(0, 4)
-#: The material maps in GpuScene's order: base colour, metallic-roughness, emission, occlusion, normal.
-MAPS = Units(11, 5)
+#: The material maps in GpuScene's order (frame.gpu_scene.MAP_SLOTS): base colour, metallic-roughness,
+#: emission, occlusion, normal, then the extensions' seven maps.
+MAPS = Units(24, 12)
 #: The sheen albedo table, then the G-buffer's layer targets (frame.gpu_scene.LAYER_TARGETS).
 LAYERS = Units(20, 4)
 #: The groups whose range is the same in every program (one helper binds each).
