@@ -155,3 +155,21 @@ def test_a_failure_of_the_cluster_is_one_error_naming_the_pass():
                                             r"RuntimeError: worker tcp://10\.0\.0\.2:4000 died"):
         _result(Died(), Chunk(4, 9, 8, "k"))
 
+
+def test_compare_run_with_fewer_jobs_than_workers_spreads_the_reference(client, tmp_path):
+    """One scene at one size on two workers: the job's reference renders its passes on both, and the
+    results are those of a serial run (separate caches: both render every pass)."""
+    from compare.report.results import RunSettings
+    from compare.run.runner import run
+    from tests.test_executor import _strip
+
+    client.run(lambda: __import__("compare.mitsuba.cluster", fromlist=["_"])._RENDERERS.clear())
+    settings = RunSettings(frames=4, spp=8, renderers=["mitsuba"], sizes=[[24, 18]])
+    run([CORNELL], tmp_path / "serial", settings, progress=False, cache_dir=tmp_path / "c1", report=False)
+    run([CORNELL], tmp_path / "dask", settings, progress=False, cache_dir=tmp_path / "c2", report=False,
+        executor=client)
+    assert _chunks_on_workers(client) > 0
+    a = _strip(json.loads((tmp_path / "serial" / "results.json").read_text()))
+    b = _strip(json.loads((tmp_path / "dask" / "results.json").read_text()))
+    assert a == b
+
