@@ -173,3 +173,21 @@ def test_compare_run_with_fewer_jobs_than_workers_spreads_the_reference(client, 
     b = _strip(json.loads((tmp_path / "dask" / "results.json").read_text()))
     assert a == b
 
+
+def test_the_bench_item_times_both_sides_and_says_what_it_needs(monkeypatch):
+    """``compare bench --only reference-dask``: the two sides' medians, derived into the bench's item list;
+    without dask the item is skipped with the install command."""
+    import sys
+
+    from compare.bench.reference import bench_dask_passes
+    from compare.bench.suite import all_items
+    from compare.util.errors import MissingComponentError
+
+    pytest.importorskip("distributed", reason="the dask extra is not installed (pip install '.[dask]')")
+    assert "reference-dask" in all_items()
+    (f,) = bench_dask_passes(_scene(), spp=8, repeats=2)
+    assert f.name == "reference-dask" and f.a_median > 0 and f.b_median > 0 and len(f.b_samples) == 2
+    assert "8 spp at 24x18 in 4 chunks of at most 4 spp" in f.note
+    monkeypatch.setitem(sys.modules, "distributed", None)  # as if not installed
+    with pytest.raises(MissingComponentError, match=r"pip install '\.\[dask\]'"):
+        bench_dask_passes(_scene(), spp=8, repeats=1)
