@@ -4,8 +4,8 @@ These machines are noisy, so every figure is a **ratio of medians** of runs that
 alternate between the two sides (A, B, A, B, …) so slow drift hits both alike;
 absolute times are printed for context only. Renderers are reached through the
 registry (:mod:`compare.renderers`): the items that compare renderers render through
-the protocol; ``first-frame``, ``depth-floor``, ``area-models``, ``textures`` (the rasterizer's) and
-``wrapper-overhead`` (Mitsuba's) time a renderer's internals (:mod:`compare.bench.progressive`,
+the protocol; ``first-frame``, ``depth-floor``, ``area-models``, ``textures`` (the rasterizer's),
+``wrapper-overhead`` and ``reference-dask`` (Mitsuba's) time a renderer's internals (:mod:`compare.bench.progressive`,
 :mod:`compare.bench.reference`). How to read
 each figure:
 
@@ -24,6 +24,12 @@ each figure:
 ``wrapper-overhead``
     the reference wrapper's render of one pass ÷ a bare ``mi.render`` of the
     same Mitsuba scene dictionary with the same spp; 1.00 means no overhead.
+``reference-dask``
+    wall seconds of a reference of many small chunks (up to 64 spp in chunks of
+    at most 4) rendered here ÷ the same render with its chunks on a 2-worker
+    dask ``LocalCluster`` (:mod:`compare.mitsuba.cluster`, the pixels the same):
+    the speed-up of spreading one reference; > 1 means the workers are faster.
+    Skipped without the ``dask`` extra.
 ``equal-error``
     the seconds Mitsuba needs to reach the progressive renderer's final FLIP
     (interpolated on the log–log spp ladder, measured against an independent

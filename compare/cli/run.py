@@ -107,7 +107,8 @@ def add_run_parser(subparsers) -> argparse.ArgumentParser:
                         "python -m compare.bench.features) and show the table in the report's machine section")
     p.add_argument("--executor", default="local", metavar="WHERE",
                    help="local (a process pool sized to the machine), local:N, serial, or dask://HOST:PORT "
-                        "(see compare/run/executor.py for setting up workers)")
+                        "(on a cluster of more workers than jobs, each job's reference spreads its passes over "
+                        "all of them; see compare/run/executor.py for setting up workers)")
     p.add_argument("-o", "--output", type=Path, default=None,
                    help="output folder; default reports/<first scene's file name>")
     p.set_defaults(func=cmd_run)

@@ -11,10 +11,18 @@ changes its pixels (variant, material mode, depth, sampler, spp, seed) and
 written atomically, so an interrupted render resumes where it stopped and never
 reads a broken file. Each chunk records the seconds it took, so cumulative
 times stay meaningful when some chunks come from the cache.
+
+Given ``workers`` (a dask cluster's, :class:`compare.mitsuba.cluster.DaskWorkers`),
+the chunks a render needs that are not in the cache are rendered there in
+parallel; each comes back with its seconds and is cached here as if rendered
+here, and the passes are merged in the same order as without workers, so the
+checkpoints are the same bit for bit.
 """
 
 from __future__ import annotations
 
+import contextlib
+import itertools
 import json
 import time
 import warnings
@@ -65,6 +73,17 @@ def pass_plan(checkpoints: list[int]) -> list[int]:
     return sorted(sums)
 
 
+@dataclass(frozen=True)
+class Chunk:
+    """One chunk of a render, the unit of work and of caching: ``spp`` samples with Mitsuba seed ``seed``,
+    part of the pass that brings the render to ``total`` samples; ``key`` is its cache key."""
+
+    spp: int
+    seed: int
+    total: int
+    key: str
+
+
 @dataclass
 class RenderResult:
     """A finished reference render: linear radiance (H, W, 3) float32 and how it was made."""
@@ -94,18 +113,34 @@ class ReferenceRenderer:
         Where passes are cached; None uses :func:`compare.util.cache.default_cache_dir`; False disables caching.
     progress
         Show a progress bar on renders.
+    max_pass_spp
+        Largest chunk of a pass (:data:`MAX_PASS_SPP`); smaller chunks are smaller units of work for
+        ``workers``. The chunks' seeds follow from it, so renders compare bit for bit only
+        with the same value.
+    workers
+        Where the chunks missing from the cache are rendered, with the same pixels as here:
+        :class:`compare.mitsuba.cluster.DaskWorkers` (a dask cluster's workers); None: here. (Passed
+        in, not imported here: this module's code is in the cache key, and how chunks travel does
+        not change their pixels.)
     """
 
     def __init__(self, scene: Scene, *, materials: str = "shared", variant: str | None = None,
                  max_depth: int | None = None, sampler: str = "independent",
-                 cache_dir: Path | str | None | bool = None, progress: bool = True):
+                 cache_dir: Path | str | None | bool = None, progress: bool = True,
+                 max_pass_spp: int = MAX_PASS_SPP, workers=None):
         if materials not in MATERIAL_MODES:
             raise ValueError(f"materials: expected one of {', '.join(MATERIAL_MODES)}, got {materials!r}")
+        if isinstance(max_pass_spp, bool) or not isinstance(max_pass_spp, int) or max_pass_spp < 1:
+            raise ValueError(f"max_pass_spp: expected a positive integer, got {max_pass_spp!r}")
+        if workers is not None and not callable(getattr(workers, "images", None)):
+            raise ValueError(f"workers: expected compare.mitsuba.cluster.DaskWorkers, got {type(workers).__name__}")
         self.scene = scene
         self.materials = materials
         self.max_depth = scene.max_depth if max_depth is None else int(max_depth)
         self.sampler = sampler
         self.progress = progress
+        self.max_pass_spp = max_pass_spp
+        self.workers = workers
         self.mi = load_mitsuba(variant)
         self.variant = self.mi.variant()
         self.cache_dir = None if cache_dir is False else Path(cache_dir or default_cache_dir())
@@ -168,10 +203,14 @@ class ReferenceRenderer:
 
     # -- one chunk: the unit of work and of caching ---------------------------------------
 
-    def _chunk_path(self, spp: int, seed: int) -> Path | None:
+    def _chunk_key(self, spp: int, seed: int, settings: dict | None = None) -> str:
+        """The cache key of a chunk: every setting that changes its pixels, its spp and its seed."""
+        return sha256_bytes(json.dumps({**(settings or self.settings()), "spp": spp, "seed": seed}, sort_keys=True))
+
+    def _chunk_path(self, spp: int, seed: int, key: str | None = None) -> Path | None:
         if self.cache_dir is None:
             return None
-        key = sha256_bytes(json.dumps({**self.settings(), "spp": spp, "seed": seed}, sort_keys=True))
+        key = key or self._chunk_key(spp, seed)
         return self.cache_dir / "reference" / key[:2] / f"{key}.exr"
 
     def render_chunk(self, spp: int, seed: int) -> tuple[np.ndarray, float]:
@@ -190,11 +229,16 @@ class ReferenceRenderer:
         image = np.array(self.mi.render(scene, spp=int(spp), seed=int(seed)), dtype=np.float32)
         seconds = time.perf_counter() - t0
         _check_render(image, spp, seed)
+        self.store_chunk(spp, seed, image, seconds)
+        return image, seconds
+
+    def store_chunk(self, spp: int, seed: int, image: np.ndarray, seconds: float) -> None:
+        """Cache a chunk rendered here or on a worker (atomically; nothing without a cache)."""
+        path = self._chunk_path(spp, seed)
         if path is not None:
             write_exr(path, image, metadata={"renderer": "mitsuba", **_flat(self.settings()), "spp": int(spp),
                                              "seed": int(seed), "seconds": seconds, "package": __version__,
                                              "pixels_sha256": _pixels_hash(image)})
-        return image, seconds
 
     def _verified_entry(self, path: Path, spp: int, seed: int) -> tuple[np.ndarray, float] | None:
         """A cache entry's (image, seconds) when it is what its key says; else None, the entry removed
@@ -224,10 +268,32 @@ class ReferenceRenderer:
         """(chunk spp, chunk seed) for pass ``index`` of ``spp`` samples."""
         done, part = 0, 0
         while done < spp:
-            n = min(MAX_PASS_SPP, spp - done)
+            n = min(self.max_pass_spp, spp - done)
             yield n, derive_seed("reference", seed, index, spp, part)
             done += n
             part += 1
+
+    def chunks(self, checkpoints: list[int], seed: int = 0) -> list[Chunk]:
+        """Every chunk a render of ``checkpoints`` (:meth:`iter_checkpoints`) needs, in the order its passes
+        are merged."""
+        settings = self.settings()
+        out, done = [], 0
+        for index, upto in enumerate(pass_plan(checkpoints)):
+            out += [Chunk(n, chunk_seed, upto, self._chunk_key(n, chunk_seed, settings))
+                    for n, chunk_seed in self._pass_chunks(seed, index, upto - done)]
+            done = upto
+        return out
+
+    def _chunk_images(self, chunks: list[Chunk]) -> Iterator[tuple[np.ndarray, float]]:
+        """(image, seconds) of each chunk in order: from the cache, else rendered here or on ``workers``."""
+        if self.workers is not None and any(self.cached(c) is None for c in chunks):
+            return self.workers.images(self, chunks)
+        return (self.render_chunk(c.spp, c.seed) for c in chunks)
+
+    def cached(self, chunk: Chunk) -> Path | None:
+        """The cache entry of ``chunk`` when there is one (not yet checked: :meth:`render_chunk` checks it)."""
+        path = self._chunk_path(chunk.spp, chunk.seed, chunk.key)
+        return path if path is not None and path.is_file() else None
 
     # -- public API ------------------------------------------------------------------------
 
@@ -247,18 +313,25 @@ class ReferenceRenderer:
         ``add(image, spp)`` sees every independent chunk, and its ``met(spp)`` is asked after each pass;
         the first running sum it accepts is the last checkpoint. The passes are the same as without it,
         so a render that stopped at N spp is bit for bit the render of N spp.
+
+        With ``workers``, the chunks missing from the cache are rendered there, a few ahead of the merge
+        (those submitted past an early stop are cancelled); the merge is the same.
         """
         wanted = {int(c) for c in checkpoints}
+        plan = self.chunks(checkpoints, seed)
         acc = np.zeros((self.scene.camera.height, self.scene.camera.width, 3), dtype=np.float64)
         acc2 = np.zeros_like(acc)  # sum of n x^2 over chunk means: the spread of the passes
         chunks = 0
         self.variance = None  # of this call's checkpoints only
         total_spp, total_s = 0, 0.0
+        # closing: a render that stops early (``until``, an error) cancels the chunks still on workers
         with tqdm(total=int(max(wanted)), unit="spp", desc=f"mitsuba {self.scene.name[:30]}",
-                  disable=not self.progress, leave=False) as bar:
-            for index, upto in enumerate(pass_plan(checkpoints)):
-                for n, chunk_seed in self._pass_chunks(seed, index, upto - total_spp):
-                    image, seconds = self.render_chunk(n, chunk_seed)
+                  disable=not self.progress, leave=False) as bar, \
+                contextlib.closing(self._chunk_images(plan)) as images:
+            for upto, group in itertools.groupby(plan, key=lambda c: c.total):
+                for chunk in group:
+                    n = chunk.spp
+                    image, seconds = next(images)
                     x = image.astype(np.float64)
                     acc += x * n
                     acc2 += x * x * n

@@ -90,8 +90,13 @@ class MitsubaRenderer(Renderer):
     def _reference(self, scene, context: RenderContext):
         from compare.mitsuba.reference import ReferenceRenderer
 
+        workers = None
+        if context.workers is not None:  # the run's dask cluster renders the passes (same pixels)
+            from compare.mitsuba.cluster import DaskWorkers
+
+            workers = DaskWorkers(context.workers)
         return ReferenceRenderer(scene, materials=context.settings.materials, variant=self.variant,
-                                 cache_dir=context.cache_dir, progress=context.progress)
+                                 cache_dir=context.cache_dir, progress=context.progress, workers=workers)
 
     def preflight(self, scene, context: RenderContext) -> None:
         check_film_memory(scene)

@@ -129,14 +129,20 @@ class RenderContext:
     timeout : float or None
         Seconds a render may take before it is stopped with one error (``--timeout``); None: each
         renderer's own limit (an external command's ``timeout``, a web page's :data:`DEFAULT_TIMEOUT_S`).
+    workers : distributed.Client or None
+        A dask cluster over which a renderer may spread the independent parts of one render (the
+        reference's passes, :mod:`compare.mitsuba.cluster`), with the same pixels; None: every render
+        stays in this process.
 
     A renderer's own settings are not here: they are the options of its spec.
     """
 
-    def __init__(self, settings, *, cache_dir=None, progress: bool = False, timeout: float | None = None):
+    def __init__(self, settings, *, cache_dir=None, progress: bool = False, timeout: float | None = None,
+                 workers=None):
         self.settings = settings
         self.cache_dir = cache_dir
         self.progress = progress
+        self.workers = workers
         if timeout is not None and not (math.isfinite(timeout) and timeout > 0):
             raise ValueError(f"timeout: expected a positive number of seconds, got {timeout!r}")
         self.timeout = timeout

@@ -10,7 +10,11 @@ sweep over scenes × sizes spreads over processes or machines.
     one worker per 8 cores (at least one), each with Dr.Jit limited to its share
     of the cores, because every job's timings are part of its results and two
     jobs racing for the same cores would make each other slower. ``local:N``
-    asks for N workers; ``serial`` runs in this process.
+    asks for N workers; ``serial`` runs in this process. A run of one job (or
+    ``local:1``) renders in this process: Dr.Jit already spreads each of the
+    reference's passes over every core of the machine, so spreading the passes
+    over processes of the same machine gains nothing (``compare bench --only
+    reference-dask``; docs/performance-notes.md).
 ``--executor dask://HOST:PORT``
     a dask.distributed scheduler (``pip install '.[dask]'``). Workers write
     their outputs into a private staging folder and send them back; the client
@@ -26,6 +30,25 @@ sweep over scenes × sizes spreads over processes or machines.
     * its own reference cache (``$COMPARE_CACHE``); caches are content-keyed
       and written atomically, so several workers may share one on a network
       file system.
+
+    **One reference over the whole cluster.** When the run has fewer jobs than the
+    cluster has workers (one scene at one size on a cluster of several machines),
+    workers would sit idle while one of them renders a reference pass after pass.
+    Then each job's ground truth and its convergence run spread their passes' chunks
+    over every worker (:mod:`compare.mitsuba.cluster`): the job's worker submits the
+    chunks missing from its cache, the workers render them with the seeds a serial
+    render uses and send back each image with its seconds, the job's worker caches
+    them and merges them in the serial order, so the pixels are those of a render on
+    one machine, bit for bit (given the same kind of CPU). The other renderers of
+    the job render on the job's worker as before. The reference's ``seconds`` stay
+    the sum of its passes' render times (on the workers that rendered them), not the
+    wall time of the spread render. For this, every worker also needs the scene's
+    files (meshes, maps, environments) at the paths the job's worker read them
+    from: start the workers from checkouts at the same path, with the same
+    ``$COMPARE_CACHE`` path. The same works outside ``compare run``:
+    ``ReferenceRenderer(scene, workers=DaskWorkers(client))``
+    (:class:`compare.mitsuba.cluster.DaskWorkers`), with any ``distributed.Client``,
+    e.g. of a ``LocalCluster``.
 
     Starting a cluster::
 
@@ -81,6 +104,8 @@ class Job:
     threads: int | None = None
     files: dict[str, bytes] = field(default_factory=dict)
     """Finished outputs of this job already in the client's folder (remote workers only)."""
+    spread: bool = False
+    """Spread the reference's passes over the dask cluster the job runs on (a run of fewer jobs than workers)."""
 
 
 @dataclass
@@ -114,6 +139,11 @@ def run_job(job: Job) -> JobResult:
     if scene.hash != job.scene_hash:
         raise CompareError(f"{job.scene_path}: the scene on worker {platform.node()} differs from the client's "
                            "(content hash mismatch); run the worker from the same checkout")
+    workers = None
+    if job.spread:  # this task's own connection to its cluster (dask's tasks-launching-tasks)
+        from distributed import get_client
+
+        workers = get_client()
     staging = None
     out = Path(job.out)
     if job.out == "":
@@ -122,7 +152,7 @@ def run_job(job: Job) -> JobResult:
         for rel, data in job.files.items():
             write_bytes_atomic(out / rel, data)
     try:
-        with RenderContext(settings, cache_dir=job.cache_dir) as context:
+        with RenderContext(settings, cache_dir=job.cache_dir, workers=workers) as context:
             scene_job = SceneJob(settings, out, registry=registry, context=context, fresh=job.fresh)
             scene_job.render(scene)
         files: dict[str, bytes] = {}
@@ -171,7 +201,9 @@ def execute(jobs: list[Job], spec: str | object, *, on_done: Callable[[int], Non
 
     ``spec`` is a string for :func:`parse_executor` or a ``distributed.Client``
     (tests pass one connected to a ``LocalCluster``). Remote results' files are
-    written into each job's output folder here, atomically.
+    written into each job's output folder here, atomically. On a dask cluster with
+    more workers than jobs, each job's reference spreads its passes over the
+    cluster (the module's notes).
     """
     kind, detail = ("dask", spec) if not isinstance(spec, str) else parse_executor(spec)
     if kind == "serial" or (kind == "local" and len(jobs) <= 1):
@@ -189,7 +221,9 @@ def execute(jobs: list[Job], spec: str | object, *, on_done: Callable[[int], Non
         return
     client, own = _dask_client(detail)
     try:
-        remote = [_with(job, out="", files=_existing_files(Path(job.out), job.scene_id)) for job in jobs]
+        spread = len(jobs) < len(client.nthreads())  # idle workers: they render the references' passes
+        remote = [_with(job, out="", files=_existing_files(Path(job.out), job.scene_id), spread=spread)
+                  for job in jobs]
         futures = client.map(run_job, remote, pure=False)
         index = {f.key: i for i, f in enumerate(futures)}
         from distributed import as_completed as dask_completed
