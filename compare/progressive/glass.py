@@ -7,7 +7,8 @@ a texture of its own (``compose.glsl``: the one full-screen pass glass adds to a
 are drawn over it, forward-shaded by ``first_frame.glsl`` with ``GLASS`` (``transmission.glsl`` says what they
 let through: refraction by the file's ior through microfacet normals sampled anew every frame, the exit at the
 nearest back face or the thickness, the tint at each interface, Beer–Lambert absorption, the opaque image or
-the environment map behind). Two cheap geometry passes of the glass alone go first: its nearest back faces
+the environment map behind; a dispersive volume refracts one colour channel's ior per pixel and frame, that
+channel's light three times, which the mean over the frames turns into each channel's refraction). Two cheap geometry passes of the glass alone go first: its nearest back faces
 (``glass_back.glsl``: the exit's plane and normal) and its depth, so that the shading pass shades each pixel's
 nearest glass surface once.
 

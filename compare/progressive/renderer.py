@@ -55,10 +55,10 @@ class ProgressiveRenderer(Renderer):
     """Otto et al.'s progressive rasterizer (moderngl), with the options of :mod:`compare.progressive.options`."""
 
     unit = "frame"
-    #: Transmission and the volume's absorption by the glass pass (compare.progressive.glass, which says what
-    #: it leaves out: glass casts an opaque shadow, glass behind glass is not seen).
+    #: Transmission, the volume's absorption and dispersion by the glass pass (compare.progressive.glass, which
+    #: says what it leaves out: glass casts an opaque shadow, glass behind glass is not seen).
     renders = (frozenset({"punctual_lights", "alpha_blend", "vertex_colors", "single_sided", "transmission",
-                          "volume", "layer_maps"}) | RENDERED_LAYERS | frozenset(MAP_FEATURE_NAMES))
+                          "volume", "dispersion", "layer_maps"}) | RENDERED_LAYERS | frozenset(MAP_FEATURE_NAMES))
     #: A frame budget decides the frame count itself: its last checkpoint is the frames it rendered.
     open_ended = False
     OPTIONS = OPTIONS

@@ -26,7 +26,7 @@
 #define COMPARE_TRANSMISSION_GLSL
 
 uniform float u_transmission;   // glTF's transmission factor (0: no glass)
-uniform float u_glass_ior;
+uniform vec3 u_glass_iors;      // the ior of each colour channel (KHR_materials_dispersion; equal without it)
 uniform float u_thickness;      // KHR_materials_volume's thickness factor, the mesh's own units; 0: thin wall
 uniform vec3 u_glass_scale;     // the mesh's scale along each world axis
 uniform vec3 u_attenuation;     // Beer-Lambert coefficient per unit of world length (0: no absorption)
@@ -131,9 +131,22 @@ vec3 glass_transmitted(vec3 p, vec3 n, vec3 v, vec3 tint, float roughness) {
 #endif
         return (t_share / (1.0 + f)) * (tint * through + extra);
     }
+    // dispersion: each pixel and frame refracts one colour channel's ior, picked at random, its light times 3
+    // in that channel alone (the reference's hero channel: the running mean converges to each channel's
+    // refraction); frame 0 and a material without dispersion refract the green channel's, the file's ior
+    float ior = u_glass_iors.y;
+    vec3 channel = vec3(1.0);
+#if GLASS
+    if (u_glass_iors.x != u_glass_iors.z) {
+        int k = int(glass_pcg4d(uvec4(uvec2(gl_FragCoord.xy), uint(u_glass_seed), 0x51edu)).x % 3u);
+        ior = u_glass_iors[k];
+        channel = vec3(0.0);
+        channel[k] = 3.0;
+    }
+#endif
     vec3 m = glass_microfacet(n, v, roughness, u.xy);
     float vm = dot(v, m);
-    vec3 t = refract(-v, m, 1.0 / u_glass_ior);
+    vec3 t = refract(-v, m, 1.0 / ior);
     if (vm <= 0.0 || dot(t, t) == 0.0) {
         return vec3(0.0);
     }
@@ -160,13 +173,13 @@ vec3 glass_transmitted(vec3 p, vec3 n, vec3 v, vec3 tint, float roughness) {
     }
 #endif
     vec3 m_out = glass_microfacet(-n_out, -t, roughness, u.zw);
-    vec3 o = refract(t, m_out, u_glass_ior);
+    vec3 o = refract(t, m_out, ior);
     if (dot(o, o) == 0.0) {
         return vec3(0.0);  // total internal reflection: left out
     }
     weight *= glass_base_share(max(dot(o, -m_out), 0.0));
     vec3 absorbed = exp(-u_attenuation * s);
-    return weight * tint * tint * absorbed * glass_behind(p + t * s, o);
+    return channel * weight * tint * tint * absorbed * glass_behind(p + t * s, o);
 }
 
 #endif // COMPARE_TRANSMISSION_GLSL

@@ -69,12 +69,13 @@ def material_layers(mat) -> tuple:
 
 
 #: transmission.glsl's uniforms, in the order of GpuMesh.glass.
-GLASS_UNIFORMS = ("u_transmission", "u_glass_ior", "u_thickness", "u_glass_scale", "u_attenuation")
+GLASS_UNIFORMS = ("u_transmission", "u_glass_iors", "u_thickness", "u_glass_scale", "u_attenuation")
 
 
 def glass_uniforms(mat, transform) -> tuple:
-    """``mat``'s transmission as transmission.glsl reads it (GpuMesh.glass): the transmission factor, the ior,
-    the thickness factor (the mesh's own units: 0 is a thin wall), the mesh's scale along each world axis
+    """``mat``'s transmission as transmission.glsl reads it (GpuMesh.glass): the transmission factor, the ior
+    of each colour channel (KHR_materials_dispersion's, :func:`compare.scene.model.channel_iors`, where the
+    material disperses; else the ior three times), the thickness factor (the mesh's own units: 0 is a thin wall), the mesh's scale along each world axis
     (the lengths of its transform's columns, as three.js scales the thickness) and the Beer–Lambert
     coefficient −ln(attenuationColor) / attenuationDistance per unit of world length (0 where nothing is
     absorbed; the reference's :func:`compare.mitsuba.scene_dict.medium_dict`)."""
@@ -82,7 +83,11 @@ def glass_uniforms(mat, transform) -> tuple:
     c = np.clip(np.asarray(mat.attenuation_color, dtype=np.float64), 1e-12, 1.0)
     sigma = (np.maximum(-np.log(c), 0.0) / float(mat.attenuation_distance) if math.isfinite(mat.attenuation_distance)
              and mat.thickness > 0.0 else np.zeros(3))
-    return (float(mat.transmission), float(min(mat.ior, 1e3)), float(mat.thickness),
+    from compare.scene.model import channel_iors
+
+    ior = float(min(mat.ior, 1e3))
+    iors = channel_iors(ior, mat.dispersion) if "dispersion" in mat.uses() else (ior, ior, ior)
+    return (float(mat.transmission), tuple(float(n) for n in iors), float(mat.thickness),
             tuple(float(x) for x in scale), tuple(float(x) for x in sigma))
 
 
