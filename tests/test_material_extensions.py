@@ -113,7 +113,7 @@ def test_each_extension_reads_writes_and_is_declared(tmp_path, make_scene):
     # what each renderer leaves out, said with the share of the pixels
     reg = Registry()
     _, notes = reg.get("progressive").prepare(scene, {"fancy": 0.25})
-    assert "dispersion not rendered (1 material(s), 25 % of the pixels)" in notes
+    assert "anisotropy not rendered (1 material(s), 25 % of the pixels)" in notes
     assert not any(n.startswith("alpha blend") for n in notes)  # its sorted forward pass
     _, notes = reg.get("mitsuba").prepare(scene)
     assert not any(n.startswith(("transmission", "alpha blend")) for n in notes)
