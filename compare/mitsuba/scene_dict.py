@@ -322,7 +322,7 @@ def _dielectric(mat: Material, mode: str, vc: bool = False) -> dict:
         from compare.scene.model import channel_iors
 
         register_dispersive()
-        rough = mat.roughness > 0.0
+        rough = mat.roughness > 0.0 or mat.metallic_roughness_texture is not None
         # a rough lobe needs two different indices: the red one is kept just above 1
         iors = [max(n, 1.0 + 1e-4) if rough else n for n in channel_iors(ior, mat.dispersion)]
         return {"type": DISPERSIVE, "rough": rough,
@@ -331,19 +331,29 @@ def _dielectric(mat: Material, mode: str, vc: bool = False) -> dict:
 
 
 def _interface(mat: Material, mode: str, ior: float, tint: dict) -> dict:
-    """The dielectric interface of index ``ior`` (smooth, rough or index-matched) tinted by ``tint``."""
-    if mat.roughness == 0.0 or ior <= 1.0:
+    """The dielectric interface of index ``ior`` (smooth, rough or index-matched) tinted by ``tint``; rough
+    by the metallic-roughness map's G where the material has one (it replaces the factor)."""
+    mapped = mat.metallic_roughness_texture is not None
+    if (mat.roughness == 0.0 and not mapped) or ior <= 1.0:
         # ior 1 (valid glTF, an index-matched interface): refraction by any microfacet leaves the direction
         # as it is, so rough or smooth the light goes straight through, tinted; Mitsuba's rough dielectric
         # refuses equal indices, its smooth one is exact here
         return {"type": "dielectric", "int_ior": ior, "ext_ior": 1.0, "specular_transmittance": tint}
-    rough = {"type": "roughdielectric", "distribution": "ggx", "alpha": float(mat.roughness) ** 2, "int_ior": ior,
+    alpha: dict | float = float(mat.roughness) ** 2
+    roughness: dict | float = float(mat.roughness)
+    if mapped:
+        from compare.scene.textures import alpha_map, split_metallic_roughness
+
+        alpha = bitmap_dict(mat, "metallic_roughness_texture", alpha_map(mat.metallic_roughness_texture), raw=True)
+        roughness = bitmap_dict(mat, "metallic_roughness_texture",
+                                split_metallic_roughness(mat.metallic_roughness_texture)[1], raw=True)
+    rough = {"type": "roughdielectric", "distribution": "ggx", "alpha": alpha, "int_ior": ior,
              "ext_ior": 1.0, "specular_transmittance": tint}
     from compare.mitsuba.glass import PLUGIN_NAME, register
 
     register()  # height-correlated masking, as the shared BRDF; Multiscatter GGX glass: Cycles' compensation
     compensate = mode in PRINCIPLED_MODES and (PRINCIPLED_MODES[mode] or mat.distribution) == "multi_ggx"
-    return {"type": PLUGIN_NAME, "bsdf": rough, "roughness": float(mat.roughness), "ior": ior, "tint": tint,
+    return {"type": PLUGIN_NAME, "bsdf": rough, "roughness": roughness, "ior": ior, "tint": tint,
             "compensate": compensate}
 
 
@@ -397,11 +407,22 @@ def _transmissive(mat: Material, mode: str, bsdf: dict, vc: bool = False) -> dic
         return bsdf
     glass = _dielectric(mat, mode, vc)
     weight = _layer_value(mat, "transmission")
-    if mat.metallic == 0.0:
+    mapped = mat.metallic_roughness_texture is not None  # the map's metallic (B) replaces the factor
+    if mat.metallic == 0.0 and not mapped:
         return {"type": "blendbsdf", "weight": weight, "bsdf_0": bsdf, "bsdf_1": glass}
-    dielectric = _surface_dict(dataclasses.replace(mat, metallic=0.0), mode, vc)
-    metal = _surface_dict(dataclasses.replace(mat, metallic=1.0), mode, vc)
-    return {"type": "blendbsdf", "weight": float(mat.metallic), "bsdf_0": {
+    metallic: dict | float = float(mat.metallic)
+    if mapped:
+        from compare.scene.textures import split_metallic_roughness
+
+        metallic = bitmap_dict(mat, "metallic_roughness_texture",
+                               split_metallic_roughness(mat.metallic_roughness_texture)[0], raw=True)
+    no_map = dataclasses.replace(mat, metallic_roughness_texture=None)  # the parts' metallic is their own
+    dielectric = _surface_dict(dataclasses.replace(no_map, metallic=0.0), mode, vc)
+    metal = _surface_dict(dataclasses.replace(no_map, metallic=1.0), mode, vc)
+    if mapped:  # the parts (gltf_pbr) keep the map's roughness (G)
+        dielectric["roughness"] = metal["roughness"] = bitmap_dict(
+            mat, "metallic_roughness_texture", split_metallic_roughness(mat.metallic_roughness_texture)[1], raw=True)
+    return {"type": "blendbsdf", "weight": metallic, "bsdf_0": {
         "type": "blendbsdf", "weight": weight, "bsdf_0": dielectric, "bsdf_1": glass},
         "bsdf_1": metal}
 

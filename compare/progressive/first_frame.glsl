@@ -183,9 +183,10 @@ void main() {
         vec3 tint = base_color;
         if (glass > 0.0) {
             env += glass * glass_transmitted(v_position, n, v, tint, roughness);
-            // the lights below light the diffuse lobe's remaining share (exact for a dielectric; a metal's
-            // Fresnel reads the lowered base colour too)
-            base_color *= 1.0 - transmission;
+            // the lights below light the diffuse lobe's remaining share, (1 - transmission) of the dielectric
+            // part's, and the metal's Fresnel its base colour: exact where metallic is 0 or 1 (a map's texels),
+            // the two mixed by the filtered metallic between
+            base_color *= 1.0 - glass;
         }
 #endif
 #if ENVIRONMENT

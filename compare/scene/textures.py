@@ -205,6 +205,13 @@ def split_metallic_roughness(path: Path) -> tuple[Path, Path]:
     return _derived(path, "metallic", (), channel(2)), _derived(path, "roughness", (), channel(1))
 
 
+def alpha_map(path: Path) -> Path:
+    """The GGX α = roughness² of a glTF metallic-roughness map (G), at least 1e-4, as a grey EXR in the cache:
+    a rough dielectric's ``alpha`` per texel."""
+    return _derived(path, "alpha", (), lambda: np.repeat(
+        np.maximum(load_texture(path, srgb=False)[..., 1:2] ** 2, 1e-4), 3, axis=2))
+
+
 def channel_map(path: Path, channel: str, factor) -> Path:
     """One channel ("r", "g", "b" or "a") of a linear map times ``factor``, as a grey EXR in the cache: a
     glTF extension's map (transmission in R, a coat's weight in R and roughness in G) times its factor.

@@ -36,8 +36,7 @@ class RoughGlassBSDF(PluginBSDF):
     def __init__(self, props):
         super().__init__(props)
         self.nested = props["bsdf"]
-        self.roughness = float(props.get("roughness", 0.0))
-        self.alpha = max(self.roughness * self.roughness, 1e-4)
+        self.roughness = props.get_texture("roughness", 0.0)  # a number, or a map's per texel
         self.compensate = bool(props.get("compensate", False))
         self.ior = float(props.get("ior", 1.5))
         if not self.ior > 1.0:
@@ -47,8 +46,9 @@ class RoughGlassBSDF(PluginBSDF):
         self.m_components = [self.nested.flags(i) for i in range(self.nested.component_count())]
         self.m_flags = self.nested.flags()
 
-    def _masking(self, wi, wo):
-        return ggx.masking_ratio(dr, wi.z, wo.z, self.alpha)
+    def _masking(self, si, wo, active):
+        r = self.roughness.eval_1(si, active)
+        return ggx.masking_ratio(dr, si.wi.z, wo.z, dr.maximum(r * r, 1e-4))
 
     def _scale(self, si, active):
         """Cycles' energy compensation ``1 + F_ms (1 - E) / E`` (1 without ``compensate``)."""
@@ -56,8 +56,9 @@ class RoughGlassBSDF(PluginBSDF):
             return 1.0
         inside = si.wi.z < 0.0
         mu = dr.abs(si.wi.z)
-        p3 = mv.Point3f(_coord(self.roughness), _coord(mu), _coord(self.z))
-        p2 = mv.Point2f(_coord(self.roughness), _coord(self.z))
+        r = self.roughness.eval_1(si, active)
+        p3 = mv.Point3f(_coord(r), _coord(mu), _coord(self.z))
+        p2 = mv.Point2f(_coord(r), _coord(self.z))
         e = dr.select(inside, _E["ggx_glass_inv_E"].eval(p3)[0], _E["ggx_glass_E"].eval(p3)[0])
         e_avg = dr.select(inside, _E_AVG["ggx_glass_inv_Eavg"].eval(p2)[0], _E_AVG["ggx_glass_Eavg"].eval(p2)[0])
         fss = self.tint.eval(si, active)
@@ -66,18 +67,18 @@ class RoughGlassBSDF(PluginBSDF):
 
     # eval and pdf are the nested ones' (not the parts of eval_pdf): the nested BSDF may do less for each
     def eval(self, ctx, si, wo, active=True):
-        return self.nested.eval(ctx, si, wo, active) * (self._masking(si.wi, wo) * self._scale(si, active))
+        return self.nested.eval(ctx, si, wo, active) * (self._masking(si, wo, active) * self._scale(si, active))
 
     def pdf(self, ctx, si, wo, active=True):
         return self.nested.pdf(ctx, si, wo, active)
 
     def eval_pdf(self, ctx, si, wo, active=True):
         value, pdf = self.nested.eval_pdf(ctx, si, wo, active)
-        return value * (self._masking(si.wi, wo) * self._scale(si, active)), pdf
+        return value * (self._masking(si, wo, active) * self._scale(si, active)), pdf
 
     def sample(self, ctx, si, sample1, sample2, active=True):
         bs, weight = self.nested.sample(ctx, si, sample1, sample2, active)
-        return bs, weight * (self._masking(si.wi, bs.wo) * self._scale(si, active))
+        return bs, weight * (self._masking(si, bs.wo, active) * self._scale(si, active))
 
     def _fields(self):
         return [("roughness", self.roughness), ("ior", self.ior), ("compensate", self.compensate)]
