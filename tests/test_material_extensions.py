@@ -516,6 +516,29 @@ def test_a_transmission_map_makes_glass_where_it_says(tmp_path, make_scene, gl_c
     assert [(f, c) for f, c, _ in back.layer_images] == [("transmission", "r")]
 
 
+def test_a_metallic_map_keeps_glass_where_it_is_not_metal(tmp_path, make_scene, gl_ctx):
+    """A glTF card of transmission 1 whose metallic-roughness map is metal (B = 1) on one half and dielectric
+    on the other, lit from behind: glTF's transmission is the dielectric part's, so light comes through the
+    dielectric half only (thin-walled: (1 − R)² / (1 − R²), R = 0.04), in the reference and the rasterizer
+    (a reader that takes the metallic factor, 1, for the map's lets nothing through)."""
+    from compare.progressive.rasterizer import render_progressive
+
+    texel = np.zeros((4, 8, 3), dtype=np.uint8)
+    texel[:, :4, 2] = 255  # u < 0.5: metal
+
+    def extensions(w):
+        w.doc["materials"][0]["pbrMetallicRoughness"].update(
+            metallicFactor=1.0, metallicRoughnessTexture=w.texture(png_bytes(texel)))
+        return {"KHR_materials_transmission": {"transmissionFactor": 1.0}}
+
+    scene = _mapped_card(tmp_path, make_scene, (1.0, 1.0, 1.0), extensions, depth=6, light=(-2.0, 6.0))
+    r = 0.04
+    for image in (_render(scene, spp=64), render_progressive(scene, frames=8, ctx=gl_ctx).image):
+        metal, glass = image[4:12, 2:12].mean(), image[4:12, 20:30].mean()
+        assert glass == pytest.approx((1 - r) ** 2 / (1 - r * r), rel=0.03)
+        assert metal < 0.05
+
+
 @pytest.mark.parametrize("renderer", ["reference", "progressive", pytest.param("cycles", marks=pytest.mark.bpy)])
 def test_a_specular_map_weights_the_reflection_where_it_says(tmp_path, make_scene, renderer, request):
     """A black smooth card whose specularTexture (alpha) is 0 on one half and 1 on the other, IOR 2, and a
