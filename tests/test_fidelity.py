@@ -1,15 +1,32 @@
 """A run of a render-fidelity scenario file: what results.json records of it (every scenario, those left out
-with their reason), and the report's scenario table (its behaviour in a browser: tests/test_browser.py)."""
+with their reason), the report's scenario table (its behaviour in a browser: tests/test_browser.py), and the
+scenario set the suite ships, ``scenes/fidelity/config.json``: model-viewer's scenarios of the Khronos models
+of ``scenes/khronos/``, every file there, each rendering with the rasterizer."""
 
 from __future__ import annotations
 
 import json
+import re
+import warnings
+from pathlib import Path
 
+import numpy as np
 import pytest
 
 from compare.cli.main import main
 from compare.report.results import Results
-from tests.helpers import CORNELL, FIDELITY_RENDERERS, FIDELITY_SCENARIOS, fidelity_report, synthetic_report
+from compare.scene.framing import bounds_center, fit_radius
+from compare.scene.loader import load_scene
+from compare.scene.scenarios import DEFAULTS, load_scenarios
+from tests.helpers import (CORNELL, FIDELITY_RENDERERS, FIDELITY_SCENARIOS, ROOT, fidelity_report,
+                           synthetic_report)
+
+SHIPPED = ROOT / "scenes" / "fidelity" / "config.json"
+KHRONOS = ROOT / "scenes" / "khronos"
+PUBLISHED = ROOT / "tests" / "data" / "model-viewer" / "config.json"
+#: The environment of every shipped scenario: Blender's studio light "interior" (Poly Haven's hotel_room, CC0).
+LIGHTING = ROOT / "scenes" / "fidelity" / "env" / "interior.exr"
+
 
 # ----------------------------------------------------------------------------- results.json and the report
 
@@ -74,3 +91,79 @@ def test_a_run_of_scene_files_has_no_scenario_table(tmp_path):
     assert res.scenarios is None
     assert "scenarios" not in json.loads((tmp_path / "out" / "results.json").read_text(encoding="utf-8"))
     assert 'id="fidelity"' not in (tmp_path / "out" / "index.html").read_text(encoding="utf-8")
+
+
+# ----------------------------------------------------------------------------- the shipped scenario set
+
+
+def _load(path: Path):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the renderSkybox note
+        return load_scenarios(path)
+
+
+def _published() -> dict[str, dict]:
+    """model-viewer's published scenarios by model name (glTF-Sample-Models/2.0/<Name>/...)."""
+    out = {}
+    for raw in json.loads(PUBLISHED.read_text(encoding="utf-8"))["scenarios"]:
+        match = re.search(r"/glTF-Sample-Models/2\.0/([^/]+)/", raw["model"])
+        if match:
+            out[match.group(1)] = raw
+    return out
+
+
+def test_the_shipped_set_is_every_khronos_model_framed_as_model_viewer_frames_it():
+    """One scenario per model of scenes/khronos/, its files there, lit by the shipped environment; where
+    model-viewer's published file has a scenario of the model, its camera, target and exclude; elsewhere
+    model-viewer's default angles and field of view about the suite's "auto" framing (the bounding sphere fills
+    the view), as scenes/khronos/<Model>.toml frames it. Images 64 pixels high at the scenario's aspect ratio."""
+    scenarios = _load(SHIPPED)
+    models = sorted(p.name for p in KHRONOS.iterdir() if p.is_dir())
+    assert sorted(s.name.removeprefix("khronos-") for s in scenarios) == models
+    published = _published()
+    for sc in scenarios:
+        name = sc.name.removeprefix("khronos-")
+        assert sc.unavailable() is None, sc.name
+        assert sc.model.parent == (KHRONOS / name).resolve() and sc.model.is_file()
+        assert sc.lighting == LIGHTING.resolve() and sc.lighting_readable
+        assert sc.height == 64 and not sc.render_skybox
+        raw = published.get(name)
+        if raw is not None:
+            dims = {**DEFAULTS["dimensions"], **raw.get("dimensions", {})}
+            assert sc.width == round(64 * dims["width"] / dims["height"]), sc.name
+            assert sc.orbit == tuple(float({**DEFAULTS["orbit"], **raw.get("orbit", {})}[k])
+                                     for k in ("theta", "phi", "radius")), sc.name
+            assert sc.target == tuple(float({**DEFAULTS["target"], **raw.get("target", {})}[k]) for k in "xyz")
+            assert sc.vertical_fov == raw.get("verticalFoV", DEFAULTS["verticalFoV"])
+            assert list(sc.exclude) == raw.get("exclude", []), sc.name
+            continue
+        # no published scenario: model-viewer's defaults, framed as the suite's scene of the model
+        assert sc.width == 64 and sc.orbit[:2] == (0.0, 90.0) and sc.vertical_fov == 45.0 and sc.exclude == ()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            scene = load_scene(KHRONOS / f"{name}.toml")
+        lo, hi = scene.bounds()
+        np.testing.assert_allclose(sc.target, bounds_center(lo, hi), atol=1e-3 * np.linalg.norm(hi - lo))
+        assert sc.orbit[2] == pytest.approx(fit_radius(lo, hi, bounds_center(lo, hi), 45.0, 1.0), rel=1e-3)
+
+
+@pytest.mark.gl
+@pytest.mark.npm("mikktspace")  # NormalTangentTest's and TextureTransformMultiTest's normal maps have no TANGENT
+def test_the_shipped_set_renders_with_the_rasterizer(gl_ctx):
+    """Every scenario of the shipped set, as ``compare run --scenarios`` makes its scene, rendered by the
+    progressive rasterizer at 16 pixels high, 2 frames: finite, lit by the environment."""
+    from compare.renderers import RenderContext
+    from compare.renderers.registry import Registry
+    from compare.report.results import RunSettings
+
+    renderer = Registry().get("progressive")
+    with RenderContext(RunSettings(frames=2)) as context, warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the notes of reading the models
+        context.provide("gl", gl_ctx)
+        for sc in _load(SHIPPED):
+            scene = sc.scene()
+            scene = scene.with_resolution(max(1, round(16 * sc.width / sc.height)), 16)
+            given, _ = renderer.prepare(scene)
+            image = renderer.render(given, steps=2, checkpoints=[2], seed=0, context=context).checkpoints[-1].image
+            assert image.shape == (16, scene.camera.resolution[0], 3), sc.name
+            assert np.isfinite(image).all() and image.mean() > 0.01, sc.name
