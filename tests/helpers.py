@@ -916,6 +916,57 @@ def synthetic_report(out: Path, scenes: list[Path], *, size=(48, 36), frames=8, 
         return run_mod.run(scenes, out, settings, progress=False, report=report)
 
 
+def card_gltf(folder: Path) -> Path:
+    """A 2 × 2 m grey card in the XY plane facing +Z (corners at ±1), as a .gltf (its buffer a data URI)."""
+    from compare.scene import geometry
+    from compare.scene.gltf_write import GltfWriter
+
+    folder.mkdir(parents=True, exist_ok=True)
+    w = GltfWriter()
+    grey = w.material("grey", (0.5, 0.5, 0.5), 0.0, 0.6)
+    card = geometry.quad((2.0, 2.0)).transformed(geometry.transform_matrix(rotate=(90.0, 0.0, 0.0)))
+    w.node("card", mesh=w.mesh("card", [(card, grey)]))
+    return w.write(folder / "card.gltf")
+
+
+#: The scenarios of :func:`fidelity_report`, in its file's order: two rendered (the second excluding Cycles by
+#: model-viewer's name for it, and a renderer the suite does not have; of another size, so that the synthetic
+#: renderers' errors differ), one whose model is not there, one lit by an LDR image.
+FIDELITY_SCENARIOS = [
+    {"name": "front", "model": "models/card.gltf", "lighting": "env/room.hdr", "orbit": {"radius": 4},
+     "dimensions": {"width": 32, "height": 24}},
+    {"name": "side", "model": "models/card.gltf", "lighting": "env/room.hdr", "dimensions": {"width": 40, "height": 30},
+     "orbit": {"theta": 40, "phi": 70, "radius": 4}, "exclude": ["blender-cycles", "stellar"]},
+    {"name": "lost", "model": "models/gone.glb", "lighting": "env/room.hdr"},
+    {"name": "ldr", "model": "models/card.gltf", "lighting": "env/sky.jpg"},
+]
+#: The renderers of :func:`fidelity_report` besides its ground truth (mitsuba).
+FIDELITY_RENDERERS = ("progressive", "progressive:paper", "cycles")
+
+
+def fidelity_report(folder: Path) -> Path:
+    """``compare run --scenarios --skip-unavailable`` of :data:`FIDELITY_SCENARIOS` (each at its own size) with the
+    synthetic renderers (:func:`synthetic_renderers`) and :data:`FIDELITY_RENDERERS`; returns the output folder."""
+    import warnings
+
+    from compare.cli.main import main
+    from compare.image.hdr import write_hdr
+
+    card_gltf(folder / "models")
+    (folder / "env").mkdir(parents=True, exist_ok=True)
+    write_hdr(folder / "env" / "room.hdr", np.full((8, 16, 3), 0.5, np.float32))
+    config = folder / "config.json"
+    config.write_text(json.dumps({"scenarios": FIDELITY_SCENARIOS}), encoding="utf-8")
+    out = folder / "out"
+    with synthetic_renderers(), warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the renderSkybox note and the one naming the scenarios left out
+        status = main(["run", "--scenarios", str(config), "--skip-unavailable", "--renderers",
+                       ",".join(FIDELITY_RENDERERS), "--frames", "4", "--spp", "4",
+                       "--no-likeness", "--executor", "serial", "-o", str(out), "--quiet"])
+    assert status == 0
+    return out
+
+
 # ----------------------------------------------------------------------------- the regression gate's external renderer
 
 #: The small external renderer of the regression-gate tests, and the seeds of each of its runs.

@@ -10,9 +10,11 @@ library and browser drive the web engines, compare.web.renderer), and checks tha
   a pointer drag on the image) changes the canvas, and the canvas pixels equal
   :func:`compare.image.tonemap.to_ldr` of the embedded HDR data to within one 8-bit
   step, so the page's ACES matches the suite's;
-* a scene named ``<script>alert(1)</script>`` shows as text and runs nothing.
+* a scene named ``<script>alert(1)</script>`` shows as text and runs nothing;
+* the scenario table of a run of ``compare run --scenarios`` has a row per scenario (those not rendered saying
+  why) and a cell per renderer (an excluded one saying so), its images load, and its buttons sort the rows.
 
-A full-page screenshot lands in the test's tmp folder (``report.png``).
+Full-page screenshots land in the tests' tmp folders (``report.png``, ``fidelity.png``).
 
 Needs Debian's ``chromium`` (``apt-get install -y chromium``) and Playwright (a dev
 dependency); skips without them.
@@ -30,7 +32,9 @@ import numpy as np
 import pytest
 
 from compare.image.tonemap import to_ldr
-from tests.helpers import CORNELL, EVIL, cornell_named, synthetic_report
+from compare.report.results import Results
+from tests.helpers import (CORNELL, EVIL, FIDELITY_RENDERERS, FIDELITY_SCENARIOS, cornell_named, fidelity_report,
+                           synthetic_report)
 
 CHROMIUM = Path("/usr/bin/chromium")
 #: A hermetic headless browser: no GPU, no network chatter, a fresh profile per session.
@@ -59,17 +63,23 @@ pytestmark = [
 class Browser:
     """Headless Chromium (Debian's) driven by Playwright, with the few calls the tests need."""
 
-    def __init__(self, profile: Path):
+    def __init__(self, profile: Path | None = None, *, tab_of: "Browser | None" = None):
+        """A browser with a fresh ``profile``, or (``tab_of``) another tab of a browser already started: the
+        Playwright of one thread drives one browser."""
         from playwright.sync_api import sync_playwright
 
-        self._pw = sync_playwright().start()
-        try:
-            self._context = self._pw.chromium.launch_persistent_context(
-                str(profile), executable_path=str(CHROMIUM), headless=True, args=CHROMIUM_FLAGS,
-                viewport={"width": 1400, "height": 1000})
-        except BaseException:
-            self._pw.stop()
-            raise
+        self._owner = tab_of is None
+        if tab_of is not None:
+            self._pw, self._context = tab_of._pw, tab_of._context
+        else:
+            self._pw = sync_playwright().start()
+            try:
+                self._context = self._pw.chromium.launch_persistent_context(
+                    str(profile), executable_path=str(CHROMIUM), headless=True, args=CHROMIUM_FLAGS,
+                    viewport={"width": 1400, "height": 1000})
+            except BaseException:
+                self._pw.stop()
+                raise
         self.page = self._context.new_page()
         self._console: list[dict] = []
         self._dialogs: list[str] = []
@@ -113,6 +123,9 @@ class Browser:
         path.write_bytes(self.page.screenshot(full_page=True))
 
     def close(self) -> None:
+        if not self._owner:
+            self.page.close()
+            return
         try:
             self._context.close()
         finally:
@@ -131,17 +144,35 @@ def report(tmp_path_factory):
     return tmp / "report", res
 
 
+def _opened(b: Browser, index: Path) -> None:
+    """Open a report and wait until its script has started the viewers."""
+    b.open(index.as_uri())
+    deadline = time.monotonic() + 30
+    while b.js("return document.body && document.body.dataset.viewersReady || null") is None:
+        if time.monotonic() > deadline:
+            raise AssertionError("the report's viewers did not start within 30 s")
+        time.sleep(0.1)
+
+
 @pytest.fixture(scope="module")
 def browser(tmp_path_factory, report):
     b = Browser(tmp_path_factory.mktemp("profile"))
     try:
-        b.open((report[0] / "index.html").as_uri())
-        deadline = time.monotonic() + 30
-        while b.js("return document.body && document.body.dataset.viewersReady || null") is None:
-            if time.monotonic() > deadline:
-                raise AssertionError("the report's viewers did not start within 30 s")
-            time.sleep(0.1)
+        _opened(b, report[0] / "index.html")
         yield b
+    finally:
+        b.close()
+
+
+@pytest.fixture(scope="module")
+def fidelity(tmp_path_factory, browser):
+    """The report of a run of four scenarios (two not rendered) with the synthetic renderers, open in a tab of
+    the browser."""
+    out = fidelity_report(tmp_path_factory.mktemp("fidelity"))
+    b = Browser(tab_of=browser)
+    try:
+        _opened(b, out / "index.html")
+        yield b, out
     finally:
         b.close()
 
@@ -261,3 +292,74 @@ def test_inline_script_is_refused_by_the_content_security_policy(browser):
         return window.__inlineRan === true;""")
     assert ran is False
     assert any("Content Security Policy" in e.get("message", "") for e in browser.console())
+
+
+# --------------------------------------------------------------------------- the scenario table
+
+
+def _rows(b: Browser) -> list[str]:
+    """The scenario table's rows, top to bottom, by scenario name."""
+    return b.js("return [...document.querySelectorAll('#fidelity tbody tr')]"
+                ".map(tr => tr.querySelector('th').firstChild.textContent.trim())")
+
+
+def _sort(b: Browser, column: int, key: str) -> list[str]:
+    """Click the sort button ``key`` of ``column`` (0: the scenarios, 1: the ground truth, 2...: the renderers)."""
+    selector = (f"#fidelity thead button.sort[data-col='{column}'][data-key='{key}']" if column
+                else "#fidelity thead button.sort[data-key='order']")
+    b.find(selector).click()
+    return _rows(b)
+
+
+def test_the_scenario_table_has_a_row_per_scenario_and_a_cell_per_renderer(fidelity, tmp_path):
+    b, out = fidelity
+    res = Results.load(out / "results.json")
+    names = [s["name"] for s in FIDELITY_SCENARIOS]
+    assert _rows(b) == names  # the file's order, those not rendered too
+    n = len(FIDELITY_RENDERERS)
+    assert b.js("return document.querySelectorAll('#fidelity thead th').length") == 2 + n
+    cells = b.js("return [...document.querySelectorAll('#fidelity tbody tr')].map(tr => tr.cells.length)")
+    assert cells == [2 + n, 2 + n, 2, 2]  # scenario, ground truth, one per renderer; or one cell saying why not
+    texts = b.js("return [...document.querySelectorAll('#fidelity tbody tr')]"
+                 ".map(tr => [...tr.cells].slice(1).map(c => c.textContent.replace(/\\s+/g, ' ').trim()))")
+    assert texts[2] == ["not rendered: model file 'models/gone.glb' not found"]
+    assert texts[3] == ["not rendered: lighting 'env/sky.jpg' is not an .exr or .hdr file"]
+    # Cycles, which "side" excludes by model-viewer's name for it, is marked so (not blank); rendered elsewhere
+    cycles = 2 + FIDELITY_RENDERERS.index("cycles") - 1
+    assert texts[1][cycles] == "excluded by the scenario (exclude: blender-cycles)"
+    assert texts[0][cycles].startswith("FLIP ")
+    # each rendered cell: its image, FLIP and model-viewer dB of the final image, the seconds to it
+    for scene, row in zip(res.scenes, texts[:2]):
+        for spec, text in zip(FIDELITY_RENDERERS, row[1:]):
+            run = scene.run(spec)
+            if run is None:
+                continue
+            m = run.final.metrics
+            assert f"FLIP {m['flip']:.3g} · {m['mv_rms_db']:.1f} dB" in text, (spec, text)
+    images = b.js("return [...document.querySelectorAll('#fidelity img')].map(i => [i.getAttribute('src'), "
+                  "i.complete, i.naturalWidth])")
+    assert len(images) == 2 + 2 * n - 1  # two ground truths, every run but the excluded one
+    assert [src for src, complete, width in images if not (complete and width > 0)] == []
+    assert [e for e in b.console() if e.get("level") == "SEVERE"] == []
+    b.js("document.querySelector('#fidelity').scrollIntoView()")
+    b.screenshot(tmp_path / "fidelity.png")
+
+
+def test_the_scenario_table_sorts_by_a_column(fidelity):
+    b, out = fidelity
+    res = Results.load(out / "results.json")
+    flip = {s.name: s.run("progressive").final.metrics["flip"] for s in res.scenes}
+    assert flip["front"] != flip["side"]
+    lowest = sorted(flip, key=flip.get)
+    column = 2 + FIDELITY_RENDERERS.index("progressive")
+    assert _sort(b, column, "flip") == [*lowest, "lost", "ldr"]  # rows without the number last
+    assert b.js(f"return document.querySelector('#fidelity thead tr').cells[{column}].getAttribute('aria-sort')") \
+        == "ascending"
+    assert _sort(b, column, "flip") == [*lowest[::-1], "lost", "ldr"]  # again: the other way
+    # Cycles' seconds: "side" excludes it, so it has none and goes after "front" either way
+    cycles = 2 + FIDELITY_RENDERERS.index("cycles")
+    assert _sort(b, cycles, "seconds") == ["front", "side", "lost", "ldr"]
+    assert _sort(b, cycles, "seconds") == ["front", "side", "lost", "ldr"]
+    assert _sort(b, 0, "order") == ["front", "side", "lost", "ldr"]
+    assert _sort(b, 0, "order") == ["ldr", "lost", "side", "front"]
+    assert [e for e in b.console() if e.get("level") == "SEVERE"] == []

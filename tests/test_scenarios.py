@@ -13,11 +13,10 @@ import pytest
 
 from compare.cli.main import main
 from compare.image.hdr import write_hdr
-from compare.scene import geometry
-from compare.scene.gltf_write import GltfWriter
 from compare.scene.loader import load_scene
 from compare.scene.scenarios import RENDERER_NAMES, load_scenarios, suite_renderers
 from compare.util.errors import SceneError
+from tests.helpers import card_gltf
 
 #: The published file's layout: packages/render-fidelity-tools/test/config.json names
 #: ../../../shared-assets/models/… and ../../../shared-assets/environments/….
@@ -26,20 +25,10 @@ MODEL = "../../../shared-assets/models/card/card.gltf"
 HDR = "../../../shared-assets/environments/lightroom_14b.hdr"  # model-viewer's default lighting's name
 
 
-def _card(folder):
-    """A 2 × 2 m grey card in the XY plane facing +Z (corners at ±1), as a .gltf (its buffer a data URI)."""
-    folder.mkdir(parents=True, exist_ok=True)
-    w = GltfWriter()
-    grey = w.material("grey", (0.5, 0.5, 0.5), 0.0, 0.6)
-    card = geometry.quad((2.0, 2.0)).transformed(geometry.transform_matrix(rotate=(90.0, 0.0, 0.0)))
-    w.node("card", mesh=w.mesh("card", [(card, grey)]))
-    return w.write(folder / "card.gltf")
-
-
 @pytest.fixture
 def assets(tmp_path):
     """The shared-assets tree with the card and a small uniform HDR; returns the config file's folder."""
-    _card(tmp_path / "shared-assets" / "models" / "card")
+    card_gltf(tmp_path / "shared-assets" / "models" / "card")
     env = tmp_path / "shared-assets" / "environments"
     env.mkdir(parents=True)
     write_hdr(env / "lightroom_14b.hdr", np.full((8, 16, 3), 0.5, np.float32))
@@ -206,6 +195,10 @@ def test_run_scenarios_is_one_run_with_one_report(assets, capsys, monkeypatch):
     assert [r["renderer"] for r in scenes["front"]["runs"]] == ["mitsuba", "progressive"]
     assert [r["renderer"] for r in scenes["side"]["runs"]] == ["mitsuba"]
     assert not res.get("failures") and (scenes["front"]["width"], scenes["front"]["height"]) == (16, 12)
+    record = res["scenarios"]  # the file's scenarios, for the report's scenario table
+    assert record["file"] == str(path) and [s["name"] for s in record["scenarios"]] == ["front", "side"]
+    assert record["scenarios"][1]["excluded"] == ["progressive"] and record["scenarios"][1]["unavailable"] is None
+    assert record["scenarios"][1]["scenes"] == [scenes["side"]["id"]]
 
 
 def test_scenes_and_scenarios_are_exclusive(assets, capsys):
@@ -236,7 +229,7 @@ def test_inspect_lists_the_scenarios(assets, capsys):
 def test_scene_files_may_name_files_outside_their_folder_but_gltf_uris_may_not(tmp_path):
     """The paths a user writes (a scenario file's, a scene file's) may leave its folder; the URIs inside a
     downloaded glTF stay confined to the glTF's own folder."""
-    _card(tmp_path / "models")
+    card_gltf(tmp_path / "models")
     (tmp_path / "env").mkdir()
     write_hdr(tmp_path / "env" / "sky.hdr", np.full((8, 16, 3), 0.5, np.float32))
     scenes = tmp_path / "scenes"

@@ -286,6 +286,14 @@ def _check_rendered(res: dict, placed: list[str], notes: list[str], out: Path) -
            "DragonAttenuation/glTF/DragonAttenuation.gltf' not found" in note.splitlines()
     assert ("  - khronos-MetalRoughSpheres-LDR: lighting '../../../shared-assets/environments/"
             "spruit_sunrise_1k_LDR.jpg' is not an .exr or .hdr file") in note.splitlines()
+    # results.json records them too, each with its reason (the report's scenario table shows them)
+    record = {s["name"]: s for s in res["scenarios"]["scenarios"]}
+    assert len(record) == 79 and [n for n, s in record.items() if s["unavailable"] is None] == placed
+    assert record["khronos-DragonAttenuation"]["unavailable"] == (
+        "model file '../../../shared-assets/models/glTF-Sample-Models/2.0/DragonAttenuation/glTF/"
+        "DragonAttenuation.gltf' not found")
+    assert record["khronos-MetalRoughSpheres-LDR"]["unavailable"].endswith("is not an .exr or .hdr file")
+    assert sorted(i for n in placed for i in record[n]["scenes"]) == sorted(s["id"] for s in res["scenes"])
 
 
 #: Three of the scenarios whose models the suite ships, in the three forms of a path: a .glb, a .gltf with its

@@ -11,7 +11,7 @@ from pathlib import Path
 from compare.brdf import CLOSED_FORM_MODES, MATERIAL_MODES
 from compare.cli.argtypes import choices_help, parse_sizes, positive_float, positive_int, setting
 from compare.renderers.registry import Registry
-from compare.report.results import RunSettings
+from compare.report.results import RunSettings, ScenarioRecord, ScenarioSet
 from compare.run.runner import run
 from compare.util.settings import DEFAULT_SPP
 from compare.util.errors import CompareError, SceneError
@@ -134,11 +134,12 @@ def cmd_run(args: argparse.Namespace) -> int:
                            likeness=args.likeness, seeds=args.seeds, ground_truth=args.ground_truth,
                            baseline=args.baseline,
                            renderer_config=config)
-    exclude = None
+    exclude = scenario_set = None
     if args.skip_unavailable and args.scenarios is None:
         raise _UsageError("--skip-unavailable: applies to the scenarios of --scenarios only")
     if args.scenarios is not None:
-        scenes, exclude = _scenario_scenes(args.scenarios, config, skip_unavailable=args.skip_unavailable)
+        scenes, exclude, scenario_set = _scenario_scenes(args.scenarios, config,
+                                                         skip_unavailable=args.skip_unavailable)
         out = args.output or Path("reports") / args.scenarios.stem
     else:
         scenes = args.scenes if isinstance(args.scenes, list) else [args.scenes]  # the default is one Path
@@ -146,7 +147,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     try:
         res = run(scenes, out, settings, progress=not args.quiet, fresh=args.fresh, report=not args.no_report,
                   executor=args.executor, update=args.update, keep_going=args.keep_going, timeout=args.timeout,
-                  exclude=exclude)
+                  exclude=exclude, scenarios=scenario_set)
     except ValueError as e:
         if isinstance(e, CompareError):
             raise
@@ -169,11 +170,12 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 
 def _scenario_scenes(path: Path, renderer_config: str | None, *,
-                     skip_unavailable: bool = False) -> tuple[list, dict[str, tuple[str, ...]]]:
-    """The scenes of a render-fidelity config's scenarios, and scene name → the suite's renderer names each
-    excludes (model-viewer's names mapped; names the suite lacks dropped). A scenario that cannot be
-    rendered here (``Scenario.unavailable``: a file not there, LDR lighting) is one error naming it and how
-    many others share its fate, or, with ``skip_unavailable``, left out with one note naming each."""
+                     skip_unavailable: bool = False) -> tuple[list, dict[str, tuple[str, ...]], ScenarioSet]:
+    """The scenes of a render-fidelity config's scenarios, scene name → the suite's renderer names each
+    excludes (model-viewer's names mapped; names the suite lacks dropped), and the record of every scenario
+    for results.json. A scenario that cannot be rendered here (``Scenario.unavailable``: a file not there,
+    LDR lighting) is one error naming it and how many others share its fate, or, with ``skip_unavailable``,
+    left out with one note naming each (and recorded with its reason)."""
     from compare.scene.scenarios import load_scenarios
 
     scenarios = load_scenarios(path)
@@ -199,7 +201,11 @@ def _scenario_scenes(path: Path, renderer_config: str | None, *,
                       + "\n".join(f"  - {sc.name}: {why}" for sc, why in lacking), stacklevel=2)
     known = Registry(renderer_config).names()
     scenes = [sc.scene() for sc in usable]  # every model read before any rendering
-    return scenes, {sc.name: sc.suite_excluded(known) for sc in usable if sc.suite_excluded(known)}
+    record = ScenarioSet(file=str(path), scenarios=[
+        ScenarioRecord(name=sc.name, model=sc.given[0], lighting=sc.given[1], exclude=list(sc.exclude),
+                       excluded=list(sc.suite_excluded(known)), unavailable=why)
+        for sc, why in zip(scenarios, reasons)])
+    return scenes, {sc.name: sc.suite_excluded(known) for sc in usable if sc.suite_excluded(known)}, record
 
 
 def _measure_features(res, renderers: list[str], out: Path, *, report: bool, progress: bool) -> None:

@@ -62,6 +62,7 @@ from compare.brdf import MATERIAL_MODES
 from compare.image.layers import LAYER_TITLES
 from compare.metrics.table import METRICS
 from compare.report.results import Results, SceneResult, metric_value
+from compare.scene.scenarios import RENDERER_NAMES
 
 __all__ = ["ReportError", "build_report", "hdr_payload"]
 
@@ -242,17 +243,22 @@ def _scene_view(scene: SceneResult, plots: dict[str, Path], out: Path, exposure:
     }
 
 
+def _changed(metadata: dict) -> list[str]:
+    """What a renderer changed or left out of a scene, as it declared (:meth:`compare.renderers.base.Renderer.prepare`):
+    the phrases of its run's ``scene_changed``, or none."""
+    return [w for w in str(metadata.get("scene_changed") or "").split("; ") if w]
+
+
 def _left_out(scene: SceneResult) -> list[dict]:
-    """What each renderer (the ground truth first) changed or left out of the scene, as it declared
-    (:meth:`compare.renderers.base.Renderer.prepare`): the run's ``scene_changed`` phrases."""
+    """What each renderer (the ground truth first) changed or left out of the scene (:func:`_changed`)."""
     out = []
-    truth = scene.reference.metadata.get("scene_changed")
+    truth = _changed(scene.reference.metadata)
     if truth:
-        out.append({"label": f"{_gt_label(scene.reference)} (ground truth)", "what": str(truth).split("; ")})
+        out.append({"label": f"{_gt_label(scene.reference)} (ground truth)", "what": truth})
     for run in scene.runs:
-        changed = run.metadata.get("scene_changed")
+        changed = _changed(run.metadata)
         if changed:
-            out.append({"label": run.label, "what": str(changed).split("; ")})
+            out.append({"label": run.label, "what": changed})
     return out
 
 
@@ -445,6 +451,84 @@ def _table1(results: Results) -> dict:
     return {"cols": cols, "rows": rows, "first_rows": first_rows}
 
 
+def _fidelity(results: Results) -> dict | None:
+    """The scenario table of a run of ``compare run --scenarios`` (None for a run of scene files), as
+    model-viewer's fidelity page lays it out: a row per scenario and size, in the file's order, and a column
+    per renderer; each cell the renderer's final image, its FLIP and model-viewer RMS (dB) against the ground
+    truth, the seconds to that image, and what the renderer left out of the scene (:func:`_changed`, as in the
+    scene's own list, :func:`_left_out`); a renderer the scenario's ``exclude`` names is marked excluded, a unit
+    that failed says so, and a scenario not rendered is one row saying why. Each cell carries its numbers for
+    sorting (``data-*`` attributes read by report.js)."""
+    record = results.scenarios
+    if record is None:
+        return None
+    truth = results.settings.ground_truth
+    by_id = {s.id: s for s in results.scenes}
+    specs: list[tuple[str, str]] = []
+    for spec in results.settings.renderers:  # the run's order; a label from a run that has one
+        if spec not in [k for k, _ in specs]:
+            label = next((r.label for s in results.scenes for r in s.runs if r.renderer == spec), spec)
+            specs.append((spec, label))
+    failed = {(f["scene"], f["renderer"]): f["message"] for f in results.failures}
+    rows = []
+    for order, sc in enumerate(record.scenarios):
+        base = {"name": sc.name, "order": order, "exclude": sc.exclude, "excluded": sc.excluded}
+        if sc.unavailable is not None:
+            rows.append({**base, "status": f"not rendered: {sc.unavailable}", "size": "", "id": None})
+            continue
+        # its scenes; in a record without their ids (written by another tool), the scenes of its name
+        sc_ids = list(sc.scenes) or [s.id for s in results.scenes if s.name == sc.name]
+        if not sc_ids:
+            rows.append({**base, "status": "not measured: the run has no scene of this scenario", "size": "",
+                         "id": None})
+        for sid in sc_ids:
+            scene = by_id.get(sid)
+            if scene is None:  # its ground truth failed: the scene was not measured
+                why = failed.get((sid, truth), "the ground truth did not render")
+                rows.append({**base, "status": f"not measured: the ground truth ({truth}) failed: {why}",
+                             "size": sid.rsplit("-", 1)[-1], "id": None})
+                continue
+            ref = scene.reference
+            truth_cell = {"preview": ref.preview, "seconds": fmt_seconds(ref.seconds), "raw_seconds": ref.seconds,
+                          "what": f"{ref.spp} {ref.unit}",
+                          "left_out": _changed(ref.metadata)}
+            cells = []
+            for spec, label in specs:
+                run = scene.run(spec)
+                if run is not None and run.points:
+                    m = run.final.metrics
+                    flip, db = metric_value(m, "flip"), metric_value(m, "mv_rms_db")
+                    cells.append({"state": "run", "label": label, "preview": run.preview,
+                                  "flip": fmt_num(flip, 3), "db": "—" if db is None else f"{db:.1f}",
+                                  "seconds": fmt_seconds(run.seconds),
+                                  "sort": {"flip": flip, "db": db, "seconds": run.seconds},
+                                  "steps": f"{run.steps} {run.unit}{'s' if run.unit == 'frame' and run.steps != 1 else ''}",
+                                  "left_out": _changed(run.metadata)})
+                elif (sid, spec) in failed:
+                    cells.append({"state": "failed", "label": label, "text": f"failed: {failed[(sid, spec)]}"})
+                elif spec.split(":", 1)[0] in sc.excluded and spec != truth:
+                    # the file's name of the renderer (model-viewer's, e.g. blender-cycles for cycles)
+                    names = [n for n in sc.exclude if RENDERER_NAMES.get(n, n) == spec.split(":", 1)[0]]
+                    cells.append({"state": "excluded", "label": label,
+                                  "text": f"excluded by the scenario (exclude: {', '.join(names or sc.exclude)})"})
+                else:
+                    cells.append({"state": "none", "label": label, "text": "not run"})
+            rows.append({**base, "status": None, "size": scene.size, "id": scene.id, "truth": truth_cell,
+                         "cells": cells})
+    summary = []
+    for k, (spec, label) in enumerate(specs):
+        done = [r["cells"][k] for r in rows if r.get("cells") and r["cells"][k]["state"] == "run"]
+        flips = [c["sort"]["flip"] for c in done if c["sort"]["flip"] is not None]
+        dbs = [c["sort"]["db"] for c in done if c["sort"]["db"] is not None]
+        summary.append({"count": len(done), "flip": fmt_num(sum(flips) / len(flips), 3) if flips else "—",
+                        "db": f"{sum(dbs) / len(dbs):.1f}" if dbs else "—",
+                        "seconds": fmt_seconds(sum(c["sort"]["seconds"] for c in done)) if done else "—"})
+    gt = next((s.reference for s in results.scenes), None)
+    return {"file": record.file, "renderers": [{"spec": s, "label": lab} for s, lab in specs], "rows": rows,
+            "summary": summary, "total": len(record.scenarios), "left_out": len(record.left_out),
+            "truth": f"{gt.label or gt.renderer}" if gt is not None else truth}
+
+
 # --------------------------------------------------------------------------- building
 
 
@@ -553,6 +637,7 @@ def build_report(results: Results, out_dir: str | os.PathLike, *, source_dir: st
         settings=results.settings,
         machine=results.machine,
         table1=_table1(results),
+        fidelity=_fidelity(results),
         materials_note=MATERIAL_MODES.get(results.settings.materials, results.settings.materials),
         scenes=[_scene_view(s, plots[s.id], out, results.settings.exposure, results.settings.baseline)
                 for s in results.scenes],

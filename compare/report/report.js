@@ -1,4 +1,4 @@
-/* compare report: the interactive HDR viewer (swipe comparison + exposure slider).
+/* compare report: the interactive HDR viewer (swipe comparison + exposure slider), and sortable tables.
  *
  * Data: each scene's data/<id>.js registers window.COMPARE_HDR[id] with linear
  * RGB images as little-endian float16, base64 (see compare/report/html.py).
@@ -162,8 +162,46 @@
     }
   }
 
+  /** Sortable tables (the scenario table): a header button sorts the body's rows by a number its column's
+   * cells carry (data-<key> of the cell in column data-col, or of the row itself without data-col);
+   * pressed again, the other way. Rows without the number go last; ties keep the file's order. */
+  function startSortable(table) {
+    const body = table.tBodies[0];
+    const buttons = Array.from(table.querySelectorAll("thead button.sort"));
+    for (const button of buttons) {
+      button.addEventListener("click", () => {
+        const key = button.dataset.key;
+        const col = button.dataset.col === undefined ? null : parseInt(button.dataset.col, 10);
+        const dir = button.dataset.dir === "ascending" ? "descending" : "ascending";
+        for (const b of buttons) { delete b.dataset.dir; b.setAttribute("aria-pressed", "false"); }
+        for (const th of table.tHead.rows[0].cells) th.removeAttribute("aria-sort");
+        button.dataset.dir = dir;
+        button.setAttribute("aria-pressed", "true");
+        button.closest("th").setAttribute("aria-sort", dir);
+        const value = (tr) => {
+          const holder = col === null ? tr : tr.cells[col];
+          const v = holder ? parseFloat(holder.dataset[key]) : NaN;
+          return Number.isFinite(v) ? v : null;
+        };
+        const sign = dir === "ascending" ? 1 : -1;
+        const rows = Array.from(body.rows);
+        rows.sort((a, b) => {
+          const x = value(a), y = value(b);
+          if (x === null || y === null) {
+            if (x !== y) return x === null ? 1 : -1;
+          } else if (x !== y) {
+            return sign * (x - y);
+          }
+          return parseInt(a.dataset.order, 10) - parseInt(b.dataset.order, 10);
+        });
+        for (const tr of rows) body.appendChild(tr);
+      });
+    }
+  }
+
   const viewers = {};
   function start() {
+    for (const table of document.querySelectorAll("table.sortable")) startSortable(table);
     const all = window.COMPARE_HDR || {};
     for (const root of document.querySelectorAll(".viewer")) {
       const id = root.dataset.scene;

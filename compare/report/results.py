@@ -55,6 +55,8 @@ __all__ = [
     "RendererRun",
     "Results",
     "RunSettings",
+    "ScenarioRecord",
+    "ScenarioSet",
     "SceneResult",
     "SeedRun",
     "ResultsError",
@@ -752,6 +754,75 @@ class SceneResult:
 
 
 @dataclass
+class ScenarioRecord:
+    """One scenario of the render-fidelity file a run came from (``compare run --scenarios``): the fields the
+    report shows, and whether it was rendered.
+
+    Attributes
+    ----------
+    name : str
+        The scenario's name, which is the name of its scenes (one per size) in :attr:`Results.scenes`.
+    model, lighting : str
+        Its files, as the file writes them.
+    exclude : list of str
+        The renderer names of its ``exclude``, as the file gives them (model-viewer's names).
+    excluded : list of str
+        The suite's renderer names those are (:func:`compare.scene.scenarios.suite_renderers`): every spec of
+        such a name skipped the scenario (the ground truth excepted).
+    unavailable : str or None
+        Why it was not rendered (``--skip-unavailable``: its model or lighting file not found, or its lighting
+        a format the suite does not read), or None for a scenario of the run.
+    scenes : list of str
+        The ids of its scenes in the run (one per size; :attr:`SceneResult.id`, the key of
+        :attr:`Results.failures` too); empty for a scenario not rendered.
+    """
+
+    name: str
+    model: str = ""
+    lighting: str = ""
+    exclude: list[str] = field(default_factory=list)
+    excluded: list[str] = field(default_factory=list)
+    unavailable: str | None = None
+    scenes: list[str] = field(default_factory=list)
+
+    def to_json(self) -> dict:
+        """JSON-ready dict."""
+        return asdict(self)
+
+    @classmethod
+    def from_json(cls, d: dict) -> "ScenarioRecord":
+        """Inverse of :meth:`to_json`."""
+        return cls(name=str(d["name"]), model=str(d.get("model", "")), lighting=str(d.get("lighting", "")),
+                   exclude=[str(n) for n in d.get("exclude") or []], excluded=[str(n) for n in d.get("excluded") or []],
+                   unavailable=None if d.get("unavailable") is None else str(d["unavailable"]),
+                   scenes=[str(s) for s in d.get("scenes") or []])
+
+
+@dataclass
+class ScenarioSet:
+    """The render-fidelity file (model-viewer's ``config.json`` format) a run's scenes came from, with every
+    scenario in the file's order, those left out too."""
+
+    file: str
+    """The file, as given to ``--scenarios``."""
+    scenarios: list[ScenarioRecord] = field(default_factory=list)
+
+    @property
+    def left_out(self) -> list[ScenarioRecord]:
+        """The scenarios not rendered, each with its reason."""
+        return [s for s in self.scenarios if s.unavailable is not None]
+
+    def to_json(self) -> dict:
+        """JSON-ready dict."""
+        return {"file": self.file, "scenarios": [s.to_json() for s in self.scenarios]}
+
+    @classmethod
+    def from_json(cls, d: dict) -> "ScenarioSet":
+        """Inverse of :meth:`to_json`."""
+        return cls(file=str(d["file"]), scenarios=[ScenarioRecord.from_json(s) for s in d["scenarios"]])
+
+
+@dataclass
 class Results:
     """The whole ``results.json``."""
 
@@ -763,6 +834,9 @@ class Results:
     schema: int = SCHEMA
     #: Units that failed in a run that kept going: {"scene": id, "renderer": spec, "message": the error}.
     failures: list[dict] = field(default_factory=list)
+    #: The render-fidelity file of a run of ``compare run --scenarios`` (its scenarios, those left out with
+    #: their reason); None for a run of scene files.
+    scenarios: ScenarioSet | None = None
 
     def to_json(self) -> dict:
         """JSON-ready dict, checked for NaN/Inf.
@@ -782,6 +856,8 @@ class Results:
         }
         if self.failures:
             d["failures"] = [dict(f) for f in self.failures]
+        if self.scenarios is not None:
+            d["scenarios"] = self.scenarios.to_json()
         check_json_finite(d)
         return d
 
@@ -826,6 +902,7 @@ class Results:
             compare_version=d["compare_version"],
             schema=SCHEMA,
             failures=[{k: f[k] for k in ("scene", "renderer", "message")} for f in d.get("failures", [])],
+            scenarios=None if d.get("scenarios") is None else ScenarioSet.from_json(d["scenarios"]),
         )
 
     @classmethod

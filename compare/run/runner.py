@@ -48,7 +48,7 @@ from compare.util.files import check_output_folder, folder_lock, remove_stale_pa
 from compare.renderers import RenderContext
 from compare.renderers.options import split_spec
 from compare.renderers.registry import Registry
-from compare.report.results import Machine, Results, RunSettings, SceneResult
+from compare.report.results import Machine, Results, RunSettings, ScenarioSet, SceneResult
 from compare.scene.loader import Scene, load_scene
 from compare.run.scene_job import SceneJob, cpu_model, scene_id
 
@@ -119,7 +119,7 @@ def run(scene_paths: Iterable[str | os.PathLike | Scene], out: str | os.PathLike
         *, progress: bool = True, cache_dir: str | os.PathLike | None | bool = None, fresh: bool = False,
         report: bool = True, gl_ctx=None, executor: str | object = "serial", renderers: Iterable = (),
         update: bool = False, keep_going: bool | None = None, timeout: float | None = None,
-        exclude: Mapping[str, Iterable[str]] | None = None) -> Results:
+        exclude: Mapping[str, Iterable[str]] | None = None, scenarios: ScenarioSet | None = None) -> Results:
     """Render, measure and report every scene at every size with every renderer.
 
     Parameters
@@ -164,6 +164,9 @@ def run(scene_paths: Iterable[str | os.PathLike | Scene], out: str | os.PathLike
         Scene name → renderer names that skip that scene (a scenario's ``exclude``): every spec of
         those names (``threejs`` also drops ``threejs:shadows``) but the ground truth, which every
         scene needs.
+    scenarios : ScenarioSet, optional
+        The render-fidelity file the scenes came from (every scenario, those left out with their reason),
+        recorded in ``results.json`` for the report's scenario table.
     renderers : iterable of Renderer, optional
         Renderer objects of this process (:mod:`compare.renderers.base`), found by
         their names in ``settings.renderers`` and ``settings.ground_truth``; a run
@@ -210,7 +213,7 @@ def run(scene_paths: Iterable[str | os.PathLike | Scene], out: str | os.PathLike
             keep_going = sum(1 + len(p) for p in plans.values()) > 1
         return _run_held(jobs, out, settings, registry, progress=progress, cache_dir=cache_dir, fresh=fresh,
                          report=report, gl_ctx=gl_ctx, executor=executor, keep_going=keep_going, timeout=timeout,
-                         plans=plans)
+                         plans=plans, scenarios=scenarios)
 
 
 def _renderers_for(settings: RunSettings, scene: Scene, exclude: Mapping[str, Iterable[str]] | None) -> list[str]:
@@ -270,7 +273,8 @@ def _prepare_folder(out: Path, settings: RunSettings, jobs: dict, *, fresh: bool
 
 def _run_held(jobs: dict, out: Path, settings: RunSettings, registry: Registry, *, progress: bool, cache_dir,
               fresh: bool, report: bool, gl_ctx, executor, keep_going: bool = False,
-              timeout: float | None = None, plans: dict[str, list[str]] | None = None) -> Results:
+              timeout: float | None = None, plans: dict[str, list[str]] | None = None,
+              scenarios: ScenarioSet | None = None) -> Results:
     if isinstance(executor, str):
         from compare.run.executor import parse_executor
 
@@ -343,6 +347,10 @@ def _run_held(jobs: dict, out: Path, settings: RunSettings, registry: Registry, 
     finally:
         context.close()
 
+    if scenarios is not None:  # each scenario's scenes (one per size), by the scene's name, which is the scenario's
+        scenarios = dataclasses.replace(scenarios, scenarios=[
+            dataclasses.replace(s, scenes=[sid for sid, sc in jobs.items() if sc.name == s.name])
+            for s in scenarios.scenarios])
     res = Results(
         settings=settings,
         machine=collect_machine(facts),
@@ -350,6 +358,7 @@ def _run_held(jobs: dict, out: Path, settings: RunSettings, registry: Registry, 
         created=datetime.datetime.now(datetime.timezone.utc).replace(microsecond=0).isoformat().replace("+00:00", "Z"),
         compare_version=__version__,
         failures=[f for scene_job in scene_jobs.values() for f in scene_job.failures],
+        scenarios=scenarios,
     )
     started = time.perf_counter()
     _save_with_report(res, out, report)
