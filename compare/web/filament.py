@@ -61,10 +61,13 @@ class FilamentRenderer(WebRenderer):
     SCRIPT = "filament.js"
     PACKAGES = ("filament",)
     VERSION_KEY = "filament"
-    # gltfio's ubershaders read the core material and clearcoat, sheen, transmission, volume, ior, specular,
-    # BLEND, COLOR_0, doubleSided, KHR_texture_transform and TEXCOORD_1; not anisotropy, iridescence or
-    # dispersion (its loader parses them, its ubershaders have no input for them)
-    renders = ((frozenset(MATERIAL_FEATURE_NAMES) - {"anisotropy", "iridescence", "dispersion"})
+    # gltfio's ubershaders read the core material and clearcoat, sheen, ior, specular, BLEND, COLOR_0,
+    # doubleSided, KHR_texture_transform and TEXCOORD_1; not anisotropy, iridescence or dispersion (its loader
+    # parses them, its ubershaders have no input for them). Transmission and volume: its refraction is a
+    # screen-space pass of the post-processing this page turns off; measured, TransmissionTest's glass
+    # spheres come out black.
+    renders = ((frozenset(MATERIAL_FEATURE_NAMES) - {"anisotropy", "iridescence", "dispersion", "transmission",
+                                                     "volume"})
                | frozenset(MAP_FEATURE_NAMES) | {"punctual_lights", "vertex_colors", "single_sided"})
     area_lights = False
 
