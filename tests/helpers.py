@@ -477,11 +477,13 @@ def centre_mean(image):
 
 
 def sphere_scene(make_scene, material: str, *, name: str = "glass", fov: float = 30.0, size: int = 24,
-                 sky: float = 0.5, depth: int = 64, extra: str = "", file: str = "scene.toml"):
+                 sky: float = 0.5, depth: int = 64, extra: str = "", file: str = "scene.toml",
+                 environment: str | None = None):
     """A smooth sphere of radius 0.5 at the origin, of the material ``name`` (its TOML fields ``material``),
     seen from 3 m along +z in a ``fov``-degree view of ``size`` × ``size`` pixels under a constant sky of
-    radiance ``sky``, paths of at most ``depth`` bounces; ``extra`` (TOML: more materials and meshes) goes
-    with it into ``file``."""
+    radiance ``sky`` (or the ``[environment]`` table's fields ``environment``), paths of at most ``depth``
+    bounces; ``extra`` (TOML: more materials and meshes) goes with it into ``file``."""
+    environment = environment or f"constant = [{sky}, {sky}, {sky}]"
     return load_scene(make_scene(f"""
         [camera]
         position = [0.0, 0.0, 3.0]
@@ -503,7 +505,7 @@ def sphere_scene(make_scene, material: str, *, name: str = "glass", fov: float =
         material = "{name}"
 
         [environment]
-        constant = [{sky}, {sky}, {sky}]
+        {environment}
         """, extra, name=file))
 
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from compare.scene.loader import load_scene
+from tests.helpers import sphere_scene
 
 CASES = {
     "anisotropy": ("base_color = [0.9, 0.9, 0.9]\nmetallic = 1.0\nroughness = 0.3",
@@ -20,30 +20,8 @@ CASES = {
 
 
 def _sphere(make_scene, material: str, name: str):
-    return load_scene(make_scene(f"""
-        [camera]
-        position = [0.0, 0.0, 3.0]
-        target = [0.0, 0.0, 0.0]
-        fov = 22.0
-        resolution = [40, 40]
-
-        [render]
-        max_depth = 8
-
-        [materials.m]
-        {material}
-
-        [[meshes]]
-        shape = "sphere"
-        radius = 0.5
-        segments = 96
-        rings = 48
-        material = "m"
-
-        [environment]
-        procedural = "studio"
-        width = 128
-        """, name=f"{name}.toml"))
+    return sphere_scene(make_scene, material, name="m", fov=22.0, size=40, depth=8, file=f"{name}.toml",
+                        environment='procedural = "studio"\nwidth = 128')
 
 
 def _correlation(a, b) -> float:
