@@ -9,6 +9,7 @@ import pytest
 from PIL import Image
 
 from compare.scene.model import channel_iors
+from compare.scene.loader import load_scene
 from tests.helpers import sphere_scene
 
 #: A checker card 1 m behind the sphere, filling its view.
@@ -108,3 +109,139 @@ def test_the_rasterizer_parts_the_channels_as_its_own_spheres_at_their_iors(make
     assert np.abs(fringe(spread)).max() > 0.1 and np.abs(fringe(plain)).max() < 1e-3
     assert np.corrcoef(fringe(spread), fringe(own))[0, 1] > 0.75
     np.testing.assert_allclose(spread.mean(axis=(0, 1)), own.mean(axis=(0, 1)), rtol=0.03)
+
+
+# --- a dispersive prism against Snell's law --------------------------------------------------------------------
+
+#: The prism's cross-section in (x, z): a right angle at A, the slanted face B–C towards the camera; it spans
+#: y in [-0.5, 0.5]. Behind it, 1.5 m from its back face, a black card with an emissive vertical stripe at x = 0.
+PRISM_XZ = ((-0.4, 0.0), (0.4, 0.0), (-0.4, 0.5))
+PRISM_SIZE, PRISM_FOV, CARD_Z = (64, 48), 30.0, -1.5
+
+
+def _prism_obj(path) -> None:
+    """The prism as an OBJ of flat faces (each with its outward normal)."""
+    (ax, az), (bx, bz), (cx, cz) = PRISM_XZ
+    slant = np.array([cz - bz, 0.0, bx - cx]) / np.hypot(cz - bz, bx - cx)
+    faces = [([(ax, -0.5, az), (ax, 0.5, az), (bx, 0.5, bz), (bx, -0.5, bz)], (0, 0, -1)),
+             ([(ax, -0.5, az), (cx, -0.5, cz), (cx, 0.5, cz), (ax, 0.5, az)], (-1, 0, 0)),
+             ([(bx, -0.5, bz), (bx, 0.5, bz), (cx, 0.5, cz), (cx, -0.5, cz)], tuple(slant)),
+             ([(ax, -0.5, az), (bx, -0.5, bz), (cx, -0.5, cz)], (0, -1, 0)),
+             ([(ax, 0.5, az), (cx, 0.5, cz), (bx, 0.5, bz)], (0, 1, 0))]
+    lines, first = [], 1
+    for k, (corners, normal) in enumerate(faces, start=1):
+        lines += [f"v {x} {y} {z}" for x, y, z in corners] + [f"vn {normal[0]} {normal[1]} {normal[2]}"]
+        lines += [f"f {first}//{k} {first + i}//{k} {first + i + 1}//{k}" for i in range(1, len(corners) - 1)]
+        first += len(corners)
+    path.write_text("\n".join(lines) + "\n")
+
+
+def _prism_scene(make_scene, tmp_path, *, dispersion: float):
+    stripe = np.zeros((8, 64), np.uint8)
+    stripe[:, 31:33] = 255
+    Image.fromarray(np.repeat(stripe[..., None], 3, axis=2)).save(tmp_path / "stripe.png")
+    _prism_obj(tmp_path / "prism.obj")
+    w, h = PRISM_SIZE
+    return load_scene(make_scene(f"""
+        [camera]
+        position = [0.0, 0.0, 3.0]
+        target = [0.0, 0.0, 0.0]
+        fov = {PRISM_FOV}
+        resolution = [{w}, {h}]
+
+        [render]
+        max_depth = 16
+
+        [materials.glass]
+        base_color = [1, 1, 1]
+        roughness = 0.0
+        transmission = 1.0
+        thickness = 0.5
+        ior = 1.5
+        dispersion = {dispersion}
+
+        [materials.card]
+        base_color = [0, 0, 0]
+        emission = [1, 1, 1]
+        emissive_texture = "stripe.png"
+        texture_filter = "nearest"
+
+        [[meshes]]
+        shape = "file"
+        file = "prism.obj"
+        material = "glass"
+
+        [[meshes]]
+        shape = "quad"
+        size = [3.0, 3.0]
+        rotate = [90.0, 0.0, 0.0]
+        translate = [0.0, 0.0, {CARD_Z}]
+        material = "card"
+
+        [environment]
+        constant = [0.0, 0.0, 0.0]
+        """, name=f"prism-{dispersion}.toml"))
+
+
+def _snell_stripe_column(ior: float) -> float:
+    """The image column (pixel centres at i + 0.5, as the centroid's index i) at which the middle row sees the
+    stripe through the prism: the camera ray traced through both faces by Snell's law, on its own."""
+    def refract(d, n, eta):
+        c = -d @ n
+        return eta * d + (eta * c - np.sqrt(1.0 - eta * eta * (1.0 - c * c))) * n
+
+    (ax, az), (bx, bz), (cx, cz) = PRISM_XZ
+    slant = np.array([cz - bz, 0.0, bx - cx]) / np.hypot(cz - bz, bx - cx)
+    w, h = PRISM_SIZE
+    half = np.tan(np.radians(PRISM_FOV) / 2)
+
+    def card_x(column):
+        d = np.array([(2.0 * (column + 0.5) / w - 1.0) * half * w / h, 0.0, -1.0])
+        o, d = np.array([0.0, 0.0, 3.0]), d / np.linalg.norm(d)
+        p = o + d * ((np.array([bx, 0.0, bz]) - o) @ slant) / (d @ slant)
+        d = refract(d, slant, 1.0 / ior)
+        p = p + d * (az - p[2]) / d[2]
+        d = refract(d, np.array([0.0, 0.0, 1.0]), ior)
+        return (p + d * (CARD_Z - p[2]) / d[2])[0]
+
+    lo, hi = w / 2.0, w - 1.0  # the slanted face's half of the image; card_x grows with the column there
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if card_x(mid) < 0.0 else (lo, mid)
+    return 0.5 * (lo + hi)
+
+
+def _stripe_columns(image) -> np.ndarray:
+    """Each channel's centroid column of the middle rows (the stripe seen through the prism)."""
+    h = image.shape[0]
+    rows = image[h // 2 - 6:h // 2 + 6].sum(axis=0)  # (columns, channels)
+    return (rows * np.arange(rows.shape[0])[:, None]).sum(axis=0) / rows.sum(axis=0)
+
+
+def _render_prism(renderer, scene):
+    if renderer == "mitsuba":
+        return _render(scene, 512)
+    if renderer == "progressive":
+        from compare.progressive.rasterizer import render_progressive
+
+        with pytest.warns(UserWarning, match="emissive meshes"):
+            return render_progressive(scene, frames=96).image
+    from compare.blender.render import render_blender
+
+    return render_blender(scene, engine="cycles", samples=256).image
+
+
+@pytest.mark.parametrize("renderer", ["mitsuba", "progressive", pytest.param("cycles", marks=pytest.mark.bpy)])
+def test_a_prism_parts_the_channels_where_snells_law_puts_them(make_scene, tmp_path, mi_llvm, renderer):
+    """Through a dispersive right-angle prism a white stripe parts into red, green and blue where Snell's law
+    at both faces puts each channel's IOR (measured: the reference 0.00–0.18 pixels off, the rasterizer
+    0.03–0.31, Cycles 0.01–0.19; the red-to-blue spread 3.5 pixels); without dispersion the channels coincide
+    there (0.02, 0.10, 0.02 pixels off)."""
+    expected = np.array([_snell_stripe_column(n) for n in channel_iors(1.5, 8.0)])
+    assert expected[2] - expected[0] > 3.0  # the channels part by more than the tolerance
+    image = _render_prism(renderer, _prism_scene(make_scene, tmp_path, dispersion=8.0))
+    assert np.isfinite(image).all()
+    np.testing.assert_allclose(_stripe_columns(image), expected, atol=0.5)
+    plain = _stripe_columns(_render_prism(renderer, _prism_scene(make_scene, tmp_path, dispersion=0.0)))
+    np.testing.assert_allclose(plain, _snell_stripe_column(1.5), atol=0.5)
+    assert np.ptp(plain) < 0.1
