@@ -16,7 +16,8 @@
 //   Light reflected inside (total internal reflection too) is left out.
 //   thin wall (thickness 0): the reference's thin dielectric, two interfaces and their inter-reflections,
 //   smooth: (1 - F) / (1 + F) tint straight through (the opaque image at the pixel), and the extra
-//   reflection F (1 - F) / (1 + F) of the mirror direction.
+//   reflection F (1 - F) / (1 + F) of the mirror direction; where the glass's back face lies behind (a closed
+//   thin-walled mesh), that second wall's share and tint too (glass_second_wall).
 //
 // Frame 0 drawn forward has no G-buffer (GBUFFER_READ false): a solid's refracted ray sees the environment
 // map. A reduced frame 0 (TRANSMISSION without GLASS) has no screen textures at all: the exit is the
@@ -107,6 +108,25 @@ vec3 glass_behind(vec3 x, vec3 d) {
 #endif
 }
 
+#if GLASS
+// What a thin wall at p (reflectance f at its own interface) lets through of the opaque image when the glass's
+// nearest back face lies behind it along -v: a closed thin-walled mesh (a sphere, a box) is two walls, and the
+// reference tints at both and passes the light between them. The back face is taken to be of the same material
+// (its tint and Fresnel; its own maps are not read); its reflection towards the inside is left out. 1 without one.
+vec3 glass_second_wall(vec3 p, vec3 v, vec3 tint, float f) {
+    vec4 back = texelFetch(u_glass_back, ivec2(gl_FragCoord.xy), 0);
+    float tb = dot(back.xyz, -v);
+    if (dot(back.xyz, back.xyz) < 0.5 || tb <= 1e-3 || (back.w - dot(back.xyz, p)) / tb <= 1e-4 * (1.0 + length(p))) {
+        return vec3(1.0);  // no back face, or this very surface seen from behind
+    }
+    float t_back = glass_base_share(tb);
+    float f_back = 1.0 - t_back;
+    // each wall reflects 2F / (1 + F) of the light between them (a thin dielectric's two interfaces)
+    float between = 1.0 - (2.0 * f / (1.0 + f)) * (2.0 * f_back / (1.0 + f_back));
+    return tint * (t_back / (1.0 + f_back)) / between;
+}
+#endif
+
 // The transmitted radiance towards v of a glass fragment at p (shading normal n facing v), before the
 // transmission factor (a thin wall's with its extra reflection).
 vec3 glass_transmitted(vec3 p, vec3 n, vec3 v, vec3 tint, float roughness) {
@@ -122,6 +142,7 @@ vec3 glass_transmitted(vec3 p, vec3 n, vec3 v, vec3 tint, float roughness) {
         vec3 through;
 #if GLASS
         through = textureLod(u_opaque, gl_FragCoord.xy / vec2(textureSize(u_opaque, 0)), 0.0).rgb;
+        through *= glass_second_wall(p, v, tint, f);
 #else
         through = glass_behind(p, -v);
 #endif
