@@ -5,6 +5,8 @@ from __future__ import annotations
 import json
 import math
 
+import numpy as np
+
 import pytest
 
 from compare.bench.suite import format_table, run_bench, time_to_error
@@ -84,15 +86,66 @@ def test_setup_items_measure_every_renderer_on_the_car_and_the_scaled_scenes(tmp
     assert len(doc.primitives) == 4 and len(doc.images) == 4
     assert 4 * 150 <= sum(p.mesh.triangle_count for p in doc.primitives) <= 4 * 250
     figures = bench_setup(ROOT / "scenes" / "car.toml", tmp_path, size=(32, 24), repeats=1,
-                          renderers=["mitsuba"], triangles=200, map_size=32)
+                          renderers=["mitsuba"], triangles=200, map_size=32, interior_triangles=1000)
     assert [(f.name, f.a) for f in figures] == [
         ("setup-seconds", "mitsuba car"), ("setup-rss", "mitsuba car"),
+        ("setup-seconds", "mitsuba interior"), ("setup-rss", "mitsuba interior"),
         *[(name, f"mitsuba {s}x") for s in SCALES[1:] for name in ("setup-seconds", "setup-rss")]]
     for f in figures:
-        assert f.b == "mitsuba 1x" and math.isfinite(f.ratio) and f.a_median > 0 and f.b_median > 0
+        assert f.b == ("mitsuba car" if "interior" in f.a else "mitsuba 1x")
+        assert math.isfinite(f.ratio) and f.a_median > 0 and f.b_median > 0
     rss = [f for f in figures if f.name == "setup-rss"]
     assert all(50 < f.a_median < 4000 for f in rss)  # MiB of a process that imported Mitsuba
     assert "growth (linear: 16)" in figures[-1].note
+
+
+def test_the_generated_interior_is_shaped_as_a_downloaded_one(tmp_path):
+    """The set-up items' interior: deterministic, about the asked triangles over hundreds of meshes, dozens
+    of materials, a few maps with tangents for the normal maps, point lights, an area light and a sky."""
+    from compare.bench.setup_cost import INTERIOR_TRIANGLES, interior_scene
+    from compare.scene.loader import load_scene
+
+    toml = interior_scene(tmp_path)
+    first = toml.with_suffix(".glb").read_bytes()
+    assert interior_scene(tmp_path) == toml  # written once
+    (tmp_path / "again").mkdir()
+    assert interior_scene(tmp_path / "again").with_suffix(".glb").read_bytes() == first
+    scene = load_scene(toml)
+    triangles = sum(m.triangles().triangle_count for m in scene.meshes)
+    assert 0.99 * INTERIOR_TRIANGLES <= triangles <= 1.01 * INTERIOR_TRIANGLES
+    assert len(scene.meshes) > 300 and len({m.material for m in scene.meshes}) >= 30
+    textured = [m for m in scene.materials.values() if m.base_color_texture is not None]
+    assert 3 <= len(textured) <= 8 and any(m.normal_texture is not None for m in textured)
+    assert len(scene.punctual) == 3 and len(scene.lights) == 1 and scene.environment is not None
+    lo, hi = scene.extent()
+    assert np.allclose(hi - lo, [12.15, 2.9, 8.15], atol=0.05)
+    for mesh in scene.meshes:  # the file's tangents: no MikkTSpace tool needed to read it
+        mat = scene.materials[mesh.material]
+        if mat.normal_texture is not None:
+            assert mesh.triangles(tangents=True).tangents is not None
+
+
+def test_setup_specs_cover_every_option_word_and_the_declared_variants():
+    """The set-up items' variants come from where the variants are defined: every progressive option
+    word alone (not the default's), all its switches together, and each declared variant."""
+    from compare.bench.setup_cost import setup_specs
+    from compare.progressive.options import WORDS, renderer_options
+    from compare.renderers.registry import Registry
+
+    registry = Registry()
+    renderers, variants = setup_specs(registry)
+    if "progressive" not in renderers:
+        pytest.skip("moderngl is not installed")
+    words = {w for spec in variants if spec.startswith("progressive:") for w in spec.split(":")[1].split("+")}
+    for w in WORDS:
+        assert w.word in words or w.example in words or w.word == "radiometric", w.word
+    combined = max((v for v in variants if v.startswith("progressive:")), key=lambda v: v.count("+"))
+    assert {"probes", "envshadows", "sun", "vsm"} <= set(combined.split(":")[1].split("+"))
+    for spec in variants:
+        renderer_options(spec) if spec.startswith("progressive") else registry.get(spec)
+    assert set(registry.specs()) - set(renderers) <= set(variants) | {
+        s for s in registry.specs() if s.partition(":")[0] not in renderers}
+    assert len(variants) == len(set(variants))
 
 
 def test_a_failing_item_is_recorded_and_every_figure_is_written_as_it_is_measured(tmp_path, monkeypatch):

@@ -19,7 +19,9 @@ from compare.ibl.irradiance import irradiance_at, sh9_irradiance
 from compare.metrics.images import compare_images
 from compare.progressive.rasterizer import Rasterizer, render_progressive
 from compare.progressive import rasterizer as renderer_module
-from compare.progressive.indirect.probes import ProbeVolume, backface_fraction, distance_moments, probe_grid, project_sh9
+from compare.progressive.indirect import probes as probes_module
+from compare.progressive.indirect.probes import (ProbeVolume, backface_fraction, distance_moments, face_reach,
+                                                 probe_grid, project_sh9)
 from compare.scene.loader import load_scene
 from tests.helpers import CORNELL
 
@@ -171,9 +173,96 @@ def test_more_bounces_add_light_and_no_probe_work_without_probes(gl_ctx, cornell
     for bounces in (1, 3):
         with Rasterizer(cornell_small, frames=2, ctx=gl_ctx, shadow_size=64, indirect="probes",
                                  probe_grid=(4, 4, 4), probe_bounces=bounces) as r:
+            r.probes.bake()
             assert np.isfinite(r.probes.irradiance).all()
             means.append(r.probes.irradiance[r.probes.valid, 0].mean(axis=0))
     assert np.all(means[1] > 1.1 * means[0])
+
+
+def test_face_reach_never_leaves_out_a_box_that_a_face_sees():
+    """face_reach against points inside random boxes: every (box, probe, face) with a point in the face's
+    view (w >= near, |u|, |v| <= w) is reached; most pairs are not (a box is in few faces)."""
+    from compare.ibl.cubemap import FACE_AXES
+
+    rng = np.random.default_rng(3)
+    probes = rng.uniform(-2, 2, (20, 3))
+    lo = rng.uniform(-3, 3, (40, 3))
+    hi = lo + rng.uniform(0.01, 1.5, (40, 3)) ** 2
+    near = 1e-3
+    reach = face_reach(probes, lo, hi, near)
+    t = rng.uniform(0, 1, (40, 400, 3))
+    t[:, :8] = np.array([[i >> 2 & 1, i >> 1 & 1, i & 1] for i in range(8)])  # the corners too
+    points = lo[:, None] + t * (hi - lo)[:, None]
+    d = points[:, None, :, :] - probes[None, :, None, :]  # (box, probe, point, 3)
+    for f, (a, u, v) in enumerate(FACE_AXES):
+        w, x, y = d @ a, d @ u, d @ v
+        seen = ((w >= near) & (np.abs(x) <= w) & (np.abs(y) <= w)).any(axis=-1)
+        assert not (seen & ~reach[:, :, f]).any(), f"face {f}: a box with a point in view left out"
+    assert 0.1 < reach.mean() < 0.6
+    # a small box straight along +x of a probe far off: face +x only
+    only = face_reach(np.zeros((1, 3)), np.array([[5.0, -0.1, -0.1]]), np.array([[5.2, 0.1, 0.1]]))
+    assert only[0, 0].tolist() == [True, False, False, False, False, False]
+
+
+def test_the_bake_draws_each_mesh_only_into_the_faces_it_reaches_and_gives_the_same_volume(gl_ctx,
+                                                                                           cornell_small,
+                                                                                           monkeypatch):
+    """The culled bake's volume is bit for bit the one of every mesh drawn into every face."""
+    def bake(**kw):
+        with Rasterizer(cornell_small, frames=2, ctx=gl_ctx, shadow_size=64, indirect="probes",
+                        probe_grid=(4, 3, 3), **kw) as r:
+            r.probes.bake()
+            return r.probes.irradiance.copy(), r.probes.valid.copy()
+
+    calls = []
+    real = probes_module.face_reach
+
+    def counted(*args, **kw):
+        out = real(*args, **kw)
+        calls.append(out.mean())
+        return out
+
+    monkeypatch.setattr(probes_module, "face_reach", counted)
+    culled = bake()
+    assert len(calls) == 1 and calls[0] < 0.7, "the box's meshes are each in a part of the faces"
+    monkeypatch.setattr(probes_module, "face_reach", lambda p, lo, hi, *a, **k: np.ones((len(lo), len(p), 6), bool))
+    full = bake()
+    assert np.array_equal(culled[0], full[0]) and np.array_equal(culled[1], full[1])
+
+
+def test_the_bake_waits_for_the_first_frame_that_reads_the_volume(gl_ctx, cornell_small):
+    """The set-up does not bake; the forward frame 0 does not either; frame 1 does, and its images are
+    those of a volume baked at set-up (the same grid read by the same frames)."""
+    with Rasterizer(cornell_small, frames=4, ctx=gl_ctx, shadow_size=64, indirect="probes",
+                    probe_grid=(4, 3, 3)) as r:
+        assert r.first is not None and not r.probes.baked
+        assert r.metadata()["probes_invalid"] == -1
+        r.render_frame()
+        assert not r.probes.baked, "frame 0 is forward-shaded: no indirect light"
+        r.render_frame()
+        assert r.probes.baked and r.probes.bake_seconds > 0
+        for _ in r.frames():
+            pass
+        lazy = r.image()
+        irradiance = r.probes.irradiance.copy()
+        r.reset()
+        for _ in r.frames():
+            pass
+        assert np.array_equal(r.image(), lazy), "a reset renders the same frames from the baked volume"
+    original = ProbeVolume.__init__
+
+    def eager(self, *args, **kw):
+        original(self, *args, **{**kw, "lazy": False})
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(ProbeVolume, "__init__", eager)
+        with Rasterizer(cornell_small, frames=4, ctx=gl_ctx, shadow_size=64, indirect="probes",
+                        probe_grid=(4, 3, 3)) as r:
+            assert r.probes.baked
+            for _ in r.frames():
+                pass
+            assert np.array_equal(r.probes.irradiance, irradiance)
+            assert np.array_equal(r.image(), lazy)
 
 
 # ----------------------------------------------------------------------------- GL: light leaks

@@ -70,9 +70,12 @@ each figure:
     ``blender`` extra is installed (the paper's Table 1 comparison).
 ``setup-seconds``, ``setup-rss``
     per available renderer, the seconds before the first image (scene load + the renderer's set-up)
-    and the peak resident memory of a one-step render in a process of its own, on the built-in car
-    (``--setup-scene``) and on a generated scene at 1×, 4× and 16× (62,500 triangles and one 4096² map
-    per ×): the ratios are the growth over 1× (linear: 4 and 16). See :mod:`compare.bench.setup_cost`.
+    and the peak resident memory of a two-step render in a process of its own, on the built-in car
+    (``--setup-scene``), on a generated interior shaped as a downloaded one (178k triangles) and on a
+    generated scene at 1×, 4× and 16× (62,500 triangles and one 4096² map per ×): the ratios are the
+    growth over 1× (linear: 4 and 16), the interior's over the car; every variant (each progressive
+    option word, its switches together, the declared variants) on the car and the interior. See
+    :mod:`compare.bench.setup_cost`.
 """
 
 from __future__ import annotations
@@ -303,17 +306,17 @@ def _engine_items() -> dict:
 
 
 def _bench_setup(setup_scene, size, repeats: int, registry) -> list[Figure]:
-    from compare.bench.setup_cost import bench_setup
+    from compare.bench.setup_cost import SCALES, bench_setup, setup_specs
     from compare.util.cache import default_cache_dir
 
-    renderers = [name for name in registry.builtins() if registry.get(name).available()[0]]
+    renderers, variants = setup_specs(registry)
     folder = default_cache_dir() / "bench-scenes"
     folder.mkdir(parents=True, exist_ok=True)
     from tqdm.auto import tqdm
 
-    with tqdm(total=len(renderers) * 4, desc="set-up runs", leave=False) as bar:
+    with tqdm(total=len(renderers) * (2 + len(SCALES)) + len(variants) * 2, desc="set-up runs", leave=False) as bar:
         return bench_setup(Path(setup_scene), folder, size=size, repeats=repeats, renderers=renderers,
-                           progress=lambda what: (bar.set_postfix_str(what), bar.update()))
+                           variants=variants, progress=lambda what: (bar.set_postfix_str(what), bar.update()))
 
 
 def all_items() -> tuple[str, ...]:

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 from compare.renderers.options import parse_spec
 
-__all__ = ["OPTIONS", "WORDS", "SpecWord", "describe", "renderer_options"]
+__all__ = ["OPTIONS", "WORDS", "SpecWord", "describe", "renderer_options", "setup_variants"]
 
 
 @dataclass(frozen=True)
@@ -34,6 +34,8 @@ class SpecWord:
     """What it does, for messages and ``--help``."""
     module: str = ""
     """The module that says more, if any."""
+    example: str = ""
+    """A complete word for a word that takes a number (``budget16``)."""
 
 
 #: Every option word: the one source of the keywords, labels, messages and this module's notes.
@@ -49,7 +51,8 @@ WORDS = (
              "compare.progressive.indirect.probes"),
     SpecWord("vsm", "shadow_filter", "vsm", "VSM", "variance shadow maps", "compare.progressive.lights.shadow"),
     SpecWord("budget<ms>", "frame_budget_ms", None, "{:g} ms frame budget",
-             "a per-frame time budget in milliseconds, e.g. budget16", "compare.progressive.schedule.budget"),
+             "a per-frame time budget in milliseconds, e.g. budget16", "compare.progressive.schedule.budget",
+             "budget16"),
     SpecWord("fullfirst", "first_frame_scale", 1.0, "full-size first frame",
              "frame 0 at full size (the paper's first frame)", "compare.progressive.first_frame"),
     SpecWord("envshadows", "env_occlusion", "shadows", "environment shadow maps",
@@ -92,6 +95,22 @@ def renderer_options(spec: str) -> dict:
             raise ValueError(f"renderer {spec!r}: {word!r} sets {w.keyword} twice")
         kwargs[w.keyword] = number if w.value is None else w.value
     return kwargs
+
+
+def setup_variants() -> list[str]:
+    """Every variant whose set-up differs, from :data:`WORDS`: ``progressive``, each word alone (a number's
+    word as its example; not a word that sets the default), and every switch together (the words that
+    alone set their keyword: the variant that builds the most passes)."""
+    from compare.progressive.config import RasterizerOptions
+
+    default = RasterizerOptions()
+    alone = [w.example or w.word for w in WORDS
+             if not (w.value is not None and getattr(default, w.keyword) == w.value)]
+    per_keyword: dict[str, list[SpecWord]] = {}
+    for w in WORDS:
+        per_keyword.setdefault(w.keyword, []).append(w)
+    switches = [w.word for w in WORDS if w.value is not None and len(per_keyword[w.keyword]) == 1]
+    return ["progressive", *(f"progressive:{word}" for word in alone), f"progressive:{'+'.join(switches)}"]
 
 
 def describe(spec: str) -> str:

@@ -8,7 +8,8 @@ One frame f of the :class:`~compare.progressive.schedule.distributor.Plan`:
    target — the unoccluded environment light (split-sum specular + diffuse
    irradiance, ``compare/ibl/ibl.glsl``; :mod:`compare.progressive.environment.environment`);
    with ``indirect="probes"``, in the first frames only, the running mean of the
-   indirect diffuse light of an irradiance volume baked at setup
+   indirect diffuse light of an irradiance volume, baked just before the first frame
+   that reads it (frame 1 after the forward frame 0; in that frame's seconds, not the set-up's)
    (:mod:`compare.progressive.indirect.probes`, ``probe_bake_seconds``;
    :mod:`compare.progressive.indirect.indirect` says why only the first frames);
 3. frame 0 only (frame 1 after a reduced frame 0, see below): the unshadowed
@@ -198,6 +199,7 @@ class Rasterizer:
         self.background = self._background()
         self.frame = 0
         """Frames rendered so far."""
+        self._warming = False
         self.frame_seconds: list[float] = []
         self.gpu_frame_seconds: list[float] = []
         self.shadow_passes: list[int] = []
@@ -211,7 +213,9 @@ class Rasterizer:
                 self._matrices((float(jitter[0]), float(jitter[1])))
         if o.warm_up or self.scheduler is not None:
             try:
+                self._warming = True  # the warm-up leaves the probes' bake to the first frame that needs it
                 self._warm_up()
+                self._warming = False
                 if self.scheduler is not None:
                     self._calibrate()
             except BaseException:
@@ -238,7 +242,7 @@ class Rasterizer:
             self.probes = self._keep(ProbeVolume(
                 ctx, scene, self.gpu_scene, grid=self.probe_grid, bounces=self.probe_bounces,
                 shadow_bias=self.shadow_bias, environment=self.environment, materials=o.materials, seed=o.seed,
-                cache_dir=o.cache_dir))
+                cache_dir=o.cache_dir, lazy=True))
         self.accumulate = self._keep(AccumulatePass(ctx, self.environment, o.materials,
                                                     occlusion=self.gpu_scene.occluded,
                                                     layers=self.gpu_scene.layers_for(o.materials)))
@@ -409,6 +413,10 @@ class Rasterizer:
                 self._compose(opaque=True)
                 self.glass.run(None, view_proj, cam_pos, index, first_depth=self.first.depth)
             return
+        if self.indirect_pass is not None and not self.indirect_pass.done and not self._warming:
+            # Baked here, not at set-up: the forward frame 0 does not read the volume, so the first image
+            # waits for none of the bake; this frame and every later one read the same grid.
+            self.probes.bake()
         self.gbuffer.render(view_proj, cam_pos)
         if self.punctual is not None:
             for k in fp.punctual:
@@ -416,7 +424,7 @@ class Rasterizer:
             self.punctual.run(self.gbuffer, cam_pos, self.shadow_bias)
         self.accumulate.run(self.base, self.gbuffer, self.background,
                             inv_view_proj=inv_view_proj, camera_position=cam_pos)
-        if self.indirect_pass is not None:
+        if self.indirect_pass is not None and self.probes.baked:
             self.indirect_pass.run(self.gbuffer, cam_pos)
         if self.ltc is not None:
             self.ltc.run(self.gbuffer, cam_pos)

@@ -696,7 +696,9 @@ class Scene:
 
     def features(self) -> Features:
         """What this scene needs (environment, area lights, glossy materials, textures, ...)."""
-        used = [self.materials[m.material] for m in self.meshes]
+        # each material once, however many meshes use it (a download has hundreds of meshes, few materials)
+        used = [self.materials[name] for name in dict.fromkeys(m.material for m in self.meshes)]
+        uses = [m.uses() for m in used]
         return Features(
             environment=self.environment is not None,
             area_lights=bool(self.lights),
@@ -706,7 +708,7 @@ class Scene:
             emissive_meshes=any(m.is_emissive for m in used),
             alpha_mask=any(m.is_masked for m in used),
             punctual_lights=bool(self.punctual),
-            **{name: any(name in m.uses() for m in used) for name in MATERIAL_FEATURE_NAMES + MAP_FEATURE_NAMES},
+            **{name: any(name in u for u in uses) for name in MATERIAL_FEATURE_NAMES + MAP_FEATURE_NAMES},
             vertex_colors=any(m.has_vertex_colors for m in self.meshes),
             single_sided=any(not m.double_sided for m in used),
         )
@@ -775,7 +777,13 @@ class Scene:
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """World-space axis-aligned bounds (min, max) of all meshes."""
-        return mesh_bounds(self.meshes)
+        # Kept on the (frozen) instance: a renderer's set-up asks several times, and each answer transforms
+        # every mesh; a changed scene (dataclasses.replace) is a new instance and computes its own.
+        cached = self.__dict__.get("_bounds")
+        if cached is None:
+            cached = mesh_bounds(self.meshes)
+            object.__setattr__(self, "_bounds", cached)
+        return cached[0].copy(), cached[1].copy()
 
     def extent(self) -> tuple[np.ndarray, np.ndarray]:
         """World-space axis-aligned bounds (min, max) of every mesh and light rectangle."""

@@ -184,6 +184,9 @@ class GpuMesh:
     A blended mesh is drawn by the blend pass alone (:mod:`compare.progressive.blend`)."""
     centre: tuple[float, float, float] = (0.0, 0.0, 0.0)
     """The centre of its bounds (the blend pass sorts by its distance)."""
+    lo: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    hi: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """Its world bounds (the irradiance volume's bake draws a mesh only into the cube faces they reach)."""
     layers: tuple = ()
     """glTF's layers as layers.glsl reads them: (dielectric F0, specular weight, clearcoat, its
     roughness, sheen colour, sheen roughness); empty without LAYERS."""
@@ -429,8 +432,12 @@ class GpuScene(RenderPass):
         data = np.hstack(columns)
         vbo = self.ctx.buffer(np.ascontiguousarray(data, dtype=np.float32).tobytes())
         ibo = self.ctx.buffer(np.ascontiguousarray(indices, dtype=np.uint32).tobytes())
-        return GpuMesh(name, vbo, ibo, tuple(base), float(metallic), float(roughness), tuple(emission), float(kind),
-                       light)
+        gm = GpuMesh(name, vbo, ibo, tuple(base), float(metallic), float(roughness), tuple(emission), float(kind),
+                     light)
+        if n:
+            p = np.asarray(positions, dtype=np.float32)
+            gm.lo, gm.hi = tuple(float(x) for x in p.min(0)), tuple(float(x) for x in p.max(0))
+        return gm
 
     def _vao(self, program, index: int, mesh: GpuMesh):
         key = (id(program), index)
@@ -460,12 +467,14 @@ class GpuScene(RenderPass):
         ``map_set``: only the meshes of that :meth:`map_set` (a program specialised for it).
         ``glass`` False leaves out the glass meshes (the G-buffer: the glass pass draws them).
         """
-        for index, mesh in enumerate(self.meshes + self.light_quads):
-            if mesh.blend >= 0.0 or (map_set is not None and self.map_set(mesh) != map_set):
-                continue
-            if mesh.glass and not glass:
-                continue
+        for index in self.shaded(map_set, glass=glass):
             self.draw_mesh(program, index, instances)
+
+    def shaded(self, map_set: tuple[bool, ...] | None = None, *, glass: bool = True) -> list[int]:
+        """The indices (of meshes + light quads) that :meth:`draw_shaded` draws with the same arguments."""
+        return [index for index, mesh in enumerate(self.meshes + self.light_quads)
+                if mesh.blend < 0.0 and (map_set is None or self.map_set(mesh) == map_set)
+                and not (mesh.glass and not glass)]
 
     def draw_mesh(self, program, index: int, instances: int = 1) -> None:
         """Draw mesh ``index`` (of meshes + light quads) with its material uniforms."""

@@ -113,7 +113,7 @@ PROGRAM_UNITS: Mapping[str, Mapping[str, Units]] = MappingProxyType({
     "env_shadows.glsl": _row(gbuffer=GBUFFER, shadow=(4,), environment=(5, _ENVIRONMENT), layers=LAYERS),
     # indirect/
     "indirect.glsl": _row(gbuffer=GBUFFER, previous=(4,), probes=(5, _PROBES)),
-    "probes_gbuffer.glsl": _row(maps=MAPS),
+    "probes_gbuffer.glsl": _row(instances=(0,), maps=MAPS),
     "probes_direct.glsl": _row(gbuffer=GBUFFER, shadow=(4,)),
     "probes_shade.glsl": _row(gbuffer=GBUFFER, direct=(4,), probes=(5, _PROBES), environment=(8, _ENVIRONMENT)),
     # the forward passes (frame 0, the blended meshes): the G-buffer's position only (the blend pass)

@@ -9,9 +9,10 @@ Grid
     :meth:`~compare.scene.loader.Scene.extent`), each at the centre of
     its cell (inset by half a cell), so no probe sits on the bounding walls.
 
-Bake (setup time, :class:`ProbeVolume`)
+Bake (:class:`ProbeVolume`; the rasterizer's before the first frame that reads the volume)
     1. One G-buffer of small cube maps (default 16² per face) from every probe,
-       all faces in one atlas, one instanced draw per mesh (``probes_gbuffer.glsl``).
+       all faces in one atlas, one instanced draw per mesh (``probes_gbuffer.glsl``)
+       whose instances are the (probe, face) pairs the mesh's bounds reach (:func:`face_reach`).
     2. Direct irradiance at every texel from the scene's area lights, with the
        rasterizer's own shadows: a few points per light (the light sampler's
        centre-first R2 points, :func:`~compare.progressive.schedule.sampling.light_sample_points`),
@@ -211,6 +212,28 @@ def backface_fraction(back: np.ndarray) -> np.ndarray:
     return (np.asarray(back, dtype=np.float64) * omega).reshape(len(back), -1).sum(axis=1) / (4.0 * math.pi)
 
 
+def face_reach(positions: np.ndarray, lo: np.ndarray, hi: np.ndarray, near: float = 0.0,
+               tolerance: float = 0.0) -> np.ndarray:
+    """(M, P, 6) bool: whether box m (``lo``, ``hi`` (M, 3)) may reach the view of probe p's face f.
+
+    A face at probe position c sees d = x − c where w = d·A ≥ ``near`` and |d·U|, |d·V| ≤ w (its
+    four clip distances and the near plane; A, U, V as :data:`~compare.ibl.cubemap.FACE_AXES`). A box
+    lies outside when its largest value of one of those five linear functions is below −``tolerance``: no
+    triangle inside it then has a fragment in that face. The test is conservative (a box may pass and
+    draw nothing), never the other way round.
+    """
+    positions = np.asarray(positions, dtype=np.float64)
+    lo, hi = np.asarray(lo, dtype=np.float64).reshape(-1, 3), np.asarray(hi, dtype=np.float64).reshape(-1, 3)
+    centre, half = (lo + hi) / 2, (hi - lo) / 2
+    out = np.ones((len(lo), len(positions), 6), dtype=bool)
+    for f, (a, u, v) in enumerate(FACE_AXES):
+        for normal, offset in ((a, near), (a + u, 0.0), (a - u, 0.0), (a + v, 0.0), (a - v, 0.0)):
+            # max over the box of (x − c)·n = centre·n + half·|n| − c·n, for every box and probe
+            top = (centre @ normal + half @ np.abs(normal))[:, None] - (positions @ normal)[None, :]
+            out[:, :, f] &= top >= offset - tolerance
+    return out
+
+
 def _tiles(count: int) -> tuple[int, int]:
     """(columns, rows) of a near-square tiling of ``count`` tiles."""
     cols = max(1, math.ceil(math.sqrt(count)))
@@ -264,6 +287,8 @@ class ProbeVolume(RenderPass):
     leak_limit : bool, keyword-only
         False: plain trilinear interpolation, in the bake and the lookup (an
         ablation that shows what the three limits in the module notes prevent).
+    lazy : bool, keyword-only
+        True: make the textures only; :meth:`bake` (or the first :meth:`bind`'s caller) bakes later.
 
     Attributes
     ----------
@@ -272,14 +297,14 @@ class ProbeVolume(RenderPass):
     valid : ndarray (P,) bool
         False for probes inside geometry.
     bake_seconds : float
-        Wall seconds of the whole bake (ends with ``ctx.finish()``).
+        Wall seconds of the whole bake (ends with ``ctx.finish()``), its textures included.
     """
 
     def __init__(self, ctx, scene, gpu_scene, *, grid=DEFAULT_PROBE_GRID, bounces: int = DEFAULT_PROBE_BOUNCES,
                  shadow_size: int = BAKE_SHADOW_SIZE, shadow_bias=DEFAULT_BIAS, environment=None,
                  materials: str = "shared", face_size: int = DEFAULT_FACE_SIZE,
                  distance_size: int = DEFAULT_DISTANCE_SIZE, light_samples: int = DEFAULT_LIGHT_SAMPLES,
-                 seed: int = 0, cache_dir=None, leak_limit: bool = True):
+                 seed: int = 0, cache_dir=None, leak_limit: bool = True, lazy: bool = False):
         _, counts, bounces = indirect_options(scene, "probes", grid, bounces)
         for name, v in (("face_size", face_size), ("distance_size", distance_size), ("light_samples", light_samples)):
             least = 1 if name == "light_samples" else 2
@@ -301,14 +326,41 @@ class ProbeVolume(RenderPass):
         self.bias = BIAS_FRACTION * float(self.spacing.min())
         self.tiles = _tiles(self.count)
         self._textures: list = []
+        self.bake_seconds = 0.0
+        self._pending = (scene, gpu_scene, shadow_size, shadow_bias, environment, seed)
         try:
             self._create_textures(cache_dir)
+        except BaseException:
+            self.release()
+            raise
+        self.bake_seconds = time.perf_counter() - t0
+        if not lazy:
+            self.bake()
+
+    @property
+    def baked(self) -> bool:
+        """Whether :meth:`bake` has run (a lazy volume bakes when it is first needed)."""
+        return self._pending is None
+
+    def bake(self) -> None:
+        """Bake the volume (nothing if it is baked); :attr:`bake_seconds` adds its wall seconds.
+
+        A renderer whose first image does not read the volume (a forward-shaded frame 0) bakes it just
+        before the first frame that does, so that first image waits for none of it; every image that
+        reads the volume reads the same baked grid as a bake at set-up would give.
+        """
+        if self._pending is None:
+            return
+        t0 = time.perf_counter()
+        scene, gpu_scene, shadow_size, shadow_bias, environment, seed = self._pending
+        try:
             self._bake(scene, gpu_scene, shadow_size, shadow_bias, environment, seed)
         except BaseException:
             self.release()
             raise
-        ctx.finish()
-        self.bake_seconds = time.perf_counter() - t0
+        self._pending = None
+        self.ctx.finish()
+        self.bake_seconds += time.perf_counter() - t0
 
     # ------------------------------------------------------------------ textures
 
@@ -372,7 +424,7 @@ class ProbeVolume(RenderPass):
             gbuffer = keep(ctx.framebuffer([targets[n] for n in ("position", "normal", "albedo", "emission")], depth))
             direct_fbo = keep(ctx.framebuffer([targets["direct"]]))
             shade_fbo = keep(ctx.framebuffer([targets["surface"], targets["background"]]))
-            self._bake_gbuffer(gbuffer, gpu_scene, size, per_row)
+            self._bake_gbuffer(gbuffer, gpu_scene, size, per_row, keep)
             distance = self._read(targets["position"], per_row)[..., 3]
             kind = self._read(targets["normal"], per_row)[..., 3]
             side = self._read(targets["albedo"], per_row)[..., 3]
@@ -394,7 +446,7 @@ class ProbeVolume(RenderPass):
         set_uniform(program, "u_origin", tuple(float(x) for x in self.origin))
         set_uniform(program, "u_spacing", tuple(float(x) for x in self.spacing))
 
-    def _bake_gbuffer(self, fbo, gpu_scene, size, per_row) -> None:
+    def _bake_gbuffer(self, fbo, gpu_scene, size, per_row, keep) -> None:
         ctx = self.ctx
         program = load_program(ctx, "probes_gbuffer.glsl", gpu_scene.defines())
         try:
@@ -410,12 +462,34 @@ class ProbeVolume(RenderPass):
             set_uniform(program, "u_depth", ((far + near) / (far - near), 2.0 * far * near / (far - near)))
             set_uniform(program, "u_lambert", int(self.materials == "diffuse"))
             _face_uniforms(program)
+            # Each mesh only into the faces its bounds reach: on a software rasterizer the bake's cost is
+            # the vertices of every (mesh, probe, face) draw, most of which land outside their face.
+            indices = gpu_scene.shaded()
+            meshes = gpu_scene.meshes + gpu_scene.light_quads
+            lo = np.array([meshes[i].lo for i in indices]).reshape(-1, 3)
+            hi = np.array([meshes[i].hi for i in indices]).reshape(-1, 3)
+            reach = face_reach(self.positions, lo, hi, near, tolerance=1e-4 * self.max_distance)
+            lists = [np.flatnonzero(r.reshape(-1)).astype(np.int32) for r in reach]
+            partial = [k for k, ids in enumerate(lists) if 0 < len(ids) < 6 * self.count]
+            offsets = np.cumsum([0] + [len(lists[k]) for k in partial])
+            width = 4096
+            rows = max(1, -(-int(offsets[-1]) // width))
+            table = np.zeros(rows * width, np.int32)
+            if partial:
+                table[:offsets[-1]] = np.concatenate([lists[k] for k in partial])
+            instances = keep(ctx.texture((width, rows), 1, table.tobytes(), dtype="i4"))
+            instances.filter = (ctx.NEAREST, ctx.NEAREST)
+            bind(program, "u_instances", instances, units_of("probes_gbuffer.glsl")["instances"])
+            start = {k: int(o) for k, o in zip(partial, offsets)}
             # The four clip planes keep each face in its tile; other passes write no
             # gl_ClipDistance, so they are switched off right after the draw.
             for k in range(4):
                 ctx.enable_direct(_GL_CLIP_DISTANCE0 + k)
             try:
-                gpu_scene.draw_shaded(program, instances=6 * self.count)
+                for k, index in enumerate(indices):
+                    if len(lists[k]):
+                        set_uniform(program, "u_instance_offset", start.get(k, -1))
+                        gpu_scene.draw_mesh(program, index, len(lists[k]))
             finally:
                 for k in range(4):
                     ctx.disable_direct(_GL_CLIP_DISTANCE0 + k)
@@ -469,7 +543,7 @@ class ProbeVolume(RenderPass):
             set_uniform(program, "u_previous", int(previous is not None))
             if previous is not None:
                 self._write_sh(previous)
-                self.bind(program, units["probes"])
+                self._bind(program, units["probes"])
             vao.render(vertices=3)
 
         # Bounce 0: the environment the probes see (radiance coefficients), zero without one.
@@ -503,6 +577,12 @@ class ProbeVolume(RenderPass):
     def bind(self, program, units: Units) -> None:
         """Bind the grid's three textures to ``units`` (the program's ``probes`` row) and set every
         ``u_probe_*`` uniform."""
+        if not self.baked:
+            raise RuntimeError("the irradiance volume is bound before its bake (ProbeVolume.bake)")
+        self._bind(program, units)
+
+    def _bind(self, program, units: Units) -> None:
+        """:meth:`bind` without the check (the bake's bounces read the grid of the bounce before)."""
         cols, rows = self.tiles
         d = self.distance_size + 2
         textures = ((self.sh_texture, "u_probe_sh"), (self.distance_texture, "u_probe_distance"),
@@ -528,7 +608,8 @@ class ProbeVolume(RenderPass):
             "probe_bake_seconds": float(self.bake_seconds),
             "probe_face_size": self.face_size,
             "probe_light_samples": self.light_samples,
-            "probes_invalid": int(self.count - int(np.sum(self.valid))),
+            # -1: not baked (a render that stopped before any frame read the volume)
+            "probes_invalid": int(self.count - int(np.sum(self.valid))) if self.baked else -1,
             "probe_leak_limit": "backface, chebyshev, invalid" if self.leak_limit else "off",
         }
 

@@ -1,7 +1,9 @@
 // Irradiance-volume bake, step 1: the scene from every probe into six cube faces, one instance
 // per (probe, face), all in one atlas of S x S tiles (compare/progressive/indirect/probes.py).
 //
-// Instance i draws probe i / 6, face i % 6. The face's camera looks along A with U to the
+// Instance i draws probe i / 6, face i % 6, where i is the draw's instance number or, with
+// u_instance_offset >= 0, entry u_instance_offset + gl_InstanceID of the list u_instances: the
+// (probe, face) pairs whose view the mesh's bounds reach (the others would draw nothing). The face's camera looks along A with U to the
 // right and V up (compare/ibl/cubemap.py's table, so texel (column, row) of a tile, counted
 // from the tile's lower left, looks along A + s U + t V at its centre). Clip distances keep
 // each face inside its own tile; the clip-space x, y are then moved and scaled into the tile.
@@ -25,14 +27,22 @@ uniform vec3 u_face_a[6];
 uniform vec3 u_face_u[6];
 uniform vec3 u_face_v[6];
 uniform vec2 u_depth;      // ((f + n) / (f - n), 2 f n / (f - n)) of the faces' perspective
+uniform isampler2D u_instances;  // the (probe, face) lists of every mesh, row by row
+uniform int u_instance_offset;   // where this mesh's list starts; negative: every instance
 
 out vec3 v_position;
 out vec3 v_normal;
 flat out vec3 v_probe;
 
 void main() {
-    int probe = gl_InstanceID / 6;
-    int face = gl_InstanceID - 6 * probe;
+    int instance = gl_InstanceID;
+    if (u_instance_offset >= 0) {
+        int k = u_instance_offset + gl_InstanceID;
+        int width = textureSize(u_instances, 0).x;
+        instance = texelFetch(u_instances, ivec2(k % width, k / width), 0).r;
+    }
+    int probe = instance / 6;
+    int face = instance - 6 * probe;
     ivec3 idx = ivec3(probe % u_counts.x, (probe / u_counts.x) % u_counts.y, probe / (u_counts.x * u_counts.y));
     vec3 c = u_origin + vec3(idx) * u_spacing;
     vec3 d = in_position - c;
