@@ -57,7 +57,7 @@ class GlassPass(MeshesForwardPass):
                          environment=environment, punctual=punctual, lut_texture=lut_texture, ltc_table=ltc_table)
 
     def _make_targets(self, ctx, size) -> None:
-        self.back_program = self._keep(load_program(ctx, "glass_back.glsl"))
+        self.back_program = self._keep(load_program(ctx, "glass_back.glsl", self.scene.defines()))
         self.depth_programs = self.scene.occluder_programs(ctx, "depth_only.glsl")
         for program in self.depth_programs.values():
             self._keep(program)
@@ -73,7 +73,9 @@ class GlassPass(MeshesForwardPass):
         self.back = self._keep(ctx.texture(size, 4, dtype="f4"))
         self.back.filter = (ctx.NEAREST, ctx.NEAREST)
         self.back_depth = self._keep(ctx.depth_renderbuffer(size))
-        self.back_fbo = self._keep(ctx.framebuffer([self.back], self.back_depth))
+        self.back_share = self._keep(ctx.texture(size, 1, dtype="f4"))
+        self.back_share.filter = (ctx.NEAREST, ctx.NEAREST)
+        self.back_fbo = self._keep(ctx.framebuffer([self.back, self.back_share], self.back_depth))
 
     def _programs(self) -> list:
         return [*super()._programs(), getattr(self, "back_program", None),
@@ -125,6 +127,7 @@ class GlassPass(MeshesForwardPass):
         set_uniform(p, "u_glass_preview", float(first_depth is not None))
         bind(p, "u_opaque", self.opaque.texture, _UNITS["opaque"])
         bind(p, "u_glass_back", self.back, _UNITS["glass_back"])
+        bind(p, "u_glass_share", self.back_share, _UNITS["glass_share"])
         set_uniform(p, "u_glass_seed", float(frame % (1 << 23)))
         for k in self.indices:
             scene.draw_mesh(p, k)

@@ -35,6 +35,7 @@ uniform vec3 u_attenuation;     // Beer-Lambert coefficient per unit of world le
 #if GLASS
 uniform sampler2D u_opaque;         // the opaque scene's displayed image of this frame (bilinear)
 uniform sampler2D u_glass_back;     // the nearest back face of the glass: outward normal, plane offset
+uniform sampler2D u_glass_share;    // and its glass share, (1 - metallic) x transmission (glass_back.glsl)
 uniform float u_glass_seed;         // this frame's index: new microfacet normals every frame
 uniform mat4 u_view_proj;           // this frame's (the vertex stage's)
 #endif
@@ -112,7 +113,8 @@ vec3 glass_behind(vec3 x, vec3 d) {
 // What a thin wall at p (reflectance f at its own interface) lets through of the opaque image when the glass's
 // nearest back face lies behind it along -v: a closed thin-walled mesh (a sphere, a box) is two walls, and the
 // reference tints at both and passes the light between them. The back face is taken to be of the same material
-// (its tint and Fresnel; its own maps are not read); its reflection towards the inside is left out. 1 without one.
+// (its tint and Fresnel), its glass share its own (glass_back.glsl: where it is opaque, a map's stripe or metal,
+// its inner side is left out, dark); its reflection towards the inside is left out. 1 without one.
 vec3 glass_second_wall(vec3 p, vec3 v, vec3 tint, float f) {
     vec4 back = texelFetch(u_glass_back, ivec2(gl_FragCoord.xy), 0);
     float tb = dot(back.xyz, -v);
@@ -123,7 +125,7 @@ vec3 glass_second_wall(vec3 p, vec3 v, vec3 tint, float f) {
     float f_back = 1.0 - t_back;
     // each wall reflects 2F / (1 + F) of the light between them (a thin dielectric's two interfaces)
     float between = 1.0 - (2.0 * f / (1.0 + f)) * (2.0 * f_back / (1.0 + f_back));
-    return tint * (t_back / (1.0 + f_back)) / between;
+    return texelFetch(u_glass_share, ivec2(gl_FragCoord.xy), 0).r * tint * (t_back / (1.0 + f_back)) / between;
 }
 #endif
 
@@ -175,6 +177,7 @@ vec3 glass_transmitted(vec3 p, vec3 n, vec3 v, vec3 tint, float roughness) {
     // the exit: thickness x the mesh's scale along the ray, or the glass's back face along it
     float s = u_thickness * length(u_glass_scale * t);
     vec3 n_out = -n;
+    float exit_share = 1.0;
 #if GLASS
     vec2 uv;
     if (glass_project(p + t * s, uv)) {
@@ -185,6 +188,7 @@ vec3 glass_transmitted(vec3 p, vec3 n, vec3 v, vec3 tint, float roughness) {
             if (s_back > 0.0) {
                 s = s_back;
                 n_out = back.xyz;
+                exit_share = glass_fetch(u_glass_share, uv).r;  // an opaque part of the exit passes nothing
                 if (glass_project(p + t * s, uv)) {  // the normal where the ray leaves
                     back = glass_fetch(u_glass_back, uv);
                     n_out = dot(back.xyz, back.xyz) > 0.5 && dot(back.xyz, t) > 1e-3 ? back.xyz : n_out;
@@ -200,7 +204,7 @@ vec3 glass_transmitted(vec3 p, vec3 n, vec3 v, vec3 tint, float roughness) {
     }
     weight *= glass_base_share(max(dot(o, -m_out), 0.0));
     vec3 absorbed = exp(-u_attenuation * s);
-    return channel * weight * tint * tint * absorbed * glass_behind(p + t * s, o);
+    return exit_share * channel * weight * tint * tint * absorbed * glass_behind(p + t * s, o);
 }
 
 #endif // COMPARE_TRANSMISSION_GLSL

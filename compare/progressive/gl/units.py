@@ -119,8 +119,8 @@ PROGRAM_UNITS: Mapping[str, Mapping[str, Units]] = MappingProxyType({
     # the forward passes (frame 0, the blended meshes): the G-buffer's position only (the blend pass)
     # the glass pass (glass.py) also reads the opaque image and the glass's back faces
     "first_frame.glsl": _row(gbuffer=GBUFFER, spec_lut=(4,), ltc=(5,), environment=(6, _ENVIRONMENT), maps=MAPS,
-                             opaque=(16,), glass_back=(17,), layers=LAYERS),
-    "glass_back.glsl": _row(),
+                             opaque=(16,), glass_back=(17,), glass_share=(18,), layers=LAYERS),
+    "glass_back.glsl": _row(maps=MAPS),
     "blend_fold.glsl": _row(previous=(0,), frame=(1,)),
     # gl/
     "srgb_probe.glsl": _row(codes=(0,)),
