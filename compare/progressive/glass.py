@@ -21,8 +21,11 @@ over that frame's image as a preview, without a G-buffer (the frame's depth buff
 refracted ray sees the environment map alone), which the next frame's glass replaces; a reduced frame 0 draws
 the glass in its forward pass (its rays see the environment map alone), a preview too.
 
-What it leaves out: glass seen through glass (the refracted ray sees the opaque scene), light reflected inside
-the glass, the glass's own shadows (it is lit unshadowed) and its coloured shadows on the rest (a glass mesh
+A thin wall (thickness 0) whose glass's back face lies behind it is a closed thin-walled mesh: that back
+face is its second wall, taken to be of its material (its tint and Fresnel, its own glass share from its maps).
+
+What it leaves out: glass seen through glass beyond that (the refracted ray sees the opaque scene), the inner
+side of a back face's opaque parts (dark), light reflected inside the glass, the glass's own shadows (it is lit unshadowed) and its coloured shadows on the rest (a glass mesh
 casts an opaque shadow-map shadow, :meth:`GpuScene.draw_occluders
 <compare.progressive.frame.gpu_scene.GpuScene.draw_occluders>`), caustics; the screen-space environment
 occlusion does not see the glass. Blended meshes composite over the glass.
