@@ -21,7 +21,11 @@
 // (1 - transmission) of the diffuse lobe, plus the light it lets through, transmission.glsl), and 1. With
 // TRANSMISSION alone a reduced frame 0 draws its glass so, the transmitted light seeing the environment map.
 //
-// Defines: LIGHTS (number of area lights, 0 for none), PUNCTUAL (number of punctual lights), BLEND, GLASS,
+// With PREVIEW (a reduced frame 0, a preview outside the running means) out_color is the one output: what
+// the display adds up from the outputs above (compose.glsl), summed here; one target instead of up to four
+// is what a software rasterizer clears and writes per pixel.
+//
+// Defines: LIGHTS (number of area lights, 0 for none), PUNCTUAL (number of punctual lights), BLEND, GLASS, PREVIEW,
 // TRANSMISSION, ENVIRONMENT, AREA_MODEL_PAPER, AREA_MODEL_LTC (the preview is then the closed-form unshadowed
 // light, ltc.glsl), MATERIALS_DIFFUSE.
 
@@ -64,6 +68,9 @@ uniform vec2 u_viewport;
 #ifndef GLASS
 #define GLASS 0
 #endif
+#ifndef PREVIEW
+#define PREVIEW 0
+#endif
 #ifndef TRANSMISSION
 #define TRANSMISSION GLASS
 #endif
@@ -89,6 +96,7 @@ uniform float u_glass_preview;   // 1: frame 0 drawn forward (glass.py): no G-bu
 #else
 #define GBUFFER_READ true
 #endif
+#elif PREVIEW
 #elif ENVIRONMENT
 layout(location = 1) out vec4 out_env;
 layout(location = 2) out vec4 out_direct;
@@ -140,7 +148,7 @@ void main() {
 #if ENVIRONMENT
     if (u_background_pass > 0.5) {
         out_color = vec4(env_background_at_pixel(gl_FragCoord.xy, u_viewport, u_inv_view_proj), 1.0);
-#if !BLEND && !GLASS
+#if !BLEND && !GLASS && !PREVIEW
         out_env = vec4(0.0, 0.0, 0.0, 1.0);
         out_direct = vec4(0.0, 0.0, 0.0, 1.0);
 #if PUNCTUAL > 0
@@ -224,6 +232,8 @@ void main() {
     out_color = vec4((c + env + direct + punctual) * coverage, coverage);
 #elif GLASS
     out_color = vec4(c + env + direct + punctual, 1.0);
+#elif PREVIEW
+    out_color = vec4(c + direct + env + punctual, 1.0);  // compose.glsl's order
 #else
     out_color = vec4(c, 1.0);
 #if ENVIRONMENT

@@ -14,17 +14,22 @@ preview (a cheaper form than the direct pass's, ``light_preview`` in
 The displayed image is composed from them as after any other frame.
 
 With ``scale`` < 1 (the renderer's default from 320×240 up, :func:`auto_scale`:
-half of each axis) frame 0 is drawn at that fraction of each axis into targets of
+half of each axis) frame 0 is drawn at that fraction of each axis into a target of
 its own and is a preview only: it adds nothing to the running means (their first
-value comes from frame 1, so the final image averages one jitter position fewer),
+value comes from frame 1, so the final image averages one jitter position fewer).
+The terms the display adds up are then summed by the shader into that one target,
 the display upsamples it bilinearly, and frame 1 draws the full-resolution
 unshadowed preview from its G-buffer, which then stays until every light has a
 sample.
 
-On a CPU rasterizer frame 0 is per-pixel work (clearing the targets, the
-preview's light evaluation) plus per-frame overhead, so a half-size preview (a
-quarter of the pixels) is what keeps frame 0 cheap; the full-size preview's cost
-moves to frame 1. Measurements: ``docs/performance-notes.md``.
+On a CPU rasterizer frame 0 is per-pixel work (clearing the targets, the depth
+pre-pass, the preview's light evaluation, writing the targets) plus per-frame
+overhead, so a half-size preview (a quarter of the pixels) is what keeps frame 0
+cheap; the full-size preview's cost moves to frame 1. For the same reason frame 0
+writes one target when reduced, draws its depth pre-pass into the framebuffer it
+shades (one batch of llvmpipe work, not three) and culls single-sided back faces
+with GL's face culling rather than a discard in its shaders. Measurements:
+``docs/performance-notes.md``.
 
 The blend and the glass passes draw their meshes over the deferred frames with the same shader, each a
 :class:`MeshesForwardPass`.
@@ -188,11 +193,12 @@ class FirstFramePass(RenderPass):
     closed-form unshadowed light, :mod:`compare.progressive.lights.ltc`); ``environment`` an
     :class:`~compare.progressive.environment.environment.EnvironmentLighting` or None.
     ``scale`` in (0, 1]: 1 draws frame 0 at full size into the every-frame mean's
-    next target; below 1 at that fraction of each axis into :attr:`targets`, a
-    preview only (:attr:`reduced`). ``punctual`` (a
+    next target and the unshadowed direct light into :attr:`direct`; below 1 at that
+    fraction of each axis into :attr:`targets`, a preview only (:attr:`reduced`): one
+    target, all that the display adds up. ``punctual`` (a
     :class:`~compare.progressive.lights.punctual.PunctualLights` or None): their exact
-    unshadowed light goes into their running mean's next target (reduced: into
-    :attr:`punctual_texture`).
+    unshadowed light goes into their running mean's next target (reduced: into that
+    one target too).
     """
 
     def __init__(self, ctx, gpu_scene, base, lights, *, environment=None, area_model: str = "radiometric",
@@ -207,16 +213,23 @@ class FirstFramePass(RenderPass):
         self.size = size
         self.base = base
         self.targets = None
-        """With :attr:`reduced`: frame 0's own every-frame terms (a PingPong shaped like ``base``)."""
+        """With :attr:`reduced`: frame 0's preview, the sum of what the display shows (a PingPong of one
+        target, which the display composes as it would the every-frame mean alone)."""
+        self.direct = None
+        """At full size: the unshadowed direct light, shown until every light has a sample."""
         self.lights = tuple(lights)
         self.environment = environment
         self.lut_texture = lut_texture
         self.punctual = punctual
-        self.punctual_texture = None
         # A reduced frame 0 draws the glass itself (a preview, outside the means); a full-size one leaves it
         # to the glass pass (glass.py), whose sum it starts.
         defines = first_frame_defines(gpu_scene, self.lights, punctual, environment, area_model, materials,
                                       blend=False, transmission=gpu_scene.glassy and self.reduced)
+        # A reduced frame 0 is a preview only: the terms the display adds up are added here, into one
+        # target, which is what a CPU rasterizer clears and writes per pixel (docs/performance-notes.md).
+        defines["PREVIEW"] = int(self.reduced)
+        # GL culls the single-sided back faces: without a discard in them both programs cost less per fragment.
+        defines["FACE_CULLING"] = 1
         if area_model == "ltc" and ltc_table is None and self.lights:
             raise ValueError("area_model 'ltc' needs the LTC table (ltc_table)")
         self.ltc_table = ltc_table
@@ -224,31 +237,31 @@ class FirstFramePass(RenderPass):
         try:
             self.program = self._keep(load_program(ctx, "first_frame.glsl", defines))
             self.background_vao = self._keep(ctx.vertex_array(self.program, []))
-            self.direct = self._keep(ctx.texture(size, 4, dtype="f4"))
             self.depth = self._keep(ctx.depth_renderbuffer(size))
-            extra = []
             if self.reduced:
-                self.targets = self._keep(PingPong(ctx, size, attachments=len(base.textures[0])))
+                self.targets = self._keep(PingPong(ctx, size))
                 colour = list(self.targets.textures[1])
-                if punctual is not None:
-                    self.punctual_texture = self._keep(ctx.texture(size, 4, dtype="f4"))
-                    extra = [self.punctual_texture]
                 # Upsampled bilinearly for display (compose.glsl), clamped at the borders: the
                 # default wrap would blend in the opposite edge.
-                for tex in colour + [self.direct] + extra:
+                for tex in colour:
                     tex.filter = (ctx.LINEAR, ctx.LINEAR)
                     tex.repeat_x = tex.repeat_y = False
             else:
-                # Frame 0 is the every-frame mean's first value: after reset() its next target is set 1.
-                colour = list(base.textures[1])
+                self.direct = self._keep(ctx.texture(size, 4, dtype="f4"))
                 self.direct.filter = (ctx.NEAREST, ctx.NEAREST)
+                # Frame 0 is the every-frame mean's first value: after reset() its next target is set 1.
+                colour = list(base.textures[1]) + [self.direct]
                 if punctual is not None:
-                    extra = [punctual.acc.textures[1][0]]  # likewise the punctual mean's first value
-            self.fbo = self._keep(ctx.framebuffer(colour + [self.direct] + extra, self.depth))
+                    colour.append(punctual.acc.textures[1][0])  # likewise the punctual mean's first value
+            self.fbo = self._keep(ctx.framebuffer(colour, self.depth))
+            # moderngl's colour masks: one (r, g, b, a) for a single target, one per target for several
+            self._writes, self._no_writes = (((m,) * 4 if len(colour) == 1 else ((m,) * 4,) * len(colour))
+                                             for m in (True, False))
             # Depth pre-pass: with the nearest depth known, each pixel is shaded once, however
-            # much the scene overdraws (docs/performance-notes.md).
-            self.depth_fbo = self._keep(ctx.framebuffer(depth_attachment=self.depth))
-            self.depth_programs = gpu_scene.occluder_programs(ctx, "depth_only.glsl")
+            # much the scene overdraws (docs/performance-notes.md). It draws into the same framebuffer,
+            # its colours masked: on llvmpipe each change of framebuffer ends a batch of work (a "scene",
+            # rasterized on its own), and frame 0 is then one batch instead of three.
+            self.depth_programs = gpu_scene.occluder_programs(ctx, "depth_only.glsl", {"FACE_CULLING": 1})
             for program in self.depth_programs.values():
                 self._keep(program)
         except BaseException:
@@ -264,8 +277,8 @@ class FirstFramePass(RenderPass):
         set_light_uniforms(self.program, self.lights, self.punctual)
 
     def render(self, view_proj, inv_view_proj: bytes, camera_position) -> None:
-        """Draw frame 0: the every-frame mean's first value (then swapped in; with :attr:`reduced`
-        into :attr:`targets` instead) and :attr:`direct`, the preview."""
+        """Draw frame 0: the every-frame mean's first value (then swapped in) and :attr:`direct`, the
+        preview; with :attr:`reduced` the preview's sum into :attr:`targets` instead."""
         if self.reduced:
             self.targets.reset()
         elif (self.base.count != 0 or self.base.index != 0
@@ -273,22 +286,27 @@ class FirstFramePass(RenderPass):
             raise RuntimeError("the first frame must be drawn right after reset()")
         ctx = self.ctx
         p = self.program
-        self.fbo.use()
+        fbo = self.fbo
+        fbo.color_mask = self._writes  # a clear leaves a masked target alone
+        fbo.use()
         ctx.enable_only(ctx.DEPTH_TEST)
         ctx.depth_func = "<="
         # Without an environment the background is black (the clear colour).
-        self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-        self.depth_fbo.use()
-        for program in self.depth_programs.values():
-            set_uniform(program, "u_view_proj", mat_bytes(view_proj))
-        self.scene.draw_occluders(self.depth_programs, casters=False, glass=self.reduced)
-        self.fbo.use()
+        fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        fbo.color_mask = self._no_writes
+        view_proj = mat_bytes(view_proj)
+        try:
+            for program in self.depth_programs.values():
+                set_uniform(program, "u_view_proj", view_proj)
+            self.scene.draw_occluders(self.depth_programs, casters=False, glass=self.reduced, cull=True)
+        finally:
+            fbo.color_mask = self._writes
         bind_tables(p, self.scene, lut_texture=self.lut_texture, ltc_table=self.ltc_table,
                     environment=self.environment)
-        set_uniform(p, "u_view_proj", mat_bytes(view_proj))
+        set_uniform(p, "u_view_proj", view_proj)
         set_uniform(p, "u_camera_position", tuple(float(x) for x in camera_position))
         set_uniform(p, "u_background_pass", 0.0)
-        self.scene.draw_shaded(p, glass=self.reduced)
+        self.scene.draw_shaded(p, glass=self.reduced, cull=True)
         if self.environment is not None:
             set_uniform(p, "u_background_pass", 1.0)
             set_uniform(p, "u_inv_view_proj", inv_view_proj)

@@ -557,9 +557,8 @@ class Rasterizer:
             raise RuntimeError("no frame rendered yet; iterate frames() or call render_frame() first")
         what = f"progressive render of {self.scene.path} (frame {self.frame})"
         if self.frame == 1 and self._reduced_first:
-            first = self.first
-            fbo = self.compose.run(first.targets, first.direct if self._preview_valid else None,
-                                   punctual_texture=first.punctual_texture, upsample=True)
+            # the preview's one target holds the sum of what the display shows
+            fbo = self.compose.run(self.first.targets, upsample=True)
             return read_rgb(self.ctx, fbo, what=what)
         return read_rgb(self.ctx, self._compose(), what=what)
 

@@ -68,6 +68,9 @@ def material_layers(mat) -> tuple:
             float(mat.clearcoat_roughness), tuple(float(x) for x in mat.sheen_color), float(mat.sheen_roughness))
 
 
+_UNSET = object()  # a uniform value no program holds
+
+
 #: transmission.glsl's uniforms, in the order of GpuMesh.glass.
 GLASS_UNIFORMS = ("u_transmission", "u_glass_iors", "u_thickness", "u_glass_scale", "u_attenuation")
 
@@ -203,6 +206,8 @@ class GpuScene(RenderPass):
         self.meshes: list[GpuMesh] = []
         self.light_quads: list[GpuMesh] = []
         self._vaos: dict[tuple[int, int, bool], object] = {}
+        #: The material uniforms each program was last given by :meth:`draw_mesh` (program state in GL).
+        self._held: dict[object, dict[str, object]] = {}
         self._maps: dict[tuple, object] = {}
         #: Whether any mesh has a map: the programs' TEXTURES define.
         self.textured = bool(scene.features().textures)
@@ -459,16 +464,22 @@ class GpuScene(RenderPass):
         return vao[0]
 
     def draw_shaded(self, program, instances: int = 1, map_set: tuple[bool, ...] | None = None, *,
-                    glass: bool = True) -> None:
+                    glass: bool = True, cull: bool = False) -> None:
         """Draw meshes and light quads with their material uniforms (G-buffer pass).
 
         ``instances`` > 1 draws every mesh that many times in one call (the
         irradiance volume's bake places each instance in its own cube face).
         ``map_set``: only the meshes of that :meth:`map_set` (a program specialised for it).
         ``glass`` False leaves out the glass meshes (the G-buffer: the glass pass draws them).
+        ``cull``: ``program`` is built with FACE_CULLING (material.glsl): GL culls the single-sided
+        meshes' back faces (:meth:`face_culling`).
         """
-        for index in self.shaded(map_set, glass=glass):
-            self.draw_mesh(program, index, instances)
+        try:
+            for index in self.shaded(map_set, glass=glass):
+                self.draw_mesh(program, index, instances, cull=cull)
+        finally:
+            if cull:
+                self.face_culling(None)
 
     def shaded(self, map_set: tuple[bool, ...] | None = None, *, glass: bool = True) -> list[int]:
         """The indices (of meshes + light quads) that :meth:`draw_shaded` draws with the same arguments."""
@@ -476,19 +487,34 @@ class GpuScene(RenderPass):
                 if mesh.blend < 0.0 and (map_set is None or self.map_set(mesh) == map_set)
                 and not (mesh.glass and not glass)]
 
-    def draw_mesh(self, program, index: int, instances: int = 1) -> None:
-        """Draw mesh ``index`` (of meshes + light quads) with its material uniforms."""
+    def face_culling(self, mesh: GpuMesh | None) -> None:
+        """GL's back-face culling on for drawing a single-sided ``mesh`` (glTF's doubleSided false), off for a
+        double-sided one or None: what material.glsl's cull_back_face() discards, in a program built with
+        FACE_CULLING. GL decides what faces the viewer from the same window-space winding as gl_FrontFacing."""
+        if mesh is not None and mesh.sides < 1.5:
+            self.ctx.cull_face = "back"
+            self.ctx.enable(self.ctx.CULL_FACE)
+        else:
+            self.ctx.disable(self.ctx.CULL_FACE)
+
+    def draw_mesh(self, program, index: int, instances: int = 1, *, cull: bool = False) -> None:
+        """Draw mesh ``index`` (of meshes + light quads) with its material uniforms; ``cull``: with GL's
+        culling of its back faces where it is single-sided (:meth:`face_culling`), left on."""
         mesh = (self.meshes + self.light_quads)[index]
-        set_uniform(program, "u_base_color", mesh.base_color)
-        set_uniform(program, "u_metallic", mesh.metallic)
-        set_uniform(program, "u_roughness", mesh.roughness)
-        set_uniform(program, "u_emission", mesh.emission)
-        set_uniform(program, "u_kind", mesh.kind)
-        set_uniform(program, "u_blend_alpha", max(mesh.blend, 0.0))
-        set_uniform(program, "u_sides", mesh.sides)
-        if mesh.layers:
-            for name, value in zip(LAYER_UNIFORMS, mesh.layers):
+        if cull:
+            self.face_culling(mesh)
+        # Meshes drawn one after another mostly share their factors: a value the program holds already is
+        # not written again (each write costs the draw loop a little, per mesh and pass).
+        held = self._held.get(program)
+        if held is None:
+            held = self._held[program] = {}
+        for name, value in (("u_base_color", mesh.base_color), ("u_metallic", mesh.metallic),
+                            ("u_roughness", mesh.roughness), ("u_emission", mesh.emission), ("u_kind", mesh.kind),
+                            ("u_blend_alpha", max(mesh.blend, 0.0)), ("u_sides", mesh.sides),
+                            *zip(LAYER_UNIFORMS, mesh.layers)):
+            if held.get(name, _UNSET) != value:
                 set_uniform(program, name, value)
+                held[name] = value
         if self.glassy:  # every mesh: frame 0's forward pass draws glass and the rest with one program
             set_uniform(program, "u_transmission", mesh.glass[0] if mesh.glass else 0.0)
             for name, value in zip(GLASS_UNIFORMS[1:], mesh.glass[1:]):
@@ -515,29 +541,36 @@ class GpuScene(RenderPass):
                 bind(program, f"u_{name}_map", tex, MAPS, k)
 
     def draw_occluders(self, programs: dict, skip_light: int | None = None, *, casters: bool = True,
-                       glass: bool = True) -> None:
+                       glass: bool = True, cull: bool = False) -> None:
         """Draw depth only: every mesh and every light quad except ``skip_light``'s (shadow pass), each with
         the program of :meth:`occluder_programs` for it; an alpha-masked mesh leaves out its holes. A blended
         mesh casts a shadow map's shadow where its coverage is at least ½ (``casters``; a hard shadow map
         has no partial shadow) and is left out of a depth pre-pass (``casters=False``); ``glass`` False leaves
-        out the glass meshes (a depth pre-pass of what the glass pass draws over)."""
+        out the glass meshes (a depth pre-pass of what the glass pass draws over); ``cull`` as
+        :meth:`draw_shaded`'s."""
         self.draw_depth(programs, [index for index, mesh in enumerate(self.meshes + self.light_quads)
                                    if not (mesh.light is not None and mesh.light == skip_light)
                                    and not (mesh.blend >= 0.0 and not (casters and mesh.blend >= 0.5))
-                                   and not (mesh.glass and not glass)])
+                                   and not (mesh.glass and not glass)], cull=cull)
 
-    def draw_depth(self, programs: dict, indices) -> None:
+    def draw_depth(self, programs: dict, indices, *, cull: bool = False) -> None:
         """Draw depth only of the meshes ``indices`` (of meshes + light quads), each with the program of
-        :meth:`occluder_programs` for it (the glass pass's depth pre-pass)."""
+        :meth:`occluder_programs` for it (the glass pass's depth pre-pass); ``cull`` as :meth:`draw_shaded`'s."""
         everything = self.meshes + self.light_quads
-        for index in indices:
-            mesh = everything[index]
-            masked = mesh.alpha_cutoff >= 0.0 and True in programs
-            program = programs[masked]
-            set_uniform(program, "u_sides", mesh.sides)  # a depth pre-pass culls as the camera's passes do
-            if masked:
-                self._bind_maps(program, mesh, all_maps=False)
-            self._vao(program, index, mesh).render()
+        try:
+            for index in indices:
+                mesh = everything[index]
+                masked = mesh.alpha_cutoff >= 0.0 and True in programs
+                program = programs[masked]
+                if cull:
+                    self.face_culling(mesh)
+                set_uniform(program, "u_sides", mesh.sides)  # a depth pre-pass culls as the camera's passes do
+                if masked:
+                    self._bind_maps(program, mesh, all_maps=False)
+                self._vao(program, index, mesh).render()
+        finally:
+            if cull:
+                self.face_culling(None)
 
     def release_programs(self, programs: dict) -> None:
         """Forget the vertex arrays of ``programs`` (a dict's values, as :meth:`occluder_programs` gives) and
@@ -550,6 +583,7 @@ class GpuScene(RenderPass):
         """Release the vertex arrays made for ``program`` (call before releasing a short-lived program)."""
         for key in [k for k, (_, prog) in self._vaos.items() if prog is program]:
             self._vaos.pop(key)[0].release()
+        self._held.pop(program, None)
 
     def release(self) -> None:
         """Free the scene's buffers, maps, tables and vertex arrays."""
@@ -559,6 +593,7 @@ class GpuScene(RenderPass):
         for vao, _ in self._vaos.values():
             vao.release()
         self._vaos.clear()
+        self._held.clear()
         for mesh in self.meshes + self.light_quads:
             mesh.vbo.release()
             mesh.ibo.release()

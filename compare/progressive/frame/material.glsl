@@ -32,12 +32,22 @@ uniform float u_metallic;
 // glTF's doubleSided, per mesh: 2 (double-sided) shades a back face with its normal turned to the viewer;
 // 1 (single-sided) culls it: cull_back_face() discards it in the passes of camera rays (G-buffer, first
 // frame, its depth pre-pass); shadow maps and the probes' bake draw every face.
+// FACE_CULLING 1: the pass culls with GL's face culling instead (GpuScene's draws with cull=True), the same
+// faces: a shader that can discard costs llvmpipe on every fragment, a whole program dearer, even where it
+// never discards (docs/performance-notes.md).
+#ifndef FACE_CULLING
+#define FACE_CULLING 0
+#endif
+#if FACE_CULLING
+void cull_back_face() {}
+#else
 uniform float u_sides;
 void cull_back_face() {
     if (u_sides < 1.5 && !gl_FrontFacing) {
         discard;
     }
 }
+#endif
 vec3 facing_normal(vec3 n) {
     return gl_FrontFacing ? n : -n;
 }

@@ -113,8 +113,11 @@ class DirectPass(RenderPass):
             # The split-sum table bounds the light a specular lobe can reflect (direct.glsl).
             from compare.ibl import split_sum
 
-            lut = np.ascontiguousarray(split_sum(cache_dir=cache_dir)[0], dtype=np.float32)
-            self.lut_texture = ctx.texture((lut.shape[1], lut.shape[0]), lut.shape[2], lut.tobytes(), dtype="f4")
+            lut = split_sum(cache_dir=cache_dir)[0]
+            # RGBA (A, B, C and a zero): llvmpipe filters a four-float texel faster than a three-float one,
+            # and frame 0 reads the table at every pixel (docs/performance-notes.md).
+            lut = np.ascontiguousarray(np.pad(lut, ((0, 0), (0, 0), (0, 4 - lut.shape[2]))), dtype=np.float32)
+            self.lut_texture = ctx.texture((lut.shape[1], lut.shape[0]), 4, lut.tobytes(), dtype="f4")
             self.lut_texture.filter = (ctx.LINEAR, ctx.LINEAR)
             self.lut_texture.repeat_x = self.lut_texture.repeat_y = False
         defines = {**area_model_defines(area_model), "MATERIALS_DIFFUSE": int(materials == "diffuse"),
