@@ -289,3 +289,31 @@ def test_inspect_refuses_vertices_beyond_the_float32_range(tmp_path, capsys):
     assert main(["inspect", str(path)]) == 2
     err = capsys.readouterr().err
     assert "model.gltf: nodes[0] (mesh 0, primitive 0): its vertices reach 1e+16" in err and "Traceback" not in err
+
+
+def test_an_unreadable_map_is_one_error(tmp_path, capsys):
+    """A glTF whose map file is empty (a download that lost its textures): inspect and a run each stop with one
+    error naming the file, the material and the image (inspect used to end in a traceback)."""
+    import json as json_
+
+    from compare.cli.main import main
+    from compare.scene import geometry
+    from compare.scene.gltf_write import GltfWriter
+
+    w = GltfWriter()
+    mat = w.material("paint", (0.8, 0.8, 0.8), 0.0, 0.5)
+    w.node("card", mesh=w.mesh("card", [(geometry.quad((1.0, 1.0)), mat)]))
+    doc = w.document(embed_buffer=True)
+    doc["images"] = [{"uri": "lost.png"}]
+    doc["textures"] = [{"source": 0}]
+    doc["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {"index": 0}
+    (tmp_path / "lost.png").write_bytes(b"")
+    path = tmp_path / "model.gltf"
+    path.write_text(json_.dumps(doc))
+    assert main(["inspect", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "model.gltf" in err and "materials[0]: image 0: unreadable image" in err and "Traceback" not in err
+    assert main(["run", "--scenes", str(path), "--renderers", "progressive", "--frames", "1", "--spp", "1",
+                 "--size", "8x8", "--no-report", "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "model.gltf" in err and "image 0: unreadable image" in err and "Traceback" not in err

@@ -28,17 +28,22 @@ def _bounds(parts) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _image_size(path: Path | None) -> str:
+    """A map's size and kind, or why it cannot be read (an empty or truncated download: inspect says so for
+    that map and goes on; a run stops on it with one error naming the material and image)."""
     if path is None:
         return "unusable"
-    if path.suffix.lower() == ".exr":
-        from compare.image.exr import read_exr
+    try:
+        if path.suffix.lower() == ".exr":
+            from compare.image.exr import read_exr
 
-        h, w = read_exr(path)[0].shape[:2]
-        return f"{w}×{h} float"
-    from compare.image.pillow import Image
+            h, w = read_exr(path)[0].shape[:2]
+            return f"{w}×{h} float"
+        from compare.image.pillow import Image
 
-    with Image.open(path) as im:  # the header only
-        return f"{im.width}×{im.height} {im.mode}"
+        with Image.open(path) as im:  # the header only
+            return f"{im.width}×{im.height} {im.mode}"
+    except (OSError, ValueError, SyntaxError) as e:  # Pillow's unreadable-file errors, OpenEXR's
+        return f"unreadable ({path.name}: {str(e).replace(str(path), path.name) or type(e).__name__})"
 
 
 def _gltf_info(path: Path) -> dict:
