@@ -192,13 +192,15 @@ class FirstFramePass(RenderPass):
     preview only (:attr:`reduced`). ``punctual`` (a
     :class:`~compare.progressive.lights.punctual.PunctualLights` or None): their exact
     unshadowed light goes into their running mean's next target (reduced: into
-    :attr:`punctual_texture`).
+    :attr:`punctual_texture`). ``background`` False: the environment is not drawn behind the scene.
     """
 
     def __init__(self, ctx, gpu_scene, base, lights, *, environment=None, area_model: str = "radiometric",
                  materials: str = "shared", lut_texture=None, ltc_table=None, scale: float = 1.0,
-                 punctual=None):
+                 punctual=None, background: bool = True):
         self.scale = check_scale(scale)
+        #: Whether the environment is drawn where no surface is (False: the clear colour, black).
+        self.background = bool(background)
         self.ctx = ctx
         self.scene = gpu_scene
         full = base.textures[0][0].size
@@ -289,7 +291,7 @@ class FirstFramePass(RenderPass):
         set_uniform(p, "u_camera_position", tuple(float(x) for x in camera_position))
         set_uniform(p, "u_background_pass", 0.0)
         self.scene.draw_shaded(p, glass=self.reduced)
-        if self.environment is not None:
+        if self.environment is not None and self.background:
             set_uniform(p, "u_background_pass", 1.0)
             set_uniform(p, "u_inv_view_proj", inv_view_proj)
             set_uniform(p, "u_viewport", tuple(float(x) for x in self.size))
