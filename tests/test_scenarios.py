@@ -46,7 +46,7 @@ def _config(folder, scenarios, name="config.json"):
 
 def _load(path):
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # the renderSkybox note
+        warnings.simplefilter("ignore")  # the notes of a file (phi outside the element's range)
         return load_scenarios(path)
 
 
@@ -92,6 +92,26 @@ def test_the_camera_of_an_orbit(assets):
     np.testing.assert_allclose(_load(_config(assets, [{"name": "d", "model": MODEL}], "d.json"))[0].camera().position,
                                [0, 0, 1], atol=1e-6)
     assert scene.environment.rotation == 90.0  # three.js's equirect u is the suite's + 1/4
+
+
+def test_render_skybox_false_hides_the_background(assets):
+    """renderSkybox false (the default) gives a scene whose environment lights but is not seen behind the
+    model (background = false, the feature hidden_background); true keeps it seen; neither is a note, and
+    the two scenes never share a hash (nor a cached render)."""
+    path = _config(assets, [{"name": "hidden", "model": MODEL}, {"name": "sky", "model": MODEL, "renderSkybox": True},
+                            {"name": "off", "model": MODEL, "renderSkybox": False}])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        hidden, sky, off = load_scenarios(path)
+    assert not [w for w in caught if "renderSkybox" in str(w.message)]
+    scenes = {sc.name: sc.scene() for sc in (hidden, sky, off)}
+    assert scenes["hidden"].environment.background is False and scenes["off"].environment.background is False
+    assert scenes["sky"].environment.background is True
+    assert scenes["hidden"].features().hidden_background and not scenes["sky"].features().hidden_background
+    # the same scenario but for renderSkybox: another scene hash
+    flip = _config(assets, [{"name": "hidden", "model": MODEL, "renderSkybox": True}], "flip.json")
+    assert _load(flip)[0].scene().hash != scenes["hidden"].hash
+    assert scenes["hidden"].with_background().hash != scenes["hidden"].hash
 
 
 def test_radius_zero_looks_outward_and_near_far(assets):

@@ -105,7 +105,9 @@ top row and +X at the centre column, where Mitsuba has +Y and +Z. The rotation
 is fed to the Environment Texture as three dot products (Vector Math nodes), so
 no Euler-angle convention is involved. The map is resampled once to Blender's texel
 positions (rows at (j + ½)/H) from Mitsuba's (rows at j/(H − 1), on the poles),
-so both interpolate the same function at their texel centres.
+so both interpolate the same function at their texel centres. A hidden background
+(``background = false``) is a transparent film: Cycles and EEVEE leave the world out
+of the premultiplied colour where camera rays hit nothing, and it still lights the scene.
 
 Pixel filter
 ------------
@@ -641,6 +643,10 @@ def build_job(scene: Scene, *, engine: str, samples: int, seed: int, folder: Pat
                   metadata={"renderer": "blender-environment"})
         environment = {"file": "environment.exr", "strength": env.intensity,
                        "lookup": environment_lookup_matrix(env.rotation).tolist()}
+    if environment is not None:
+        # false: the film is transparent where camera rays hit nothing (the background is left out of the
+        # premultiplied RGB, 0 there; the world still lights the scene)
+        environment["background"] = bool(env.background)
 
     engine_settings = _cycles_settings(scene, samples, seed) if eng == "CYCLES" else _eevee_settings(samples)
     overrides = dict(settings or {})

@@ -60,9 +60,9 @@ class BlenderRenderer(Renderer):
     # Principled BSDF v2 inputs; each map on its UV layer with its own transform, wraps and filter; glTF's
     # anisotropy through its Anisotropic inputs, iridescence as its Thin Film, dispersion (which no BSDF of
     # Blender 5.0 has) as three glasses of the channels' IORs (export.anisotropy_inputs, thin_film_inputs,
-    # dispersion_inputs).
-    renders = (frozenset({"punctual_lights", "vertex_colors", "single_sided"}) | frozenset(MATERIAL_FEATURE_NAMES)
-               | frozenset(MAP_FEATURE_NAMES))
+    # dispersion_inputs); a hidden background as a transparent film (export.py).
+    renders = (frozenset({"punctual_lights", "vertex_colors", "single_sided", "hidden_background"})
+               | frozenset(MATERIAL_FEATURE_NAMES) | frozenset(MAP_FEATURE_NAMES))
     #: What EEVEE draws less than Cycles: measured, its image does not change with the Anisotropic inputs or
     #: the Thin Film (Blender 5.0); its screen-space refraction has no use for three glasses (not given them).
     EEVEE_LEAVES_OUT = frozenset({"anisotropy", "iridescence", "dispersion"})

@@ -644,6 +644,11 @@ def build(bpy, np, job: dict, folder: str):
         sc.collection.objects.link(obj)
 
     sc.world = _world(bpy, job["environment"], folder)
+    # A hidden background: a transparent film, whose premultiplied RGB (what is written) holds no world
+    # where camera rays (through transparent surfaces too) hit nothing; the world still lights the scene,
+    # glass still refracts it (film_transparent_glass stays off).
+    env = job["environment"]
+    sc.render.film_transparent = env is not None and env.get("background", True) is False
 
     settings = job["settings"]
     if engine == "CYCLES":

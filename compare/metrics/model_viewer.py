@@ -40,10 +40,11 @@ In short, for the model's pixels P::
 
 Where the suite differs, and why:
 
-* The model's pixels: the suite's images have no alpha, and its scenes always show the environment
-  behind the model (model-viewer's ``renderSkybox: true``, whose screenshots are opaque), so every
-  pixel counts, exactly what ``analyze`` does for an opaque candidate. A caller with coverage can
-  pass ``mask``; an (H, W, 4) candidate's alpha ≠ 0 is used as in model-viewer otherwise.
+* The model's pixels: the suite's images have no alpha, so every pixel counts, exactly what ``analyze``
+  does for an opaque candidate (model-viewer's ``renderSkybox: true``). Under a hidden background
+  (``renderSkybox: false``, the scene's ``background = false``) the background is black in both images
+  and counts with δ = 0, where ``analyze`` leaves the candidate's transparent pixels out. A caller with
+  coverage can pass ``mask``; an (H, W, 4) candidate's alpha ≠ 0 is used as in model-viewer otherwise.
 * Identical images: ``log10(0)`` is −∞ in model-viewer (``null`` in its JSON); here the value is
   floored at :data:`MV_DB_FLOOR` (−100 dB), below every non-identical pair of up to 2.5·10⁸ pixels
   (the smallest nonzero δ, one 8-bit step of blue in one pixel, is 0.0565), so the order of scores

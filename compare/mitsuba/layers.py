@@ -7,7 +7,8 @@ renderer's error can be attributed to the approximation that causes it::
 
 ``emission``
     light reaching the camera straight from an emitter: area lights, emissive
-    meshes, the environment seen as background (paths of one segment).
+    meshes, the environment seen as background (paths of one segment; not that background where the
+    scene hides it, ``background = false``).
 ``direct_area`` / ``direct_env``
     light of emitting surfaces (area lights, emissive meshes) / of the
     environment, reflected once at the first surface the camera sees (shadowed).
@@ -121,13 +122,15 @@ def _make_class(mi):
             self.layers = bool(props.get("layers", True))
             # Shadow rays through holes only where there are holes: elsewhere Mitsuba's own shadow ray.
             self.holes = bool(props.get("holes", False))
+            # False: the environment is not seen where a camera ray hits nothing (through holes either)
+            self.background = bool(props.get("background", True))
 
         def aov_names(self):
             return [f"{name}.{c}" for name in LAYERS for c in "RGB"] if self.layers else []
 
         def sample(self, scene, sampler, ray, medium=None, active=True):
             L, valid, aovs = trace(mi, dr, self.limit, self.rr_depth, scene, sampler, ray, active,
-                                   transmittance if self.holes else None)
+                                   transmittance if self.holes else None, self.background)
             return L, valid, aovs if self.layers else []
 
         def to_string(self):
@@ -163,8 +166,10 @@ def _transmittance(mi, dr, scene, si, target, active):
     return tr
 
 
-def _trace(mi, dr, limit, rr_depth, scene, sampler, ray, active, transmittance):
-    """One path (see the module notes): (radiance, valid, the layers' channels)."""
+def _trace(mi, dr, limit, rr_depth, scene, sampler, ray, active, transmittance, background=True):
+    """One path (see the module notes): (radiance, valid, the layers' channels); without ``background``, a
+    camera ray that meets no surface (holes passed) sees nothing of the environment."""
+    hide = mi.Bool(not background)
     ctx = mi.BSDFContext()
     ray = mi.Ray3f(ray)
     depth = mi.UInt32(0)
@@ -196,6 +201,7 @@ def _trace(mi, dr, limit, rr_depth, scene, sampler, ray, active, transmittance):
         mis = mis_weight(prev_bsdf_pdf, scene.pdf_emitter_direction(prev_si, ds, ~prev_bsdf_delta))
         le = beta * mis * ds.emitter.eval(si)
         hit_env = infinite(ds.emitter)
+        le = dr.select(hide & (bounce == 0) & ~si.is_valid(), 0.0, le)
         if bounce == 0:
             emission += le
         elif bounce == 1:

@@ -371,7 +371,7 @@ class ReferenceRenderer:
         d = scene_dict(self.scene, spp=1, materials=self.materials, sampler=self.sampler,
                        max_depth=self.max_depth, scale=self.world_scale)
         d["integrator"] = {"type": reference_layers.INTEGRATOR_NAME, "max_depth": int(self.max_depth),
-                           "holes": self.scene.features().holes}
+                           "holes": self.scene.features().holes, "background": not self.scene.hides_background}
         scene = self.mi.load_dict(d)
         acc = None
         total, seconds = 0, 0.0

@@ -51,8 +51,9 @@ class MitsubaRenderer(Renderer):
     unit = "spp"
     default_budget = "spp"
     # every material feature in both flavours (the cycles flavour: as Blender's Principled v2 inputs)
-    renders = (frozenset({"punctual_lights", "vertex_colors", "single_sided"}) | frozenset(MATERIAL_FEATURE_NAMES)
-               | frozenset(MAP_FEATURE_NAMES))
+    # a hidden background: compare.mitsuba.background (the emitters seen directly stay seen)
+    renders = (frozenset({"punctual_lights", "vertex_colors", "single_sided", "hidden_background"})
+               | frozenset(MATERIAL_FEATURE_NAMES) | frozenset(MAP_FEATURE_NAMES))
 
     OPTIONS = {v: f"Mitsuba's {v} variant instead of the best available" for v in MITSUBA_VARIANTS}
 

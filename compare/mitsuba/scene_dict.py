@@ -650,17 +650,28 @@ def mesh_object(name: str, scene: Scene, mesh_index: int, mode: str, scale: floa
 
 def _integrator(scene: Scene, depth: int) -> dict:
     """Mitsuba's ``path``; with alpha masks the same algorithm with holes that are no bounce
-    (:mod:`compare.mitsuba.layers`: ``path`` counts a hole as a bounce of ``max_depth``)."""
+    (:mod:`compare.mitsuba.layers`: ``path`` counts a hole as a bounce of ``max_depth``). A hidden
+    background (:attr:`Scene.hides_background`): the layers integrator's own, or ``path`` / ``volpath``
+    wrapped by :mod:`compare.mitsuba.background` (their ``hide_emitters`` would hide the lights seen too)."""
     features = scene.features()
+    hidden = scene.hides_background
     if features.volume:  # absorbing solids: Mitsuba's volumetric path tracer (its masks count as bounces)
-        return {"type": "volpath", "max_depth": depth, "hide_emitters": False}
+        volpath = {"type": "volpath", "max_depth": depth, "hide_emitters": False}
+        return _hidden_background(volpath) if hidden else volpath
     if features.holes:
         from compare.mitsuba import layers as reference_layers
 
         reference_layers.register()
         return {"type": reference_layers.INTEGRATOR_NAME, "max_depth": depth, "layers": False,
-                "holes": True}
-    return {"type": "path", "max_depth": depth, "hide_emitters": False}
+                "holes": True, "background": not hidden}
+    path = {"type": "path", "max_depth": depth, "hide_emitters": False}
+    return _hidden_background(path) if hidden else path
+
+
+def _hidden_background(inner: dict) -> dict:
+    from compare.mitsuba.background import integrator_dict
+
+    return integrator_dict(inner)
 
 
 def scene_dict(scene: Scene, *, spp: int, materials: str = "shared", sampler: str = "independent",

@@ -245,7 +245,8 @@ class Rasterizer:
                 cache_dir=o.cache_dir, lazy=True))
         self.accumulate = self._keep(AccumulatePass(ctx, self.environment, o.materials,
                                                     occlusion=self.gpu_scene.occluded,
-                                                    layers=self.gpu_scene.layers_for(o.materials)))
+                                                    layers=self.gpu_scene.layers_for(o.materials),
+                                                    background=not scene.hides_background))
         self.indirect_pass = None
         if self.probes is not None:
             self.indirect_pass = self._keep(IndirectPass(ctx, self.probes, size, o.materials,
@@ -344,7 +345,8 @@ class Rasterizer:
                 ctx, self.gpu_scene, self.base, scene.lights, environment=self.environment,
                 area_model=o.area_model, materials=o.materials,
                 lut_texture=self.direct.lut_texture if self.direct is not None else None,
-                ltc_table=self.ltc_table, scale=float(scale), punctual=self.punctual))
+                ltc_table=self.ltc_table, scale=float(scale), punctual=self.punctual,
+                background=not scene.hides_background))
         # A reduced frame 0 is a preview only: frame 1 draws the full-size one from its G-buffer
         # (with ltc every G-buffer frame has the closed-form unshadowed light: no preview).
         if (scene.lights and self.ltc is None and (self.first is None or self._reduced_first)
@@ -378,7 +380,7 @@ class Rasterizer:
 
     def _background(self) -> tuple[float, float, float]:
         env = self.scene.environment
-        if env is not None and env.constant is not None:
+        if env is not None and env.constant is not None and env.background:
             return tuple(float(c) * env.intensity for c in env.constant)
         return (0.0, 0.0, 0.0)
 

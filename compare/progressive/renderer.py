@@ -57,9 +57,11 @@ class ProgressiveRenderer(Renderer):
     unit = "frame"
     #: Transmission, the volume's absorption and dispersion by the glass pass (compare.progressive.glass, which
     #: says what it leaves out: glass casts an opaque shadow, glass behind glass is not seen but for a thin
-    #: wall's own back face).
+    #: wall's own back face). A hidden background: the accumulate and first-frame passes draw no environment
+    #: where no surface is.
     renders = (frozenset({"punctual_lights", "alpha_blend", "vertex_colors", "single_sided", "transmission",
-                          "volume", "dispersion", "layer_maps"}) | RENDERED_LAYERS | frozenset(MAP_FEATURE_NAMES))
+                          "volume", "dispersion", "layer_maps", "hidden_background"})
+               | RENDERED_LAYERS | frozenset(MAP_FEATURE_NAMES))
     #: A frame budget decides the frame count itself: its last checkpoint is the frames it rendered.
     open_ended = False
     OPTIONS = OPTIONS

@@ -268,7 +268,9 @@ class Renderer(abc.ABC):
         stand-in squares and directional lights are left out; each material feature
         (:meth:`~compare.scene.model.Scene.material_features`) not in :attr:`renders` is said to be left
         out, with the share of the pixels its materials cover where ``coverage`` (material name → fraction
-        of the pixels, :func:`compare.mitsuba.coverage.material_coverage`) is given."""
+        of the pixels, :func:`compare.mitsuba.coverage.material_coverage`) is given; without
+        ``hidden_background``, a scene whose environment is hidden behind the model
+        (:attr:`~compare.scene.model.Scene.hides_background`) comes with it shown, and says so."""
         given, changed = (scene, []) if "punctual_lights" in self.renders else scene.with_punctual_as_area()
         if not self.area_lights and given.lights:
             changed.append(f"{len(given.lights)} area light(s) not rendered (neither their light nor their face)")
@@ -279,6 +281,11 @@ class Renderer(abc.ABC):
             share = (f", {100 * sum(coverage.get(n, 0.0) for n in names):.0f} % of the pixels"
                      if coverage is not None else "")
             changed.append(f"{feature.replace('_', ' ')} not rendered ({len(names)} material(s){share})")
+        if given.hides_background and "hidden_background" not in self.renders:
+            # it gets the environment as a background, which it shows, rather than a scene it half honours
+            changed.append("hidden background not rendered (the environment is seen where camera rays hit "
+                           "nothing)")
+            given = given.with_background()
         return given, changed
 
     def preflight(self, scene, context: RenderContext) -> None:

@@ -235,7 +235,9 @@ def write_job(scene, folder: Path, *, renderer: str, unit: str, checkpoints: lis
         # intensity and rotation stay fields of the job: the map holds the source's pixels
         write_exr(exr, np.asarray(image, dtype=np.float32))
         env = {"file": str(exr.resolve()), "intensity": float(scene.environment.intensity),
-               "rotation_deg": float(scene.environment.rotation), "orientation": ORIENTATION}
+               "rotation_deg": float(scene.environment.rotation), "orientation": ORIENTATION,
+               # false: the map lights the scene, but a camera ray that hits nothing sees black
+               "background": bool(scene.environment.background)}
     cam = scene.camera
     job = {
         "schema": int(schema),

@@ -358,7 +358,7 @@ def _environment(ctx: _Ctx, raw: Any) -> Environment:
     sources = ("constant", "file", "procedural", "blender")
     kind = raw.get("procedural") if isinstance(raw, dict) else None
     params = set(procedural_env.PROCEDURAL[kind][0]) if kind in procedural_env.PROCEDURAL else set()
-    t = _table(ctx, "environment", raw, {*sources, "intensity", "rotation"} | params)
+    t = _table(ctx, "environment", raw, {*sources, "intensity", "rotation", "background"} | params)
     if sum(k in t for k in sources) != 1:
         raise ctx.err("environment", "give exactly one of 'constant' (radiance), 'file' (equirectangular map), "
                                      "'procedural' (\"sky\", \"studio\", \"axes\") or 'blender' (a studio-light name)")
@@ -366,7 +366,14 @@ def _environment(ctx: _Ctx, raw: Any) -> Environment:
     file = _file(ctx, "environment.file", t["file"], ENV_FILE_SUFFIXES) if "file" in t else None
     intensity = _number(ctx, "environment.intensity", t.get("intensity", 1.0), lo=0.0)
     rotation = _number(ctx, "environment.rotation", t.get("rotation", 0.0))
-    env = Environment(constant, file, intensity, rotation)
+    # background = false: the environment lights the scene but camera rays that hit nothing see black. The
+    # studio map has a parameter of that name, its walls' radiance: a number there is that parameter.
+    shown = t.get("background", True)
+    is_parameter = "background" in params and not isinstance(shown, bool) and isinstance(shown, (int, float))
+    background = True if is_parameter else _boolean(ctx, "environment.background", shown)
+    if not is_parameter:
+        params.discard("background")
+    env = Environment(constant, file, intensity, rotation, background=background)
     try:
         if "procedural" in t:
             if kind not in procedural_env.PROCEDURAL:

@@ -223,8 +223,12 @@ GEOMETRY_FEATURE_NAMES = ("vertex_colors", "single_sided")
 #: feature: "uv_sets", a map on TEXCOORD_1; "map_samplers", maps of one material with different texture
 #: transforms or samplers, or a sampler whose wrapS and wrapT differ.
 MAP_FEATURE_NAMES = ("uv_sets", "map_samplers")
+#: What a scene as a whole may ask beyond the core model, declared like a material feature:
+#: "hidden_background", an environment that lights the scene but is not seen where a camera ray hits no
+#: surface (``[environment] background = false``; the image is black there).
+SCENE_FEATURE_NAMES = ("hidden_background",)
 #: Every feature a renderer may declare it renders (Renderer.renders, an external renderer's `renders`).
-FEATURE_NAMES = MATERIAL_FEATURE_NAMES + MAP_FEATURE_NAMES + GEOMETRY_FEATURE_NAMES
+FEATURE_NAMES = MATERIAL_FEATURE_NAMES + MAP_FEATURE_NAMES + GEOMETRY_FEATURE_NAMES + SCENE_FEATURE_NAMES
 #: glTF's alpha modes in the scene model.
 ALPHA_MODES = ("opaque", "mask", "blend")
 
@@ -501,7 +505,9 @@ class Environment:
     """Distant environment light: a constant radiance, an equirectangular map file, a procedural
     map or one of Blender's studio-light HDRIs (exactly one; see :mod:`compare.scene.environments`).
 
-    ``rotation`` turns the map about +Y by that many degrees; ``intensity`` scales it.
+    ``rotation`` turns the map about +Y by that many degrees; ``intensity`` scales it. ``background``
+    False: it still lights the scene, but a camera ray that hits no surface sees black (0) instead of
+    the map (model-viewer's ``renderSkybox: false``); emitters seen directly stay visible.
     """
 
     constant: tuple[float, float, float] | None = None
@@ -514,6 +520,8 @@ class Environment:
     """The procedural map's parameters, complete (defaults filled in), sorted by name."""
     blender: str | None = None
     """Name of a Blender studio light (``"interior"``, ``"courtyard"``, ...)."""
+    background: bool = True
+    """Whether camera rays that hit no surface see the environment (False: black there)."""
 
 
 #: The smallest side (m) of an area light: below it float32 positions cannot tell its corners apart in every
@@ -645,6 +653,7 @@ class Features:
     map_samplers: bool = False
     vertex_colors: bool = False
     single_sided: bool = False
+    hidden_background: bool = False
 
     @property
     def holes(self) -> bool:
@@ -711,7 +720,21 @@ class Scene:
             **{name: any(name in u for u in uses) for name in MATERIAL_FEATURE_NAMES + MAP_FEATURE_NAMES},
             vertex_colors=any(m.has_vertex_colors for m in self.meshes),
             single_sided=any(not m.double_sided for m in used),
+            hidden_background=self.hides_background,
         )
+
+    @property
+    def hides_background(self) -> bool:
+        """Whether the scene has an environment that camera rays hitting nothing must not see
+        (``[environment] background = false``)."""
+        return self.environment is not None and not self.environment.background
+
+    def with_background(self) -> "Scene":
+        """The same scene with its environment seen where camera rays hit nothing (for a renderer that
+        cannot hide it)."""
+        if not self.hides_background:
+            return self
+        return dataclasses.replace(self, environment=dataclasses.replace(self.environment, background=True))
 
     def material_features(self) -> dict[str, list[str]]:
         """The material features beyond the core model (alpha blending, the extensions of :data:`LAYERS`)
@@ -733,7 +756,10 @@ class Scene:
     @cached_property
     def hash(self) -> str:
         """Stable content hash of the scene file, every file it references and any overrides."""
-        return sha256_bytes(self.file_hash, repr(self.camera.resolution), str(self.max_depth))
+        # The file's bytes carry a background = false of its own; said here too, so that a scene changed
+        # in memory (with_background) never shares a hash with the scene it came from.
+        hidden = ["background=false"] if self.hides_background else []
+        return sha256_bytes(self.file_hash, repr(self.camera.resolution), str(self.max_depth), *hidden)
 
     def with_resolution(self, width: int, height: int) -> "Scene":
         """The same scene rendered at another resolution."""

@@ -49,9 +49,12 @@ What each field means, from model-viewer's source (paths in google/model-viewer)
   (``equirectUv`` in three's shader chunk ``common``) is ``u = atan2(z, x) / 2π + ½``: the suite's u
   (Mitsuba's, :mod:`compare.scene.equirect`) plus ¼, so the scene's environment turns by 90° about +Y.
 
-What the suite does not reproduce: ``renderSkybox: false`` hides the environment behind the model in
-model-viewer, but the suite's scene model has no background option, so its renderers show the
-environment there (a note says so once per file). The ``<model-viewer>`` element itself also clamps
+Background: ``renderSkybox: false`` hides the environment behind the model in model-viewer (it still
+lights the model); the scene gets ``[environment] background = false`` (camera rays that hit nothing see
+black), and ``renderSkybox: true`` keeps the environment seen there. A renderer that cannot hide it says
+so in its run (the feature ``hidden_background``, docs/scenarios.md).
+
+What the suite does not reproduce: the ``<model-viewer>`` element itself clamps
 phi to [22.5°, 157.5°] (``minCameraOrbitIntrinsics``/``maxCameraOrbitIntrinsics`` of ``controls.ts``)
 and adjusts its field of view to the model (``ModelScene.adjustedFoV``, the min/max field of view of
 ``controls.ts``); the scenario's other renderers take theta, phi and verticalFoV as given
@@ -207,7 +210,10 @@ class Scenario:
         data = {
             "name": self.name,
             "include": {"file": os.path.relpath(self.model, folder), "camera": False},
-            "environment": {"file": os.path.relpath(self.lighting, folder), "rotation": ENVIRONMENT_ROTATION},
+            # the page's skyboxImage: the lighting seen behind the model, or nothing there (the field only
+            # where it is false, so that the scenes of renderSkybox true keep their hashes)
+            "environment": {"file": os.path.relpath(self.lighting, folder), "rotation": ENVIRONMENT_ROTATION,
+                            **({} if self.render_skybox else {"background": False})},
             "camera": {"position": list(cam.position), "target": [float(x) for x in look_at], "up": list(cam.up),
                        "fov": cam.fov, "resolution": [self.width, self.height]},
         }
@@ -336,11 +342,6 @@ def load_scenarios(path: str | os.PathLike) -> list[Scenario]:
 
 def _notes(path: Path, scenarios: list[Scenario], ignored: set[str]) -> None:
     """Say once per file what of the scenarios the suite does not reproduce."""
-    hidden = [s.name for s in scenarios if not s.render_skybox]
-    if hidden:
-        warnings.warn(f"{path}: {len(hidden)} of {len(scenarios)} scenario(s) set renderSkybox false "
-                      "(model-viewer hides the environment behind the model); the suite's scenes have no "
-                      "background option, so its renderers show the environment there", stacklevel=3)
     for s in scenarios:
         phi = s.orbit[1]
         if not _ELEMENT_PHI[0] <= phi <= _ELEMENT_PHI[1]:

@@ -31,7 +31,7 @@ class BabylonRenderer(WebRenderer):
     OPTIONS = {"shadows": WebRenderer.SPOT_SHADOWS}
     VARIANTS = ("babylon:shadows",)
     renders = (frozenset(MATERIAL_FEATURE_NAMES) | frozenset(MAP_FEATURE_NAMES)
-               | {"punctual_lights", "vertex_colors", "single_sided"})
+               | {"punctual_lights", "vertex_colors", "single_sided", "hidden_background"})
 
     def describe(self, opts: list[str]) -> str:
         return "Babylon.js (" + ("shadow-mapped spot lights" if "shadows" in opts else "RectAreaLight") \

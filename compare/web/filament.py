@@ -33,10 +33,11 @@ IBL_SIZE = 128
 IBL_SAMPLES = 256
 
 
-def write_ibl(image: np.ndarray | None, folder: Path) -> None:
+def write_ibl(image: np.ndarray | None, folder: Path, *, sky: bool = True) -> None:
     """``ibl.json`` (cube size, per level the byte offset and float count in ``ibl.bin``, the 27 SH floats, whether
     a sky is shown) and ``ibl.bin`` (every level's six faces, RGB float32) of a world-frame map in the
-    suite's mapping; ``None``: a black light and no sky (a scene without an environment)."""
+    suite's mapping; ``None``: a black light and no sky (a scene without an environment); ``sky`` False: the
+    map lights but no skybox is drawn (a hidden background: the clear colour, black, behind the scene)."""
     from compare.web.filament_ibl import filament_ibl
 
     if image is None:
@@ -50,7 +51,7 @@ def write_ibl(image: np.ndarray | None, folder: Path) -> None:
         pos += int(lv.nbytes)
     (folder / "ibl.bin").write_bytes(b"".join(np.ascontiguousarray(lv, np.float32).tobytes() for lv in levels))
     doc = {"size": int(levels[0].shape[1]), "levels": offsets, "sh": [float(x) for x in sh.reshape(-1)],
-           "sky": image is not None}
+           "sky": image is not None and sky}
     (folder / "ibl.json").write_text(json.dumps(doc))
 
 
@@ -68,7 +69,8 @@ class FilamentRenderer(WebRenderer):
     # spheres come out black.
     renders = ((frozenset(MATERIAL_FEATURE_NAMES) - {"anisotropy", "iridescence", "dispersion", "transmission",
                                                      "volume"})
-               | frozenset(MAP_FEATURE_NAMES) | {"punctual_lights", "vertex_colors", "single_sided"})
+               | frozenset(MAP_FEATURE_NAMES)
+               | {"punctual_lights", "vertex_colors", "single_sided", "hidden_background"})
     area_lights = False
 
     def describe(self, opts: list[str]) -> str:
@@ -85,4 +87,4 @@ class FilamentRenderer(WebRenderer):
             # three_panorama(…, rotation + 90°) is the map in the suite's own lookup with the rotation baked in
             image = three_panorama(environment_image(env, context.cache_dir or None), env.rotation + 90.0,
                                    env.intensity)
-        write_ibl(image, folder)
+        write_ibl(image, folder, sky=env is None or env.background)

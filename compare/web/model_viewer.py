@@ -63,7 +63,7 @@ class ModelViewerRenderer(WebRenderer):
     # its GLTFLoader reads every material extension of the job's glTF into MeshPhysicalMaterial, BLEND as a
     # transparent material, COLOR_0 as vertex colours, KHR_lights_punctual as three's lights
     renders = (frozenset(MATERIAL_FEATURE_NAMES) | frozenset(MAP_FEATURE_NAMES)
-               | {"punctual_lights", "vertex_colors", "single_sided"})
+               | {"punctual_lights", "vertex_colors", "single_sided", "hidden_background"})
     area_lights = MODEL_VIEWER_AREA_LIGHTS
 
     def describe(self, opts: list[str]) -> str:

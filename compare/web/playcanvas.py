@@ -36,7 +36,7 @@ class PlayCanvasRenderer(WebRenderer):
     # checked here, so they are declared left out
     # (anisotropy: its glTF import leaves KHR_materials_anisotropy out: measured no change at strength 0.9)
     renders = ((frozenset(MATERIAL_FEATURE_NAMES) - {"layer_maps", "anisotropy"})
-               | {"punctual_lights", "vertex_colors", "single_sided", *MAP_FEATURE_NAMES})
+               | {"punctual_lights", "vertex_colors", "single_sided", "hidden_background", *MAP_FEATURE_NAMES})
 
     def describe(self, opts: list[str]) -> str:
         return "PlayCanvas (rectangular lights" + (" with spot shadow maps" if "shadows" in opts else "") \

@@ -41,7 +41,7 @@ class ThreeJsRenderer(WebRenderer):
     # GLTFLoader reads every material extension of the job's glTF into MeshPhysicalMaterial, and BLEND as a
     # transparent material; three's PointLight, SpotLight and DirectionalLight too; COLOR_0 as vertexColors.
     renders = (frozenset(MATERIAL_FEATURE_NAMES) | frozenset(MAP_FEATURE_NAMES)
-               | {"punctual_lights", "vertex_colors", "single_sided"})
+               | {"punctual_lights", "vertex_colors", "single_sided", "hidden_background"})
 
     def describe(self, opts: list[str]) -> str:
         what = ("shadow-mapped spot lights" if "shadows" in opts else "RectAreaLight") + ", PMREM" \
@@ -58,7 +58,8 @@ class ThreeJsPathTracer(WebRenderer):
     PACKAGES = ("three", "three-gpu-pathtracer", "three-mesh-bvh")
     VERSION_KEY = "three"
     unit = "spp"
-    renders = frozenset(MATERIAL_FEATURE_NAMES) - {"dispersion", "anisotropy", "iridescence"}  # not measured here
+    renders = ((frozenset(MATERIAL_FEATURE_NAMES) - {"dispersion", "anisotropy", "iridescence"})  # not measured here
+               | {"hidden_background"})  # a colour scene.background: its camera rays see it, the others the map
 
     def describe(self, opts: list[str]) -> str:
         return "three.js path tracer (three-gpu-pathtracer)"

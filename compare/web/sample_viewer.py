@@ -52,7 +52,7 @@ class SampleViewerRenderer(WebRenderer):
     # the reference implementation of glTF's materials: every extension the job writes, BLEND, COLOR_0,
     # single-sided culling, a texCoord, transform and sampler per map, KHR_lights_punctual (no shadows)
     renders = (frozenset(MATERIAL_FEATURE_NAMES) | frozenset(MAP_FEATURE_NAMES)
-               | {"punctual_lights", "vertex_colors", "single_sided"})
+               | {"punctual_lights", "vertex_colors", "single_sided", "hidden_background"})
     area_lights = False
 
     def describe(self, opts: list[str]) -> str:

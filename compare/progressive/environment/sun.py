@@ -106,7 +106,7 @@ def scene_with_sun(scene, cache_dir=None):
     world = rotation_matrix(env.rotation) @ direction
     sun = PunctualLight("sun", "directional", (0.0, 0.0, 0.0), tuple(float(x) for x in -world),
                         tuple(float(x) * float(env.intensity) for x in irradiance))
-    rest_env = Environment(file=path, intensity=env.intensity, rotation=env.rotation)
+    rest_env = Environment(file=path, intensity=env.intensity, rotation=env.rotation, background=env.background)
     note = (f"sun: a directional light of irradiance {float(irradiance @ _LUM) * env.intensity:.4g} W/m² "
             f"towards ({', '.join(f'{x:.3f}' for x in world)}) taken out of the environment "
             f"({share:.0%} of its light)")

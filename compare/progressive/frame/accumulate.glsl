@@ -3,10 +3,11 @@
 //
 // C_n is the emission of the surface seen through the pixel, or the background where
 // no surface was hit. With ENVIRONMENT the background is the environment map towards
-// the pixel's (jittered) ray, and a second target holds the running mean of the
-// unoccluded environment light of shaded surfaces (compare/ibl/ibl.glsl: split-sum
-// specular + diffuse irradiance): the cheap environment-only image of frame 0, shown
-// until the occlusion samples of env_occlusion.glsl take over (compose.glsl).
+// the pixel's (jittered) ray (with BACKGROUND 0, a hidden one: u_background, black), and
+// a second target holds the running mean of the unoccluded environment light of shaded
+// surfaces (compare/ibl/ibl.glsl: split-sum specular + diffuse irradiance): the cheap
+// environment-only image of frame 0, shown until the occlusion samples of env_occlusion.glsl
+// take over (compose.glsl).
 
 #if defined VERTEX_SHADER
 
@@ -32,7 +33,7 @@ layout(location = 1) out vec4 out_env;
 #endif
 
 uniform sampler2D u_previous;
-uniform vec3 u_background;     // radiance seen where no surface was hit (without ENVIRONMENT)
+uniform vec3 u_background;     // radiance seen where no surface was hit (without ENVIRONMENT or BACKGROUND)
 uniform float u_count;
 
 layout(location = 0) out vec4 out_color;
@@ -62,7 +63,7 @@ void main() {
         }
 #endif
     } else {
-#if ENVIRONMENT
+#if ENVIRONMENT && BACKGROUND
         c = env_background_at_pixel(gl_FragCoord.xy, u_viewport, u_inv_view_proj);
 #else
         c = u_background;

@@ -91,19 +91,21 @@ class AccumulatePass(RenderPass):
     """Running mean of the every-frame terms: emission where a surface was hit, background elsewhere.
 
     With an ``environment`` (:class:`compare.progressive.environment.environment.EnvironmentLighting`)
-    the background is the environment map, and a second attachment of the
+    the background is the environment map (unless ``background`` is False: a hidden one), and a second attachment of the
     ping-pong (``PingPong(..., attachments=2)``) holds the running mean of the
     unoccluded environment light of shaded surfaces (``accumulate.glsl``).
     """
 
     def __init__(self, ctx, environment=None, materials: str = "shared", occlusion: bool = False,
-                 layers: bool = False):
+                 layers: bool = False, background: bool = True):
         self.ctx = ctx
         self.environment = environment
         #: With the material extensions (layers.glsl): the G-buffer's layer targets are read.
         self.layers = bool(layers and environment is not None)
+        # background False: the environment lights but is not drawn where no surface is (the scene's
+        # background = false); the background is then the uniform's colour, black
         defines = {"ENVIRONMENT": int(environment is not None), "OCCLUSION": int(bool(occlusion)),
-                   "LAYERS": int(self.layers)}
+                   "LAYERS": int(self.layers), "BACKGROUND": int(bool(background))}
         if environment is not None:
             defines.update(environment.defines(materials))
         self.program = load_program(ctx, "accumulate.glsl", defines)

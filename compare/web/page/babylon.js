@@ -138,8 +138,10 @@ async function buildScene(engine, job, base, options) {
     tex.rotationY = Math.PI - (env.rotation_deg * Math.PI) / 180;
     scene.environmentTexture = tex;
     scene.environmentIntensity = env.intensity;
-    S.skybox = scene.createDefaultSkybox(tex, true, 1, 0, false);
-    S.skybox.material.reflectionTexture.rotationY = tex.rotationY;
+    if (env.background !== false) { // background false: no skybox, the clear colour (black) behind the scene
+      S.skybox = scene.createDefaultSkybox(tex, true, 1, 0, false);
+      S.skybox.material.reflectionTexture.rotationY = tex.rotationY;
+    }
   }
   return scene;
 }

@@ -102,7 +102,9 @@ async function buildScene(renderer, job, base, options) {
     tex.colorSpace = THREE.LinearSRGBColorSpace;
     // three's equirect u is Mitsuba's u + 1/4; three applies the inverse of environmentRotation
     const y = THREE.MathUtils.degToRad(env.rotation_deg) - Math.PI / 2;
-    scene.background = tex;
+    // background false: the map lights the scene but camera rays that hit nothing see black (the path
+    // tracer draws a colour background for its camera rays, the environment for the others)
+    scene.background = env.background === false ? new THREE.Color(0, 0, 0) : tex;
     scene.backgroundIntensity = env.intensity;
     scene.backgroundRotation.set(0, y, 0);
     scene.environmentIntensity = env.intensity;

@@ -82,8 +82,8 @@ window.compareSetup = async ({ job: jobUrl, options }) => {
   el.style.cssText = `display:block;width:${w}px;height:${h}px`;
   const attributes = {
     // the environment the suite wrote as Radiance HDR (the element reads .hdr, not .exr), turned and scaled
-    // as the scene says; shown behind the model as the suite's other renderers show it
-    'environment-image': base + 'environment.hdr', 'skybox-image': base + 'environment.hdr',
+    // as the scene says; shown behind the model (skybox-image, below) unless the scene hides it
+    'environment-image': base + 'environment.hdr',
     'camera-orbit': `${theta}rad ${phi}rad ${r}m`,
     // the orbit's own limits would clamp phi to [22.5°, 157.5°] and the radius to the model's size
     'min-camera-orbit': `-Infinity 0rad ${r}m`, 'max-camera-orbit': `Infinity ${Math.PI}rad ${r}m`,
@@ -92,6 +92,11 @@ window.compareSetup = async ({ job: jobUrl, options }) => {
     'interaction-prompt': 'none', 'shadow-intensity': '0', loading: 'eager', reveal: 'auto',
     'tone-mapping': linear ? 'none' : 'auto', exposure: '1',
   };
+  // the scene's background false is model-viewer's own case of no skybox-image (renderSkybox false): nothing
+  // behind the model, the element's transparent clear
+  const env = job.scene.environment;
+  const sky = !!env && env.background !== false;
+  if (sky) attributes['skybox-image'] = base + 'environment.hdr';
   for (const [k, v] of Object.entries(attributes)) el.setAttribute(k, v);
   const loaded = new Promise((resolve, reject) => {
     el.addEventListener('load', resolve, { once: true });
@@ -105,7 +110,7 @@ window.compareSetup = async ({ job: jobUrl, options }) => {
   const mv = internal(el, 'renderer');
   const three = mv.threeRenderer;
   S = { job, el, scene, mv, three, w, h, linear, steps: 0, ms: 0 };
-  await waitFor(() => scene.environment != null && (!job.scene.environment || scene.background != null),
+  await waitFor(() => scene.environment != null && (!sky || scene.background != null),
     'the environment');
   // KHR_lights_punctual: three's lights in glTF's units (cd, lux); back to the suite's W/sr and W/m² as the
   // three.js page does, range ignored as everywhere in the suite
@@ -183,7 +188,12 @@ window.compareImage = () => {
   ctx.drawImage(S.mv.displayCanvas(S.scene), 0, 0, w, h, 0, 0, w, h);
   const rgba = ctx.getImageData(0, 0, w, h).data;
   for (let y = 0; y < h; y++) { // bottom row first, as the float pages answer
-    for (let i = 0; i < w * 4; i++) px[(h - 1 - y) * w * 4 + i] = rgba[y * w * 4 + i] / 255;
+    for (let i = 0; i < w * 4; i++) {
+      // as shown over the page's black: where the element is transparent (no skybox) its colour times its
+      // alpha (getImageData gives colour not multiplied by alpha); opaque pixels as they are
+      const a = rgba[y * w * 4 + i - (i % 4) + 3] / 255;
+      px[(h - 1 - y) * w * 4 + i] = (i % 4 === 3 ? 1 : a) * (rgba[y * w * 4 + i] / 255);
+    }
   }
   return base64(px);
 };

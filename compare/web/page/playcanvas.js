@@ -147,6 +147,9 @@ async function buildScene(app, job, base, options) {
     // the suite turns the lookup by rotation_deg (a direction d reads the map at R^-1 d); PlayCanvas' angle
     // turns the other way (the axes test of tests/test_web.py checks it against Mitsuba)
     scene.skyboxRotation = new pc.Quat().setFromEulerAngles(0, -env.rotation_deg, 0);
+    // background false: no sky drawn (the camera's clear colour, black, behind the scene); skyboxIntensity and
+    // skyboxRotation still scale and turn the environment light
+    if (env.background === false) scene.layers.getLayerById(pc.LAYERID_SKYBOX).enabled = false;
     lighting.destroy();
   }
 }

@@ -114,7 +114,7 @@ window.compareSetup = async ({ job: jobUrl, options }) => {
   p.clearColor = [0, 0, 0, 1]; // a float target keeps the viewer's 0..255 grey as it is
   p.environmentRotation = 0; // the map is already turned (its default, 90°, would turn it again)
   p.blurEnvironmentMap = false; // the background as the other renderers show it: the sharp map
-  p.renderEnvironmentMap = !!env;
+  p.renderEnvironmentMap = !!env && env.background !== false; // false: the clear colour (black) behind
   p.useIBL = !!env;
   p.usePunctual = true;
   p.useDirectionalLightsWithDisabledIBL = false;
