@@ -117,9 +117,9 @@ def test_a_bad_background_names_the_file_and_field(make_scene, value, shown):
     assert str(exc.value) == f"{path}: environment.background: expected true or false, got {shown}"
 
 
-def test_the_studio_maps_background_parameter_stays_a_number(make_scene):
-    """The studio map has a parameter named background (its walls' radiance): a number is that, a boolean
-    the background's visibility."""
+def test_the_studio_maps_walls_and_the_background_switch_are_apart(make_scene):
+    """The studio map's wall radiance is its parameter ``walls``; ``background`` is the switch alone, and a
+    number there (the studio's old name for its walls) is one error that says where the walls went."""
     base = """
         [camera]
         position = [0, 0, 3]
@@ -136,10 +136,13 @@ def test_the_studio_maps_background_parameter_stays_a_number(make_scene):
         procedural = "studio"
         width = 16
         """
-    walls = load_scene(make_scene(base, "background = 0.2\n", name="walls.toml"))
-    assert walls.environment.background is True and dict(walls.environment.parameters)["background"] == 0.2
+    walls = load_scene(make_scene(base, "walls = 0.2\n", name="walls.toml"))
+    assert walls.environment.background is True and dict(walls.environment.parameters)["walls"] == 0.2
     hidden = load_scene(make_scene(base, "background = false\n", name="hidden.toml"))
-    assert hidden.environment.background is False and dict(hidden.environment.parameters)["background"] == 0.05
+    assert hidden.environment.background is False and dict(hidden.environment.parameters)["walls"] == 0.05
+    with pytest.raises(SceneError, match=r"old\.toml: environment\.background: expected true or false, got 0\.2 "
+                                         r"\(the studio map's wall radiance is its parameter 'walls'\)"):
+        load_scene(make_scene(base, "background = 0.2\n", name="old.toml"))
 
 
 def test_the_job_carries_background(tmp_path, make_scene):

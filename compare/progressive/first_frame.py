@@ -197,13 +197,8 @@ class FirstFramePass(RenderPass):
     fraction of each axis into :attr:`targets`, a preview only (:attr:`reduced`): one
     target, all that the display adds up. ``punctual`` (a
     :class:`~compare.progressive.lights.punctual.PunctualLights` or None): their exact
-<<<<<<< HEAD
     unshadowed light goes into their running mean's next target (reduced: into that
-    one target too).
-=======
-    unshadowed light goes into their running mean's next target (reduced: into
-    :attr:`punctual_texture`). ``background`` False: the environment is not drawn behind the scene.
->>>>>>> hidden-background
+    one target too). ``background`` False: the environment is not drawn behind the scene.
     """
 
     def __init__(self, ctx, gpu_scene, base, lights, *, environment=None, area_model: str = "radiometric",
@@ -313,13 +308,8 @@ class FirstFramePass(RenderPass):
         set_uniform(p, "u_view_proj", view_proj)
         set_uniform(p, "u_camera_position", tuple(float(x) for x in camera_position))
         set_uniform(p, "u_background_pass", 0.0)
-<<<<<<< HEAD
         self.scene.draw_shaded(p, glass=self.reduced, cull=True)
-        if self.environment is not None:
-=======
-        self.scene.draw_shaded(p, glass=self.reduced)
         if self.environment is not None and self.background:
->>>>>>> hidden-background
             set_uniform(p, "u_background_pass", 1.0)
             set_uniform(p, "u_inv_view_proj", inv_view_proj)
             set_uniform(p, "u_viewport", tuple(float(x) for x in self.size))

@@ -366,13 +366,12 @@ def _environment(ctx: _Ctx, raw: Any) -> Environment:
     file = _file(ctx, "environment.file", t["file"], ENV_FILE_SUFFIXES) if "file" in t else None
     intensity = _number(ctx, "environment.intensity", t.get("intensity", 1.0), lo=0.0)
     rotation = _number(ctx, "environment.rotation", t.get("rotation", 0.0))
-    # background = false: the environment lights the scene but camera rays that hit nothing see black. The
-    # studio map has a parameter of that name, its walls' radiance: a number there is that parameter.
+    # background = false: the environment lights the scene but camera rays that hit nothing see black
     shown = t.get("background", True)
-    is_parameter = "background" in params and not isinstance(shown, bool) and isinstance(shown, (int, float))
-    background = True if is_parameter else _boolean(ctx, "environment.background", shown)
-    if not is_parameter:
-        params.discard("background")
+    if kind == "studio" and isinstance(shown, (int, float)) and not isinstance(shown, bool):
+        raise ctx.err("environment.background", f"expected true or false, got {shown!r} (the studio map's wall "
+                                                "radiance is its parameter 'walls')")
+    background = _boolean(ctx, "environment.background", shown)
     env = Environment(constant, file, intensity, rotation, background=background)
     try:
         if "procedural" in t:

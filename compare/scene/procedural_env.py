@@ -50,7 +50,7 @@ def _studio_params() -> dict[str, Param]:
         "key": Param(20.0, "radiance of the key soft box (azimuth 45°, elevation 35°, 40°×30°)", lo=0.0),
         "fill": Param(6.0, "radiance of the fill soft box (azimuth −60°, elevation 15°, 35°×25°)", lo=0.0),
         "rim": Param(12.0, "radiance of the rim soft box (azimuth 170°, elevation 40°, 20°×40°)", lo=0.0),
-        "background": Param(0.05, "radiance of the walls (the floor gets half)", lo=0.0),
+        "walls": Param(0.05, "radiance of the walls (the floor gets half)", lo=0.0),
         "softness": Param(3.0, "width of the soft boxes' edge falloff, degrees", lo=0.0, hi=20.0),
         "width": Param(1024, "map width in pixels (height = width / 2)", kind="int", lo=8, hi=16384),
     }
@@ -160,7 +160,7 @@ def _studio(p: dict[str, Any]) -> np.ndarray:
     h = w // 2
     sub = _supersampled_directions(w, h, 2)
     y = sub[..., 1]
-    img = np.where(y >= 0, p["background"] * (0.6 + 0.4 * y), 0.5 * p["background"])[..., None] * np.ones(3)
+    img = np.where(y >= 0, p["walls"] * (0.6 + 0.4 * y), 0.5 * p["walls"])[..., None] * np.ones(3)
     soft = max(math.radians(p["softness"]), 1e-6)
     for name, az, el, sw, sh in (("key", 45.0, 35.0, 40.0, 30.0), ("fill", -60.0, 15.0, 35.0, 25.0),
                                  ("rim", 170.0, 40.0, 20.0, 40.0)):
