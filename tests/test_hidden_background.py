@@ -282,8 +282,17 @@ def test_blender_hides_the_background(make_scene, engine):
 
 # ------------------------------------------------------------------------------------------- web engines
 
-WEB = ["threejs", "threejs-pathtracer", "babylon", "playcanvas", "model-viewer:linear", "model-viewer",
-       "gltf-sample-viewer", "filament"]
+def _web_specs() -> list:
+    """Every web engine of the registry and its declared variants; the default run keeps three.js and
+    <model-viewer> (the fidelity page's own element), the rest are slow here (up to 3 min a page on SwiftShader)."""
+    from compare.renderers.registry import Registry
+
+    registry = Registry()
+    web = [s for s in registry.specs() if type(registry.get(s)).__module__.startswith("compare.web.")]
+    return [s if s in ("threejs", "model-viewer") else pytest.param(s, marks=pytest.mark.slow) for s in web]
+
+
+WEB = _web_specs()
 
 
 @pytest.mark.web
