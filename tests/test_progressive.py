@@ -620,3 +620,33 @@ def test_layers_sum_to_the_displayed_image(gl_ctx, scene_file, options):
     assert ("indirect_diffuse" in layers) == (options.get("indirect") == "probes")
     assert "indirect_specular" not in layers  # it renders none
     np.testing.assert_allclose(sum(layers.values()), res.image, rtol=1e-6, atol=1e-6)
+
+
+def test_a_half_float_preview_holds_a_bright_sky_finite(gl_ctx, make_scene):
+    """The reduced frame 0 is a half-float preview: radiance beyond its range (a sky of 1e6 behind a grey
+    sphere) is held at the largest half float, never inf; frame 1 shows the full value again."""
+    s = load_scene(make_scene("""
+        [camera]
+        position = [0.0, 0.0, 3.0]
+        target = [0.0, 0.0, 0.0]
+        resolution = [320, 240]
+
+        [materials.grey]
+        base_color = [0.5, 0.5, 0.5]
+
+        [[meshes]]
+        shape = "sphere"
+        radius = 0.5
+        material = "grey"
+
+        [environment]
+        constant = [1e6, 1e6, 1e6]
+        """))
+    with Rasterizer(s, frames=2, ctx=gl_ctx, ibl_size=16, ibl_samples=16, first_frame_scale=0.5) as r:
+        r.render_frame()
+        preview = r.image()
+        r.render_frame()
+        full = r.image()
+    assert np.isfinite(preview).all() and preview.min() >= 0.0
+    assert preview.max() == pytest.approx(65504.0, rel=1e-3)  # held at the largest half float
+    assert np.isfinite(full).all() and full.max() == pytest.approx(1e6, rel=1e-3)

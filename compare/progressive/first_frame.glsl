@@ -233,7 +233,9 @@ void main() {
 #elif GLASS
     out_color = vec4(c + env + direct + punctual, 1.0);
 #elif PREVIEW
-    out_color = vec4(c + direct + env + punctual, 1.0);  // compose.glsl's order
+    // compose.glsl's order; clamped to the half-float target's largest value (a sun seen directly): a driver
+    // may turn an overflow into inf
+    out_color = vec4(min(c + direct + env + punctual, vec3(65504.0)), 1.0);
 #else
     out_color = vec4(c, 1.0);
 #if ENVIRONMENT

@@ -241,7 +241,9 @@ class FirstFramePass(RenderPass):
             self.background_vao = self._keep(ctx.vertex_array(self.program, []))
             self.depth = self._keep(ctx.depth_renderbuffer(size))
             if self.reduced:
-                self.targets = self._keep(PingPong(ctx, size))
+                # half floats: the preview is replaced by frame 1 and averaged into nothing, and a software
+                # rasterizer writes half the bytes (first-frame ratio 0.160 -> 0.149, docs/performance-notes.md)
+                self.targets = self._keep(PingPong(ctx, size, dtype="f2"))
                 colour = list(self.targets.textures[1])
                 # Upsampled bilinearly for display (compose.glsl), clamped at the borders: the
                 # default wrap would blend in the opposite edge.

@@ -22,19 +22,19 @@ _COMPOSE = units_of("compose.glsl")
 
 
 class PingPong(RenderPass):
-    """Two sets of RGBA32F targets; :attr:`current` holds the latest running mean.
+    """Two sets of RGBA32F targets (``dtype`` "f2": RGBA16F); :attr:`current` holds the latest running mean.
 
     ``attachments`` > 1 gives every set that many textures, written together by
     one pass (multiple render targets); :meth:`current_of` returns attachment k.
     """
 
-    def __init__(self, ctx, size: tuple[int, int], attachments: int = 1):
+    def __init__(self, ctx, size: tuple[int, int], attachments: int = 1, dtype: str = "f4"):
         self.textures = []  # [set][attachment]
         self.fbos = []
         for _ in range(2):
             texs = []
             for _ in range(attachments):
-                tex = ctx.texture(size, 4, dtype="f4")
+                tex = ctx.texture(size, 4, dtype=dtype)
                 tex.filter = (ctx.NEAREST, ctx.NEAREST)
                 texs.append(tex)
             self.textures.append(texs)
