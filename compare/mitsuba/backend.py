@@ -161,3 +161,19 @@ def load_active_mitsuba(variant: str | None = None):
 def _has_cuda() -> bool:
     """True when an NVIDIA driver library is present (cheap check before trying CUDA)."""
     return bool(glob.glob("/usr/lib/x86_64-linux-gnu/libcuda.so*") or glob.glob("/usr/lib64/libcuda.so*"))
+
+
+_INTEGRATORS: set[tuple[str, str]] = set()
+
+
+def register_integrator_once(name: str, make_class):
+    """Register the Python integrator ``make_class(mi)`` as ``name`` for the active Mitsuba variant, once
+    per variant (Mitsuba's registry is per variant); returns ``mitsuba``."""
+    import mitsuba as mi
+
+    key = (name, mi.variant())
+    if key not in _INTEGRATORS:
+        cls = make_class(mi)
+        mi.register_integrator(name, lambda props, _cls=cls: _cls(props))
+        _INTEGRATORS.add(key)
+    return mi

@@ -21,19 +21,12 @@ __all__ = ["INTEGRATOR_NAME", "integrator_dict", "register"]
 #: Name under which :class:`HiddenBackground` is registered.
 INTEGRATOR_NAME = "compare_hidden_background"
 
-_REGISTERED: set[str] = set()
-
 
 def register():
     """Register ``compare_hidden_background`` for the active Mitsuba variant (idempotent); returns ``mitsuba``."""
-    import mitsuba as mi
+    from compare.mitsuba.backend import register_integrator_once
 
-    variant = mi.variant()
-    if variant not in _REGISTERED:
-        cls = _make_class(mi)
-        mi.register_integrator(INTEGRATOR_NAME, lambda props, _cls=cls: _cls(props))
-        _REGISTERED.add(variant)
-    return mi
+    return register_integrator_once(INTEGRATOR_NAME, _make_class)
 
 
 def _make_class(mi):

@@ -53,19 +53,12 @@ __all__ = ["INTEGRATOR_NAME", "register", "split_layers"]
 #: Name under which :class:`LayersIntegrator` is registered.
 INTEGRATOR_NAME = "compare_layers"
 
-_REGISTERED: set[str] = set()
-
 
 def register():
     """Register ``compare_layers`` for the active Mitsuba variant (idempotent); returns ``mitsuba``."""
-    import mitsuba as mi
+    from compare.mitsuba.backend import register_integrator_once
 
-    variant = mi.variant()
-    if variant not in _REGISTERED:
-        cls = _make_class(mi)
-        mi.register_integrator(INTEGRATOR_NAME, lambda props, _cls=cls: _cls(props))
-        _REGISTERED.add(variant)
-    return mi
+    return register_integrator_once(INTEGRATOR_NAME, _make_class)
 
 
 def split_layers(channels: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
