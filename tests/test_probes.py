@@ -446,3 +446,55 @@ material = "glow"
     assert dark[30:].max() == 0.0, "without probes the glow lights nothing"
     for rows, rtol in ((slice(30, 40), 0.15), (slice(40, None), 0.35)):
         np.testing.assert_allclose(img[rows].mean(axis=(0, 1)), ref[rows].mean(axis=(0, 1)), rtol=rtol)
+
+
+def test_a_directional_light_bounces_through_the_probes(gl_ctx, make_scene):
+    """The sun straight down on a floor beside a wall: the wall, edge-on to the sun and under no sky, is lit
+    by the floor's bounce alone, which the probes now bake for point, spot and directional lights as they
+    do for area lights (before, the wall was black). Measured at 6³ probes: the wall 0.236 against the
+    reference's 0.265 (−11 %: the probes 4 m in front of the wall see less of the floor than the wall
+    does); on an infinite floor the closed form would be ρ_wall/π · ρ_floor E / 2 = 0.306."""
+    from compare.mitsuba.reference import ReferenceRenderer
+
+    text = """
+[camera]
+position = [0.0, 1.5, -5.0]
+target = [0.0, 1.5, 1.0]
+fov = 50
+resolution = [48, 36]
+
+[render]
+max_depth = 8
+indirect = "probes"
+
+[materials.white]
+base_color = [0.8, 0.8, 0.8]
+roughness = 1.0
+
+[[meshes]]
+name = "floor"
+shape = "quad"
+size = [40.0, 40.0]
+material = "white"
+
+[[meshes]]
+name = "wall"
+shape = "quad"
+size = [40.0, 20.0]
+rotate = [-90.0, 0.0, 0.0]
+translate = [0.0, 10.0, 1.0]
+material = "white"
+
+[[lights]]
+name = "sun"
+type = "directional"
+direction = [0.0, -1.0, 0.0]
+intensity = 3.0
+light_scale = 1.0
+"""
+    scene = load_scene(make_scene(text))
+    ref = ReferenceRenderer(scene, progress=False).render(256).image
+    img = render_progressive(scene, frames=4, ctx=gl_ctx, probe_grid=(6, 6, 6)).image
+    wall = (slice(4, 14), slice(12, 36))  # rows above the horizon, away from the edges
+    assert ref[wall].min() > 0.15, "the reference lights the wall by the floor's bounce"
+    assert img[wall].mean() == pytest.approx(ref[wall].mean(), rel=0.2)

@@ -104,7 +104,7 @@ def test_passes_bind_every_sampler_inside_its_programs_row(gl_ctx, monkeypatch):
     for path, options in ((scenes / "stress" / "textures.toml", {"area_model": "ltc", "indirect": "probes"}),
                           (scenes / "stress" / "textures.toml", {"shadow_filter": "vsm", "samples_per_light": 6}),
                           (scenes / "effects" / "materials_blend.toml", {"env_occlusion": "shadows"}),
-                          (scenes / "effects" / "cornell_point.toml", {"first_frame_scale": 0.5})):
+                          (scenes / "effects" / "cornell_point.toml", {"first_frame_scale": 0.5, "indirect": "probes"})):
         scene = load_scene(path).with_resolution(12, 9)
         render_progressive(scene, frames=3, ctx=gl_ctx, **options)
     for program, samplers in seen.items():
@@ -116,7 +116,8 @@ def test_passes_bind_every_sampler_inside_its_programs_row(gl_ctx, monkeypatch):
         flat = [(u, name) for name, got in samplers.items() for u in got]
         assert len({u for u, _ in flat}) == len(flat), f"{program}: two samplers on one unit: {sorted(flat)}"
     must = {"accumulate.glsl", "compose.glsl", "direct.glsl", "ltc_light.glsl", "ltc_compose.glsl",
-            "env_occlusion.glsl", "env_shadows.glsl", "indirect.glsl", "probes_direct.glsl", "probes_shade.glsl",
+            "env_occlusion.glsl", "env_shadows.glsl", "indirect.glsl", "probes_direct.glsl", "probes_punctual.glsl",
+            "probes_shade.glsl",
             "probes_gbuffer.glsl", "gbuffer.glsl", "first_frame.glsl", "blend_fold.glsl", "punctual.glsl",
             "vsm_blur.glsl", "shadow.glsl", "depth_only.glsl"}
     assert must <= set(seen), sorted(must - set(seen))
@@ -249,4 +250,4 @@ def test_one_file_declares_the_gbuffer_samplers():
                if re.search(rf"texelFetch\(({'|'.join(GBUFFER_SAMPLERS)})\b", p.read_text(encoding="utf-8"))}
     for name in readers:
         assert '#include "gbuffer_inputs.glsl"' in _glsl_files()[name].read_text(encoding="utf-8"), name
-    assert len(readers) == 9, sorted(readers)
+    assert len(readers) == 10, sorted(readers)

@@ -372,11 +372,6 @@ class Rasterizer:
                        "compare.progressive (baked diffuse light; only [[lights]] rectangles are sampled)")
             warnings.warn(msg, stacklevel=3)
             self.notes.append(msg)
-        if self.scene.punctual and self.indirect == "probes":
-            msg = ("the irradiance volume bakes area lights and the environment: point, spot and directional "
-                   "lights add no indirect light in compare.progressive")
-            warnings.warn(msg, stacklevel=3)
-            self.notes.append(msg)
 
     def _background(self) -> tuple[float, float, float]:
         env = self.scene.environment

@@ -35,21 +35,25 @@ Directions
 ----------
 Each ratio's error is that of a quadrature of the visibility over a few directions: an occluder that hides
 a cap of the sky is counted by the directions that fall inside it, and one direction more or less is a
-step of g_k / Σ g in the ratio. Two things keep that step small:
+step of g_k / Σ g in the ratio. The error is the point set's discrepancy over caps (every pixel reads the
+same directions, so it shows as a smooth per-pixel bias at a finite count, not as noise), and three things
+keep it small:
 
 * the directions are Sobol's low-discrepancy sequence through the map's luminance CDF
   (:func:`~compare.progressive.schedule.sampling.sobol2`; any 2^k consecutive directions from index 0
   share the map's light out evenly, one per elementary box of the square the CDF maps), not independent
-  draws; and
+  draws, and every prefix (the image after each frame) is as even as the whole;
 * a frame takes :data:`DIRECTIONS_PER_FRAME` of them by default (N = that × (m − 1) for m frames, where
-  the screen-space samples have N = m), each map at :data:`TILE_FRACTION` of the shadow size.
+  the screen-space samples have N = m): a cap's count error shrinks about as N^(-3/4), and the
+  paper's 128 frames then hold the closed form of tests/test_env_shadows.py within 3 % per pixel for
+  every seed (docs/performance-notes.md gives the measurements behind the choice);
+* each map is a tile of :data:`TILE_FRACTION` of the shadow size a side: the mean over many directions
+  smooths a coarser map's steps as percentage-closer filtering would, while contact shadows (a car on
+  its floor) still need the texels (docs/performance-notes.md). A map's cost on a CPU rasterizer is its
+  occluders' vertices, not its texels.
 
-On the off-screen sphere's closed form at 128 frames (tests/test_env_shadows.py, 32 × 32, seed 0) one R2
-direction per frame left the ratio within 0.950–1.024 per pixel (5th–95th percentile; 10 % off at worst),
-four R2 directions 0.976–1.016 (4 %), four Sobol directions 0.986–1.016 (2.9 %). One pass shades a
-frame's directions together (up to :data:`BATCH` tiles of one shadow atlas): the split sum and the
-G-buffer reads, most of a direction's cost at one per frame, are shared, and a direction more costs its
-shadow map and a BRDF evaluation.
+One pass shades a frame's directions together (up to :data:`BATCH` tiles of one shadow atlas): the split
+sum and the G-buffer reads are shared, and a direction more costs its shadow map and a BRDF evaluation.
 
 The distributor places these samples as it places the screen-space ones (frames 1 … m−1, frame 0 stays
 the cheap preview), so the frame budget schedules them alike; screen-space occlusion is off with them.
@@ -77,11 +81,8 @@ from compare.scene.equirect import rotation_matrix, uv_to_direction
 SPECULAR_SAMPLES = ENV_SPECULAR_SAMPLES
 
 #: Directions (shadow maps) a frame evaluates by default: :func:`default_directions`.
-DIRECTIONS_PER_FRAME = 4
-#: Side of a direction's shadow map as a fraction of ``shadow_size``: a frame's
-#: :data:`DIRECTIONS_PER_FRAME` maps then fill as many texels as one map of ``shadow_size`` (a map's
-#: rasterization is most of a direction's cost), and the environment's shadow is the mean over many
-#: directions, which smooths a coarser map's steps as percentage-closer filtering would.
+DIRECTIONS_PER_FRAME = 8
+#: Side of a direction's shadow map as a fraction of ``shadow_size`` (module notes).
 TILE_FRACTION = 0.5
 #: Most shadow maps one pass shades (tiles of one atlas, ``env_shadows.glsl``'s BATCH).
 BATCH = 8

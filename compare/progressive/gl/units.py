@@ -115,6 +115,7 @@ PROGRAM_UNITS: Mapping[str, Mapping[str, Units]] = MappingProxyType({
     "indirect.glsl": _row(gbuffer=GBUFFER, previous=(4,), probes=(5, _PROBES)),
     "probes_gbuffer.glsl": _row(instances=(0,), maps=MAPS),
     "probes_direct.glsl": _row(gbuffer=GBUFFER, shadow=(4,)),
+    "probes_punctual.glsl": _row(gbuffer=GBUFFER, shadow=(4,)),
     "probes_shade.glsl": _row(gbuffer=GBUFFER, direct=(4,), probes=(5, _PROBES), environment=(8, _ENVIRONMENT)),
     # the forward passes (frame 0, the blended meshes): the G-buffer's position only (the blend pass)
     # the glass pass (glass.py) also reads the opaque image and the glass's back faces

@@ -19,7 +19,9 @@ Bake (:class:`ProbeVolume`; the rasterizer's before the first frame that reads t
        a hard-shadow :class:`~compare.progressive.lights.shadow.ShadowAtlas` each
        (``probes_direct.glsl``). The bake keeps its own atlas (512² faces): the
        renderer's may hold filtered moments (``shadow_filter="vsm"``), and the
-       bake's 16² faces need no finer shadows.
+       bake's 16² faces need no finer shadows. Point, spot and directional lights (the
+       ``sun`` variant's sun among them) add their exact irradiance through a shadow map each,
+       fitted to the whole scene (``probes_punctual.glsl``).
     3. Per bounce k = 1 … N the radiance every texel sees (``probes_shade.glsl``)::
 
            L = emission + (1 − metallic) · base_colour / π · (E_direct + E_{k−1}(x, n))
@@ -99,7 +101,9 @@ from compare.scene.loader import DEFAULT_PROBE_BOUNCES, DEFAULT_PROBE_GRID, INDI
 from compare.progressive.schedule.sampling import light_sample_points
 from compare.progressive.gl.passes import RenderPass
 from compare.progressive.gl.shaders import load_program, set_uniform
+from compare.progressive.frame.gpu_scene import mat_bytes
 from compare.progressive.gl.units import GBUFFER, Units, bind, units_of
+from compare.progressive.lights.punctual import KIND_CODES, ShadowMap, set_shadow_maps
 from compare.progressive.lights.shadow import DEFAULT_BIAS, ShadowAtlas
 
 #: Face size S of each probe's cube map in the bake.
@@ -436,6 +440,8 @@ class ProbeVolume(RenderPass):
             if scene.lights:
                 shadow = keep(ShadowAtlas(ctx, gpu_scene, size=shadow_size, extent=self.max_distance))
                 self._bake_direct(direct_fbo, targets, scene, shadow, shadow_bias, seed, keep)
+            if scene.punctual:
+                self._bake_punctual(direct_fbo, targets, scene, gpu_scene, shadow_size, shadow_bias, keep)
             self._bake_bounces(shade_fbo, targets, environment, per_row, keep)
         finally:
             for obj in reversed(made):
@@ -521,6 +527,57 @@ class ProbeVolume(RenderPass):
                 shadow.bind(program, units_of("probes_direct.glsl")["shadow"], shadow_bias)
                 set_uniform(program, "u_sample", tuple(float(x) for x in point))
                 vao.render(vertices=3)
+
+    def _bake_punctual(self, fbo, targets, scene, gpu_scene, shadow_size, shadow_bias, keep) -> None:
+        """Add each point, spot and directional light's direct irradiance (exact up to its shadow map) to
+        the bake's direct target: the light they bounce reaches the probes as the area lights' does."""
+        ctx = self.ctx
+        program = keep(load_program(ctx, "probes_punctual.glsl"))
+        vao = keep(ctx.vertex_array(program, []))
+        casters = {}
+        try:
+            for light in scene.punctual:
+                # fitted to the whole scene, not to the camera's view: the probes see every surface
+                m = ShadowMap(light, scene.extent(), np.zeros((0, 3)), int(shadow_size))
+                depth = keep(ctx.depth_texture(m.shape))
+                depth.compare_func = ""
+                depth.filter = (ctx.NEAREST, ctx.NEAREST)
+                depth_fbo = keep(ctx.framebuffer(depth_attachment=depth))
+                depth_fbo.use()
+                ctx.enable_only(ctx.DEPTH_TEST)
+                ctx.depth_func = "<"
+                depth_fbo.clear(depth=1.0)
+                if m.ortho not in casters:
+                    casters[m.ortho] = gpu_scene.occluder_programs(ctx, "shadow.glsl", {"ORTHO": 1} if m.ortho else {})
+                programs = casters[m.ortho]
+                for p in programs.values():
+                    set_uniform(p, "u_sample", tuple(float(x) for x in m.origin))
+                    set_uniform(p, "u_inv_far", 1.0 / m.far)
+                    if m.ortho:
+                        set_uniform(p, "u_direction", tuple(float(x) for x in m.direction))
+                for k in range(m.faces):
+                    ctx.viewport = tuple(int(v) for v in m.rects[k])
+                    for p in programs.values():
+                        set_uniform(p, "u_view_proj", mat_bytes(m.view_proj[k]))
+                    gpu_scene.draw_occluders(programs)
+                fbo.use()
+                ctx.enable_only(ctx.BLEND)
+                ctx.blend_func = ctx.ONE, ctx.ONE
+                ctx.blend_equation = ctx.FUNC_ADD
+                _bind_bake_gbuffer(program, targets, 3)
+                bind(program, "u_pshadow_map", depth, units_of("probes_punctual.glsl")["shadow"])
+                set_shadow_maps(program, [m])
+                set_uniform(program, "u_bias", tuple(float(b) for b in shadow_bias))
+                set_uniform(program, "u_kind", KIND_CODES[light.kind])
+                set_uniform(program, "u_light_position", tuple(float(x) for x in light.position))
+                direction = np.asarray(light.direction, dtype=np.float64)
+                set_uniform(program, "u_light_direction", tuple(float(x) for x in direction / np.linalg.norm(direction)))
+                set_uniform(program, "u_light_intensity", tuple(float(x) for x in light.intensity))
+                set_uniform(program, "u_light_cone", tuple(float(x) for x in light.cone_terms()))
+                vao.render(vertices=3)
+        finally:
+            for programs in casters.values():
+                gpu_scene.release_programs(programs)
 
     def _bake_bounces(self, fbo, targets, environment, per_row, keep) -> None:
         ctx = self.ctx
