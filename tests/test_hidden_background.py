@@ -266,7 +266,7 @@ def test_the_rasterizer_hides_the_background(make_scene, gl_ctx, first_frame):
 
 
 @pytest.mark.bpy
-@pytest.mark.parametrize("engine", ["cycles", "eevee"])
+@pytest.mark.parametrize("engine", ["cycles", pytest.param("eevee", marks=pytest.mark.slow)])  # EEVEE: 40 s
 def test_blender_hides_the_background(make_scene, engine):
     """A transparent film: black corners (premultiplied colour), the same lit sphere and emitters (EEVEE's
     screen-space rays read the background from the screen, now black: the emissive card's glossy reflection
