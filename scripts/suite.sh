@@ -67,10 +67,19 @@ setup_system() {
 setup_python() {
     local stamp="$VENV/.installed-$(sha256sum pyproject.toml | cut -c1-16)"
     if [ -f "$stamp" ]; then return 0; fi
+    if [ -x "$VENV/bin/python" ] && ! "$VENV/bin/python" -m pip --version >/dev/null 2>&1; then
+        log "removing $VENV: an earlier attempt left it without pip"
+        rm -rf "$VENV"
+    fi
     if [ ! -x "$VENV/bin/python" ]; then
         local py; py=$(find_python)
+        if ! "$py" -c 'import ensurepip' >/dev/null 2>&1; then  # Debian splits venv's pip bootstrap off
+            log "installing python3-venv (python -m venv needs its ensurepip)"
+            apt_install python3-venv ||
+                { log "python -m venv cannot run here: install python3-venv (Debian) and retry"; exit 1; }
+        fi
         log "creating $VENV with $py (a few minutes the first time)"
-        "$py" -m venv "$VENV"
+        "$py" -m venv "$VENV" || { rm -rf "$VENV"; log "python -m venv failed (output above)"; exit 1; }
     fi
     log "installing the package and its test tools into $VENV"
     "$VENV/bin/python" -m pip install -q --upgrade pip 2>&1 | grep -v '^WARNING: Location' >&2 || true
