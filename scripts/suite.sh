@@ -52,6 +52,10 @@ apt_install() {
 }
 
 setup_system() {
+    if ! ldconfig -p 2>/dev/null | grep -q 'libatomic.so.1'; then
+        log "installing libatomic1 (Dr.Jit's native extension links it; a minimal Debian lacks it)"
+        apt_install libatomic1 || log "WARNING: no libatomic1: Mitsuba and Dr.Jit will not import"
+    fi
     if ! have_llvm; then
         log "installing libllvm19 (Dr.Jit's LLVM backend crashes with Debian's default LLVM 14/15)"
         apt_install libllvm19 ||
