@@ -170,7 +170,14 @@ tmp.replace(record)
 PY
 }
 
-setup() { setup_system; setup_python; setup_web; }
+# Each set-up step with its wall time in the log (where a fresh machine's minutes go).
+timed() {
+    local t0=$SECONDS
+    "$@"
+    log "$1: $((SECONDS - t0)) s"
+}
+
+setup() { timed setup_system; timed setup_python; timed setup_web; }
 
 job="${1:-}"
 shift || true
@@ -179,7 +186,7 @@ case "$job" in
     main)
         # only what the main job runs: the web engines' Chromium and npm packages come with `setup`/`test`
         # (a web renderer that is asked for without them says so, with that command)
-        setup_system; setup_python
+        timed setup_system; timed setup_python
         out="reports/cornell"
         # the ground truth renders until its own noise is below the stated target (--spp auto: 512 spp here)
         "$VENV/bin/compare" run --scenes scenes/cornell.toml --size 320x240 --frames 128 --spp auto \
@@ -189,7 +196,7 @@ case "$job" in
         ;;
     test)
         setup
-        setup_blender
+        timed setup_blender
         log "ruff (syntax errors, undefined and unused names)"
         "$VENV/bin/ruff" check --quiet compare tools tests scenes examples scripts notebooks/make_notebooks.py
         # the slowest tests are listed at the end: where the default run's time goes; one worker per
@@ -198,7 +205,7 @@ case "$job" in
         ;;
     slow)
         setup
-        setup_blender
+        timed setup_blender
         exec "$VENV/bin/python" -m pytest -n auto --dist worksteal -m slow "$@"
         ;;
     *)
