@@ -449,7 +449,8 @@ def test_eevee_renders_the_cornell_box():
 
 
 @pytest.mark.bpy
-@pytest.mark.parametrize("engine, option", [("cycles", "--spp"), ("eevee", "--samples")])
+@pytest.mark.parametrize("engine, option", [("cycles", "--spp"),
+                                            pytest.param("eevee", "--samples", marks=pytest.mark.slow)])  # 21 s
 def test_compare_render_takes_the_blender_renderers(tmp_path, capsys, engine, option):
     """``compare render --renderer cycles|eevee`` through the registry, like every other renderer."""
     from compare.cli.main import main
