@@ -160,13 +160,15 @@ def bench_punctual(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
 
 def bench_env_shadows(scene, *, frames: int, repeats: int, ctx) -> list[Figure]:
     """Mean frame time of ``progressive:envshadows`` ÷ the screen-space occlusion default, runs alternating."""
+    from compare.progressive.environment.env_shadows import DIRECTIONS_PER_FRAME
+
     if scene.environment is None:
         raise RuntimeError("the scene has no environment: there is no environment light to shadow")
     first: list[list[float]] = [[], []]
     shadows, screen = _alternating_mean_frames([dict(env_occlusion="shadows"), dict()], scene, frames=frames,
                                                repeats=repeats, ctx=ctx, first=first)
     return [Figure("env-shadows", "envshadows mean frame", "screen-space occlusion mean frame", _median(shadows),
-                   _median(screen), "s", repeats, f"{frames} frames, one shadow map per environment sample",
+                   _median(screen), "s", repeats, f"{frames} frames, {DIRECTIONS_PER_FRAME} environment shadow maps a frame",
                    shadows, screen),
             Figure("env-shadows-first", "envshadows first frame", "screen-space occlusion first frame",
                    _median(first[0]), _median(first[1]), "s", repeats,
