@@ -101,9 +101,8 @@ from compare.scene.loader import DEFAULT_PROBE_BOUNCES, DEFAULT_PROBE_GRID, INDI
 from compare.progressive.schedule.sampling import light_sample_points
 from compare.progressive.gl.passes import RenderPass
 from compare.progressive.gl.shaders import load_program, set_uniform
-from compare.progressive.frame.gpu_scene import mat_bytes
 from compare.progressive.gl.units import GBUFFER, Units, bind, units_of
-from compare.progressive.lights.punctual import KIND_CODES, ShadowMap, set_shadow_maps
+from compare.progressive.lights.punctual import ShadowMap, draw_shadow_map, light_uniforms, set_shadow_maps
 from compare.progressive.lights.shadow import DEFAULT_BIAS, ShadowAtlas
 
 #: Face size S of each probe's cube map in the bake.
@@ -542,24 +541,9 @@ class ProbeVolume(RenderPass):
                 depth = keep(ctx.depth_texture(m.shape))
                 depth.compare_func = ""
                 depth.filter = (ctx.NEAREST, ctx.NEAREST)
-                depth_fbo = keep(ctx.framebuffer(depth_attachment=depth))
-                depth_fbo.use()
-                ctx.enable_only(ctx.DEPTH_TEST)
-                ctx.depth_func = "<"
-                depth_fbo.clear(depth=1.0)
                 if m.ortho not in casters:
                     casters[m.ortho] = gpu_scene.occluder_programs(ctx, "shadow.glsl", {"ORTHO": 1} if m.ortho else {})
-                programs = casters[m.ortho]
-                for p in programs.values():
-                    set_uniform(p, "u_sample", tuple(float(x) for x in m.origin))
-                    set_uniform(p, "u_inv_far", 1.0 / m.far)
-                    if m.ortho:
-                        set_uniform(p, "u_direction", tuple(float(x) for x in m.direction))
-                for k in range(m.faces):
-                    ctx.viewport = tuple(int(v) for v in m.rects[k])
-                    for p in programs.values():
-                        set_uniform(p, "u_view_proj", mat_bytes(m.view_proj[k]))
-                    gpu_scene.draw_occluders(programs)
+                draw_shadow_map(ctx, gpu_scene, casters[m.ortho], m, keep(ctx.framebuffer(depth_attachment=depth)))
                 fbo.use()
                 ctx.enable_only(ctx.BLEND)
                 ctx.blend_func = ctx.ONE, ctx.ONE
@@ -568,12 +552,8 @@ class ProbeVolume(RenderPass):
                 bind(program, "u_pshadow_map", depth, units_of("probes_punctual.glsl")["shadow"])
                 set_shadow_maps(program, [m])
                 set_uniform(program, "u_bias", tuple(float(b) for b in shadow_bias))
-                set_uniform(program, "u_kind", KIND_CODES[light.kind])
-                set_uniform(program, "u_light_position", tuple(float(x) for x in light.position))
-                direction = np.asarray(light.direction, dtype=np.float64)
-                set_uniform(program, "u_light_direction", tuple(float(x) for x in direction / np.linalg.norm(direction)))
-                set_uniform(program, "u_light_intensity", tuple(float(x) for x in light.intensity))
-                set_uniform(program, "u_light_cone", tuple(float(x) for x in light.cone_terms()))
+                for name, value in light_uniforms(light).items():
+                    set_uniform(program, name, value)
                 vao.render(vertices=3)
         finally:
             for programs in casters.values():

@@ -198,6 +198,34 @@ def set_shadow_maps(program, maps) -> None:
     set_uniform(program, "u_pshadow_texel", arr([m.texel for m in maps]))
 
 
+def draw_shadow_map(ctx, gpu_scene, programs: dict, m: ShadowMap, fbo) -> None:
+    """Draw the scene's occluders into ``fbo``'s depth, every face of ``m`` in its tile, with ``programs``
+    (:meth:`GpuScene.occluder_programs` of ``shadow.glsl``, with ``ORTHO`` for an orthographic map)."""
+    fbo.use()
+    ctx.enable_only(ctx.DEPTH_TEST)
+    ctx.depth_func = "<"
+    fbo.clear(depth=1.0)
+    for program in programs.values():
+        set_uniform(program, "u_sample", tuple(float(x) for x in m.origin))
+        set_uniform(program, "u_inv_far", 1.0 / m.far)
+        if m.ortho:
+            set_uniform(program, "u_direction", tuple(float(x) for x in m.direction))
+    for k in range(m.faces):
+        ctx.viewport = tuple(int(v) for v in m.rects[k])
+        for program in programs.values():
+            set_uniform(program, "u_view_proj", mat_bytes(m.view_proj[k]))
+        gpu_scene.draw_occluders(programs)
+
+
+def light_uniforms(light) -> dict:
+    """One punctual light as ``punctual_light.glsl``'s inputs: kind code, position, unit direction,
+    intensity and cone terms, by the names of a batch's uniform arrays (``u_kind``, ``u_light_*``)."""
+    return {"u_kind": KIND_CODES[light.kind], "u_light_position": tuple(float(x) for x in light.position),
+            "u_light_direction": tuple(float(x) for x in _unit(light.direction)),
+            "u_light_intensity": tuple(float(x) for x in light.intensity),
+            "u_light_cone": tuple(float(x) for x in light.cone_terms())}
+
+
 class PunctualLights(RenderPass):
     """Shadow maps, programs and the running mean of a scene's punctual lights.
 
@@ -265,23 +293,8 @@ class PunctualLights(RenderPass):
 
     def render_shadow(self, index: int) -> None:
         """Render light ``index``'s shadow map (kept until :meth:`reset`); the mean restarts."""
-        ctx, m = self.ctx, self.maps[index]
-        self.fbos[index].use()
-        ctx.enable_only(ctx.DEPTH_TEST)
-        ctx.depth_func = "<"
-        self.fbos[index].clear(depth=1.0)
-        programs = self.caster_programs[m.ortho]
-        for program in programs.values():
-            set_uniform(program, "u_sample", tuple(float(x) for x in m.origin))
-            set_uniform(program, "u_inv_far", 1.0 / m.far)
-            if m.ortho:
-                set_uniform(program, "u_direction", tuple(float(x) for x in m.direction))
-        for k in range(m.faces):
-            x, y, w, h = (int(v) for v in m.rects[k])
-            ctx.viewport = (x, y, w, h)
-            for program in programs.values():
-                set_uniform(program, "u_view_proj", mat_bytes(m.view_proj[k]))
-            self.scene.draw_occluders(programs)
+        m = self.maps[index]
+        draw_shadow_map(self.ctx, self.scene, self.caster_programs[m.ortho], m, self.fbos[index])
         self.ready.add(index)
         self.acc.reset()  # never mix a light's shadowed and unshadowed frames in one mean
 
