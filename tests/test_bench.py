@@ -75,6 +75,7 @@ def test_bench_equal_error_times_fresh_renders(tmp_path, gl_ctx, monkeypatch):
     assert any(c[0] == "mitsuba" and c[2] is not False for c in calls)  # the ground truths may come from the cache
 
 
+@pytest.mark.slow  # five fresh processes that import Mitsuba: 25 s on a machine with cold caches
 def test_setup_items_measure_every_renderer_on_the_car_and_the_scaled_scenes(tmp_path):
     """setup-seconds and setup-rss: per renderer, the car and the generated scene's growth over 1x (tiny
     sizes here: the real item uses 62,500 triangles and a 4096² map per x)."""

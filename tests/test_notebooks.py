@@ -23,8 +23,10 @@ def test_stored_without_outputs(path):
             assert not cell.outputs and cell.execution_count is None, f"{path.name}: clear outputs before committing"
 
 
+# The ablations notebook renders every variant (26 s on a machine with cold caches): a slow test.
 @pytest.mark.gl
-@pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
+@pytest.mark.parametrize("path", [pytest.param(p, marks=pytest.mark.slow) if p.stem == "ablations" else p
+                                  for p in NOTEBOOKS], ids=[p.stem for p in NOTEBOOKS])
 def test_notebook_runs(path, tmp_path, monkeypatch):
     nbclient = pytest.importorskip("nbclient", reason="notebook tools are in the dev extra: pip install '.[dev]'")
     monkeypatch.setenv("COMPARE_NB_SIZE", "48x36")
