@@ -15,6 +15,7 @@
 #elif defined FRAGMENT_SHADER
 
 #include "gbuffer_inputs.glsl"
+#include "probes_surface.glsl"
 
 uniform vec3 u_light_center;
 uniform vec3 u_light_t;
@@ -34,7 +35,7 @@ void main() {
     vec4 gn = texelFetch(u_normal, p, 0);
     vec4 ga = texelFetch(u_material, p, 0);
     vec3 e = vec3(0.0);
-    if (gn.w > 0.5 && gn.w < 1.5 && ga.w > 0.0) {
+    if (bake_front_surface(gn, ga)) {
         vec3 x = texelFetch(u_position, p, 0).xyz;
         vec3 n = normalize(gn.xyz);
         vec3 to_y = u_sample - x;

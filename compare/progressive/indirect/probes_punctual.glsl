@@ -19,6 +19,7 @@
 #define MATERIALS_DIFFUSE 1
 #include "brdf.glsl"
 #include "gbuffer_inputs.glsl"
+#include "probes_surface.glsl"
 #include "punctual_shadow.glsl"
 #include "punctual_light.glsl"
 
@@ -36,7 +37,7 @@ void main() {
     vec4 gn = texelFetch(u_normal, p, 0);
     vec4 ga = texelFetch(u_material, p, 0);
     vec3 e = vec3(0.0);
-    if (gn.w > 0.5 && gn.w < 1.5 && ga.w > 0.0) {
+    if (bake_front_surface(gn, ga)) {
         vec3 x = texelFetch(u_position, p, 0).xyz;
         vec3 n = normalize(gn.xyz);
         vec3 l;

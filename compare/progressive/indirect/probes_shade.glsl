@@ -24,6 +24,7 @@
 #include "probes.glsl"
 
 #include "gbuffer_inputs.glsl"
+#include "probes_surface.glsl"
 
 uniform sampler2D u_direct;    // direct irradiance (probes_direct.glsl)
 uniform int u_previous;        // 1: add E_previous from the grid bound as u_probe_*
@@ -43,7 +44,7 @@ void main() {
     vec3 background = vec3(0.0);
     if (gn.w > 0.5) {
         vec4 ga = texelFetch(u_material, p, 0);
-        if (gn.w < 1.5 && ga.w > 0.0) {
+        if (bake_front_surface(gn, ga)) {
             vec3 x = texelFetch(u_position, p, 0).xyz;
             vec3 n = normalize(gn.xyz);
             vec3 e = texelFetch(u_direct, p, 0).rgb;
